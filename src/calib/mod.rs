@@ -1,0 +1,1 @@
+//! Pixel-to-stage calibration.

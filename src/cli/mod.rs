@@ -1,0 +1,116 @@
+//! Command-line interface: argument parsing and dispatch. Each subcommand lives
+//! in its own file with its `Args` and `run`; the library does the work.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod assemble;
+mod calibrate;
+mod demo;
+mod detect;
+mod dry_run;
+mod plan;
+mod rig_probe;
+mod rig_sim_gcs;
+mod simulate;
+mod study_model;
+mod study_plan;
+mod study_vision;
+mod synth_frame;
+mod synth_layout;
+mod verify_plan;
+
+/// Vision-in-the-loop automated assembly of micro/nanoparticles with a probe.
+#[derive(Parser, Debug)]
+#[command(name = "nanopush", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Run the demonstration job on the simulated rig and print where its report is.
+    Demo(demo::Args),
+    /// Simulate one push of a particle with the pushing model.
+    Simulate(simulate::Args),
+    /// Show what accuracy costs in time.
+    #[command(subcommand)]
+    Study(StudyCommand),
+    /// Detect particles and the probe tip in a microscope frame.
+    Detect(detect::Args),
+    /// Fit the pixel-to-stage calibration from a recording of known tip moves.
+    Calibrate(calibrate::Args),
+    /// Make synthetic data: microscope frames or particle layouts.
+    #[command(subcommand)]
+    Synth(SynthCommand),
+    /// Plan pushes that assemble a target pattern.
+    Plan(plan::Args),
+    /// Replay a plan geometrically and report collisions and errors.
+    VerifyPlan(verify_plan::Args),
+    /// Assemble a pattern on a rig (the simulated rig by default).
+    Assemble(assemble::Args),
+    /// Detect, track and plan on a recording, showing what would be commanded.
+    DryRun(dry_run::Args),
+    /// Hardware rig tools.
+    #[command(subcommand)]
+    Rig(RigCommand),
+}
+
+#[derive(Subcommand, Debug)]
+enum StudyCommand {
+    /// Pushing-model solver settings against error and time.
+    Model(study_model::Args),
+    /// Particle locators against error, the Cramer-Rao bound and time.
+    Vision(study_vision::Args),
+    /// Assignment and ordering methods against distance ratio and time.
+    Plan(study_plan::Args),
+}
+
+#[derive(Subcommand, Debug)]
+enum SynthCommand {
+    /// Render a synthetic microscope frame with its ground truth.
+    Frame(synth_frame::Args),
+    /// Generate a synthetic particle layout.
+    Layout(synth_layout::Args),
+}
+
+#[derive(Subcommand, Debug)]
+enum RigCommand {
+    /// Run a simulated PI GCS 2.0 controller on a TCP port.
+    SimGcs(rig_sim_gcs::Args),
+    /// Read-only: print identity, axes, ranges, positions and errors of a rig.
+    Probe(rig_probe::Args),
+}
+
+/// Parses the command line, runs the command and maps errors to a non-zero exit.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Demo(a) => demo::run(a),
+        Command::Simulate(a) => simulate::run(a),
+        Command::Study(StudyCommand::Model(a)) => study_model::run(a),
+        Command::Study(StudyCommand::Vision(a)) => study_vision::run(a),
+        Command::Study(StudyCommand::Plan(a)) => study_plan::run(a),
+        Command::Detect(a) => detect::run(a),
+        Command::Calibrate(a) => calibrate::run(a),
+        Command::Synth(SynthCommand::Frame(a)) => synth_frame::run(a),
+        Command::Synth(SynthCommand::Layout(a)) => synth_layout::run(a),
+        Command::Plan(a) => plan::run(a),
+        Command::VerifyPlan(a) => verify_plan::run(a),
+        Command::Assemble(a) => assemble::run(a),
+        Command::DryRun(a) => dry_run::run(a),
+        Command::Rig(RigCommand::SimGcs(a)) => rig_sim_gcs::run(a),
+        Command::Rig(RigCommand::Probe(a)) => rig_probe::run(a),
+    }
+}

@@ -1,0 +1,10 @@
+//! `nanopush verify-plan`: not built yet (issue 4).
+
+/// Arguments of `nanopush verify-plan`.
+#[derive(clap::Args, Debug)]
+pub struct Args {}
+
+/// Refuses with a clear message until issue 4 builds this command.
+pub fn run(_args: Args) -> anyhow::Result<()> {
+    anyhow::bail!("`nanopush verify-plan` is not built yet (issue 4)")
+}

@@ -1,0 +1,1 @@
+//! The closed-loop executor: detect, plan, push, verify, recover.

@@ -1,0 +1,16 @@
+//! nanopush: a vision-in-the-loop automated assembly planner for probe-based
+//! micro/nanoparticle manipulation.
+//!
+//! The data flow, one folder per stage:
+//! frame ([`render`] or camera) -> [`vision`] -> [`calib`] -> [`plan`] ->
+//! [`exec`] (asks [`model`] for contact angle and push duration) -> [`rig`].
+//! The [`cli`] module is a thin layer over these.
+
+pub mod calib;
+pub mod cli;
+pub mod exec;
+pub mod model;
+pub mod plan;
+pub mod render;
+pub mod rig;
+pub mod vision;

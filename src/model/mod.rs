@@ -1,0 +1,2 @@
+//! The dynamic pushing model (shared/spec/pushing-model.md): cantilever springs,
+//! contact mechanics, motion criteria and the quasi-static push simulation.

@@ -1,0 +1,1 @@
+//! From a target pattern to an ordered, collision-checked push plan.

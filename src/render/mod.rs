@@ -1,0 +1,1 @@
+//! Synthetic microscope frames, overlays, plots and animations.

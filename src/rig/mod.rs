@@ -1,0 +1,1 @@
+//! Rig interface (stage, camera, probe readout) and its implementations.

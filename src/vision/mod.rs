@@ -1,0 +1,1 @@
+//! Microscope image pipeline: frame input, particle and tip detection.
