@@ -1,1 +1,3 @@
 //! The closed-loop executor: detect, plan, push, verify, recover.
+
+pub mod journal;
