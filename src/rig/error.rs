@@ -1,0 +1,29 @@
+//! What can go wrong talking to a rig, as the executor sees it.
+
+/// A rig failure. The executor stops safely on any of these.
+#[derive(Debug, thiserror::Error)]
+pub enum RigError {
+    /// A target outside the stage's travel or soft limits; nothing was moved.
+    #[error("axis {axis} target {target_um:.3} um is outside {min_um:.3}..{max_um:.3} um")]
+    OutOfRange {
+        axis: char,
+        target_um: f64,
+        min_um: f64,
+        max_um: f64,
+    },
+    /// A single move longer than the rig allows; nothing was moved.
+    #[error("a move of {step_um:.3} um is longer than the largest allowed step {max_um:.3} um")]
+    StepTooLarge { step_um: f64, max_um: f64 },
+    /// A speed the stage cannot do, or not a finite positive number.
+    #[error("speed {speed_um_s} um/s is not in (0, {max_um_s}] um/s")]
+    BadSpeed { speed_um_s: f64, max_um_s: f64 },
+    /// The stage reported a fault during a move; it has been halted.
+    #[error("stage fault: {0}")]
+    StageFault(String),
+    /// The controller or camera did not answer in time.
+    #[error("{device} did not answer within {timeout_ms} ms")]
+    Timeout { device: String, timeout_ms: u64 },
+    /// The camera or another input could not be read.
+    #[error("{0}")]
+    Io(String),
+}
