@@ -4,3 +4,4 @@ pub mod error;
 pub mod stage;
 
 pub use error::RigError;
+pub mod sim;
