@@ -1,4 +1,5 @@
 //! The simulated rig: the pushing model moves particles, the synthetic
 //! microscope draws them. Its ground truth is for tests and reports only.
 
+pub mod stage;
 pub mod world;
