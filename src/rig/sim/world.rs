@@ -394,7 +394,7 @@ mod tests {
         assert_eq!(ev[0].outcome, ContactOutcome::Blocked { by: 1 });
         let gap = w.particles[1].x_m - w.particles[0].x_m;
         assert!(
-            gap >= 2.0 * R && gap < 2.0 * R + 0.2e-6,
+            (2.0 * R..2.0 * R + 0.2e-6).contains(&gap),
             "stopped {gap} m apart"
         );
         assert_eq!(
