@@ -1,0 +1,117 @@
+//! Did the push work? Compares where the camera sees the particle after a push
+//! with where it was meant to go, in the push's own frame (along and across
+//! the push line), and names what happened. This is how lost contact is
+//! detected from images alone: a particle that did not follow the tip either
+//! stayed short on the line (the tip rode over it) or left the line sideways
+//! (it turned around the tip).
+
+/// Tolerances of the check, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CheckTolerances {
+    /// A particle this close to its target is placed.
+    pub placed_m: f64,
+    /// A particle this far off the push line left it.
+    pub off_line_m: f64,
+}
+
+/// What the camera shows after a push.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PushCheck {
+    /// At its target within tolerance.
+    Placed { error_m: f64 },
+    /// On the line but short of its target: contact was lost (or never made).
+    FellShort { missing_m: f64 },
+    /// Left the push line sideways: it turned around the tip.
+    LeftLine { off_line_m: f64 },
+    /// On the line, past its target.
+    Overshot { excess_m: f64 },
+}
+
+impl PushCheck {
+    /// True for the outcomes that mean the tip lost the particle.
+    pub fn lost_contact(&self) -> bool {
+        matches!(
+            self,
+            PushCheck::FellShort { .. } | PushCheck::LeftLine { .. }
+        )
+    }
+}
+
+/// Classifies the observed end position of a push from `from` to `to`.
+pub fn check_push(
+    from: [f64; 2],
+    to: [f64; 2],
+    seen: [f64; 2],
+    tol: &CheckTolerances,
+) -> PushCheck {
+    let error_m = (seen[0] - to[0]).hypot(seen[1] - to[1]);
+    if error_m <= tol.placed_m {
+        return PushCheck::Placed { error_m };
+    }
+    let d = [to[0] - from[0], to[1] - from[1]];
+    let length = d[0].hypot(d[1]);
+    if length <= 0.0 {
+        return PushCheck::LeftLine {
+            off_line_m: error_m,
+        };
+    }
+    let u = [d[0] / length, d[1] / length];
+    let w = [seen[0] - from[0], seen[1] - from[1]];
+    let along = w[0] * u[0] + w[1] * u[1];
+    let across = (u[0] * w[1] - u[1] * w[0]).abs();
+    if across > tol.off_line_m {
+        PushCheck::LeftLine { off_line_m: across }
+    } else if along < length {
+        PushCheck::FellShort {
+            missing_m: length - along,
+        }
+    } else {
+        PushCheck::Overshot {
+            excess_m: along - length,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TOL: CheckTolerances = CheckTolerances {
+        placed_m: 0.1e-6,
+        off_line_m: 1e-6,
+    };
+    const FROM: [f64; 2] = [0.0, 0.0];
+    const TO: [f64; 2] = [20e-6, 0.0];
+
+    #[test]
+    fn a_particle_at_its_target_is_placed() {
+        let c = check_push(FROM, TO, [20.05e-6, 0.03e-6], &TOL);
+        assert!(matches!(c, PushCheck::Placed { error_m } if error_m < 0.1e-6));
+        assert!(!c.lost_contact());
+    }
+
+    #[test]
+    fn a_particle_left_behind_on_the_line_fell_short() {
+        let c = check_push(FROM, TO, [3e-6, 0.2e-6], &TOL);
+        assert!(
+            matches!(c, PushCheck::FellShort { missing_m } if (missing_m - 17e-6).abs() < 1e-12)
+        );
+        assert!(c.lost_contact());
+    }
+
+    #[test]
+    fn a_particle_beside_the_line_turned_around_the_tip() {
+        let c = check_push(FROM, TO, [12e-6, 6e-6], &TOL);
+        assert!(
+            matches!(c, PushCheck::LeftLine { off_line_m } if (off_line_m - 6e-6).abs() < 1e-12)
+        );
+        assert!(c.lost_contact());
+    }
+
+    #[test]
+    fn a_particle_past_its_target_overshot_without_losing_contact() {
+        let c = check_push(FROM, TO, [20.5e-6, 0.0], &TOL);
+        assert!(matches!(c, PushCheck::Overshot { excess_m } if (excess_m - 0.5e-6).abs() < 1e-12));
+        assert!(!c.lost_contact());
+    }
+}
