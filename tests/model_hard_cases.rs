@@ -1,15 +1,15 @@
 //! Every hard case of spec section 5 as a named test returning a typed outcome.
 
 use nanopush::model::cantilever::lateral_force_from_twist;
-use nanopush::model::contact::{jkr, ContactModel};
+use nanopush::model::contact::{ContactModel, jkr};
 use nanopush::model::critical_force::{AreaFidelity, Critical, CriticalSetup};
 use nanopush::model::error::ContactError;
 use nanopush::model::friction::criteria::PushGeometry;
 use nanopush::model::kinematics::literal_twist;
 use nanopush::model::mode_machine::{Mode, ModeMachine};
-use nanopush::model::push_sim::{simulate_push_series, simulate_push_with, SolverSettings};
+use nanopush::model::push_sim::{SolverSettings, simulate_push_series, simulate_push_with};
 use nanopush::model::units::Radians;
-use nanopush::model::{simulate_push, Outcome, Scene};
+use nanopush::model::{Outcome, Scene, simulate_push};
 use std::path::Path;
 
 fn paper() -> Scene {
@@ -22,7 +22,12 @@ fn setup(s: &Scene, psi_deg: f64, phi_deg: f64) -> CriticalSetup {
         substrate,
         tip,
         friction: s.friction,
-        geometry: PushGeometry { psi_rad: psi_deg.to_radians(), phi_rad: phi_deg.to_radians(), particle_radius_m: s.particle_radius_m, offset_m: 0.0 },
+        geometry: PushGeometry {
+            psi_rad: psi_deg.to_radians(),
+            phi_rad: phi_deg.to_radians(),
+            particle_radius_m: s.particle_radius_m,
+            offset_m: 0.0,
+        },
         extra_substrate_load_n: 0.0,
         fidelity: AreaFidelity::LoadDependent,
         relative_tolerance: 1e-10,
@@ -33,10 +38,16 @@ fn setup(s: &Scene, psi_deg: f64, phi_deg: f64) -> CriticalSetup {
 fn case_1_theta_zero_at_push_start_is_finite() {
     let s = paper();
     let springs = s.cantilever.springs();
-    assert_eq!(lateral_force_from_twist(&springs, s.cantilever.tip_height_m, Radians(0.0)), Some(0.0));
+    assert_eq!(
+        lateral_force_from_twist(&springs, s.cantilever.tip_height_m, Radians(0.0)),
+        Some(0.0)
+    );
     let (_, rows) = simulate_push_series(&s, &s.push, &SolverSettings::default(), 11).unwrap();
     assert_eq!(rows[0].force_n, 0.0);
-    assert!(rows.iter().all(|r| r.force_n.is_finite() && r.tip_m.is_finite()));
+    assert!(
+        rows.iter()
+            .all(|r| r.force_n.is_finite() && r.tip_m.is_finite())
+    );
 }
 
 #[test]
@@ -63,7 +74,9 @@ fn case_3_non_positive_denominators_lock_the_mode() {
     assert_eq!(c.rolling, Critical::Locked);
     assert_eq!(c.rolling.or_inf(), f64::INFINITY);
     // Exactly at the friction angle: still locked, no division by ~0.
-    let c = setup(&s, 0.8f64.atan().to_degrees(), 45.0).critical_forces().unwrap();
+    let c = setup(&s, 0.8f64.atan().to_degrees(), 45.0)
+        .critical_forces()
+        .unwrap();
     assert_eq!(c.sliding, Critical::Locked);
 }
 
@@ -72,7 +85,10 @@ fn case_4_below_pull_off_is_detached_and_near_it_parametrised_by_a() {
     let s = paper();
     let (sub, _) = s.interfaces(Some(ContactModel::Jkr));
     let pc = sub.pull_off_n();
-    assert!(matches!(sub.contact(pc * 1.01), Err(ContactError::Detached { .. })));
+    assert!(matches!(
+        sub.contact(pc * 1.01),
+        Err(ContactError::Detached { .. })
+    ));
     // Near pull-off: P(a) is smooth and reproduces the load.
     let a = sub.contact(pc * 0.999999).unwrap().radius_m;
     let p = jkr::load_from_radius(sub.radius_m, sub.k(), sub.work_of_adhesion_j_m2, a);
@@ -94,7 +110,10 @@ fn case_5_pushing_force_above_the_plane_gives_negative_substrate_load() {
     let loads = st.geometry.loads(1e-6, 0.0);
     assert!(loads.substrate_normal_n < 0.0);
     let c = st.critical_forces().unwrap();
-    let fd = c.detach.force().expect("a lifting push detaches at a finite force");
+    let fd = c
+        .detach
+        .force()
+        .expect("a lifting push detaches at a finite force");
     assert!(fd.is_finite() && fd > 0.0);
 }
 
@@ -114,8 +133,26 @@ fn case_7_millisecond_onsets_are_bracketed_not_stepped_over() {
     let s = paper();
     let mut p = s.push;
     p.speed_m_per_s = 100e-6; // onset ~ 0.09 s in a 30 s run
-    let coarse = simulate_push_with(&s, &p, &SolverSettings { samples: 2, event_tolerance_s: 1e-9, ..Default::default() }).unwrap();
-    let fine = simulate_push_with(&s, &p, &SolverSettings { samples: 1024, event_tolerance_s: 1e-9, ..Default::default() }).unwrap();
+    let coarse = simulate_push_with(
+        &s,
+        &p,
+        &SolverSettings {
+            samples: 2,
+            event_tolerance_s: 1e-9,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let fine = simulate_push_with(
+        &s,
+        &p,
+        &SolverSettings {
+            samples: 1024,
+            event_tolerance_s: 1e-9,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let (a, b) = (coarse.onset_s.unwrap(), fine.onset_s.unwrap());
     assert!(a < 0.2, "onset {a}");
     assert!((a - b).abs() < 1e-8, "{a} vs {b}");

@@ -36,7 +36,7 @@ pub struct StudyRow {
 pub fn settings() -> Vec<(String, SolverSettings)> {
     let d = SolverSettings::default();
     let mut v = vec![(
-        "reference (tol 1e-10 s, 512 samples)".to_string(),
+        "reference (tol 1e-10 s; 512 samples)".to_string(),
         SolverSettings {
             event_tolerance_s: 1e-10,
             samples: 512,
@@ -44,7 +44,7 @@ pub fn settings() -> Vec<(String, SolverSettings)> {
             ..d
         },
     )];
-    v.push(("default (tol 1e-6 s, 32 samples)".into(), d));
+    v.push(("default (tol 1e-6 s; 32 samples)".into(), d));
     for tol in [1e-2, 1e-4, 1e-8] {
         v.push((
             format!("event tol {tol:e} s"),
