@@ -1,10 +1,49 @@
-//! `nanopush study model`: not built yet (issue 2).
+//! `nanopush study model`: solver settings against error and wall time.
+
+use crate::model::Scene;
+use crate::model::study::{run_study, to_markdown, write_outputs};
+use anyhow::Context;
+use std::path::PathBuf;
+
+/// The scenes of the study: the paper scene and the hard cases.
+pub const STUDY_SCENES: [&str; 3] = [
+    "calib/paper-ps-ito.toml",
+    "calib/hard-nanoparticle-sliding.toml",
+    "calib/hard-high-adhesion.toml",
+];
 
 /// Arguments of `nanopush study model`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Write the table (Markdown + CSV) and the error-vs-time plot here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Scene files (default: the paper scene and two hard scenes in calib/).
+    #[arg(long = "scene")]
+    pub scenes: Vec<PathBuf>,
+    /// Timing repeats per setting (median reported).
+    #[arg(long, default_value_t = 51)]
+    pub repeats: usize,
+}
 
-/// Refuses with a clear message until issue 2 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush study model` is not built yet (issue 2)")
+/// Runs the study, prints the table, optionally writes it.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let paths: Vec<PathBuf> = if args.scenes.is_empty() {
+        STUDY_SCENES.iter().map(PathBuf::from).collect()
+    } else {
+        args.scenes.clone()
+    };
+    let mut scenes = Vec::new();
+    for p in &paths {
+        let s = Scene::load(p).with_context(|| format!("scene {}", p.display()))?;
+        scenes.push((s.name.clone(), s));
+    }
+    let rows = run_study(&scenes, args.repeats).context("study failed")?;
+    print!("{}", to_markdown(&rows));
+    if let Some(dir) = &args.out {
+        for f in write_outputs(dir, &rows).map_err(anyhow::Error::msg)? {
+            println!("wrote {}", f.display());
+        }
+    }
+    Ok(())
 }

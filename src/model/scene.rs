@@ -1,0 +1,573 @@
+//! Scenes: the TOML description of one push (probe, particle, substrate,
+//! materials, interfaces, environment, push), validated into SI.
+//!
+//! Every field is read as optional and checked here, so an error names the
+//! dotted path of the field (`particle.radius_um`) and what is wrong with it;
+//! unknown keys are refused (`deny_unknown_fields`) so typos do not pass
+//! silently. Lab units live only in this file.
+
+use super::cantilever::Cantilever;
+use super::contact::{ContactModel, Interface, tabor};
+use super::error::ModelError;
+use super::friction::criteria::FrictionParams;
+use super::push_sim::PushParams;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The schema string a scene may carry.
+pub const SCENE_SCHEMA: &str = "nanopush.scene/1";
+
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    schema: Option<String>,
+    name: Option<String>,
+    probe: Option<RawProbe>,
+    particle: Option<RawParticle>,
+    substrate: Option<RawSubstrate>,
+    materials: Option<BTreeMap<String, RawMaterial>>,
+    interfaces: Option<RawInterfaces>,
+    motion: Option<RawMotion>,
+    environment: Option<RawEnvironment>,
+    push: Option<RawPush>,
+    neighbours: Option<Vec<RawNeighbour>>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawProbe {
+    length_um: Option<f64>,
+    width_um: Option<f64>,
+    thickness_um: Option<f64>,
+    tip_height_um: Option<f64>,
+    tip_radius_nm: Option<f64>,
+    material: Option<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawParticle {
+    radius_um: Option<f64>,
+    material: Option<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawSubstrate {
+    material: Option<String>,
+    tilt_deg: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    youngs_modulus_gpa: Option<f64>,
+    poisson_ratio: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawInterfaces {
+    particle_substrate: Option<RawInterface>,
+    tip_particle: Option<RawInterface>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawInterface {
+    work_of_adhesion_j_m2: Option<f64>,
+    contact_model: Option<String>,
+    reduced_modulus_gpa: Option<f64>,
+    equilibrium_separation_nm: Option<f64>,
+    friction_coefficient: Option<f64>,
+    shear_strength_mpa: Option<f64>,
+    rolling_friction_nm: Option<f64>,
+    rolling_shear_pa_m: Option<f64>,
+}
+
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+struct RawMotion {
+    rolling_kinetic_ratio: Option<f64>,
+    sliding_kinetic_ratio: Option<f64>,
+}
+
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+struct RawEnvironment {
+    relative_humidity_percent: Option<f64>,
+    water_contact_angle_deg: Option<f64>,
+    session_time_min: Option<f64>,
+    charge_adhesion_gain: Option<f64>,
+    charge_time_constant_min: Option<f64>,
+    drift_nm_s: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawPush {
+    angle_deg: Option<f64>,
+    speed_um_s: Option<f64>,
+    duration_s: Option<f64>,
+    offset_um: Option<f64>,
+    hold_contact_angle: Option<bool>,
+    angle_min_deg: Option<f64>,
+    angle_max_deg: Option<f64>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct RawNeighbour {
+    distance_um: Option<f64>,
+}
+
+/// How one interface's contact law is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterfaceSpec {
+    /// Reduced modulus E*.
+    pub reduced_modulus_pa: f64,
+    /// Work of adhesion W.
+    pub work_of_adhesion_j_m2: f64,
+    /// Pinned law, or `None` for the Tabor choice.
+    pub pinned_model: Option<ContactModel>,
+    /// z0 for the Tabor parameter.
+    pub equilibrium_separation_m: f64,
+}
+
+impl InterfaceSpec {
+    /// The interface for equivalent radius `r` and largest contact radius `a_max`.
+    pub fn interface(&self, r: f64, a_max: f64, override_model: Option<ContactModel>) -> Interface {
+        let mu_t = tabor::tabor_parameter(
+            r,
+            self.reduced_modulus_pa,
+            self.work_of_adhesion_j_m2,
+            self.equilibrium_separation_m,
+        );
+        let model = override_model
+            .or(self.pinned_model)
+            .unwrap_or_else(|| tabor::regime_for(mu_t, self.work_of_adhesion_j_m2));
+        Interface {
+            radius_m: r,
+            reduced_modulus_pa: self.reduced_modulus_pa,
+            work_of_adhesion_j_m2: self.work_of_adhesion_j_m2,
+            tabor: mu_t,
+            model,
+            max_radius_m: a_max,
+        }
+    }
+}
+
+/// Static/kinetic thresholds of the mode machine.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionParams {
+    /// Kinetic/static ratio of the rolling threshold (hysteresis band).
+    pub rolling_kinetic_ratio: f64,
+    /// Kinetic/static ratio of the sliding threshold.
+    pub sliding_kinetic_ratio: f64,
+}
+
+/// The environment effects' inputs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Environment {
+    /// Relative humidity [%].
+    pub relative_humidity_percent: f64,
+    /// Water contact angle of the surfaces [rad].
+    pub water_contact_angle_rad: f64,
+    /// Session time elapsed before this push [s].
+    pub session_time_s: f64,
+    /// Fractional rise of the tip-particle work of adhesion at full charge.
+    pub charge_adhesion_gain: f64,
+    /// Time constant of the charge build-up [s].
+    pub charge_time_constant_s: f64,
+    /// Piezo drift along the push direction [m/s].
+    pub drift_m_per_s: f64,
+}
+
+/// A validated scene in SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// Scene name.
+    pub name: String,
+    /// Cantilever and tip height.
+    pub cantilever: Cantilever,
+    /// Tip apex radius R_t.
+    pub tip_radius_m: f64,
+    /// Particle radius R_p.
+    pub particle_radius_m: f64,
+    /// Particle-substrate interface.
+    pub substrate_interface: InterfaceSpec,
+    /// Tip-particle interface.
+    pub tip_interface: InterfaceSpec,
+    /// Particle-substrate friction laws.
+    pub friction: FrictionParams,
+    /// Tip-particle Coulomb friction (tip sliding along the sphere).
+    pub tip_friction_coefficient: f64,
+    /// Hysteresis of the mode machine.
+    pub motion: MotionParams,
+    /// Environment.
+    pub environment: Environment,
+    /// Substrate tilt along the push direction [rad] (positive: downhill).
+    pub substrate_tilt_rad: f64,
+    /// Default push.
+    pub push: PushParams,
+    /// Push-line offset from the particle centre [m] (spinning arm).
+    pub push_offset_m: f64,
+    /// Whether the contact angle is held (tip riding over not simulated).
+    pub hold_contact_angle: bool,
+    /// Allowed contact-angle range for advice [rad].
+    pub angle_range_rad: (f64, f64),
+    /// Centre distances of particles ahead on the push line [m].
+    pub neighbour_distances_m: Vec<f64>,
+}
+
+fn need<T>(v: Option<T>, field: &str) -> Result<T, ModelError> {
+    v.ok_or_else(|| ModelError::scene(field, "missing"))
+}
+
+fn finite(v: f64, field: &str) -> Result<f64, ModelError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(ModelError::scene(
+            field,
+            format!("must be a finite number, got {v}"),
+        ))
+    }
+}
+
+fn positive(v: Option<f64>, field: &str) -> Result<f64, ModelError> {
+    let v = finite(need(v, field)?, field)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ModelError::scene(
+            field,
+            format!("must be positive, got {v}"),
+        ))
+    }
+}
+
+fn in_range(v: f64, lo: f64, hi: f64, field: &str) -> Result<f64, ModelError> {
+    let v = finite(v, field)?;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(ModelError::scene(
+            field,
+            format!("must be within {lo}..{hi}, got {v}"),
+        ))
+    }
+}
+
+fn non_negative(v: Option<f64>, default: f64, field: &str) -> Result<f64, ModelError> {
+    let v = finite(v.unwrap_or(default), field)?;
+    if v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(ModelError::scene(
+            field,
+            format!("must not be negative, got {v}"),
+        ))
+    }
+}
+
+/// 1/E* = sum (1 - nu_i^2)/E_i.
+fn reduced_modulus(a: &(f64, f64), b: &(f64, f64)) -> f64 {
+    1.0 / ((1.0 - a.1 * a.1) / a.0 + (1.0 - b.1 * b.1) / b.0)
+}
+
+impl Scene {
+    /// Reads and validates a scene file.
+    pub fn load(path: &Path) -> Result<Scene, ModelError> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            ModelError::scene(path.display().to_string(), format!("cannot read: {e}"))
+        })?;
+        Scene::from_toml_str(&text)
+    }
+
+    /// Parses and validates scene TOML text.
+    pub fn from_toml_str(text: &str) -> Result<Scene, ModelError> {
+        let raw: RawScene = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            ModelError::scene(format!("scene (line {})", line_of(text, e.span())), msg)
+        })?;
+        raw.validate()
+    }
+}
+
+fn line_of(text: &str, span: Option<std::ops::Range<usize>>) -> usize {
+    span.map_or(0, |s| {
+        text[..s.start.min(text.len())].lines().count().max(1)
+    })
+}
+
+impl RawScene {
+    fn validate(self) -> Result<Scene, ModelError> {
+        if let Some(s) = &self.schema
+            && s != SCENE_SCHEMA
+        {
+            return Err(ModelError::scene(
+                "schema",
+                format!("expected \"{SCENE_SCHEMA}\", got \"{s}\""),
+            ));
+        }
+        let materials = need(self.materials, "materials")?;
+        let mut mats = BTreeMap::new();
+        for (name, m) in &materials {
+            let e = positive(
+                m.youngs_modulus_gpa,
+                &format!("materials.{name}.youngs_modulus_gpa"),
+            )? * 1e9;
+            let nu = in_range(
+                need(m.poisson_ratio, &format!("materials.{name}.poisson_ratio"))?,
+                -1.0,
+                0.5,
+                &format!("materials.{name}.poisson_ratio"),
+            )?;
+            mats.insert(name.clone(), (e, nu));
+        }
+        let material = |name: Option<String>, field: &str| -> Result<(f64, f64), ModelError> {
+            let name = need(name, field)?;
+            mats.get(&name).copied().ok_or_else(|| {
+                ModelError::scene(
+                    field,
+                    format!(
+                        "unknown material \"{name}\" (defined: {})",
+                        mats.keys().cloned().collect::<Vec<_>>().join(", ")
+                    ),
+                )
+            })
+        };
+        let probe = need(self.probe, "probe")?;
+        let probe_mat = material(probe.material, "probe.material")?;
+        let cantilever = Cantilever {
+            length_m: positive(probe.length_um, "probe.length_um")? * 1e-6,
+            width_m: positive(probe.width_um, "probe.width_um")? * 1e-6,
+            thickness_m: positive(probe.thickness_um, "probe.thickness_um")? * 1e-6,
+            youngs_modulus_pa: probe_mat.0,
+            poisson_ratio: probe_mat.1,
+            tip_height_m: positive(probe.tip_height_um, "probe.tip_height_um")? * 1e-6,
+        };
+        let tip_radius_m = positive(probe.tip_radius_nm, "probe.tip_radius_nm")? * 1e-9;
+        let particle = need(self.particle, "particle")?;
+        let particle_radius_m = positive(particle.radius_um, "particle.radius_um")? * 1e-6;
+        let particle_mat = material(particle.material, "particle.material")?;
+        let substrate = need(self.substrate, "substrate")?;
+        let substrate_mat = material(substrate.material, "substrate.material")?;
+        let substrate_tilt_rad = in_range(
+            substrate.tilt_deg.unwrap_or(0.0),
+            -30.0,
+            30.0,
+            "substrate.tilt_deg",
+        )?
+        .to_radians();
+
+        let interfaces = need(self.interfaces, "interfaces")?;
+        let ps = need(
+            interfaces.particle_substrate,
+            "interfaces.particle_substrate",
+        )?;
+        let tp = need(interfaces.tip_particle, "interfaces.tip_particle")?;
+        let spec = |r: &RawInterface,
+                    prefix: &str,
+                    mats: (&(f64, f64), &(f64, f64))|
+         -> Result<InterfaceSpec, ModelError> {
+            let w = non_negative(
+                Some(need(
+                    r.work_of_adhesion_j_m2,
+                    &format!("{prefix}.work_of_adhesion_j_m2"),
+                )?),
+                0.0,
+                &format!("{prefix}.work_of_adhesion_j_m2"),
+            )?;
+            let pinned_model = match r.contact_model.as_deref() {
+                None | Some("auto") => None,
+                Some(s) => Some(ContactModel::parse(s).ok_or_else(|| {
+                    ModelError::scene(format!("{prefix}.contact_model"), format!("unknown contact model \"{s}\" (use auto, hertz, dmt, jkr, maugis-dugdale)"))
+                })?),
+            };
+            let reduced_modulus_pa = match r.reduced_modulus_gpa {
+                Some(v) => positive(Some(v), &format!("{prefix}.reduced_modulus_gpa"))? * 1e9,
+                None => reduced_modulus(mats.0, mats.1),
+            };
+            let z0 = match r.equilibrium_separation_nm {
+                Some(v) => {
+                    positive(Some(v), &format!("{prefix}.equilibrium_separation_nm"))? * 1e-9
+                }
+                None => tabor::DEFAULT_EQUILIBRIUM_SEPARATION_M,
+            };
+            Ok(InterfaceSpec {
+                reduced_modulus_pa,
+                work_of_adhesion_j_m2: w,
+                pinned_model,
+                equilibrium_separation_m: z0,
+            })
+        };
+        let substrate_interface = spec(
+            &ps,
+            "interfaces.particle_substrate",
+            (&particle_mat, &substrate_mat),
+        )?;
+        let tip_interface = spec(&tp, "interfaces.tip_particle", (&probe_mat, &particle_mat))?;
+        let p = "interfaces.particle_substrate";
+        let friction = FrictionParams {
+            sliding_coefficient: in_range(
+                need(
+                    ps.friction_coefficient,
+                    &format!("{p}.friction_coefficient"),
+                )?,
+                0.0,
+                10.0,
+                &format!("{p}.friction_coefficient"),
+            )?,
+            shear_strength_pa: non_negative(
+                Some(need(
+                    ps.shear_strength_mpa,
+                    &format!("{p}.shear_strength_mpa"),
+                )?),
+                0.0,
+                &format!("{p}.shear_strength_mpa"),
+            )? * 1e6,
+            rolling_coefficient_m: non_negative(
+                Some(need(
+                    ps.rolling_friction_nm,
+                    &format!("{p}.rolling_friction_nm"),
+                )?),
+                0.0,
+                &format!("{p}.rolling_friction_nm"),
+            )? * 1e-9,
+            rolling_shear_n_per_m: non_negative(
+                Some(need(
+                    ps.rolling_shear_pa_m,
+                    &format!("{p}.rolling_shear_pa_m"),
+                )?),
+                0.0,
+                &format!("{p}.rolling_shear_pa_m"),
+            )?,
+        };
+        let tip_friction_coefficient = in_range(
+            tp.friction_coefficient.unwrap_or(0.0),
+            0.0,
+            10.0,
+            "interfaces.tip_particle.friction_coefficient",
+        )?;
+
+        let motion_raw = self.motion.unwrap_or_default();
+        let motion = MotionParams {
+            rolling_kinetic_ratio: in_range(
+                motion_raw.rolling_kinetic_ratio.unwrap_or(0.99),
+                0.5,
+                1.0,
+                "motion.rolling_kinetic_ratio",
+            )?,
+            sliding_kinetic_ratio: in_range(
+                motion_raw.sliding_kinetic_ratio.unwrap_or(0.9),
+                0.5,
+                1.0,
+                "motion.sliding_kinetic_ratio",
+            )?,
+        };
+        let env = self.environment.unwrap_or_default();
+        let environment = Environment {
+            relative_humidity_percent: in_range(
+                env.relative_humidity_percent.unwrap_or(0.0),
+                0.0,
+                100.0,
+                "environment.relative_humidity_percent",
+            )?,
+            water_contact_angle_rad: in_range(
+                env.water_contact_angle_deg.unwrap_or(30.0),
+                0.0,
+                180.0,
+                "environment.water_contact_angle_deg",
+            )?
+            .to_radians(),
+            session_time_s: non_negative(
+                env.session_time_min,
+                0.0,
+                "environment.session_time_min",
+            )? * 60.0,
+            charge_adhesion_gain: non_negative(
+                env.charge_adhesion_gain,
+                0.0,
+                "environment.charge_adhesion_gain",
+            )?,
+            charge_time_constant_s: positive(
+                Some(env.charge_time_constant_min.unwrap_or(30.0)),
+                "environment.charge_time_constant_min",
+            )? * 60.0,
+            drift_m_per_s: finite(env.drift_nm_s.unwrap_or(0.0), "environment.drift_nm_s")? * 1e-9,
+        };
+
+        let push = need(self.push, "push")?;
+        let angle = need(push.angle_deg, "push.angle_deg")?;
+        let angle = finite(angle, "push.angle_deg")?;
+        if !(angle > 0.0 && angle < 90.0) {
+            return Err(ModelError::scene(
+                "push.angle_deg",
+                format!("contact angle must be inside 0..90 deg (exclusive), got {angle}"),
+            ));
+        }
+        let push_params = PushParams {
+            contact_angle_rad: angle.to_radians(),
+            speed_m_per_s: positive(push.speed_um_s, "push.speed_um_s")? * 1e-6,
+            duration_s: positive(push.duration_s, "push.duration_s")?,
+        };
+        let amin = in_range(
+            push.angle_min_deg.unwrap_or(10.0),
+            0.1,
+            89.9,
+            "push.angle_min_deg",
+        )?;
+        let amax = in_range(
+            push.angle_max_deg.unwrap_or(80.0),
+            0.1,
+            89.9,
+            "push.angle_max_deg",
+        )?;
+        if amin > amax {
+            return Err(ModelError::scene(
+                "push.angle_min_deg",
+                format!("{amin} is above push.angle_max_deg {amax}"),
+            ));
+        }
+        let push_offset_m = finite(push.offset_um.unwrap_or(0.0), "push.offset_um")? * 1e-6;
+        let mut neighbour_distances_m = Vec::new();
+        for (i, n) in self.neighbours.unwrap_or_default().iter().enumerate() {
+            neighbour_distances_m
+                .push(positive(n.distance_um, &format!("neighbours[{i}].distance_um"))? * 1e-6);
+        }
+        Ok(Scene {
+            name: self.name.unwrap_or_else(|| "unnamed".into()),
+            cantilever,
+            tip_radius_m,
+            particle_radius_m,
+            substrate_interface,
+            tip_interface,
+            friction,
+            tip_friction_coefficient,
+            motion,
+            environment,
+            substrate_tilt_rad,
+            push: push_params,
+            push_offset_m,
+            hold_contact_angle: push.hold_contact_angle.unwrap_or(true),
+            angle_range_rad: (amin.to_radians(), amax.to_radians()),
+            neighbour_distances_m,
+        })
+    }
+}
+
+impl Scene {
+    /// The two interfaces at this scene's radii, optionally forcing a law.
+    pub fn interfaces(&self, override_model: Option<ContactModel>) -> (Interface, Interface) {
+        let rp = self.particle_radius_m;
+        let rt = self.tip_radius_m;
+        let s = self.substrate_interface.interface(rp, rp, override_model);
+        let t = self
+            .tip_interface
+            .interface(rp * rt / (rp + rt), rt.min(rp), override_model);
+        (s, t)
+    }
+}

@@ -1,0 +1,244 @@
+//! `nanopush simulate` / `study model` / `demo` from the outside: JSON fields,
+//! output files read back, bad scenes refused with the field named.
+
+use nanopush::model::series_csv;
+use nanopush::model::summary::PushSummary;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn nanopush() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_nanopush"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+fn paper_text() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"))
+        .unwrap()
+}
+
+#[test]
+fn simulate_json_has_the_required_fields_and_reads_back() {
+    let out = nanopush()
+        .args(["simulate", "--scene", "calib/paper-ps-ito.toml", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "mode",
+        "onset_s",
+        "force_at_onset_uN",
+        "displacement_um",
+        "critical_rolling_uN",
+        "critical_sliding_uN",
+        "outcome",
+        "active_effects",
+    ] {
+        assert!(v.get(k).is_some(), "missing {k}");
+    }
+    let s: PushSummary = serde_json::from_value(v).unwrap();
+    assert_eq!(s.schema, "nanopush.push-summary/1");
+    assert_eq!(s.outcome, "rolling");
+    assert!(s.active_effects.iter().all(|e| !e.reason.is_empty()));
+}
+
+#[test]
+fn simulate_stuck_reports_null_onset() {
+    let out = nanopush()
+        .args([
+            "simulate",
+            "--scene",
+            "calib/paper-ps-ito.toml",
+            "--json",
+            "--duration-s",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["onset_s"].is_null());
+    assert_eq!(v["outcome"], "stuck");
+}
+
+#[test]
+fn simulate_out_writes_plots_and_a_csv_that_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = nanopush()
+        .args(["simulate", "--scene", "calib/paper-ps-ito.toml", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in [
+        "push-force.svg",
+        "push-force.png",
+        "push-position.svg",
+        "push-position.png",
+    ] {
+        assert!(dir.path().join(f).metadata().unwrap().len() > 1000, "{f}");
+    }
+    let rows =
+        series_csv::from_csv(&std::fs::read_to_string(dir.path().join("push-series.csv")).unwrap())
+            .unwrap();
+    assert_eq!(rows.len(), 601);
+    let last = rows.last().unwrap();
+    assert!((last.t_s - 30.0).abs() < 1e-9);
+    assert!((last.particle_m * 1e6 - 21.0).abs() < 0.5);
+    // rows -> CSV -> rows is stable to rounding of the unit conversion.
+    let again = series_csv::from_csv(&series_csv::to_csv(&rows)).unwrap();
+    let close = |a: f64, b: f64| a == b || (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+    for (a, b) in rows.iter().zip(&again) {
+        assert!(
+            close(a.t_s, b.t_s)
+                && close(a.stage_m, b.stage_m)
+                && close(a.tip_m, b.tip_m)
+                && close(a.particle_m, b.particle_m)
+        );
+        assert!(
+            close(a.force_n, b.force_n)
+                && close(a.critical_rolling_n, b.critical_rolling_n)
+                && close(a.critical_sliding_n, b.critical_sliding_n)
+        );
+    }
+}
+
+fn bad_scene(edit: impl Fn(String) -> String) -> (bool, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let p: PathBuf = dir.path().join("bad.toml");
+    std::fs::write(&p, edit(paper_text())).unwrap();
+    let out = nanopush()
+        .args(["simulate", "--scene"])
+        .arg(&p)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+    )
+}
+
+#[test]
+fn bad_scenes_exit_non_zero_naming_the_field() {
+    let cases: Vec<(&str, Box<dyn Fn(String) -> String>)> = vec![
+        (
+            "particle.radius_um",
+            Box::new(|s: String| s.replace("radius_um = 5.0", "radius_um = -5.0")),
+        ),
+        (
+            "particle.radius_um",
+            Box::new(|s: String| s.replace("radius_um = 5.0", "radius_um = nan")),
+        ),
+        (
+            "particle.radius_um",
+            Box::new(|s: String| s.replace("radius_um = 5.0          # R_p", "")),
+        ),
+        (
+            "probe.material",
+            Box::new(|s: String| s.replace("material = \"silicon\"", "material = \"unobtainium\"")),
+        ),
+        (
+            "interfaces.particle_substrate.contact_model",
+            Box::new(|s: String| s.replace("contact_model = \"jkr\"", "contact_model = \"magic\"")),
+        ),
+        (
+            "push.angle_deg",
+            Box::new(|s: String| s.replace("angle_deg = 45.0", "angle_deg = 95.0")),
+        ),
+        (
+            "push.angle_deg",
+            Box::new(|s: String| s.replace("angle_deg = 45.0", "angle_deg = 0.0")),
+        ),
+        (
+            "push",
+            Box::new(|s: String| s.split("[push]").next().unwrap().to_string()),
+        ),
+        (
+            "radius_mm",
+            Box::new(|s: String| s.replace("radius_um = 5.0", "radius_mm = 5.0")),
+        ),
+    ];
+    for (field, edit) in cases {
+        let (ok, err) = bad_scene(edit);
+        assert!(!ok, "accepted a bad scene ({field})");
+        assert!(err.contains(field), "error does not name `{field}`: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+#[test]
+fn bad_flags_exit_non_zero() {
+    let out = nanopush()
+        .args([
+            "simulate",
+            "--scene",
+            "calib/paper-ps-ito.toml",
+            "--angle-deg",
+            "90",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let out = nanopush()
+        .args(["simulate", "--scene", "no/such/scene.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+}
+
+#[test]
+fn study_writes_a_table_that_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = nanopush()
+        .args(["study", "model", "--repeats", "1", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = nanopush::model::study::from_csv(
+        &std::fs::read_to_string(dir.path().join("study-model.csv")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 3 * nanopush::model::study::settings().len());
+    assert!(rows.iter().all(|r| r.wall_us > 0.0));
+    assert!(
+        dir.path().join("study-model.png").exists() && dir.path().join("study-model.md").exists()
+    );
+    assert_eq!(
+        nanopush::model::study::from_csv(&nanopush::model::study::to_csv(&rows)).unwrap(),
+        rows
+    );
+}
+
+#[test]
+fn demo_writes_the_paper_scene_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = nanopush()
+        .args(["demo", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("push-force.png").exists());
+    let s: PushSummary = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("push-summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(s.outcome, "rolling");
+}
