@@ -1,5 +1,6 @@
 //! The simulated rig: the pushing model moves particles, the synthetic
 //! microscope draws them. Its ground truth is for tests and reports only.
 
+pub mod model_physics;
 pub mod stage;
 pub mod world;

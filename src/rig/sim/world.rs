@@ -53,8 +53,9 @@ pub struct ContactQuery {
 pub enum ContactResponse {
     /// The particle starts to move after this much stage travel and then follows.
     Moves { onset_travel_m: f64 },
-    /// The particle never moves during this travel: the tip rides over it.
-    TipRidesOver,
+    /// The particle does not move during this travel (the stroke ends before
+    /// onset, or the tip rides over it).
+    Stays,
 }
 
 /// The pushing model as the world needs it.
@@ -68,8 +69,8 @@ pub trait PushPhysics {
 pub enum ContactOutcome {
     /// Carried to the end of the stroke.
     Carried,
-    /// Never moved; the tip brushed over it.
-    TipRodeOver,
+    /// Never moved: the tip brushed over it or let go before onset.
+    LeftBehind,
     /// Slid off the tip sideways and left the push line.
     TurnedAroundTip,
     /// Stopped against another particle.
@@ -139,10 +140,10 @@ impl World {
             };
             touched.push(index);
             let event = match physics.respond(&query) {
-                ContactResponse::TipRidesOver => ContactEvent {
+                ContactResponse::Stays => ContactEvent {
                     particle: p.id,
                     moved_m: 0.0,
-                    outcome: ContactOutcome::TipRodeOver,
+                    outcome: ContactOutcome::LeftBehind,
                 },
                 ContactResponse::Moves { onset_travel_m } if onset_travel_m >= travel => {
                     ContactEvent {
@@ -303,7 +304,7 @@ mod tests {
     struct NeverMoves;
     impl PushPhysics for NeverMoves {
         fn respond(&self, _: &ContactQuery) -> ContactResponse {
-            ContactResponse::TipRidesOver
+            ContactResponse::Stays
         }
     }
 
@@ -380,7 +381,7 @@ mod tests {
         let mut w = world(&[(20.0, 0.0)]);
         let z = z45();
         let ev = w.sweep([0.0, 0.0, z], [40e-6, 0.0, z], 1e-6, 0.0, &NeverMoves);
-        assert_eq!(ev[0].outcome, ContactOutcome::TipRodeOver);
+        assert_eq!(ev[0].outcome, ContactOutcome::LeftBehind);
         assert_eq!(w.particles[0], world(&[(20.0, 0.0)]).particles[0]);
     }
 
