@@ -60,6 +60,7 @@ pub struct SimStage {
     contacts: Vec<TimedContact>,
     moves: usize,
     fail_at_move: Option<usize>,
+    coarse_offset: [f64; 2],
 }
 
 impl SimStage {
@@ -86,6 +87,7 @@ impl SimStage {
             contacts: Vec::new(),
             moves: 0,
             fail_at_move: None,
+            coarse_offset: [0.0, 0.0],
         }
     }
 
@@ -97,11 +99,6 @@ impl SimStage {
     /// Lets time pass without moving (frame grabs, settling).
     pub fn wait(&mut self, seconds: f64) {
         self.clock_s += seconds.max(0.0);
-    }
-
-    /// Where the tip really is (ground truth, with drift and noise).
-    pub fn actual(&self) -> StageXyz {
-        self.actual
     }
 
     /// Every contact so far (ground truth).
@@ -119,12 +116,41 @@ impl SimStage {
         self.moves
     }
 
+    /// Where the coarse stage has put the nanostage's origin on the sample.
+    pub fn coarse_offset(&self) -> [f64; 2] {
+        self.coarse_offset
+    }
+
+    /// Moves the sample under the nanostage (coarse stage). The tip must be up,
+    /// at the top of its z travel, or it would be dragged through the sample.
+    pub fn move_coarse(&mut self, offset: [f64; 2]) -> Result<(), RigError> {
+        let top = self.config.range[2].max_m;
+        if self.commanded[2] < top - 1e-9 {
+            return Err(RigError::StageFault(
+                "coarse move refused: the tip is not retracted".to_owned(),
+            ));
+        }
+        if !(offset[0].is_finite() && offset[1].is_finite()) {
+            return Err(RigError::StageFault(
+                "coarse target is not finite".to_owned(),
+            ));
+        }
+        self.coarse_offset = offset;
+        self.actual = self.realise(self.commanded);
+        Ok(())
+    }
+
+    /// Ground-truth tip position on the sample (nanostage position plus the coarse offset).
+    pub fn actual_on_sample(&self) -> StageXyz {
+        self.actual
+    }
+
     fn realise(&mut self, target: StageXyz) -> StageXyz {
         let noise = Normal::new(0.0, self.config.precision_m.max(0.0)).expect("finite sigma");
         let d = self.config.drift_m_per_s;
         [
-            target[0] + d[0] * self.clock_s + noise.sample(&mut self.rng),
-            target[1] + d[1] * self.clock_s + noise.sample(&mut self.rng),
+            target[0] + self.coarse_offset[0] + d[0] * self.clock_s + noise.sample(&mut self.rng),
+            target[1] + self.coarse_offset[1] + d[1] * self.clock_s + noise.sample(&mut self.rng),
             target[2],
         ]
     }
@@ -265,6 +291,6 @@ mod tests {
         push(&mut a).unwrap();
         push(&mut b).unwrap();
         assert_eq!(a.world.particles, b.world.particles);
-        assert_eq!(a.actual(), b.actual());
+        assert_eq!(a.actual_on_sample(), b.actual_on_sample());
     }
 }
