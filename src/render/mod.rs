@@ -1,1 +1,7 @@
 //! Synthetic microscope frames, overlays, plots and animations.
+
+pub mod microscope;
+pub mod microscope_truth;
+pub mod noise;
+pub mod probe;
+pub mod sphere;
