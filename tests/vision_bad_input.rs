@@ -17,7 +17,11 @@ fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> std::path::PathBu
 #[test]
 fn broken_files_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let good = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/real/brightfield/bf_0000.png")).unwrap();
+    let good = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/real/brightfield/bf_0000.png"
+    ))
+    .unwrap();
     let cases = [
         ("truncated.png", good[..good.len() / 3].to_vec()),
         ("corrupt.png", {
@@ -35,13 +39,22 @@ fn broken_files_are_clear_errors() {
         let p = write(&dir, name, &bytes);
         let e = load_frame(&p, Channel::Luminance).expect_err(name);
         let msg = e.to_string();
-        assert!(msg.contains(name), "{name}: message {msg:?} should name the file");
+        assert!(
+            msg.contains(name),
+            "{name}: message {msg:?} should name the file"
+        );
         assert!(load_frames(&p, Channel::Luminance).is_err(), "{name}");
     }
     let missing = dir.path().join("missing.png");
-    assert!(matches!(load_frame(&missing, Channel::Luminance), Err(FrameInputError::Io { .. })));
+    assert!(matches!(
+        load_frame(&missing, Channel::Luminance),
+        Err(FrameInputError::Io { .. })
+    ));
     let empty_dir = tempfile::tempdir().unwrap();
-    assert!(matches!(load_frames(empty_dir.path(), Channel::Luminance), Err(FrameInputError::Empty { .. })));
+    assert!(matches!(
+        load_frames(empty_dir.path(), Channel::Luminance),
+        Err(FrameInputError::Empty { .. })
+    ));
     let bad_video = write(&dir, "clip.avi", b"not a video");
     assert!(load_frames(&bad_video, Channel::Luminance).is_err());
 }
@@ -50,7 +63,11 @@ fn broken_files_are_clear_errors() {
 fn black_and_saturated_frames_give_nothing() {
     for (v, bits) in [(0.0f32, 8u8), (255.0, 8), (0.0, 16), (65535.0, 16)] {
         let f = Frame::new(128, 96, vec![v; 128 * 96], bits).unwrap();
-        assert!(detect_particles(&f, &DetectSettings::default()).unwrap().is_empty());
+        assert!(
+            detect_particles(&f, &DetectSettings::default())
+                .unwrap()
+                .is_empty()
+        );
         assert_eq!(detect_tip(&f, &TipSettings::default()), None);
     }
     let tiny = Frame::new(4, 4, vec![1.0; 16], 8).unwrap();

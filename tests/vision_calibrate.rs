@@ -65,7 +65,11 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
         .arg("--json")
         .output()
         .unwrap();
-    assert!(det.status.success(), "{}", String::from_utf8_lossy(&det.stderr));
+    assert!(
+        det.status.success(),
+        "{}",
+        String::from_utf8_lossy(&det.stderr)
+    );
     let doc = DetectionsFile::from_json(&String::from_utf8_lossy(&det.stdout)).unwrap();
     let tip = doc.tip.expect("tip in detect output");
     assert!((tip.x_px - 90.0).abs() < 0.5 && (tip.y_px - 80.0).abs() < 0.5);
@@ -76,11 +80,19 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
 fn calibrate_and_detect_fail_cleanly_on_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let exe = env!("CARGO_BIN_EXE_nanopush");
-    let out = Command::new(exe).args(["calibrate", "--recording"]).arg(dir.path()).output().unwrap();
+    let out = Command::new(exe)
+        .args(["calibrate", "--recording"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("stage.csv"));
     std::fs::write(dir.path().join("x.png"), b"nope").unwrap();
-    let out = Command::new(exe).arg("detect").arg(dir.path().join("x.png")).output().unwrap();
+    let out = Command::new(exe)
+        .arg("detect")
+        .arg(dir.path().join("x.png"))
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.png"));
 }

@@ -10,7 +10,13 @@ use nanopush::vision::matching::match_points;
 
 const RADIUS: f64 = 8.0;
 
-fn run(size: usize, n: usize, snr: f64, bits: u8, seed: u64) -> (SceneView, Vec<nanopush::vision::detect::Detection>) {
+fn run(
+    size: usize,
+    n: usize,
+    snr: f64,
+    bits: u8,
+    seed: u64,
+) -> (SceneView, Vec<nanopush::vision::detect::Detection>) {
     let scene = random_scene(n, size, size, RADIUS, seed);
     let frame = render_frame(&scene, &RenderSettings::with_snr(snr, bits), seed).unwrap();
     let settings = DetectSettings {
@@ -30,7 +36,11 @@ fn recall_and_precision_at_snr_4_on_1024_16bit() {
     assert_eq!(scene.particles.len(), 100);
     let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
     let m = match_points(&truth(&scene), &pts, RADIUS);
-    println!("SNR 4: recall {:.3} precision {:.3}", m.recall(), m.precision());
+    println!(
+        "SNR 4: recall {:.3} precision {:.3}",
+        m.recall(),
+        m.precision()
+    );
     assert!(m.recall() >= 0.99, "recall {}", m.recall());
     assert!(m.precision() >= 0.99, "precision {}", m.precision());
 }
@@ -49,7 +59,12 @@ fn centre_error_near_the_cramer_rao_bound_and_radius_within_2_percent_at_snr_8()
         .collect();
     let mean_r = radius_err.iter().sum::<f64>() / radius_err.len() as f64;
     let max_r = radius_err.iter().cloned().fold(0.0, f64::max);
-    let mean_sigma = m.pairs.iter().map(|&(_, j, _, _)| found[j].sigma_px).sum::<f64>() / m.pairs.len() as f64;
+    let mean_sigma = m
+        .pairs
+        .iter()
+        .map(|&(_, j, _, _)| found[j].sigma_px)
+        .sum::<f64>()
+        / m.pairs.len() as f64;
     println!(
         "SNR 8: centre RMS {rms:.4} px, CRB {crb:.4} px, ratio {:.3}; reported sigma {mean_sigma:.4} px; \
          radius error mean {:.3} % max {:.3} %",
@@ -61,7 +76,10 @@ fn centre_error_near_the_cramer_rao_bound_and_radius_within_2_percent_at_snr_8()
     assert!(rms <= 1.3 * crb, "RMS {rms} vs CRB {crb}");
     assert!(max_r <= 0.02, "radius error up to {} %", 100.0 * max_r);
     // The reported uncertainty is honest: within 30 % of the measured error.
-    assert!((mean_sigma / rms - 1.0).abs() < 0.3, "sigma {mean_sigma} vs rms {rms}");
+    assert!(
+        (mean_sigma / rms - 1.0).abs() < 0.3,
+        "sigma {mean_sigma} vs rms {rms}"
+    );
 }
 
 #[test]
@@ -74,7 +92,11 @@ fn empty_frames_give_no_detections_at_any_bit_depth() {
         };
         let frame = render_frame(&scene, &RenderSettings::with_snr(8.0, bits), 3).unwrap();
         let found = detect_particles(&frame, &DetectSettings::default()).unwrap();
-        assert!(found.is_empty(), "{bits}-bit: {} false detections", found.len());
+        assert!(
+            found.is_empty(),
+            "{bits}-bit: {} false detections",
+            found.len()
+        );
     }
 }
 

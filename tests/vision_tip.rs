@@ -1,7 +1,9 @@
 //! Tip detection on synthetic frames: random positions and angles, over a
 //! particle, and out of focus.
 
-use nanopush::render::microscope::{ParticleView, RenderSettings, SceneView, TipView, render_frame};
+use nanopush::render::microscope::{
+    ParticleView, RenderSettings, SceneView, TipView, render_frame,
+};
 use nanopush::vision::tip::{TipSettings, detect_tip};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -56,7 +58,9 @@ fn check(label: &str, apex: &[f64], angle: &[f64]) {
     let median = a[a.len() / 2];
     let worst = a[a.len() - 1];
     let worst_angle = angle.iter().cloned().fold(0.0, f64::max);
-    println!("{label}: apex median {median:.3} px, worst {worst:.3} px, worst angle {worst_angle:.3} deg");
+    println!(
+        "{label}: apex median {median:.3} px, worst {worst:.3} px, worst angle {worst_angle:.3} deg"
+    );
     assert!(median <= 0.5, "{label}: median {median}");
     assert!(worst <= 2.0, "{label}: worst {worst}");
     assert!(worst_angle <= 1.0, "{label}: angle {worst_angle}");

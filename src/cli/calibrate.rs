@@ -40,8 +40,14 @@ pub struct StageRow {
 
 /// Parses stage.csv text; errors name the line.
 pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
-    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-    let header = lines.next().map(|(_, l)| l.trim().to_string()).unwrap_or_default();
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let header = lines
+        .next()
+        .map(|(_, l)| l.trim().to_string())
+        .unwrap_or_default();
     if header.replace(' ', "") != "frame,x_um,y_um" {
         anyhow::bail!("stage.csv must start with the header `frame,x_um,y_um`, found `{header}`");
     }
@@ -49,11 +55,21 @@ pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
         .map(|(i, l)| {
             let f: Vec<&str> = l.split(',').map(str::trim).collect();
             if f.len() != 3 {
-                anyhow::bail!("stage.csv line {}: expected 3 fields, found {}", i + 1, f.len());
+                anyhow::bail!(
+                    "stage.csv line {}: expected 3 fields, found {}",
+                    i + 1,
+                    f.len()
+                );
             }
             let num = |s: &str| -> anyhow::Result<f64> {
-                let v: f64 = s.parse().with_context(|| format!("stage.csv line {}: `{s}` is not a number", i + 1))?;
-                anyhow::ensure!(v.is_finite(), "stage.csv line {}: `{s}` is not finite", i + 1);
+                let v: f64 = s
+                    .parse()
+                    .with_context(|| format!("stage.csv line {}: `{s}` is not a number", i + 1))?;
+                anyhow::ensure!(
+                    v.is_finite(),
+                    "stage.csv line {}: `{s}` is not finite",
+                    i + 1
+                );
                 Ok(v)
             };
             Ok(StageRow {
@@ -69,14 +85,16 @@ pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let dir: &Path = &args.recording;
     let csv = dir.join("stage.csv");
-    let text = std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+    let text =
+        std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
     let rows = parse_stage_csv(&text)?;
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();
     for row in &rows {
         let path = dir.join(&row.frame);
-        let frame = load_frame(&path, Channel::Luminance).with_context(|| format!("loading {}", path.display()))?;
+        let frame = load_frame(&path, Channel::Luminance)
+            .with_context(|| format!("loading {}", path.display()))?;
         match detect_tip(&frame, &TipSettings::default()) {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
@@ -86,10 +104,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None => eprintln!("{}: no tip found, frame skipped", row.frame),
         }
     }
-    let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px).context("fitting the calibration")?;
+    let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px)
+        .context("fitting the calibration")?;
     println!("frame                          dx_px     dy_px  inlier");
     for (name, r) in used.iter().zip(&fit.residuals_px) {
-        println!("{name:<28} {:9.3} {:9.3}  {}", r.0, r.1, if r.2 { "yes" } else { "NO" });
+        println!(
+            "{name:<28} {:9.3} {:9.3}  {}",
+            r.0,
+            r.1,
+            if r.2 { "yes" } else { "NO" }
+        );
     }
     let c = &fit.calibration;
     println!(
@@ -100,8 +124,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pixels.len(),
         fit.rms_px
     );
-    let out = args.out.clone().unwrap_or_else(|| dir.join("calibration.toml"));
-    std::fs::write(&out, c.to_toml(Some((fit.rms_px, fit.inliers)))).with_context(|| format!("writing {}", out.display()))?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dir.join("calibration.toml"));
+    std::fs::write(&out, c.to_toml(Some((fit.rms_px, fit.inliers))))
+        .with_context(|| format!("writing {}", out.display()))?;
     println!("wrote {}", out.display());
     Ok(())
 }

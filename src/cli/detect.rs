@@ -65,9 +65,13 @@ impl From<LocatorArg> for Locator {
 
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let frame = load_frame(&args.frame, args.channel).with_context(|| format!("loading {}", args.frame.display()))?;
+    let frame = load_frame(&args.frame, args.channel)
+        .with_context(|| format!("loading {}", args.frame.display()))?;
     let calib = match &args.calib {
-        Some(p) => Some(AffineCalibration::load(p).with_context(|| format!("loading calibration {}", p.display()))?),
+        Some(p) => Some(
+            AffineCalibration::load(p)
+                .with_context(|| format!("loading calibration {}", p.display()))?,
+        ),
         None => None,
     };
     let diameter_px = match (args.diameter_px, args.radius_um, &calib) {
@@ -101,7 +105,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 p.r_px,
                 p.sigma_px,
                 p.quality,
-                if d.edge_clipped { "  (edge-clipped)" } else { "" }
+                if d.edge_clipped {
+                    "  (edge-clipped)"
+                } else {
+                    ""
+                }
             );
         }
         match &doc.tip {

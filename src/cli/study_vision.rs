@@ -63,12 +63,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.bits == 8 || args.bits == 16, "--bits must be 8 or 16");
     let mut rows = Vec::new();
     for &snr in &args.snr {
-        anyhow::ensure!(snr.is_finite() && snr > 0.0, "--snr values must be > 0, got {snr}");
+        anyhow::ensure!(
+            snr.is_finite() && snr > 0.0,
+            "--snr values must be > 0, got {snr}"
+        );
         let settings = RenderSettings::with_snr(snr, args.bits);
         let crb = centre_crb_px(args.radius_px, &settings).unwrap_or(f64::NAN);
         let frames: Vec<_> = (0..args.frames as u64)
             .map(|k| {
-                let scene = random_scene(args.particles, args.size_px, args.size_px, args.radius_px, args.seed + k);
+                let scene = random_scene(
+                    args.particles,
+                    args.size_px,
+                    args.size_px,
+                    args.radius_px,
+                    args.seed + k,
+                );
                 let frame = render_frame(&scene, &settings, args.seed + k)?;
                 Ok((scene, frame))
             })
@@ -79,12 +88,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 locator,
                 ..DetectSettings::default()
             };
-            let (mut matched, mut nref, mut nfound, mut ss, mut rerr, mut secs) = (0, 0, 0, 0.0, 0.0, 0.0);
+            let (mut matched, mut nref, mut nfound, mut ss, mut rerr, mut secs) =
+                (0, 0, 0, 0.0, 0.0, 0.0);
             for (scene, frame) in &frames {
                 let t0 = Instant::now();
                 let found = detect_particles(frame, &detect)?;
                 secs += t0.elapsed().as_secs_f64();
-                let truth: Vec<[f64; 2]> = scene.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
+                let truth: Vec<[f64; 2]> =
+                    scene.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
                 let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
                 let m = match_points(&truth, &pts, args.radius_px);
                 for &(i, j, dx, dy) in &m.pairs {
@@ -95,12 +106,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 nref += m.n_reference;
                 nfound += m.n_found;
             }
-            let rms = if matched > 0 { (ss / (2.0 * matched as f64)).sqrt() } else { f64::NAN };
+            let rms = if matched > 0 {
+                (ss / (2.0 * matched as f64)).sqrt()
+            } else {
+                f64::NAN
+            };
             rows.push(StudyRow {
                 locator,
                 snr,
                 recall: matched as f64 / nref.max(1) as f64,
-                precision: if nfound > 0 { matched as f64 / nfound as f64 } else { 1.0 },
+                precision: if nfound > 0 {
+                    matched as f64 / nfound as f64
+                } else {
+                    1.0
+                },
                 rms_px: rms,
                 crb_px: crb,
                 rms_over_crb: rms / crb,
@@ -113,20 +132,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "Synthetic {}x{} {}-bit frames, {} spheres of radius {} px, {} frame(s) per SNR, seed {}.\n\n\
          | locator | SNR | recall | precision | centre RMS px | CRB px | RMS/CRB | radius err % | ms/frame |\n\
          |---|---|---|---|---|---|---|---|---|\n",
-        args.size_px, args.size_px, args.bits, args.particles, args.radius_px, args.frames, args.seed
+        args.size_px,
+        args.size_px,
+        args.bits,
+        args.particles,
+        args.radius_px,
+        args.frames,
+        args.seed
     );
     for r in &rows {
         md += &format!(
             "| {:?} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} |\n",
-            r.locator, r.snr, r.recall, r.precision, r.rms_px, r.crb_px, r.rms_over_crb, r.radius_error_pct, r.ms_per_frame
+            r.locator,
+            r.snr,
+            r.recall,
+            r.precision,
+            r.rms_px,
+            r.crb_px,
+            r.rms_over_crb,
+            r.radius_error_pct,
+            r.ms_per_frame
         );
     }
     print!("{md}");
     if let Some(out) = &args.out {
-        std::fs::write(out.with_extension("md"), &md).with_context(|| format!("writing {}", out.display()))?;
-        let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});
-        std::fs::write(out.with_extension("json"), serde_json::to_string_pretty(&json)?)
+        std::fs::write(out.with_extension("md"), &md)
             .with_context(|| format!("writing {}", out.display()))?;
+        let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});
+        std::fs::write(
+            out.with_extension("json"),
+            serde_json::to_string_pretty(&json)?,
+        )
+        .with_context(|| format!("writing {}", out.display()))?;
     }
     Ok(())
 }

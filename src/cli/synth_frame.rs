@@ -72,13 +72,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut scene = match (&args.layout, args.n) {
         (Some(path), _) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading layout {}", path.display()))?;
-            scene_from_layout(&text, args.um_per_px).with_context(|| format!("layout {}", path.display()))?
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading layout {}", path.display()))?;
+            scene_from_layout(&text, args.um_per_px)
+                .with_context(|| format!("layout {}", path.display()))?
         }
         (None, Some(n)) => {
             let s = random_scene(n, args.width_px, args.height_px, args.radius_px, args.seed);
             if s.particles.len() < n {
-                eprintln!("note: only {} of {n} particles fit without overlap", s.particles.len());
+                eprintln!(
+                    "note: only {} of {n} particles fit without overlap",
+                    s.particles.len()
+                );
             }
             s
         }
@@ -97,7 +102,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let frame = render_frame(&scene, &settings, args.seed).context("rendering the frame")?;
     save_png(&frame, &args.out).with_context(|| format!("writing {}", args.out.display()))?;
     if let Some(path) = &args.truth {
-        let r = scene.particles.first().map_or(args.radius_px, |p| p.radius_px);
+        let r = scene
+            .particles
+            .first()
+            .map_or(args.radius_px, |p| p.radius_px);
         let truth = Truth::of(&scene, args.seed, args.snr, centre_crb_px(r, &settings));
         std::fs::write(path, serde_json::to_string_pretty(&truth)?)
             .with_context(|| format!("writing {}", path.display()))?;

@@ -159,14 +159,24 @@ impl RenderSettings {
 }
 
 /// Mean photo-electrons per pixel, noise-free (row-major). The CRB and tests use it.
-pub fn expected_electrons(scene: &SceneView, settings: &RenderSettings) -> Result<Vec<f64>, RenderError> {
+pub fn expected_electrons(
+    scene: &SceneView,
+    settings: &RenderSettings,
+) -> Result<Vec<f64>, RenderError> {
     let (w, h) = (scene.width_px, scene.height_px);
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        return Err(RenderError::Size { width: w, height: h });
+        return Err(RenderError::Size {
+            width: w,
+            height: h,
+        });
     }
     settings.validate()?;
     for (index, p) in scene.particles.iter().enumerate() {
-        if !(p.x_px.is_finite() && p.y_px.is_finite() && p.radius_px.is_finite() && p.radius_px > 0.0) {
+        if !(p.x_px.is_finite()
+            && p.y_px.is_finite()
+            && p.radius_px.is_finite()
+            && p.radius_px > 0.0)
+        {
             return Err(RenderError::Scene { index });
         }
     }
@@ -182,7 +192,13 @@ pub fn expected_electrons(scene: &SceneView, settings: &RenderSettings) -> Resul
     let r2max = cx * cx + cy * cy + 1e-9;
     let mut modulation = vec![0.0f64; w * h];
     for p in &scene.particles {
-        let prof = SphereProfile::new(p.x_px, p.y_px, p.radius_px, &settings.optics, settings.blur_sigma_px);
+        let prof = SphereProfile::new(
+            p.x_px,
+            p.y_px,
+            p.radius_px,
+            &settings.optics,
+            settings.blur_sigma_px,
+        );
         let s = prof.support_px();
         let x0 = ((p.x_px - s).floor().max(0.0)) as usize;
         let x1 = ((p.x_px + s).ceil().min(w as f64 - 1.0)).max(-1.0) as isize;
@@ -215,15 +231,27 @@ pub fn expected_electrons(scene: &SceneView, settings: &RenderSettings) -> Resul
 }
 
 /// Renders one noisy camera frame of `scene`; the same seed gives the same frame.
-pub fn render_frame(scene: &SceneView, settings: &RenderSettings, seed: u64) -> Result<Frame, RenderError> {
+pub fn render_frame(
+    scene: &SceneView,
+    settings: &RenderSettings,
+    seed: u64,
+) -> Result<Frame, RenderError> {
     let mean = expected_electrons(scene, settings)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let pixels: Vec<f32> = mean.iter().map(|&m| settings.camera.sample(m, &mut rng)).collect();
-    Frame::new(scene.width_px, scene.height_px, pixels, settings.camera.bit_depth)
-        .map_err(|_| RenderError::Size {
-            width: scene.width_px,
-            height: scene.height_px,
-        })
+    let pixels: Vec<f32> = mean
+        .iter()
+        .map(|&m| settings.camera.sample(m, &mut rng))
+        .collect();
+    Frame::new(
+        scene.width_px,
+        scene.height_px,
+        pixels,
+        settings.camera.bit_depth,
+    )
+    .map_err(|_| RenderError::Size {
+        width: scene.width_px,
+        height: scene.height_px,
+    })
 }
 
 #[cfg(test)]
@@ -272,7 +300,10 @@ mod tests {
     fn bad_settings_and_scenes_are_errors() {
         let mut s = RenderSettings::default();
         s.blur_sigma_px = f64::NAN;
-        assert!(matches!(render_frame(&scene(), &s, 1), Err(RenderError::Setting { .. })));
+        assert!(matches!(
+            render_frame(&scene(), &s, 1),
+            Err(RenderError::Setting { .. })
+        ));
         let mut sc = scene();
         sc.particles[0].radius_px = 0.0;
         assert_eq!(
@@ -280,6 +311,9 @@ mod tests {
             Err(RenderError::Scene { index: 0 })
         );
         sc.width_px = 0;
-        assert!(matches!(render_frame(&sc, &RenderSettings::default(), 1), Err(RenderError::Size { .. })));
+        assert!(matches!(
+            render_frame(&sc, &RenderSettings::default(), 1),
+            Err(RenderError::Size { .. })
+        ));
     }
 }

@@ -77,7 +77,10 @@ impl Truth {
     pub fn from_json(text: &str) -> Result<Self, SceneFileError> {
         let t: Self = serde_json::from_str(text).map_err(|e| SceneFileError(e.to_string()))?;
         if t.schema != TRUTH_SCHEMA {
-            return Err(SceneFileError(format!("schema {:?}, expected {TRUTH_SCHEMA:?}", t.schema)));
+            return Err(SceneFileError(format!(
+                "schema {:?}, expected {TRUTH_SCHEMA:?}",
+                t.schema
+            )));
         }
         Ok(t)
     }
@@ -108,10 +111,15 @@ struct LayoutParticle {
 pub fn scene_from_layout(text: &str, um_per_px: f64) -> Result<SceneView, SceneFileError> {
     let l: LayoutFile = serde_json::from_str(text).map_err(|e| SceneFileError(e.to_string()))?;
     if l.schema != "nanopush.layout/1" {
-        return Err(SceneFileError(format!("schema {:?}, expected \"nanopush.layout/1\"", l.schema)));
+        return Err(SceneFileError(format!(
+            "schema {:?}, expected \"nanopush.layout/1\"",
+            l.schema
+        )));
     }
     if !(um_per_px.is_finite() && um_per_px > 0.0) {
-        return Err(SceneFileError(format!("pixel size {um_per_px} um must be > 0")));
+        return Err(SceneFileError(format!(
+            "pixel size {um_per_px} um must be > 0"
+        )));
     }
     let (w, h) = (l.field_um[0] / um_per_px, l.field_um[1] / um_per_px);
     if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 16384.0 && h <= 16384.0) {
@@ -139,7 +147,13 @@ pub fn scene_from_layout(text: &str, um_per_px: f64) -> Result<SceneView, SceneF
 
 /// `n` non-overlapping spheres of radius `radius_px` placed at random (seeded),
 /// at least one radius from the edges; fewer if the frame is too crowded.
-pub fn random_scene(n: usize, width_px: usize, height_px: usize, radius_px: f64, seed: u64) -> SceneView {
+pub fn random_scene(
+    n: usize,
+    width_px: usize,
+    height_px: usize,
+    radius_px: f64,
+    seed: u64,
+) -> SceneView {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let margin = radius_px + 2.0;
     let mut particles: Vec<ParticleView> = Vec::with_capacity(n);
@@ -154,7 +168,10 @@ pub fn random_scene(n: usize, width_px: usize, height_px: usize, radius_px: f64,
                     break;
                 }
                 let (x, y) = (ux.sample(&mut rng), uy.sample(&mut rng));
-                if particles.iter().all(|p| (p.x_px - x).powi(2) + (p.y_px - y).powi(2) >= min_d * min_d) {
+                if particles
+                    .iter()
+                    .all(|p| (p.x_px - x).powi(2) + (p.y_px - y).powi(2) >= min_d * min_d)
+                {
                     particles.push(ParticleView {
                         x_px: x,
                         y_px: y,

@@ -55,7 +55,12 @@ impl ProbeSilhouette {
             (-BODY_LENGTH_PX, -h),
             (-t, -h),
         ];
-        local.map(|(u, v)| (self.apex_x_px + u * c - v * s, self.apex_y_px + u * s + v * c))
+        local.map(|(u, v)| {
+            (
+                self.apex_x_px + u * c - v * s,
+                self.apex_y_px + u * s + v * c,
+            )
+        })
     }
 
     /// Signed distance from (x, y) to the silhouette edge: negative inside.
@@ -101,7 +106,8 @@ pub fn normal_cdf(z: f64) -> f64 {
     let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
     let poly = t
         * (0.254_829_592
-            + t * (-0.284_496_736 + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
     let erfc_abs = poly * (-x * x).exp();
     if x >= 0.0 {
         1.0 - 0.5 * erfc_abs

@@ -11,7 +11,13 @@ use crate::render::sphere::SphereProfile;
 /// Per-axis 1-sigma bound on the centre, in pixels, for a sphere of radius
 /// `radius_px` at unit illumination, or `None` if the Fisher matrix is singular.
 pub fn centre_crb_px(radius_px: f64, settings: &RenderSettings) -> Option<f64> {
-    let prof = SphereProfile::new(0.0, 0.0, radius_px, &settings.optics, settings.blur_sigma_px);
+    let prof = SphereProfile::new(
+        0.0,
+        0.0,
+        radius_px,
+        &settings.optics,
+        settings.blur_sigma_px,
+    );
     let b = settings.background_e;
     // The renderer's image is b (1 + modulation): the fit model with these parameters.
     let (cx, cy) = (0.31, 0.62);

@@ -78,7 +78,11 @@ pub enum DetectError {
     Diameter(f64),
     /// The frame is smaller than one particle.
     #[error("frame {width}x{height} is smaller than a particle of {diameter} px")]
-    FrameTooSmall { width: usize, height: usize, diameter: f64 },
+    FrameTooSmall {
+        width: usize,
+        height: usize,
+        diameter: f64,
+    },
 }
 
 /// One detected particle, in pixels.
@@ -138,7 +142,10 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
 }
 
 /// Candidates: local maxima of the band-pass energy above the noise threshold.
-pub fn find_candidates(frame: &Frame, settings: &DetectSettings) -> Result<Vec<Candidate>, DetectError> {
+pub fn find_candidates(
+    frame: &Frame,
+    settings: &DetectSettings,
+) -> Result<Vec<Candidate>, DetectError> {
     check(frame, settings)?;
     let bp = bandpass(frame, settings.diameter_px);
     Ok(candidates_from(frame, settings, &bp))
@@ -229,7 +236,10 @@ fn centroid(bp: &Bandpass, w: usize, h: usize, c: &Candidate, r: usize) -> (f64,
 }
 
 /// Detects particles with the chosen locator. An empty frame gives no detections.
-pub fn detect_particles(frame: &Frame, settings: &DetectSettings) -> Result<Vec<Detection>, DetectError> {
+pub fn detect_particles(
+    frame: &Frame,
+    settings: &DetectSettings,
+) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
     let bp = bandpass(frame, settings.diameter_px);
@@ -254,7 +264,9 @@ pub fn detect_particles(frame: &Frame, settings: &DetectSettings) -> Result<Vec<
             Locator::ProfileFit => {
                 let (x0, y0) = rs();
                 match fit_particle(frame, x0, y0, radius, model) {
-                    Ok(f) if f.snr >= settings.min_snr => (f.x_px, f.y_px, f.r_px, f.sigma_px, f.snr),
+                    Ok(f) if f.snr >= settings.min_snr => {
+                        (f.x_px, f.y_px, f.r_px, f.sigma_px, f.snr)
+                    }
                     _ => continue,
                 }
             }
@@ -271,7 +283,8 @@ pub fn detect_particles(frame: &Frame, settings: &DetectSettings) -> Result<Vec<
             continue;
         }
         let edge = r.max(radius) + 1.0;
-        let edge_clipped = x < edge || y < edge || x > w as f64 - 1.0 - edge || y > h as f64 - 1.0 - edge;
+        let edge_clipped =
+            x < edge || y < edge || x > w as f64 - 1.0 - edge || y > h as f64 - 1.0 - edge;
         let d = Detection {
             x_px: x,
             y_px: y,

@@ -42,7 +42,11 @@ pub struct DetectionsFile {
 
 impl DetectionsFile {
     /// Builds the document, adding stage micrometres when calibrated.
-    pub fn new(particles: &[Detection], tip: Option<&TipDetection>, calib: Option<&AffineCalibration>) -> Self {
+    pub fn new(
+        particles: &[Detection],
+        tip: Option<&TipDetection>,
+        calib: Option<&AffineCalibration>,
+    ) -> Self {
         let particles = particles
             .iter()
             .map(|d| {
@@ -74,7 +78,10 @@ impl DetectionsFile {
     pub fn from_json(text: &str) -> Result<Self, String> {
         let f: Self = serde_json::from_str(text).map_err(|e| e.to_string())?;
         if f.schema != DETECTIONS_SCHEMA {
-            return Err(format!("schema is {:?}, expected {DETECTIONS_SCHEMA:?}", f.schema));
+            return Err(format!(
+                "schema is {:?}, expected {DETECTIONS_SCHEMA:?}",
+                f.schema
+            ));
         }
         Ok(f)
     }
@@ -100,6 +107,8 @@ mod tests {
         let text = serde_json::to_string(&f).unwrap();
         assert!(text.contains("\"tip\":null"));
         assert_eq!(DetectionsFile::from_json(&text).unwrap(), f);
-        assert!(DetectionsFile::from_json("{\"schema\":\"x\",\"particles\":[],\"tip\":null}").is_err());
+        assert!(
+            DetectionsFile::from_json("{\"schema\":\"x\",\"particles\":[],\"tip\":null}").is_err()
+        );
     }
 }

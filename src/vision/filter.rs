@@ -114,7 +114,11 @@ mod tests {
         let (w, h) = (9, 7);
         let c = vec![3.0f32; w * h];
         assert!(box_mean(&c, w, h, 2).iter().all(|v| (v - 3.0).abs() < 1e-5));
-        assert!(gaussian(&c, w, h, 1.0).iter().all(|v| (v - 3.0).abs() < 1e-5));
+        assert!(
+            gaussian(&c, w, h, 1.0)
+                .iter()
+                .all(|v| (v - 3.0).abs() < 1e-5)
+        );
         let mut imp = vec![0.0f32; w * h];
         imp[3 * w + 4] = 25.0;
         let b = box_mean(&imp, w, h, 2);

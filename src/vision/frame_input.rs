@@ -123,7 +123,10 @@ pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInp
         let ok = opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags)
             .map_err(|e| decode_error(path, e.to_string()))?;
         if !ok {
-            return Err(decode_error(path, "OpenCV could not read the TIFF stack".into()));
+            return Err(decode_error(
+                path,
+                "OpenCV could not read the TIFF stack".into(),
+            ));
         }
         mats.iter()
             .map(|m| mat_to_frame(&m, path, channel))
@@ -152,7 +155,10 @@ pub fn decode_image(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame
         .with_guessed_format()
         .map_err(|e| decode_error(path, e.to_string()))?;
     if reader.format().is_none() {
-        return Err(decode_error(path, "unsupported or unknown image format".into()));
+        return Err(decode_error(
+            path,
+            "unsupported or unknown image format".into(),
+        ));
     }
     let img = reader
         .decode()
@@ -191,7 +197,11 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
     );
     let pixels: Vec<f32> = if sixteen {
         if grey_source {
-            img.to_luma16().into_raw().into_iter().map(f32::from).collect()
+            img.to_luma16()
+                .into_raw()
+                .into_iter()
+                .map(f32::from)
+                .collect()
         } else {
             img.to_rgb16()
                 .pixels()
@@ -199,7 +209,11 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
                 .collect()
         }
     } else if grey_source {
-        img.to_luma8().into_raw().into_iter().map(f32::from).collect()
+        img.to_luma8()
+            .into_raw()
+            .into_iter()
+            .map(f32::from)
+            .collect()
     } else {
         img.to_rgb8()
             .pixels()
@@ -231,7 +245,10 @@ fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, Frame
             .map(|c| u16::from_ne_bytes([c[0], c[1]]) as f32)
             .collect()
     } else {
-        return Err(decode_error(path, format!("unsupported pixel depth code {depth}")));
+        return Err(decode_error(
+            path,
+            format!("unsupported pixel depth code {depth}"),
+        ));
     };
     let pixels: Vec<f32> = if nch == 1 {
         samples

@@ -144,7 +144,12 @@ mod tests {
         let samples: Vec<Sample> = (0..20)
             .map(|i| {
                 let x = i as f64 * 0.2;
-                (x, 0.0, 3.0 * (-0.7 * x).exp() + if i % 2 == 0 { 1e-3 } else { -1e-3 }, 1.0)
+                (
+                    x,
+                    0.0,
+                    3.0 * (-0.7 * x).exp() + if i % 2 == 0 { 1e-3 } else { -1e-3 },
+                    1.0,
+                )
             })
             .collect();
         let model = |x: f64, _y: f64, p: &SVector<f64, 2>, g: &mut SVector<f64, 2>| {
@@ -153,7 +158,8 @@ mod tests {
             g[1] = -p[0] * x * e;
             p[0] * e
         };
-        let fit = levenberg_marquardt(&samples, SVector::<f64, 2>::new(1.0, 0.1), 50, model).unwrap();
+        let fit =
+            levenberg_marquardt(&samples, SVector::<f64, 2>::new(1.0, 0.1), 50, model).unwrap();
         assert!((fit.params[0] - 3.0).abs() < 1e-2 && (fit.params[1] - 0.7).abs() < 1e-2);
         assert!(matches!(
             levenberg_marquardt(&samples[..2], SVector::<f64, 2>::new(1.0, 0.1), 5, model),

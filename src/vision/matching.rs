@@ -15,11 +15,19 @@ pub struct MatchReport {
 impl MatchReport {
     /// Fraction of reference points matched (1 when there are none).
     pub fn recall(&self) -> f64 {
-        if self.n_reference == 0 { 1.0 } else { self.pairs.len() as f64 / self.n_reference as f64 }
+        if self.n_reference == 0 {
+            1.0
+        } else {
+            self.pairs.len() as f64 / self.n_reference as f64
+        }
     }
     /// Fraction of found points matched (1 when none were found).
     pub fn precision(&self) -> f64 {
-        if self.n_found == 0 { 1.0 } else { self.pairs.len() as f64 / self.n_found as f64 }
+        if self.n_found == 0 {
+            1.0
+        } else {
+            self.pairs.len() as f64 / self.n_found as f64
+        }
     }
     /// Per-axis RMS of the matched offsets (0 when nothing matched).
     pub fn rms_per_axis(&self) -> f64 {
@@ -50,7 +58,12 @@ pub fn match_points(reference: &[[f64; 2]], found: &[[f64; 2]], max_dist: f64) -
         if !used_r[i] && !used_f[j] {
             used_r[i] = true;
             used_f[j] = true;
-            pairs.push((i, j, found[j][0] - reference[i][0], found[j][1] - reference[i][1]));
+            pairs.push((
+                i,
+                j,
+                found[j][0] - reference[i][0],
+                found[j][1] - reference[i][1],
+            ));
         }
     }
     MatchReport {

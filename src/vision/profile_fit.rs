@@ -150,7 +150,11 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         .filter(|s| ((s.0 - cx).powi(2) + (s.1 - cy).powi(2)) < (0.25 * r0).max(1.0).powi(2))
         .map(|s| s.2)
         .collect();
-    let core = if inner.is_empty() { frame.max_count() as f64 } else { median(inner) };
+    let core = if inner.is_empty() {
+        frame.max_count() as f64
+    } else {
+        median(inner)
+    };
     let a = core - b;
     // Ring: the annulus (0.5 px bins) whose mean departs most from b against the core.
     let nb = (2.0 * r0) as usize + 1;
@@ -175,26 +179,35 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
             }
         }
     }
-    let rr = if best_v.is_finite() { (best_k as f64 + 0.5) * 0.5 } else { r0 };
-    let bb = if best_v.is_finite() { sign * best_v } else { 0.5 * a };
-    let init = SVector::<f64, 8>::from_column_slice(&[
-        cx,
-        cy,
-        b,
-        a,
-        (0.45 * rr).max(1.0),
-        bb,
-        rr,
-        1.5,
-    ]);
+    let rr = if best_v.is_finite() {
+        (best_k as f64 + 0.5) * 0.5
+    } else {
+        r0
+    };
+    let bb = if best_v.is_finite() {
+        sign * best_v
+    } else {
+        0.5 * a
+    };
+    let init =
+        SVector::<f64, 8>::from_column_slice(&[cx, cy, b, a, (0.45 * rr).max(1.0), bb, rr, 1.5]);
     let fit = levenberg_marquardt(&samples, init, 30, ring_model)?;
     let p = fit.params;
     let noise = fit.residual_variance.sqrt().max(1e-12);
     if ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt() > (0.75 * r0).max(2.0) {
-        return Err(ProfileFitError::Implausible("centre moved beyond the particle"));
+        return Err(ProfileFitError::Implausible(
+            "centre moved beyond the particle",
+        ));
     }
-    if !(p[6] > 0.3 * r0 && p[6] < 2.5 * r0 && p[7].abs() > 0.2 && p[7].abs() < p[6] && p[4].abs() > 0.2) {
-        return Err(ProfileFitError::Implausible("ring radius or widths out of range"));
+    if !(p[6] > 0.3 * r0
+        && p[6] < 2.5 * r0
+        && p[7].abs() > 0.2
+        && p[7].abs() < p[6]
+        && p[4].abs() > 0.2)
+    {
+        return Err(ProfileFitError::Implausible(
+            "ring radius or widths out of range",
+        ));
     }
     Ok(ParticleFit {
         x_px: p[0],
@@ -228,7 +241,9 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
     let p = fit.params;
     let noise = fit.residual_variance.sqrt().max(1e-12);
     if ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt() > r0.max(2.0) {
-        return Err(ProfileFitError::Implausible("centre moved beyond the particle"));
+        return Err(ProfileFitError::Implausible(
+            "centre moved beyond the particle",
+        ));
     }
     let s = p[4].abs();
     if !(s > 0.3 && s < 2.0 * r0.max(1.0)) {
@@ -250,7 +265,8 @@ mod tests {
 
     #[test]
     fn ring_model_gradient_matches_finite_differences() {
-        let p = SVector::<f64, 8>::from_column_slice(&[10.2, 9.7, 100.0, 40.0, 3.5, 50.0, 8.0, 1.6]);
+        let p =
+            SVector::<f64, 8>::from_column_slice(&[10.2, 9.7, 100.0, 40.0, 3.5, 50.0, 8.0, 1.6]);
         let mut g = SVector::<f64, 8>::zeros();
         let mut g2 = SVector::<f64, 8>::zeros();
         for &(x, y) in &[(12.0, 8.0), (17.0, 14.0), (10.0, 10.0)] {
@@ -259,7 +275,11 @@ mod tests {
                 let mut q = p;
                 q[i] += 1e-6;
                 let fd = (ring_model(x, y, &q, &mut g2) - ring_model(x, y, &p, &mut g2)) / 1e-6;
-                assert!((fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()), "param {i}: {fd} vs {}", g[i]);
+                assert!(
+                    (fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()),
+                    "param {i}: {fd} vs {}",
+                    g[i]
+                );
             }
         }
     }

@@ -48,7 +48,9 @@ pub fn radial_symmetry_centre(frame: &Frame, cx: f64, cy: f64, half: usize) -> O
     for _ in 0..2 {
         let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for &(px, py, nx, ny, g2) in &pts {
-            let dist = ((px - centre.0).powi(2) + (py - centre.1).powi(2)).sqrt().max(0.5);
+            let dist = ((px - centre.0).powi(2) + (py - centre.1).powi(2))
+                .sqrt()
+                .max(0.5);
             let wt = g2 / dist;
             let pn = px * nx + py * ny;
             a11 += wt * nx * nx;

@@ -13,14 +13,25 @@ pub struct RoiMask {
 
 impl RoiMask {
     /// A rectangle [x0, x1) x [y0, y1) of a width x height frame.
-    pub fn rectangle(width: usize, height: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Self {
+    pub fn rectangle(
+        width: usize,
+        height: usize,
+        x0: usize,
+        y0: usize,
+        x1: usize,
+        y1: usize,
+    ) -> Self {
         let inside = (0..width * height)
             .map(|i| {
                 let (x, y) = (i % width, i / width);
                 x >= x0 && x < x1 && y >= y0 && y < y1
             })
             .collect();
-        Self { width, height, inside }
+        Self {
+            width,
+            height,
+            inside,
+        }
     }
 
     /// A mask image: non-zero pixels are inside.

@@ -119,7 +119,9 @@ fn dark_region(frame: &Frame, settings: &TipSettings) -> Option<Vec<usize>> {
                 visit(i + w);
             }
         }
-        if region.len() >= settings.min_area_px && best.as_ref().is_none_or(|b| region.len() > b.len()) {
+        if region.len() >= settings.min_area_px
+            && best.as_ref().is_none_or(|b| region.len() > b.len())
+        {
             best = Some(region);
         }
     }
@@ -159,7 +161,9 @@ fn initial_guess(region: &[usize], w: usize, h: usize) -> (f64, f64, f64, f64, f
     let angle = (far.1 - base.1).atan2(far.0 - base.0);
     let (s, c) = angle.sin_cos();
     // Width profile along the axis: pixels per unit length behind the apex.
-    let len = ((far.0 - base.0).powi(2) + (far.1 - base.1).powi(2)).sqrt().max(1.0);
+    let len = ((far.0 - base.0).powi(2) + (far.1 - base.1).powi(2))
+        .sqrt()
+        .max(1.0);
     let nbins = len.ceil() as usize + 2;
     let mut counts = vec![0usize; nbins];
     for &i in region {
@@ -200,7 +204,11 @@ const STEPS: [f64; 8] = [1e-4, 1e-4, 1e-6, 1e-4, 1e-4, 0.0, 1e-6, 1e-5];
 fn tip_model_grad(px: f64, py: f64, p: &SVector<f64, 8>, g: &mut SVector<f64, 8>) -> f64 {
     let f = tip_model(px, py, p);
     for i in 0..8 {
-        let step = if i == 5 { 1e-6 * p[5].abs().max(1.0) } else { STEPS[i] };
+        let step = if i == 5 {
+            1e-6 * p[5].abs().max(1.0)
+        } else {
+            STEPS[i]
+        };
         let mut q = *p;
         q[i] += step;
         g[i] = (tip_model(px, py, &q) - f) / step;
@@ -221,7 +229,8 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let mid = sample.len() / 2;
     let bg = *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64;
     let opacity = (1.0 - dark / bg.max(1e-9)).clamp(0.05, 1.0);
-    let mut p = SVector::<f64, 8>::from_column_slice(&[ax, ay, angle, width, taper, bg, opacity, 1.0]);
+    let mut p =
+        SVector::<f64, 8>::from_column_slice(&[ax, ay, angle, width, taper, bg, opacity, 1.0]);
     let radius = (taper + width).clamp(20.0, 150.0);
     let mut weights_from: Option<(SVector<f64, 8>, f64)> = None;
     let mut score = 0.0;
@@ -237,8 +246,14 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             },
         };
         let band = 3.0 * p[7].abs() + 3.0;
-        let (x0, x1) = ((p[0] - radius).max(0.0) as usize, ((p[0] + radius) as usize).min(w - 1));
-        let (y0, y1) = ((p[1] - radius).max(0.0) as usize, ((p[1] + radius) as usize).min(h - 1));
+        let (x0, x1) = (
+            (p[0] - radius).max(0.0) as usize,
+            ((p[0] + radius) as usize).min(w - 1),
+        );
+        let (y0, y1) = (
+            (p[1] - radius).max(0.0) as usize,
+            ((p[1] + radius) as usize).min(h - 1),
+        );
         let mut samples: Vec<Sample> = Vec::new();
         for y in y0..=y1 {
             for x in x0..=x1 {
@@ -270,11 +285,17 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
         let m = abs_res.len() / 2;
         let mad = *abs_res.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1;
         weights_from = Some((p, (1.4826 * mad).max(1e-9)));
-        let mean = samples.iter().map(|s| s.2 * s.3).sum::<f64>() / samples.iter().map(|s| s.3).sum::<f64>();
+        let mean = samples.iter().map(|s| s.2 * s.3).sum::<f64>()
+            / samples.iter().map(|s| s.3).sum::<f64>();
         let tss: f64 = samples.iter().map(|s| s.3 * (s.2 - mean).powi(2)).sum();
-        score = if tss > 0.0 { (1.0 - fit.rss / tss).clamp(0.0, 1.0) } else { 0.0 };
+        score = if tss > 0.0 {
+            (1.0 - fit.rss / tss).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
     }
-    if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0) || score < settings.min_score {
+    if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0) || score < settings.min_score
+    {
         return None;
     }
     let angle = (p[2].sin()).atan2(p[2].cos());
