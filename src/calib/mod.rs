@@ -1,1 +1,3 @@
 //! Pixel-to-stage calibration.
+
+pub mod affine;

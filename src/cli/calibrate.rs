@@ -1,10 +1,150 @@
-//! `nanopush calibrate`: not built yet (issue 3).
+//! `nanopush calibrate --recording DIR`: fit the pixel-to-stage map from frames
+//! of known stage moves of the tip.
+//!
+//! Recording format (docs/vision.md): DIR/stage.csv with the header
+//! `frame,x_um,y_um`, one row per frame file in DIR (name relative to DIR)
+//! giving the stage position (micrometres) when it was taken.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+use crate::calib::affine::AffineCalibration;
+use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::tip::{TipSettings, detect_tip};
 
 /// Arguments of `nanopush calibrate`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Recording folder: frames plus stage.csv (frame,x_um,y_um).
+    #[arg(long)]
+    pub recording: PathBuf,
+    /// Output calibration TOML (default DIR/calibration.toml).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// RANSAC inlier threshold, pixels.
+    #[arg(long, default_value_t = 2.0)]
+    pub threshold_px: f64,
+}
 
-/// Refuses with a clear message until issue 3 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush calibrate` is not built yet (issue 3)")
+/// One row of stage.csv.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageRow {
+    /// Frame file, relative to the recording folder.
+    pub frame: String,
+    /// Stage x, micrometres.
+    pub x_um: f64,
+    /// Stage y, micrometres.
+    pub y_um: f64,
+}
+
+/// Parses stage.csv text; errors name the line.
+pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let header = lines
+        .next()
+        .map(|(_, l)| l.trim().to_string())
+        .unwrap_or_default();
+    if header.replace(' ', "") != "frame,x_um,y_um" {
+        anyhow::bail!("stage.csv must start with the header `frame,x_um,y_um`, found `{header}`");
+    }
+    lines
+        .map(|(i, l)| {
+            let f: Vec<&str> = l.split(',').map(str::trim).collect();
+            if f.len() != 3 {
+                anyhow::bail!(
+                    "stage.csv line {}: expected 3 fields, found {}",
+                    i + 1,
+                    f.len()
+                );
+            }
+            let num = |s: &str| -> anyhow::Result<f64> {
+                let v: f64 = s
+                    .parse()
+                    .with_context(|| format!("stage.csv line {}: `{s}` is not a number", i + 1))?;
+                anyhow::ensure!(
+                    v.is_finite(),
+                    "stage.csv line {}: `{s}` is not finite",
+                    i + 1
+                );
+                Ok(v)
+            };
+            Ok(StageRow {
+                frame: f[0].to_string(),
+                x_um: num(f[1])?,
+                y_um: num(f[2])?,
+            })
+        })
+        .collect()
+}
+
+/// Detects the tip in every frame of the recording, fits and writes the map.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let dir: &Path = &args.recording;
+    let csv = dir.join("stage.csv");
+    let text =
+        std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
+    let rows = parse_stage_csv(&text)?;
+    let mut pixels = Vec::new();
+    let mut stage = Vec::new();
+    let mut used = Vec::new();
+    for row in &rows {
+        let path = dir.join(&row.frame);
+        let frame = load_frame(&path, Channel::Luminance)
+            .with_context(|| format!("loading {}", path.display()))?;
+        match detect_tip(&frame, &TipSettings::default()) {
+            Some(t) => {
+                pixels.push([t.x_px, t.y_px]);
+                stage.push([row.x_um * 1e-6, row.y_um * 1e-6]);
+                used.push(row.frame.clone());
+            }
+            None => eprintln!("{}: no tip found, frame skipped", row.frame),
+        }
+    }
+    let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px)
+        .context("fitting the calibration")?;
+    println!("frame                          dx_px     dy_px  inlier");
+    for (name, r) in used.iter().zip(&fit.residuals_px) {
+        println!(
+            "{name:<28} {:9.3} {:9.3}  {}",
+            r.0,
+            r.1,
+            if r.2 { "yes" } else { "NO" }
+        );
+    }
+    let c = &fit.calibration;
+    println!(
+        "scale {:.5} um/px, rotation {:.3} deg, inliers {}/{}, RMS residual {:.3} px",
+        c.m_per_px() * 1e6,
+        c.linear[(1, 0)].atan2(c.linear[(0, 0)]).to_degrees(),
+        fit.inliers,
+        pixels.len(),
+        fit.rms_px
+    );
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dir.join("calibration.toml"));
+    std::fs::write(&out, c.to_toml(Some((fit.rms_px, fit.inliers))))
+        .with_context(|| format!("writing {}", out.display()))?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stage_csv_parses_and_names_bad_lines() {
+        let rows = parse_stage_csv("frame,x_um,y_um\nf0.png,1.5,2\n\nf1.png,-3,4e1\n").unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1].y_um, 40.0);
+        let e = parse_stage_csv("frame,x_um,y_um\nf0.png,abc,2\n").unwrap_err();
+        assert!(format!("{e:#}").contains("line 2"));
+        assert!(parse_stage_csv("a,b\n").is_err());
+    }
 }

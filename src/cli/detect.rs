@@ -1,10 +1,124 @@
-//! `nanopush detect`: not built yet (issue 3).
+//! `nanopush detect`: particles and the probe tip in one frame.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use crate::calib::affine::AffineCalibration;
+use crate::vision::analyse::{FrameAnalysis, analyse_frame};
+use crate::vision::detect::{DetectSettings, Locator};
+use crate::vision::detections_file::DetectionsFile;
+use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::overlay::draw_overlay;
+use crate::vision::tip::TipSettings;
 
 /// Arguments of `nanopush detect`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Frame: PNG, TIFF, BMP, JPEG, a video (first frame) or a folder (first image).
+    pub frame: PathBuf,
+    /// Pixel-to-stage calibration TOML; adds x_um, y_um.
+    #[arg(long)]
+    pub calib: Option<PathBuf>,
+    /// Apparent particle diameter in pixels, ring included (default 17).
+    #[arg(long, conflicts_with = "radius_um")]
+    pub diameter_px: Option<f64>,
+    /// Particle radius in micrometres (needs --calib).
+    #[arg(long, requires = "calib")]
+    pub radius_um: Option<f64>,
+    /// Print the detections as JSON ("nanopush.detections/1").
+    #[arg(long)]
+    pub json: bool,
+    /// Write an overlay PNG of what was found.
+    #[arg(long)]
+    pub overlay: Option<PathBuf>,
+    /// Colour frames: luminance, red, green or blue.
+    #[arg(long, default_value = "luminance")]
+    pub channel: Channel,
+    /// Sub-pixel locator.
+    #[arg(long, value_enum, default_value = "profile-fit")]
+    pub locator: LocatorArg,
+    /// Do not look for the probe tip.
+    #[arg(long)]
+    pub no_tip: bool,
+}
 
-/// Refuses with a clear message until issue 3 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush detect` is not built yet (issue 3)")
+/// CLI spelling of the locators.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum LocatorArg {
+    PixelPeak,
+    Centroid,
+    RadialSymmetry,
+    ProfileFit,
+}
+
+impl From<LocatorArg> for Locator {
+    fn from(l: LocatorArg) -> Self {
+        match l {
+            LocatorArg::PixelPeak => Locator::PixelPeak,
+            LocatorArg::Centroid => Locator::Centroid,
+            LocatorArg::RadialSymmetry => Locator::RadialSymmetry,
+            LocatorArg::ProfileFit => Locator::ProfileFit,
+        }
+    }
+}
+
+/// Detects and prints (text or JSON), optionally drawing an overlay.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let frame = load_frame(&args.frame, args.channel)
+        .with_context(|| format!("loading {}", args.frame.display()))?;
+    let calib = match &args.calib {
+        Some(p) => Some(
+            AffineCalibration::load(p)
+                .with_context(|| format!("loading calibration {}", p.display()))?,
+        ),
+        None => None,
+    };
+    let diameter_px = match (args.diameter_px, args.radius_um, &calib) {
+        (Some(d), _, _) => d,
+        (None, Some(r), Some(c)) => 2.0 * r * 1e-6 / c.m_per_px(),
+        _ => DetectSettings::default().diameter_px,
+    };
+    let settings = DetectSettings {
+        diameter_px,
+        locator: args.locator.into(),
+        ..DetectSettings::default()
+    };
+    let tip_settings = (!args.no_tip).then(TipSettings::default);
+    let FrameAnalysis { particles, tip } =
+        analyse_frame(&frame, &settings, tip_settings.as_ref()).context("detecting particles")?;
+    if let Some(path) = &args.overlay {
+        draw_overlay(&frame, &particles, tip.as_ref())
+            .save(path)
+            .with_context(|| format!("writing overlay {}", path.display()))?;
+    }
+    let doc = DetectionsFile::new(&particles, tip.as_ref(), calib.as_ref());
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        println!("{} particles", doc.particles.len());
+        for (p, d) in doc.particles.iter().zip(&particles) {
+            println!(
+                "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}",
+                p.x_px,
+                p.y_px,
+                p.r_px,
+                p.sigma_px,
+                p.quality,
+                if d.edge_clipped {
+                    "  (edge-clipped)"
+                } else {
+                    ""
+                }
+            );
+        }
+        match &doc.tip {
+            Some(t) => println!(
+                "tip: x {:.2} px  y {:.2} px  angle {:.2} deg  score {:.3}",
+                t.x_px, t.y_px, t.angle_deg, t.score
+            ),
+            None => println!("tip: not found"),
+        }
+    }
+    Ok(())
 }

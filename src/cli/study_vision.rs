@@ -1,10 +1,169 @@
-//! `nanopush study vision`: not built yet (issue 3).
+//! `nanopush study vision`: what accuracy costs in time. Every locator on
+//! synthetic frames at several SNRs: recall, precision, centre RMS error against
+//! truth and against the Cramer-Rao bound, radius error, time per frame.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::Serialize;
+
+use crate::render::microscope::{RenderSettings, render_frame};
+use crate::render::microscope_truth::random_scene;
+use crate::vision::cramer_rao::centre_crb_px;
+use crate::vision::detect::{DetectSettings, Locator, detect_particles};
+use crate::vision::matching::match_points;
 
 /// Arguments of `nanopush study vision`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Ring SNRs to study.
+    #[arg(long, value_delimiter = ',', default_value = "4,8,16,32")]
+    pub snr: Vec<f64>,
+    /// Frames per SNR.
+    #[arg(long, default_value_t = 3)]
+    pub frames: usize,
+    /// Frame side, pixels.
+    #[arg(long, default_value_t = 512)]
+    pub size_px: usize,
+    /// Particles per frame.
+    #[arg(long, default_value_t = 40)]
+    pub particles: usize,
+    /// Particle radius, pixels.
+    #[arg(long, default_value_t = 8.0)]
+    pub radius_px: f64,
+    /// Camera bit depth.
+    #[arg(long, default_value_t = 16)]
+    pub bits: u8,
+    /// Seed of the first frame.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the table as Markdown and JSON here (FILE.md, FILE.json).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
 
-/// Refuses with a clear message until issue 3 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush study vision` is not built yet (issue 3)")
+/// One row of the study.
+#[derive(Debug, Serialize)]
+pub struct StudyRow {
+    pub locator: Locator,
+    pub snr: f64,
+    pub recall: f64,
+    pub precision: f64,
+    pub rms_px: f64,
+    pub crb_px: f64,
+    pub rms_over_crb: f64,
+    pub radius_error_pct: f64,
+    pub ms_per_frame: f64,
+}
+
+/// Runs the study and prints (and optionally writes) the table.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(args.frames > 0, "--frames must be > 0");
+    anyhow::ensure!(args.bits == 8 || args.bits == 16, "--bits must be 8 or 16");
+    let mut rows = Vec::new();
+    for &snr in &args.snr {
+        anyhow::ensure!(
+            snr.is_finite() && snr > 0.0,
+            "--snr values must be > 0, got {snr}"
+        );
+        let settings = RenderSettings::with_snr(snr, args.bits);
+        let crb = centre_crb_px(args.radius_px, &settings).unwrap_or(f64::NAN);
+        let frames: Vec<_> = (0..args.frames as u64)
+            .map(|k| {
+                let scene = random_scene(
+                    args.particles,
+                    args.size_px,
+                    args.size_px,
+                    args.radius_px,
+                    args.seed + k,
+                );
+                let frame = render_frame(&scene, &settings, args.seed + k)?;
+                Ok((scene, frame))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        for locator in Locator::ALL {
+            let detect = DetectSettings {
+                diameter_px: 2.0 * args.radius_px + 1.0,
+                locator,
+                ..DetectSettings::default()
+            };
+            let (mut matched, mut nref, mut nfound, mut ss, mut rerr, mut secs) =
+                (0, 0, 0, 0.0, 0.0, 0.0);
+            for (scene, frame) in &frames {
+                let t0 = Instant::now();
+                let found = detect_particles(frame, &detect)?;
+                secs += t0.elapsed().as_secs_f64();
+                let truth: Vec<[f64; 2]> =
+                    scene.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
+                let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
+                let m = match_points(&truth, &pts, args.radius_px);
+                for &(i, j, dx, dy) in &m.pairs {
+                    ss += dx * dx + dy * dy;
+                    rerr += (found[j].r_px / scene.particles[i].radius_px - 1.0).abs();
+                }
+                matched += m.pairs.len();
+                nref += m.n_reference;
+                nfound += m.n_found;
+            }
+            let rms = if matched > 0 {
+                (ss / (2.0 * matched as f64)).sqrt()
+            } else {
+                f64::NAN
+            };
+            rows.push(StudyRow {
+                locator,
+                snr,
+                recall: matched as f64 / nref.max(1) as f64,
+                precision: if nfound > 0 {
+                    matched as f64 / nfound as f64
+                } else {
+                    1.0
+                },
+                rms_px: rms,
+                crb_px: crb,
+                rms_over_crb: rms / crb,
+                radius_error_pct: 100.0 * rerr / matched.max(1) as f64,
+                ms_per_frame: 1e3 * secs / args.frames as f64,
+            });
+        }
+    }
+    let mut md = format!(
+        "Synthetic {}x{} {}-bit frames, {} spheres of radius {} px, {} frame(s) per SNR, seed {}.\n\n\
+         | locator | SNR | recall | precision | centre RMS px | CRB px | RMS/CRB | radius err % | ms/frame |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+        args.size_px,
+        args.size_px,
+        args.bits,
+        args.particles,
+        args.radius_px,
+        args.frames,
+        args.seed
+    );
+    for r in &rows {
+        md += &format!(
+            "| {:?} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} |\n",
+            r.locator,
+            r.snr,
+            r.recall,
+            r.precision,
+            r.rms_px,
+            r.crb_px,
+            r.rms_over_crb,
+            r.radius_error_pct,
+            r.ms_per_frame
+        );
+    }
+    print!("{md}");
+    if let Some(out) = &args.out {
+        std::fs::write(out.with_extension("md"), &md)
+            .with_context(|| format!("writing {}", out.display()))?;
+        let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});
+        std::fs::write(
+            out.with_extension("json"),
+            serde_json::to_string_pretty(&json)?,
+        )
+        .with_context(|| format!("writing {}", out.display()))?;
+    }
+    Ok(())
 }

@@ -1,10 +1,123 @@
-//! `nanopush synth frame`: not built yet (issue 3).
+//! `nanopush synth frame`: render a synthetic microscope frame and its truth.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+
+use crate::render::microscope::{RenderSettings, TipView, render_frame};
+use crate::render::microscope_truth::{Truth, random_scene, scene_from_layout};
+use crate::vision::cramer_rao::centre_crb_px;
+use crate::vision::frame_input::save_png;
 
 /// Arguments of `nanopush synth frame`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Particle layout ("nanopush.layout/1" JSON, micrometres).
+    #[arg(long, conflicts_with = "n", required_unless_present = "n")]
+    pub layout: Option<PathBuf>,
+    /// Number of randomly placed particles (instead of --layout).
+    #[arg(long)]
+    pub n: Option<usize>,
+    /// Seed: the same seed gives the same frame.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output PNG (8- or 16-bit grey).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Ground-truth JSON ("nanopush.truth/1").
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Pixel size for --layout, micrometres per pixel.
+    #[arg(long, default_value_t = 0.5)]
+    pub um_per_px: f64,
+    /// Frame width for --n, pixels.
+    #[arg(long, default_value_t = 1024)]
+    pub width_px: usize,
+    /// Frame height for --n, pixels.
+    #[arg(long, default_value_t = 1024)]
+    pub height_px: usize,
+    /// Particle radius for --n, pixels.
+    #[arg(long, default_value_t = 8.0)]
+    pub radius_px: f64,
+    /// Ring signal-to-noise ratio.
+    #[arg(long, default_value_t = 20.0)]
+    pub snr: f64,
+    /// Camera bit depth (8 or 16).
+    #[arg(long, default_value_t = 16)]
+    pub bits: u8,
+    /// Defocus blur in pixels.
+    #[arg(long, default_value_t = 0.0)]
+    pub defocus_px: f64,
+    /// Inverted contrast (dark core, bright ring).
+    #[arg(long)]
+    pub inverted: bool,
+    /// Tip apex x, pixels (with --tip-y-px draws the probe).
+    #[arg(long, requires = "tip_y_px")]
+    pub tip_x_px: Option<f64>,
+    /// Tip apex y, pixels.
+    #[arg(long, requires = "tip_x_px")]
+    pub tip_y_px: Option<f64>,
+    /// Tip axis angle (body to apex), degrees, image axes (y down).
+    #[arg(long, default_value_t = 0.0)]
+    pub tip_angle_deg: f64,
+}
 
-/// Refuses with a clear message until issue 3 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush synth frame` is not built yet (issue 3)")
+/// Renders the frame and writes it with its truth.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.bits != 8 && args.bits != 16 {
+        anyhow::bail!("--bits must be 8 or 16, got {}", args.bits);
+    }
+    if !(args.snr.is_finite() && args.snr > 0.0) {
+        anyhow::bail!("--snr must be > 0, got {}", args.snr);
+    }
+    let mut scene = match (&args.layout, args.n) {
+        (Some(path), _) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading layout {}", path.display()))?;
+            scene_from_layout(&text, args.um_per_px)
+                .with_context(|| format!("layout {}", path.display()))?
+        }
+        (None, Some(n)) => {
+            let s = random_scene(n, args.width_px, args.height_px, args.radius_px, args.seed);
+            if s.particles.len() < n {
+                eprintln!(
+                    "note: only {} of {n} particles fit without overlap",
+                    s.particles.len()
+                );
+            }
+            s
+        }
+        (None, None) => anyhow::bail!("give --layout FILE or --n N"),
+    };
+    if let (Some(x), Some(y)) = (args.tip_x_px, args.tip_y_px) {
+        scene.tip = Some(TipView {
+            apex_x_px: x,
+            apex_y_px: y,
+            angle_rad: args.tip_angle_deg.to_radians(),
+        });
+    }
+    let mut settings = RenderSettings::with_snr(args.snr, args.bits);
+    settings.optics.defocus_px = args.defocus_px;
+    settings.optics.inverted = args.inverted;
+    let frame = render_frame(&scene, &settings, args.seed).context("rendering the frame")?;
+    save_png(&frame, &args.out).with_context(|| format!("writing {}", args.out.display()))?;
+    if let Some(path) = &args.truth {
+        let r = scene
+            .particles
+            .first()
+            .map_or(args.radius_px, |p| p.radius_px);
+        let truth = Truth::of(&scene, args.seed, args.snr, centre_crb_px(r, &settings));
+        std::fs::write(path, serde_json::to_string_pretty(&truth)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    eprintln!(
+        "wrote {} ({}x{}, {} particles, {}-bit, SNR {})",
+        args.out.display(),
+        frame.width(),
+        frame.height(),
+        scene.particles.len(),
+        args.bits,
+        args.snr
+    );
+    Ok(())
 }

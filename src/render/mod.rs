@@ -1,2 +1,8 @@
 //! Synthetic microscope frames, overlays, plots and animations.
+
+pub mod microscope;
+pub mod microscope_truth;
+pub mod noise;
 pub mod plot;
+pub mod probe;
+pub mod sphere;

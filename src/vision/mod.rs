@@ -1,1 +1,18 @@
-//! Microscope image pipeline: frame input, particle and tip detection.
+//! Microscope image pipeline: frame input, noise, particle and tip detection,
+//! and the Cramer-Rao bound that says how good detection can get.
+
+pub mod analyse;
+pub mod cramer_rao;
+pub mod detect;
+pub mod detections_file;
+pub mod filter;
+pub mod frame;
+pub mod frame_input;
+pub mod least_squares;
+pub mod matching;
+pub mod noise;
+pub mod overlay;
+pub mod profile_fit;
+pub mod radial_symmetry;
+pub mod roi;
+pub mod tip;

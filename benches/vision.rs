@@ -1,0 +1,62 @@
+//! Vision speed: a 1024x1024 16-bit frame with 100 spheres and the probe, one
+//! core. Target <= 10 ms per frame for particles + tip (issue 3).
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nanopush::render::microscope::{RenderSettings, TipView, render_frame};
+use nanopush::render::microscope_truth::{random_scene, with_tip};
+use nanopush::vision::analyse::analyse_frame;
+use nanopush::vision::detect::{DetectSettings, Locator, detect_particles};
+use nanopush::vision::frame_input::{Channel, load_frame};
+use nanopush::vision::tip::{TipSettings, detect_tip};
+
+fn bench(c: &mut Criterion) {
+    let scene = with_tip(
+        random_scene(100, 1024, 1024, 8.0, 42),
+        TipView {
+            apex_x_px: 600.0,
+            apex_y_px: 500.0,
+            angle_rad: 0.4,
+        },
+    );
+    let frame = render_frame(&scene, &RenderSettings::with_snr(10.0, 16), 42).expect("render");
+    let settings = DetectSettings::default();
+    let tip = TipSettings::default();
+    let mut g = c.benchmark_group("vision_1024x1024_16bit_100_particles_tip");
+    g.warm_up_time(std::time::Duration::from_secs(1));
+    g.measurement_time(std::time::Duration::from_secs(4));
+    g.sample_size(20);
+    g.bench_function("analyse_frame", |b| {
+        b.iter(|| analyse_frame(&frame, &settings, Some(&tip)))
+    });
+    g.bench_function("tip_only", |b| b.iter(|| detect_tip(&frame, &tip)));
+    for locator in Locator::ALL {
+        let s = DetectSettings {
+            locator,
+            ..DetectSettings::default()
+        };
+        g.bench_function(format!("particles_{locator:?}"), |b| {
+            b.iter(|| detect_particles(&frame, &s))
+        });
+    }
+    g.finish();
+
+    // The real frame trackpy is timed on in scripts/peers/bench_trackpy.py.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/real/bulk_water/bulk_water_000.png");
+    let water = load_frame(&path, Channel::Green).expect("fixture");
+    let s7 = DetectSettings {
+        diameter_px: 7.0,
+        ..DetectSettings::default()
+    };
+    let mut g = c.benchmark_group("vision_bulk_water_640x424");
+    g.warm_up_time(std::time::Duration::from_secs(1));
+    g.measurement_time(std::time::Duration::from_secs(3));
+    g.sample_size(20);
+    g.bench_function("particles_ProfileFit", |b| {
+        b.iter(|| detect_particles(&water, &s7))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

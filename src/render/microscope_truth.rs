@@ -1,0 +1,218 @@
+//! Ground truth of a synthetic frame ("nanopush.truth/1"), random scenes, and
+//! the layout file a planner writes ("nanopush.layout/1", read here with a small
+//! private struct until the layout module lands).
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Uniform};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::microscope::{ParticleView, SceneView, TipView};
+
+/// Schema tag of truth files.
+pub const TRUTH_SCHEMA: &str = "nanopush.truth/1";
+
+/// One particle of the truth file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthParticle {
+    pub id: usize,
+    pub x_px: f64,
+    pub y_px: f64,
+    pub r_px: f64,
+}
+
+/// The tip of the truth file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TruthTip {
+    pub x_px: f64,
+    pub y_px: f64,
+    pub angle_deg: f64,
+}
+
+/// What was rendered, exactly.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Truth {
+    pub schema: String,
+    pub width_px: usize,
+    pub height_px: usize,
+    pub seed: u64,
+    pub snr: f64,
+    /// Per-axis centre Cramer-Rao bound for the nominal radius, pixels.
+    pub crb_px: Option<f64>,
+    pub particles: Vec<TruthParticle>,
+    pub tip: Option<TruthTip>,
+}
+
+impl Truth {
+    /// Truth of a scene.
+    pub fn of(scene: &SceneView, seed: u64, snr: f64, crb_px: Option<f64>) -> Self {
+        Self {
+            schema: TRUTH_SCHEMA.into(),
+            width_px: scene.width_px,
+            height_px: scene.height_px,
+            seed,
+            snr,
+            crb_px,
+            particles: scene
+                .particles
+                .iter()
+                .enumerate()
+                .map(|(id, p)| TruthParticle {
+                    id,
+                    x_px: p.x_px,
+                    y_px: p.y_px,
+                    r_px: p.radius_px,
+                })
+                .collect(),
+            tip: scene.tip.map(|t| TruthTip {
+                x_px: t.apex_x_px,
+                y_px: t.apex_y_px,
+                angle_deg: t.angle_rad.to_degrees(),
+            }),
+        }
+    }
+
+    /// Parses a truth file, checking its schema.
+    pub fn from_json(text: &str) -> Result<Self, SceneFileError> {
+        let t: Self = serde_json::from_str(text).map_err(|e| SceneFileError(e.to_string()))?;
+        if t.schema != TRUTH_SCHEMA {
+            return Err(SceneFileError(format!(
+                "schema {:?}, expected {TRUTH_SCHEMA:?}",
+                t.schema
+            )));
+        }
+        Ok(t)
+    }
+}
+
+/// A scene or truth file that cannot be used.
+#[derive(Debug, Error, PartialEq)]
+#[error("{0}")]
+pub struct SceneFileError(pub String);
+
+#[derive(Deserialize)]
+struct LayoutFile {
+    schema: String,
+    field_um: [f64; 2],
+    particles: Vec<LayoutParticle>,
+}
+
+#[derive(Deserialize)]
+struct LayoutParticle {
+    #[allow(dead_code)]
+    id: Option<usize>,
+    x_um: f64,
+    y_um: f64,
+    radius_um: f64,
+}
+
+/// Scene of a "nanopush.layout/1" JSON document at `um_per_px`, origin at pixel (0, 0).
+pub fn scene_from_layout(text: &str, um_per_px: f64) -> Result<SceneView, SceneFileError> {
+    let l: LayoutFile = serde_json::from_str(text).map_err(|e| SceneFileError(e.to_string()))?;
+    if l.schema != "nanopush.layout/1" {
+        return Err(SceneFileError(format!(
+            "schema {:?}, expected \"nanopush.layout/1\"",
+            l.schema
+        )));
+    }
+    if !(um_per_px.is_finite() && um_per_px > 0.0) {
+        return Err(SceneFileError(format!(
+            "pixel size {um_per_px} um must be > 0"
+        )));
+    }
+    let (w, h) = (l.field_um[0] / um_per_px, l.field_um[1] / um_per_px);
+    if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 16384.0 && h <= 16384.0) {
+        return Err(SceneFileError(format!(
+            "field {:?} um at {um_per_px} um/px gives {w:.0}x{h:.0} px (1..16384 allowed)",
+            l.field_um
+        )));
+    }
+    let particles = l
+        .particles
+        .iter()
+        .map(|p| ParticleView {
+            x_px: p.x_um / um_per_px,
+            y_px: p.y_um / um_per_px,
+            radius_px: p.radius_um / um_per_px,
+        })
+        .collect();
+    Ok(SceneView {
+        width_px: w.round() as usize,
+        height_px: h.round() as usize,
+        particles,
+        tip: None,
+    })
+}
+
+/// `n` non-overlapping spheres of radius `radius_px` placed at random (seeded),
+/// at least one radius from the edges; fewer if the frame is too crowded.
+pub fn random_scene(
+    n: usize,
+    width_px: usize,
+    height_px: usize,
+    radius_px: f64,
+    seed: u64,
+) -> SceneView {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let margin = radius_px + 2.0;
+    let mut particles: Vec<ParticleView> = Vec::with_capacity(n);
+    let (w, h) = (width_px as f64, height_px as f64);
+    if w > 2.0 * margin && h > 2.0 * margin {
+        let ux = Uniform::new(margin, w - 1.0 - margin).ok();
+        let uy = Uniform::new(margin, h - 1.0 - margin).ok();
+        if let (Some(ux), Some(uy)) = (ux, uy) {
+            let min_d = 2.6 * radius_px;
+            for _ in 0..n * 200 {
+                if particles.len() == n {
+                    break;
+                }
+                let (x, y) = (ux.sample(&mut rng), uy.sample(&mut rng));
+                if particles
+                    .iter()
+                    .all(|p| (p.x_px - x).powi(2) + (p.y_px - y).powi(2) >= min_d * min_d)
+                {
+                    particles.push(ParticleView {
+                        x_px: x,
+                        y_px: y,
+                        radius_px,
+                    });
+                }
+            }
+        }
+    }
+    SceneView {
+        width_px,
+        height_px,
+        particles,
+        tip: None,
+    }
+}
+
+/// Adds the tip to a scene.
+pub fn with_tip(mut scene: SceneView, tip: TipView) -> SceneView {
+    scene.tip = Some(tip);
+    scene
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn truth_round_trip_and_layout_parse() {
+        let s = random_scene(5, 200, 100, 6.0, 3);
+        assert_eq!(s.particles.len(), 5);
+        assert_eq!(random_scene(5, 200, 100, 6.0, 3), s);
+        let t = Truth::of(&s, 3, 10.0, Some(0.05));
+        let text = serde_json::to_string(&t).unwrap();
+        assert_eq!(Truth::from_json(&text).unwrap(), t);
+        let layout = r#"{"schema":"nanopush.layout/1","field_um":[100,50],
+            "particles":[{"id":0,"x_um":10,"y_um":20,"radius_um":5}]}"#;
+        let sc = scene_from_layout(layout, 0.5).unwrap();
+        assert_eq!((sc.width_px, sc.height_px), (200, 100));
+        assert_eq!(sc.particles[0].x_px, 20.0);
+        assert!(scene_from_layout(layout, 0.0).is_err());
+        assert!(scene_from_layout("{}", 0.5).is_err());
+    }
+}

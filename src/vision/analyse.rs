@@ -1,0 +1,30 @@
+//! One call for a whole frame: the tip first, then the particles away from the
+//! probe silhouette (its edges would otherwise look like particles). This is
+//! what the simulated and real rigs call per frame.
+
+use super::detect::{DetectError, DetectSettings, Detection, detect_particles};
+use super::frame::Frame;
+use super::tip::{TipDetection, TipSettings, detect_tip};
+
+/// Everything found in one frame, in pixels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameAnalysis {
+    /// Particles not covered by or touching the probe silhouette.
+    pub particles: Vec<Detection>,
+    /// The probe tip, if in view.
+    pub tip: Option<TipDetection>,
+}
+
+/// Finds the tip (unless `tip` is `None`) and the particles clear of it.
+pub fn analyse_frame(
+    frame: &Frame,
+    settings: &DetectSettings,
+    tip: Option<&TipSettings>,
+) -> Result<FrameAnalysis, DetectError> {
+    let tip = tip.and_then(|t| detect_tip(frame, t));
+    let mut particles = detect_particles(frame, settings)?;
+    if let Some(t) = &tip {
+        particles.retain(|d| t.signed_distance(d.x_px, d.y_px) > 0.5 * settings.diameter_px);
+    }
+    Ok(FrameAnalysis { particles, tip })
+}

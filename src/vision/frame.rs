@@ -1,0 +1,121 @@
+//! A grey microscope frame in camera counts, the one image type every stage shares.
+//!
+//! Pixels are stored as `f32` counts (not rescaled), so thresholds derived from
+//! the measured noise work the same for 8- and 16-bit cameras.
+
+use thiserror::Error;
+
+/// Ways a frame can be invalid.
+#[derive(Debug, Error, PartialEq)]
+pub enum FrameError {
+    /// Width or height is zero.
+    #[error("frame has zero size ({width}x{height})")]
+    ZeroSize { width: usize, height: usize },
+    /// The pixel buffer does not match width x height.
+    #[error("frame buffer holds {got} pixels, {width}x{height} needs {expected}")]
+    BufferSize {
+        width: usize,
+        height: usize,
+        expected: usize,
+        got: usize,
+    },
+    /// A pixel is NaN or infinite.
+    #[error("frame pixel {index} is not finite")]
+    NotFinite { index: usize },
+}
+
+/// A grey frame: row-major counts, pixel centres at integer coordinates.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    width: usize,
+    height: usize,
+    pixels: Vec<f32>,
+    bit_depth: u8,
+}
+
+impl Frame {
+    /// Wraps a row-major buffer; checks size and finiteness so later stages need not.
+    pub fn new(
+        width: usize,
+        height: usize,
+        pixels: Vec<f32>,
+        bit_depth: u8,
+    ) -> Result<Self, FrameError> {
+        if width == 0 || height == 0 {
+            return Err(FrameError::ZeroSize { width, height });
+        }
+        let expected = width * height;
+        if pixels.len() != expected {
+            return Err(FrameError::BufferSize {
+                width,
+                height,
+                expected,
+                got: pixels.len(),
+            });
+        }
+        if let Some(index) = pixels.iter().position(|p| !p.is_finite()) {
+            return Err(FrameError::NotFinite { index });
+        }
+        Ok(Self {
+            width,
+            height,
+            pixels,
+            bit_depth,
+        })
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Bits per sample of the source (8 or 16); sets the saturation level.
+    pub fn bit_depth(&self) -> u8 {
+        self.bit_depth
+    }
+
+    /// Largest count the source can hold (255 or 65535).
+    pub fn max_count(&self) -> f32 {
+        ((1u32 << self.bit_depth.min(31)) - 1) as f32
+    }
+
+    /// Row-major pixel counts.
+    pub fn pixels(&self) -> &[f32] {
+        &self.pixels
+    }
+
+    /// Count at integer pixel (x, y); the caller keeps it inside the frame.
+    #[inline]
+    pub fn at(&self, x: usize, y: usize) -> f32 {
+        self.pixels[y * self.width + x]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rejects_zero_size_wrong_buffer_and_nan() {
+        assert!(matches!(
+            Frame::new(0, 3, vec![], 8),
+            Err(FrameError::ZeroSize { .. })
+        ));
+        assert!(matches!(
+            Frame::new(2, 2, vec![0.0; 3], 8),
+            Err(FrameError::BufferSize { got: 3, .. })
+        ));
+        assert_eq!(
+            Frame::new(1, 2, vec![0.0, f32::NAN], 8),
+            Err(FrameError::NotFinite { index: 1 })
+        );
+        let f = Frame::new(2, 1, vec![1.0, 2.0], 16).unwrap();
+        assert_eq!(f.at(1, 0), 2.0);
+        assert_eq!(f.max_count(), 65535.0);
+    }
+}

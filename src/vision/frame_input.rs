@@ -1,0 +1,313 @@
+//! Reading frames from files: single images (PNG, TIFF, BMP, JPEG; 8/16-bit,
+//! grey or colour), multi-page TIFF stacks, image-sequence folders and video.
+//!
+//! Single images go through the pure-Rust `image` crate (clear errors on
+//! truncated files); multi-page TIFF stacks and video go through OpenCV
+//! (imgcodecs `imreadmulti`, videoio `VideoCapture`), which `image` cannot read.
+
+use std::path::{Path, PathBuf};
+
+use image::{DynamicImage, ImageReader};
+use opencv::core::{Mat, MatTraitConst, MatTraitConstManual, Vector};
+use opencv::prelude::VideoCaptureTrait;
+use thiserror::Error;
+
+use super::frame::{Frame, FrameError};
+
+/// Which part of a colour frame becomes the grey frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Channel {
+    /// Rec. 601 luminance (0.299 R + 0.587 G + 0.114 B).
+    #[default]
+    Luminance,
+    /// Red channel only.
+    Red,
+    /// Green channel only (often the sharpest on a Bayer camera).
+    Green,
+    /// Blue channel only.
+    Blue,
+}
+
+impl std::str::FromStr for Channel {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "luminance" | "lum" | "grey" | "gray" => Ok(Self::Luminance),
+            "red" | "r" => Ok(Self::Red),
+            "green" | "g" => Ok(Self::Green),
+            "blue" | "b" => Ok(Self::Blue),
+            other => Err(format!(
+                "unknown channel {other:?}; use luminance, red, green or blue"
+            )),
+        }
+    }
+}
+
+/// Ways reading a frame can fail.
+#[derive(Debug, Error)]
+pub enum FrameInputError {
+    /// The file could not be opened or read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// The file is not an image nanopush reads, or it is corrupt/truncated.
+    #[error("cannot decode {path}: {reason}")]
+    Decode { path: PathBuf, reason: String },
+    /// The decoded image is not a valid frame (e.g. zero size).
+    #[error("{path}: {source}")]
+    Invalid { path: PathBuf, source: FrameError },
+    /// A stack, sequence or video held no frames.
+    #[error("{path} holds no frames")]
+    Empty { path: PathBuf },
+}
+
+const VIDEO_EXTENSIONS: [&str; 5] = ["avi", "mp4", "mov", "mkv", "m4v"];
+const IMAGE_EXTENSIONS: [&str; 7] = ["png", "tif", "tiff", "bmp", "jpg", "jpeg", "pgm"];
+
+fn extension(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
+/// Reads one frame: the only (or first) image of the file.
+pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
+    let ext = extension(path);
+    if path.is_dir() || VIDEO_EXTENSIONS.contains(&ext.as_str()) {
+        return load_frames(path, channel)?
+            .into_iter()
+            .next()
+            .ok_or_else(|| FrameInputError::Empty {
+                path: path.to_owned(),
+            });
+    }
+    let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    decode_image(&bytes, path, channel)
+}
+
+/// Reads every frame: all pages of a TIFF stack, all images of a folder (sorted
+/// by name), all frames of a video, or the single image of any other file.
+pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
+    let ext = extension(path);
+    let frames = if path.is_dir() {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
+            .map_err(|source| FrameInputError::Io {
+                path: path.to_owned(),
+                source,
+            })?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| IMAGE_EXTENSIONS.contains(&extension(p).as_str()))
+            .collect();
+        files.sort();
+        files
+            .iter()
+            .map(|f| load_frame(f, channel))
+            .collect::<Result<Vec<_>, _>>()?
+    } else if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
+        load_video(path, channel)?
+    } else if ext == "tif" || ext == "tiff" {
+        if !path.is_file() {
+            return Err(FrameInputError::Io {
+                path: path.to_owned(),
+                source: std::io::Error::from(std::io::ErrorKind::NotFound),
+            });
+        }
+        let mut mats = Vector::<Mat>::new();
+        let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
+        let ok = opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags)
+            .map_err(|e| decode_error(path, e.to_string()))?;
+        if !ok {
+            return Err(decode_error(
+                path,
+                "OpenCV could not read the TIFF stack".into(),
+            ));
+        }
+        mats.iter()
+            .map(|m| mat_to_frame(&m, path, channel))
+            .collect::<Result<Vec<_>, _>>()?
+    } else {
+        vec![load_frame(path, channel)?]
+    };
+    if frames.is_empty() {
+        return Err(FrameInputError::Empty {
+            path: path.to_owned(),
+        });
+    }
+    Ok(frames)
+}
+
+fn decode_error(path: &Path, reason: String) -> FrameInputError {
+    FrameInputError::Decode {
+        path: path.to_owned(),
+        reason,
+    }
+}
+
+/// Decodes an in-memory image file (format guessed from its content).
+pub fn decode_image(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
+    let reader = ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| decode_error(path, e.to_string()))?;
+    if reader.format().is_none() {
+        return Err(decode_error(
+            path,
+            "unsupported or unknown image format".into(),
+        ));
+    }
+    let img = reader
+        .decode()
+        .map_err(|e| decode_error(path, e.to_string()))?;
+    image_to_frame(&img, channel).map_err(|source| FrameInputError::Invalid {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
+    match channel {
+        Channel::Luminance => 0.299 * r + 0.587 * g + 0.114 * b,
+        Channel::Red => r,
+        Channel::Green => g,
+        Channel::Blue => b,
+    }
+}
+
+/// Converts a decoded image to a grey frame, keeping 16-bit depth when present.
+pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, FrameError> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let sixteen = matches!(
+        img,
+        DynamicImage::ImageLuma16(_)
+            | DynamicImage::ImageLumaA16(_)
+            | DynamicImage::ImageRgb16(_)
+            | DynamicImage::ImageRgba16(_)
+    );
+    let grey_source = matches!(
+        img,
+        DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageLuma16(_)
+            | DynamicImage::ImageLumaA16(_)
+    );
+    let pixels: Vec<f32> = if sixteen {
+        if grey_source {
+            img.to_luma16()
+                .into_raw()
+                .into_iter()
+                .map(f32::from)
+                .collect()
+        } else {
+            img.to_rgb16()
+                .pixels()
+                .map(|p| pick(channel, p[0] as f32, p[1] as f32, p[2] as f32))
+                .collect()
+        }
+    } else if grey_source {
+        img.to_luma8()
+            .into_raw()
+            .into_iter()
+            .map(f32::from)
+            .collect()
+    } else {
+        img.to_rgb8()
+            .pixels()
+            .map(|p| pick(channel, p[0] as f32, p[1] as f32, p[2] as f32))
+            .collect()
+    };
+    Frame::new(w, h, pixels, if sixteen { 16 } else { 8 })
+}
+
+/// Converts an OpenCV matrix (8U/16U, 1/3/4 channels, BGR order) to a frame.
+fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
+    let (w, h) = (mat.cols().max(0) as usize, mat.rows().max(0) as usize);
+    let nch = mat.channels().max(1) as usize;
+    let mat = if mat.is_continuous() {
+        mat.clone()
+    } else {
+        mat.try_clone()
+            .map_err(|e| decode_error(path, e.to_string()))?
+    };
+    let bytes = mat
+        .data_bytes()
+        .map_err(|e| decode_error(path, e.to_string()))?;
+    let depth = mat.depth();
+    let samples: Vec<f32> = if depth == opencv::core::CV_8U {
+        bytes.iter().map(|&b| b as f32).collect()
+    } else if depth == opencv::core::CV_16U {
+        bytes
+            .chunks_exact(2)
+            .map(|c| u16::from_ne_bytes([c[0], c[1]]) as f32)
+            .collect()
+    } else {
+        return Err(decode_error(
+            path,
+            format!("unsupported pixel depth code {depth}"),
+        ));
+    };
+    let pixels: Vec<f32> = if nch == 1 {
+        samples
+    } else {
+        samples
+            .chunks_exact(nch)
+            .map(|p| pick(channel, p[2], p[1], p[0]))
+            .collect()
+    };
+    let bit_depth = if depth == opencv::core::CV_16U { 16 } else { 8 };
+    Frame::new(w, h, pixels, bit_depth).map_err(|source| FrameInputError::Invalid {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
+    if !path.is_file() {
+        return Err(FrameInputError::Io {
+            path: path.to_owned(),
+            source: std::io::Error::from(std::io::ErrorKind::NotFound),
+        });
+    }
+    let mut cap =
+        opencv::videoio::VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
+            .map_err(|e| decode_error(path, e.to_string()))?;
+    let mut frames = Vec::new();
+    let mut mat = Mat::default();
+    while cap
+        .read(&mut mat)
+        .map_err(|e| decode_error(path, e.to_string()))?
+    {
+        if mat.empty() {
+            break;
+        }
+        frames.push(mat_to_frame(&mat, path, channel)?);
+    }
+    Ok(frames)
+}
+
+/// Writes a frame as a grey PNG of its own bit depth (counts clamped, rounded).
+pub fn save_png(frame: &Frame, path: &Path) -> Result<(), image::ImageError> {
+    let (w, h) = (frame.width() as u32, frame.height() as u32);
+    if frame.bit_depth() > 8 {
+        let data: Vec<u16> = frame
+            .pixels()
+            .iter()
+            .map(|&p| p.round().clamp(0.0, 65535.0) as u16)
+            .collect();
+        let buf = image::ImageBuffer::<image::Luma<u16>, _>::from_raw(w, h, data)
+            .expect("buffer size matches frame size");
+        buf.save(path)
+    } else {
+        let data: Vec<u8> = frame
+            .pixels()
+            .iter()
+            .map(|&p| p.round().clamp(0.0, 255.0) as u8)
+            .collect();
+        let buf = image::GrayImage::from_raw(w, h, data).expect("buffer size matches frame size");
+        buf.save(path)
+    }
+}

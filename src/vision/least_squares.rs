@@ -1,0 +1,169 @@
+//! Levenberg-Marquardt for small fixed-size image models (a particle profile,
+//! the probe silhouette): weighted samples (x, y, value, weight), a model that
+//! returns its value and gradient. Hand-written because it runs once per
+//! particle in the hot loop: fixed-size, allocation-free normal equations
+//! beat a general solver, and the code is short.
+
+use nalgebra::{SMatrix, SVector};
+use thiserror::Error;
+
+/// One weighted observation: pixel x, pixel y, value, weight (1 / variance, relative).
+pub type Sample = (f64, f64, f64, f64);
+
+/// Why a fit produced no estimate.
+#[derive(Debug, Error, PartialEq)]
+pub enum FitError {
+    /// Fewer samples than parameters + 1.
+    #[error("{got} samples cannot fit {params} parameters")]
+    TooFewSamples { got: usize, params: usize },
+    /// The normal matrix is singular: the data do not constrain the model.
+    #[error("the fit is not constrained by the data (singular normal matrix)")]
+    Singular,
+    /// The model produced a non-finite value.
+    #[error("the model evaluated to a non-finite value")]
+    NotFinite,
+}
+
+/// A converged (or best-effort) fit.
+#[derive(Debug, Clone)]
+pub struct FitOutcome<const N: usize> {
+    /// Best parameters.
+    pub params: SVector<f64, N>,
+    /// Parameter covariance, scaled by the residual variance.
+    pub covariance: SMatrix<f64, N, N>,
+    /// Weighted residual sum of squares.
+    pub rss: f64,
+    /// Residual variance per unit weight (rss / (n - N)).
+    pub residual_variance: f64,
+    /// Iterations used.
+    pub iterations: usize,
+}
+
+/// Minimises sum w (value - model)^2 from `init`. `model(x, y, p, grad)` returns
+/// the model value and writes d model / d p into `grad`.
+pub fn levenberg_marquardt<const N: usize, F>(
+    samples: &[Sample],
+    init: SVector<f64, N>,
+    max_iterations: usize,
+    model: F,
+) -> Result<FitOutcome<N>, FitError>
+where
+    F: Fn(f64, f64, &SVector<f64, N>, &mut SVector<f64, N>) -> f64,
+{
+    if samples.len() <= N {
+        return Err(FitError::TooFewSamples {
+            got: samples.len(),
+            params: N,
+        });
+    }
+    let mut grad = SVector::<f64, N>::zeros();
+    let normal = |p: &SVector<f64, N>, grad: &mut SVector<f64, N>| {
+        let mut jtj = SMatrix::<f64, N, N>::zeros();
+        let mut jtr = SVector::<f64, N>::zeros();
+        let mut rss = 0.0;
+        for &(x, y, v, w) in samples {
+            let m = model(x, y, p, grad);
+            let r = v - m;
+            rss += w * r * r;
+            jtr += *grad * (w * r);
+            jtj.syger(w, grad, grad, 1.0);
+        }
+        (jtj, jtr, rss)
+    };
+    let mut p = init;
+    let (mut jtj, mut jtr, mut rss) = normal(&p, &mut grad);
+    if !rss.is_finite() {
+        return Err(FitError::NotFinite);
+    }
+    let mut lambda = 1e-3;
+    let mut iterations = 0;
+    for _ in 0..max_iterations {
+        iterations += 1;
+        let mut improved = false;
+        for _ in 0..8 {
+            let mut a = jtj;
+            for i in 0..N {
+                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
+            }
+            let Some(step) = a.cholesky().map(|c| c.solve(&jtr)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let trial = p + step;
+            let (tjtj, tjtr, trss) = normal(&trial, &mut grad);
+            if trss.is_finite() && trss < rss {
+                let small = step.norm() < 1e-7 * (1.0 + p.norm()) || rss - trss < 1e-10 * rss;
+                p = trial;
+                jtj = tjtj;
+                jtr = tjtr;
+                rss = trss;
+                lambda = (lambda * 0.2).max(1e-9);
+                improved = true;
+                if small {
+                    return finish(samples.len(), p, jtj, rss, iterations);
+                }
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    finish(samples.len(), p, jtj, rss, iterations)
+}
+
+fn finish<const N: usize>(
+    n: usize,
+    params: SVector<f64, N>,
+    jtj: SMatrix<f64, N, N>,
+    rss: f64,
+    iterations: usize,
+) -> Result<FitOutcome<N>, FitError> {
+    let inv = jtj.try_inverse().ok_or(FitError::Singular)?;
+    let residual_variance = rss / (n - N) as f64;
+    let covariance = inv * residual_variance;
+    if !(0..N).all(|i| covariance[(i, i)].is_finite() && covariance[(i, i)] >= 0.0) {
+        return Err(FitError::Singular);
+    }
+    Ok(FitOutcome {
+        params,
+        covariance,
+        rss,
+        residual_variance,
+        iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fits_an_exponential_and_reports_too_few_samples() {
+        let samples: Vec<Sample> = (0..20)
+            .map(|i| {
+                let x = i as f64 * 0.2;
+                (
+                    x,
+                    0.0,
+                    3.0 * (-0.7 * x).exp() + if i % 2 == 0 { 1e-3 } else { -1e-3 },
+                    1.0,
+                )
+            })
+            .collect();
+        let model = |x: f64, _y: f64, p: &SVector<f64, 2>, g: &mut SVector<f64, 2>| {
+            let e = (-p[1] * x).exp();
+            g[0] = e;
+            g[1] = -p[0] * x * e;
+            p[0] * e
+        };
+        let fit =
+            levenberg_marquardt(&samples, SVector::<f64, 2>::new(1.0, 0.1), 50, model).unwrap();
+        assert!((fit.params[0] - 3.0).abs() < 1e-2 && (fit.params[1] - 0.7).abs() < 1e-2);
+        assert!(matches!(
+            levenberg_marquardt(&samples[..2], SVector::<f64, 2>::new(1.0, 0.1), 5, model),
+            Err(FitError::TooFewSamples { .. })
+        ));
+    }
+}

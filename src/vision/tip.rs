@@ -1,0 +1,310 @@
+//! Probe tip detection: the cantilever's silhouette from above, its apex, axis
+//! angle and a match score.
+//!
+//! 1. The darkest large connected region (the opaque cantilever) gives a rough
+//!    apex (its point farthest from where it enters the frame) and axis.
+//! 2. A blurred-silhouette model (tapered cantilever, same shape family as the
+//!    renderer's probe, width, taper, blur and contrast all free) is fitted to
+//!    the pixels near its edges around the apex, with Huber weights so a
+//!    particle under or beside the tip does not pull the fit; free blur keeps
+//!    it valid through focus changes.
+
+use nalgebra::SVector;
+use serde::{Deserialize, Serialize};
+
+use super::frame::Frame;
+use super::least_squares::{Sample, levenberg_marquardt};
+use crate::render::probe::{ProbeShape, ProbeSilhouette};
+
+/// Tip detection parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TipSettings {
+    /// A pixel is "probe" when darker than black + this fraction of (median - black).
+    pub dark_fraction: f64,
+    /// Smallest silhouette area in pixels (smaller dark regions are particles).
+    pub min_area_px: usize,
+    /// Smallest score to report a tip.
+    pub min_score: f64,
+}
+
+impl Default for TipSettings {
+    fn default() -> Self {
+        Self {
+            dark_fraction: 0.45,
+            min_area_px: 400,
+            min_score: 0.5,
+        }
+    }
+}
+
+/// The detected probe tip.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TipDetection {
+    /// Apex x in pixels.
+    pub x_px: f64,
+    /// Apex y in pixels.
+    pub y_px: f64,
+    /// Direction from the cantilever body to the apex, radians in (-pi, pi].
+    pub angle_rad: f64,
+    /// Fraction of the intensity variance near the tip the model explains (0..1).
+    pub score: f64,
+    /// Fitted cantilever width in pixels.
+    pub width_px: f64,
+    /// Fitted taper length in pixels.
+    pub taper_length_px: f64,
+}
+
+impl TipDetection {
+    /// Signed distance from (x, y) to the fitted silhouette (negative inside).
+    pub fn signed_distance(&self, x: f64, y: f64) -> f64 {
+        self.silhouette().signed_distance(x, y)
+    }
+
+    fn silhouette(&self) -> ProbeSilhouette {
+        ProbeSilhouette {
+            apex_x_px: self.x_px,
+            apex_y_px: self.y_px,
+            angle_rad: self.angle_rad,
+            shape: ProbeShape {
+                width_px: self.width_px,
+                taper_length_px: self.taper_length_px,
+                opacity: 1.0,
+            },
+        }
+    }
+}
+
+/// The largest dark connected region, as pixel indices.
+fn dark_region(frame: &Frame, settings: &TipSettings) -> Option<Vec<usize>> {
+    let (w, h) = (frame.width(), frame.height());
+    let px = frame.pixels();
+    let step = (px.len() / 65536).max(1);
+    let mut sample: Vec<f32> = px.iter().step_by(step).copied().collect();
+    let mid = sample.len() / 2;
+    let median = *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    let black = px.iter().copied().fold(f32::INFINITY, f32::min);
+    if median - black <= 0.0 {
+        return None;
+    }
+    let t = black + settings.dark_fraction as f32 * (median - black);
+    let mut label = vec![false; w * h];
+    let mut best: Option<Vec<usize>> = None;
+    let mut stack = Vec::new();
+    for start in 0..w * h {
+        if label[start] || px[start] >= t {
+            continue;
+        }
+        let mut region = Vec::new();
+        label[start] = true;
+        stack.push(start);
+        while let Some(i) = stack.pop() {
+            region.push(i);
+            let (x, y) = (i % w, i / w);
+            let mut visit = |j: usize| {
+                if !label[j] && px[j] < t {
+                    label[j] = true;
+                    stack.push(j);
+                }
+            };
+            if x > 0 {
+                visit(i - 1);
+            }
+            if x + 1 < w {
+                visit(i + 1);
+            }
+            if y > 0 {
+                visit(i - w);
+            }
+            if y + 1 < h {
+                visit(i + w);
+            }
+        }
+        if region.len() >= settings.min_area_px
+            && best.as_ref().is_none_or(|b| region.len() > b.len())
+        {
+            best = Some(region);
+        }
+    }
+    best
+}
+
+/// Rough apex, angle, width and taper from the dark region.
+fn initial_guess(region: &[usize], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
+    let xy = |i: usize| ((i % w) as f64, (i / w) as f64);
+    let on_border: Vec<(f64, f64)> = region
+        .iter()
+        .map(|&i| xy(i))
+        .filter(|&(x, y)| x == 0.0 || y == 0.0 || x == (w - 1) as f64 || y == (h - 1) as f64)
+        .collect();
+    let mean = |pts: &[(f64, f64)]| {
+        let n = pts.len().max(1) as f64;
+        (
+            pts.iter().map(|p| p.0).sum::<f64>() / n,
+            pts.iter().map(|p| p.1).sum::<f64>() / n,
+        )
+    };
+    let base = if on_border.is_empty() {
+        let all: Vec<(f64, f64)> = region.iter().map(|&i| xy(i)).collect();
+        mean(&all)
+    } else {
+        mean(&on_border)
+    };
+    let far = region
+        .iter()
+        .map(|&i| xy(i))
+        .max_by(|a, b| {
+            let da = (a.0 - base.0).powi(2) + (a.1 - base.1).powi(2);
+            let db = (b.0 - base.0).powi(2) + (b.1 - base.1).powi(2);
+            da.total_cmp(&db)
+        })
+        .unwrap_or(base);
+    let angle = (far.1 - base.1).atan2(far.0 - base.0);
+    let (s, c) = angle.sin_cos();
+    // Width profile along the axis: pixels per unit length behind the apex.
+    let len = ((far.0 - base.0).powi(2) + (far.1 - base.1).powi(2))
+        .sqrt()
+        .max(1.0);
+    let nbins = len.ceil() as usize + 2;
+    let mut counts = vec![0usize; nbins];
+    for &i in region {
+        let (x, y) = xy(i);
+        let u = -((x - far.0) * c + (y - far.1) * s);
+        if u >= 0.0 && (u as usize) < nbins {
+            counts[u as usize] += 1;
+        }
+    }
+    let lo = (0.5 * len) as usize;
+    let hi = ((0.9 * len) as usize).max(lo + 1).min(nbins);
+    let mut body: Vec<usize> = counts[lo..hi].to_vec();
+    body.sort_unstable();
+    let width = body.get(body.len() / 2).copied().unwrap_or(10).max(3) as f64;
+    let taper = counts
+        .iter()
+        .position(|&n| n as f64 >= 0.9 * width)
+        .unwrap_or(width as usize) as f64;
+    (far.0, far.1, angle, width, taper.max(2.0))
+}
+
+fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
+    let sil = ProbeSilhouette {
+        apex_x_px: p[0],
+        apex_y_px: p[1],
+        angle_rad: p[2],
+        shape: ProbeShape {
+            width_px: p[3],
+            taper_length_px: p[4],
+            opacity: p[6],
+        },
+    };
+    p[5] * sil.transmission(px, py, p[7].abs().max(0.05))
+}
+
+const STEPS: [f64; 8] = [1e-4, 1e-4, 1e-6, 1e-4, 1e-4, 0.0, 1e-6, 1e-5];
+
+fn tip_model_grad(px: f64, py: f64, p: &SVector<f64, 8>, g: &mut SVector<f64, 8>) -> f64 {
+    let f = tip_model(px, py, p);
+    for i in 0..8 {
+        let step = if i == 5 {
+            1e-6 * p[5].abs().max(1.0)
+        } else {
+            STEPS[i]
+        };
+        let mut q = *p;
+        q[i] += step;
+        g[i] = (tip_model(px, py, &q) - f) / step;
+    }
+    f
+}
+
+/// Finds the probe tip, or `None` when no probe silhouette is in view.
+pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection> {
+    let (w, h) = (frame.width(), frame.height());
+    let region = dark_region(frame, settings)?;
+    let (ax, ay, angle, width, taper) = initial_guess(&region, w, h);
+    let inside: Vec<f64> = region.iter().map(|&i| frame.pixels()[i] as f64).collect();
+    let dark = inside.iter().sum::<f64>() / inside.len() as f64;
+    let px = frame.pixels();
+    let step = (px.len() / 65536).max(1);
+    let mut sample: Vec<f32> = px.iter().step_by(step).copied().collect();
+    let mid = sample.len() / 2;
+    let bg = *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64;
+    let opacity = (1.0 - dark / bg.max(1e-9)).clamp(0.05, 1.0);
+    let mut p =
+        SVector::<f64, 8>::from_column_slice(&[ax, ay, angle, width, taper, bg, opacity, 1.0]);
+    let radius = (taper + width).clamp(20.0, 150.0);
+    let mut weights_from: Option<(SVector<f64, 8>, f64)> = None;
+    let mut score = 0.0;
+    for _round in 0..3 {
+        let sil = ProbeSilhouette {
+            apex_x_px: p[0],
+            apex_y_px: p[1],
+            angle_rad: p[2],
+            shape: ProbeShape {
+                width_px: p[3],
+                taper_length_px: p[4],
+                opacity: 1.0,
+            },
+        };
+        let band = 3.0 * p[7].abs() + 3.0;
+        let (x0, x1) = (
+            (p[0] - radius).max(0.0) as usize,
+            ((p[0] + radius) as usize).min(w - 1),
+        );
+        let (y0, y1) = (
+            (p[1] - radius).max(0.0) as usize,
+            ((p[1] + radius) as usize).min(h - 1),
+        );
+        let mut samples: Vec<Sample> = Vec::new();
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let (xf, yf) = (x as f64, y as f64);
+                if (xf - p[0]).powi(2) + (yf - p[1]).powi(2) > radius * radius {
+                    continue;
+                }
+                if sil.signed_distance(xf, yf).abs() > band {
+                    continue;
+                }
+                let v = frame.at(x, y) as f64;
+                let wgt = match weights_from {
+                    Some((q, s)) => {
+                        let r = (v - tip_model(xf, yf, &q)).abs();
+                        if r <= 2.5 * s { 1.0 } else { 2.5 * s / r }
+                    }
+                    None => 1.0,
+                };
+                samples.push((xf, yf, v, wgt));
+            }
+        }
+        let fit = levenberg_marquardt(&samples, p, 40, tip_model_grad).ok()?;
+        p = fit.params;
+        // Robust noise scale for the next round's weights.
+        let mut abs_res: Vec<f64> = samples
+            .iter()
+            .map(|s| (s.2 - tip_model(s.0, s.1, &p)).abs())
+            .collect();
+        let m = abs_res.len() / 2;
+        let mad = *abs_res.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1;
+        weights_from = Some((p, (1.4826 * mad).max(1e-9)));
+        let mean = samples.iter().map(|s| s.2 * s.3).sum::<f64>()
+            / samples.iter().map(|s| s.3).sum::<f64>();
+        let tss: f64 = samples.iter().map(|s| s.3 * (s.2 - mean).powi(2)).sum();
+        score = if tss > 0.0 {
+            (1.0 - fit.rss / tss).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+    if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0) || score < settings.min_score
+    {
+        return None;
+    }
+    let angle = (p[2].sin()).atan2(p[2].cos());
+    Some(TipDetection {
+        x_px: p[0],
+        y_px: p[1],
+        angle_rad: angle,
+        score,
+        width_px: p[3],
+        taper_length_px: p[4],
+    })
+}

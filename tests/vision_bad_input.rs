@@ -1,0 +1,80 @@
+//! Bad input never panics: truncated, corrupt, empty, unsupported files give
+//! clear errors; all-black and all-saturated frames give no detections.
+
+use std::io::Write;
+
+use nanopush::vision::detect::{DetectSettings, detect_particles};
+use nanopush::vision::frame::Frame;
+use nanopush::vision::frame_input::{Channel, FrameInputError, load_frame, load_frames};
+use nanopush::vision::tip::{TipSettings, detect_tip};
+
+fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> std::path::PathBuf {
+    let p = dir.path().join(name);
+    std::fs::File::create(&p).unwrap().write_all(bytes).unwrap();
+    p
+}
+
+#[test]
+fn broken_files_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/real/brightfield/bf_0000.png"
+    ))
+    .unwrap();
+    let cases = [
+        ("truncated.png", good[..good.len() / 3].to_vec()),
+        ("corrupt.png", {
+            let mut b = good.clone();
+            for v in b.iter_mut().skip(100).step_by(7) {
+                *v ^= 0x5a;
+            }
+            b
+        }),
+        ("empty.png", vec![]),
+        ("text.png", b"this is not an image".to_vec()),
+        ("broken.tif", b"II*\0garbage".to_vec()),
+    ];
+    for (name, bytes) in cases {
+        let p = write(&dir, name, &bytes);
+        let e = load_frame(&p, Channel::Luminance).expect_err(name);
+        let msg = e.to_string();
+        assert!(
+            msg.contains(name),
+            "{name}: message {msg:?} should name the file"
+        );
+        assert!(load_frames(&p, Channel::Luminance).is_err(), "{name}");
+    }
+    let missing = dir.path().join("missing.png");
+    assert!(matches!(
+        load_frame(&missing, Channel::Luminance),
+        Err(FrameInputError::Io { .. })
+    ));
+    let empty_dir = tempfile::tempdir().unwrap();
+    assert!(matches!(
+        load_frames(empty_dir.path(), Channel::Luminance),
+        Err(FrameInputError::Empty { .. })
+    ));
+    let bad_video = write(&dir, "clip.avi", b"not a video");
+    assert!(load_frames(&bad_video, Channel::Luminance).is_err());
+}
+
+#[test]
+fn black_and_saturated_frames_give_nothing() {
+    for (v, bits) in [(0.0f32, 8u8), (255.0, 8), (0.0, 16), (65535.0, 16)] {
+        let f = Frame::new(128, 96, vec![v; 128 * 96], bits).unwrap();
+        assert!(
+            detect_particles(&f, &DetectSettings::default())
+                .unwrap()
+                .is_empty()
+        );
+        assert_eq!(detect_tip(&f, &TipSettings::default()), None);
+    }
+    let tiny = Frame::new(4, 4, vec![1.0; 16], 8).unwrap();
+    assert!(detect_particles(&tiny, &DetectSettings::default()).is_err());
+    let bad = DetectSettings {
+        diameter_px: f64::NAN,
+        ..DetectSettings::default()
+    };
+    assert!(detect_particles(&Frame::new(64, 64, vec![1.0; 4096], 8).unwrap(), &bad).is_err());
+}

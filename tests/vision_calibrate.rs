@@ -1,0 +1,98 @@
+//! `nanopush calibrate --recording DIR` on a synthetic recording with a known
+//! pixel-to-stage map (and one bad stage entry RANSAC must reject); and
+//! `nanopush detect --json --calib` reading the result back.
+
+use std::process::Command;
+
+use nanopush::calib::affine::AffineCalibration;
+use nanopush::render::microscope::{RenderSettings, SceneView, TipView, render_frame};
+use nanopush::vision::detections_file::DetectionsFile;
+use nanopush::vision::frame_input::save_png;
+
+#[test]
+fn calibrate_recovers_a_known_map_and_detect_uses_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = AffineCalibration::from_scale_rotation(0.25e-6, 0.03, [-20e-6, 15e-6]);
+    let mut csv = String::from("frame,x_um,y_um\n");
+    let mut k = 0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let (px, py) = (90.0 + 40.0 * i as f64, 80.0 + 45.0 * j as f64);
+            let scene = SceneView {
+                width_px: 256,
+                height_px: 256,
+                particles: vec![],
+                tip: Some(TipView {
+                    apex_x_px: px,
+                    apex_y_px: py,
+                    angle_rad: 0.7,
+                }),
+            };
+            let frame = render_frame(&scene, &RenderSettings::with_snr(20.0, 16), k).unwrap();
+            let name = format!("f{k:02}.png");
+            save_png(&frame, &dir.path().join(&name)).unwrap();
+            let mut s = truth.pixel_to_stage_m(px, py);
+            if k == 4 {
+                s[0] += 5e-6; // a logging glitch: 20 px off
+            }
+            csv += &format!("{name},{},{}\n", s[0] * 1e6, s[1] * 1e6);
+            k += 1;
+        }
+    }
+    std::fs::write(dir.path().join("stage.csv"), csv).unwrap();
+    let exe = env!("CARGO_BIN_EXE_nanopush");
+    let out = Command::new(exe)
+        .args(["calibrate", "--recording"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    println!("{text}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    assert!(text.contains("inliers 8/9"), "{text}");
+    let fitted = AffineCalibration::load(&dir.path().join("calibration.toml")).unwrap();
+    let s = fitted.pixel_to_stage_m(128.0, 128.0);
+    let t = truth.pixel_to_stage_m(128.0, 128.0);
+    let err_px = ((s[0] - t[0]).hypot(s[1] - t[1])) / truth.m_per_px();
+    println!("map error at the frame centre: {err_px:.3} px");
+    assert!(err_px < 0.3, "{err_px}");
+
+    let det = Command::new(exe)
+        .arg("detect")
+        .arg(dir.path().join("f00.png"))
+        .arg("--calib")
+        .arg(dir.path().join("calibration.toml"))
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        det.status.success(),
+        "{}",
+        String::from_utf8_lossy(&det.stderr)
+    );
+    let doc = DetectionsFile::from_json(&String::from_utf8_lossy(&det.stdout)).unwrap();
+    let tip = doc.tip.expect("tip in detect output");
+    assert!((tip.x_px - 90.0).abs() < 0.5 && (tip.y_px - 80.0).abs() < 0.5);
+    assert!(doc.particles.is_empty());
+}
+
+#[test]
+fn calibrate_and_detect_fail_cleanly_on_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let exe = env!("CARGO_BIN_EXE_nanopush");
+    let out = Command::new(exe)
+        .args(["calibrate", "--recording"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("stage.csv"));
+    std::fs::write(dir.path().join("x.png"), b"nope").unwrap();
+    let out = Command::new(exe)
+        .arg("detect")
+        .arg(dir.path().join("x.png"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("x.png"));
+}

@@ -1,0 +1,95 @@
+//! Tip detection on synthetic frames: random positions and angles, over a
+//! particle, and out of focus.
+
+use nanopush::render::microscope::{
+    ParticleView, RenderSettings, SceneView, TipView, render_frame,
+};
+use nanopush::vision::tip::{TipSettings, detect_tip};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Uniform};
+
+fn errors(defocus_px: f64, seed: u64, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let pos = Uniform::new(90.0, 166.0).unwrap();
+    let ang = Uniform::new(-std::f64::consts::PI, std::f64::consts::PI).unwrap();
+    let (mut apex, mut angle) = (Vec::new(), Vec::new());
+    for k in 0..n {
+        let tip = TipView {
+            apex_x_px: pos.sample(&mut rng),
+            apex_y_px: pos.sample(&mut rng),
+            angle_rad: ang.sample(&mut rng),
+        };
+        // Every other frame: a particle right under the apex.
+        let particles = if k % 2 == 0 {
+            vec![ParticleView {
+                x_px: tip.apex_x_px + 3.0,
+                y_px: tip.apex_y_px - 2.0,
+                radius_px: 8.0,
+            }]
+        } else {
+            vec![ParticleView {
+                x_px: 40.0,
+                y_px: 40.0,
+                radius_px: 8.0,
+            }]
+        };
+        let scene = SceneView {
+            width_px: 256,
+            height_px: 256,
+            particles,
+            tip: Some(tip),
+        };
+        let mut settings = RenderSettings::with_snr(20.0, 16);
+        settings.optics.defocus_px = defocus_px;
+        let frame = render_frame(&scene, &settings, seed * 100 + k as u64).unwrap();
+        let t = detect_tip(&frame, &TipSettings::default()).expect("tip found");
+        apex.push(((t.x_px - tip.apex_x_px).powi(2) + (t.y_px - tip.apex_y_px).powi(2)).sqrt());
+        let mut da = (t.angle_rad - tip.angle_rad).to_degrees();
+        da = (da + 180.0).rem_euclid(360.0) - 180.0;
+        angle.push(da.abs());
+    }
+    (apex, angle)
+}
+
+fn check(label: &str, apex: &[f64], angle: &[f64]) {
+    let mut a = apex.to_vec();
+    a.sort_by(f64::total_cmp);
+    let median = a[a.len() / 2];
+    let worst = a[a.len() - 1];
+    let worst_angle = angle.iter().cloned().fold(0.0, f64::max);
+    println!(
+        "{label}: apex median {median:.3} px, worst {worst:.3} px, worst angle {worst_angle:.3} deg"
+    );
+    assert!(median <= 0.5, "{label}: median {median}");
+    assert!(worst <= 2.0, "{label}: worst {worst}");
+    assert!(worst_angle <= 1.0, "{label}: angle {worst_angle}");
+}
+
+#[test]
+fn tip_apex_and_angle_in_focus_also_over_a_particle() {
+    let (apex, angle) = errors(0.0, 1, 8);
+    check("in focus", &apex, &angle);
+}
+
+#[test]
+fn tip_apex_and_angle_out_of_focus() {
+    let (apex, angle) = errors(2.5, 2, 6);
+    check("defocus 2.5 px", &apex, &angle);
+}
+
+#[test]
+fn no_tip_in_a_frame_without_probe() {
+    let scene = SceneView {
+        width_px: 200,
+        height_px: 200,
+        particles: vec![ParticleView {
+            x_px: 100.0,
+            y_px: 100.0,
+            radius_px: 8.0,
+        }],
+        tip: None,
+    };
+    let frame = render_frame(&scene, &RenderSettings::with_snr(20.0, 16), 4).unwrap();
+    assert_eq!(detect_tip(&frame, &TipSettings::default()), None);
+}
