@@ -4,4 +4,5 @@ pub mod error;
 pub mod stage;
 
 pub use error::RigError;
+pub mod camera;
 pub mod sim;

@@ -2,5 +2,6 @@
 //! microscope draws them. Its ground truth is for tests and reports only.
 
 pub mod model_physics;
+pub mod rig;
 pub mod stage;
 pub mod world;

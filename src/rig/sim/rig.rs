@@ -1,0 +1,175 @@
+//! The simulated rig: the simulated nanostage and coarse stage moving the tip
+//! through the world, and a camera that draws the world with the synthetic
+//! microscope. The camera is fixed to the nanostage's frame (the sample moves
+//! under both when the coarse stage moves), so one calibration maps its pixels
+//! to nanostage coordinates.
+//!
+//! Faults for tests are injected here: dropped frames and particles the
+//! detector will miss in a given frame (drawn out of the frame).
+
+use super::stage::SimStage;
+use crate::calib::affine::AffineCalibration;
+use crate::render::microscope::{ParticleView, RenderSettings, SceneView, TipView, render_frame};
+use crate::rig::RigError;
+use crate::rig::camera::{Camera, TimedFrame};
+use crate::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
+
+/// How the simulated camera sees the nanostage's range.
+#[derive(Debug, Clone)]
+pub struct SimCameraConfig {
+    /// Frame width, pixels.
+    pub width_px: usize,
+    /// Frame height, pixels.
+    pub height_px: usize,
+    /// Pixel -> nanostage map.
+    pub calibration: AffineCalibration,
+    /// Microscope and camera rendering.
+    pub render: RenderSettings,
+    /// Direction from the cantilever body to the apex in the image, radians.
+    pub tip_angle_rad: f64,
+    /// Exposure plus read-out time per frame, seconds of rig time.
+    pub frame_time_s: f64,
+}
+
+impl SimCameraConfig {
+    /// A camera at `um_per_px` whose frame covers a nanostage range of
+    /// `range_um` with `margin_um` on every side.
+    pub fn covering(range_um: [f64; 2], margin_um: f64, um_per_px: f64) -> Self {
+        let width_px = ((range_um[0] + 2.0 * margin_um) / um_per_px).ceil() as usize;
+        let height_px = ((range_um[1] + 2.0 * margin_um) / um_per_px).ceil() as usize;
+        Self {
+            width_px,
+            height_px,
+            calibration: AffineCalibration::from_scale_rotation(
+                um_per_px * 1e-6,
+                0.0,
+                [-margin_um * 1e-6, -margin_um * 1e-6],
+            ),
+            render: RenderSettings::with_snr(30.0, 12),
+            tip_angle_rad: 60f64.to_radians(),
+            frame_time_s: 0.05,
+        }
+    }
+}
+
+/// The whole simulated rig.
+pub struct SimRig {
+    /// The nanostage and the world (ground truth lives here).
+    pub stage: SimStage,
+    camera: SimCameraConfig,
+    seed: u64,
+    frames: usize,
+    drop_frames: Vec<usize>,
+    hidden: Vec<(usize, usize)>,
+}
+
+impl SimRig {
+    /// A rig of this stage and camera; `seed` makes the camera noise repeatable.
+    pub fn new(stage: SimStage, camera: SimCameraConfig, seed: u64) -> Self {
+        Self {
+            stage,
+            camera,
+            seed,
+            frames: 0,
+            drop_frames: Vec::new(),
+            hidden: Vec::new(),
+        }
+    }
+
+    /// The camera's pixel -> nanostage calibration (what a lab would have measured).
+    pub fn calibration(&self) -> &AffineCalibration {
+        &self.camera.calibration
+    }
+
+    /// Frames grabbed so far (dropped ones included).
+    pub fn frames(&self) -> usize {
+        self.frames
+    }
+
+    /// Fault: the camera drops frame number `n` (counted from 0).
+    pub fn drop_frame(&mut self, n: usize) {
+        self.drop_frames.push(n);
+    }
+
+    /// Fault: particle `id` is missing from frame number `n` (a missed detection).
+    pub fn hide_particle_in_frame(&mut self, id: usize, n: usize) {
+        self.hidden.push((id, n));
+    }
+
+    /// What the camera sees now, in pixels (ground truth for tests).
+    pub fn scene_view(&self, frame: usize) -> Result<SceneView, RigError> {
+        let cal = &self.camera.calibration;
+        let offset = self.stage.coarse_offset();
+        let to_px = |x: f64, y: f64| {
+            cal.stage_to_pixel(x - offset[0], y - offset[1])
+                .map_err(|e| RigError::Io(format!("camera calibration: {e}")))
+        };
+        let mut particles = Vec::new();
+        for p in &self.stage.world.particles {
+            if self.hidden.contains(&(p.id, frame)) {
+                continue;
+            }
+            let [x_px, y_px] = to_px(p.x_m, p.y_m)?;
+            particles.push(ParticleView {
+                x_px,
+                y_px,
+                radius_px: p.radius_m / cal.m_per_px(),
+            });
+        }
+        let tip = self.stage.actual_on_sample();
+        let [apex_x_px, apex_y_px] = to_px(tip[0], tip[1])?;
+        Ok(SceneView {
+            width_px: self.camera.width_px,
+            height_px: self.camera.height_px,
+            particles,
+            tip: Some(TipView {
+                apex_x_px,
+                apex_y_px,
+                angle_rad: self.camera.tip_angle_rad,
+            }),
+        })
+    }
+}
+
+impl Camera for SimRig {
+    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        let n = self.frames;
+        self.frames += 1;
+        self.stage.wait(self.camera.frame_time_s);
+        if self.drop_frames.contains(&n) {
+            return Ok(None);
+        }
+        let view = self.scene_view(n)?;
+        let seed = self.seed ^ (n as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let frame = render_frame(&view, &self.camera.render, seed)
+            .map_err(|e| RigError::Io(format!("simulated camera: {e}")))?;
+        Ok(Some(TimedFrame {
+            t_s: self.stage.clock_s(),
+            frame,
+        }))
+    }
+}
+
+impl NanoStage for SimRig {
+    fn range(&self) -> [AxisRange; 3] {
+        self.stage.range()
+    }
+    fn position(&mut self) -> Result<StageXyz, RigError> {
+        self.stage.position()
+    }
+    fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
+        self.stage.move_to(target, speed_m_per_s)
+    }
+    fn halt(&mut self) -> Result<(), RigError> {
+        self.stage.halt()
+    }
+}
+
+impl CoarseStage for SimRig {
+    fn position(&mut self) -> Result<[f64; 2], RigError> {
+        Ok(self.stage.coarse_offset())
+    }
+    fn move_to(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+        self.stage.move_coarse(target)
+    }
+}
