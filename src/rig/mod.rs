@@ -1,1 +1,2 @@
 //! Rig interface (stage, camera, probe readout) and its implementations.
+pub mod gcs;
