@@ -90,6 +90,42 @@ impl AxisState {
     }
 }
 
+/// Commands the simulator knows, as `HLP?` lists them (PIPython reads this
+/// list to decide which functions a controller supports).
+const HELP: &[(&str, &str)] = &[
+    ("#5", "Request Motion Status"),
+    ("#7", "Request Controller Ready Status"),
+    ("#24", "Stop All Axes"),
+    ("*IDN?", "Get Device Identification"),
+    ("CSV?", "Get Current Syntax Version"),
+    ("ERR?", "Get Error Number"),
+    ("HLP?", "Get List Of Available Commands"),
+    ("HLT [{<AxisID>}]", "Halt Motion Smoothly"),
+    ("MOV {<AxisID> <Position>}", "Set Target Position"),
+    ("MOV? [{<AxisID>}]", "Get Target Position"),
+    (
+        "MVR {<AxisID> <Distance>}",
+        "Set Target Relative To Current Position",
+    ),
+    ("ONT? [{<AxisID>}]", "Get On Target State"),
+    ("POS? [{<AxisID>}]", "Get Real Position"),
+    ("SAI? [ALL]", "Get List Of Current Axis Identifiers"),
+    ("STP", "Stop All Axes"),
+    ("SVO {<AxisID> <ServoState>}", "Set Servo Mode"),
+    ("SVO? [{<AxisID>}]", "Get Servo Mode"),
+    ("TMN? [{<AxisID>}]", "Get Minimum Commandable Position"),
+    ("TMX? [{<AxisID>}]", "Get Maximum Commandable Position"),
+    ("VEL {<AxisID> <Velocity>}", "Set Closed-Loop Velocity"),
+    ("VEL? [{<AxisID>}]", "Get Closed-Loop Velocity"),
+];
+
+fn help_lines() -> Vec<String> {
+    let mut lines = vec!["The following commands are available:".to_string()];
+    lines.extend(HELP.iter().map(|(cmd, what)| format!("{cmd} {what}")));
+    lines.push("end of help".into());
+    lines
+}
+
 /// The simulated controller: feed it command lines, get reply lines.
 #[derive(Debug, Clone)]
 pub struct SimController {
@@ -264,6 +300,7 @@ impl SimController {
         match name {
             "*IDN?" => no_args(vec![self.config.identity.clone()]),
             "CSV?" => no_args(vec!["2.0".into()]),
+            "HLP?" => no_args(help_lines()),
             "ERR?" => {
                 let code = std::mem::take(&mut self.last_error);
                 no_args(vec![code.to_string()])
