@@ -88,22 +88,17 @@ impl SafetyLimits {
         Ok(())
     }
 
-    /// Checks a move from `from_m` to `to_m` (one entry per axis, named by `axes`).
-    pub fn check_move(
-        &self,
-        axes: &[String],
-        from_m: &[f64],
-        to_m: &[f64],
-    ) -> Result<(), SafetyViolation> {
+    /// Checks a target against the soft limits (one coordinate per axis,
+    /// named by `axes`); needs no I/O, so it runs before anything is sent.
+    pub fn check_target(&self, axes: &[String], to_m: &[f64]) -> Result<(), SafetyViolation> {
         let n = self.soft_limits.len();
-        if axes.len() != n || from_m.len() != n || to_m.len() != n {
+        if axes.len() != n || to_m.len() != n {
             return Err(SafetyViolation::BadTarget(format!(
-                "expected {n} coordinates, got {} (from {})",
-                to_m.len(),
-                from_m.len()
+                "expected {n} coordinates, got {}",
+                to_m.len()
             )));
         }
-        if let Some(bad) = to_m.iter().chain(from_m).find(|v| !v.is_finite()) {
+        if let Some(bad) = to_m.iter().find(|v| !v.is_finite()) {
             return Err(SafetyViolation::BadTarget(format!(
                 "coordinate {bad} is not finite"
             )));
@@ -118,6 +113,16 @@ impl SafetyLimits {
                 });
             }
         }
+        Ok(())
+    }
+
+    /// Checks the length of a step from `from_m` to `to_m` (Euclidean).
+    pub fn check_step(&self, from_m: &[f64], to_m: &[f64]) -> Result<(), SafetyViolation> {
+        if from_m.len() != to_m.len() || from_m.iter().any(|v| !v.is_finite()) {
+            return Err(SafetyViolation::BadTarget(format!(
+                "current position {from_m:?} does not match target {to_m:?}"
+            )));
+        }
         let step_m = from_m
             .iter()
             .zip(to_m)
@@ -131,6 +136,17 @@ impl SafetyLimits {
             });
         }
         Ok(())
+    }
+
+    /// Checks a whole move: soft limits of the target, then the step length.
+    pub fn check_move(
+        &self,
+        axes: &[String],
+        from_m: &[f64],
+        to_m: &[f64],
+    ) -> Result<(), SafetyViolation> {
+        self.check_target(axes, to_m)?;
+        self.check_step(from_m, to_m)
     }
 
     /// Checks a velocity before it is set.

@@ -121,6 +121,13 @@ impl GcsStage {
         result
     }
 
+    /// Metres to controller units, rounded to 1e-9 unit (far below any
+    /// stage's resolution) so that 60e-6 m goes on the wire as `60`, not
+    /// `59.99999999999999`.
+    fn to_units(&self, value_m: f64) -> f64 {
+        (value_m / self.settings.unit_m * 1e9).round() / 1e9
+    }
+
     /// Current position, metres, per axis.
     pub fn position_m(&mut self) -> Result<Vec<f64>, GcsError> {
         let axes: Vec<String> = self.settings.axes.clone();
@@ -142,7 +149,7 @@ impl GcsStage {
     pub fn set_speed_m_per_s(&mut self, speed_m_per_s: f64) -> Result<(), GcsError> {
         self.settings.limits.check_speed(speed_m_per_s)?;
         self.check_interrupt()?;
-        let value = speed_m_per_s / self.settings.unit_m;
+        let value = self.to_units(speed_m_per_s);
         let axes = self.settings.axes.clone();
         let pairs: Vec<(&str, f64)> = axes.iter().map(|a| (a.as_str(), value)).collect();
         self.controller.set_velocity(&pairs)
@@ -151,11 +158,12 @@ impl GcsStage {
     /// Starts an absolute move to `target_m` (metres, one per axis) after the
     /// soft-limit and step checks; returns once the controller accepted it.
     pub fn start_move_m(&mut self, target_m: &[f64]) -> Result<(), GcsError> {
-        self.check_interrupt()?;
-        let from_m = self.position_m()?;
         self.settings
             .limits
-            .check_move(&self.settings.axes, &from_m, target_m)?;
+            .check_target(&self.settings.axes, target_m)?;
+        self.check_interrupt()?;
+        let from_m = self.position_m()?;
+        self.settings.limits.check_step(&from_m, target_m)?;
         if let FirstMoveConfirmation::Ask(ask) = &mut self.confirmation {
             let text = format!(
                 "first move on {}: axes {:?} from {:?} um to {:?} um",
@@ -169,13 +177,9 @@ impl GcsStage {
             }
             self.confirmation = FirstMoveConfirmation::NotNeeded;
         }
-        let unit = self.settings.unit_m;
         let axes = self.settings.axes.clone();
-        let pairs: Vec<(&str, f64)> = axes
-            .iter()
-            .map(String::as_str)
-            .zip(target_m.iter().map(|t| t / unit))
-            .collect();
+        let units: Vec<f64> = target_m.iter().map(|&t| self.to_units(t)).collect();
+        let pairs: Vec<(&str, f64)> = axes.iter().map(String::as_str).zip(units).collect();
         self.may_be_moving = true;
         self.guarded(|s| s.controller.move_to(&pairs))
     }
