@@ -47,7 +47,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let path = server.serve_pty().context("opening a pseudo-terminal")?;
         writeln!(out, "GCS simulator serving on pty {}", path.display())?;
     }
-    writeln!(out, "press Ctrl-C to stop")?;
+    eprintln!("press Ctrl-C to stop");
     out.flush()?;
     server.run_until(&stop);
     stop.store(false, Ordering::SeqCst);

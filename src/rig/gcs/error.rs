@@ -38,7 +38,7 @@ pub enum GcsError {
         reply: String,
     },
     /// The connection failed or was closed by the other side.
-    #[error("connection to {endpoint} failed: {source}")]
+    #[error("connection to {endpoint} failed")]
     Io {
         /// Where we were talking to (address or tty path).
         endpoint: String,

@@ -7,6 +7,7 @@
 //! sending, confirmation, halt on Ctrl-C / failure / drop). [`SimController`]
 //! and [`SimServer`] stand in for hardware, which nanopush was not tested on.
 
+pub mod confirmation;
 pub mod controller;
 pub mod controller_error;
 pub mod dry_run_link;
@@ -22,6 +23,7 @@ pub mod stage;
 pub mod tcp_link;
 pub mod transport;
 
+pub use confirmation::FirstMoveConfirmation;
 pub use controller::GcsController;
 pub use controller_error::ControllerError;
 pub use dry_run_link::{DryRunLink, SentLog};
@@ -31,7 +33,7 @@ pub use safety::{SafetyLimits, SafetyViolation, SoftLimit};
 pub use serial_link::SerialLink;
 pub use sim_server::{SimFault, SimServer};
 pub use simulator::{SimAxisConfig, SimConfig, SimController};
-pub use stage::{FirstMoveConfirmation, GcsStage, StageSettings};
+pub use stage::{GcsStage, StageSettings};
 pub use tcp_link::TcpLink;
 pub use transport::{ByteLink, Transport};
 

@@ -127,7 +127,7 @@ pub enum CameraSource {
 #[derive(Debug, thiserror::Error)]
 pub enum RigFileError {
     /// The file could not be read.
-    #[error("cannot read rig file {path}: {source}")]
+    #[error("cannot read rig file {path}")]
     Read {
         /// The file.
         path: PathBuf,
@@ -135,7 +135,7 @@ pub enum RigFileError {
         source: std::io::Error,
     },
     /// The TOML did not parse into a rig.
-    #[error("rig file {path} is not valid: {source}")]
+    #[error("rig file {path} is not valid")]
     Parse {
         /// The file.
         path: PathBuf,

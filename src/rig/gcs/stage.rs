@@ -3,21 +3,13 @@
 //! real hardware needs confirmation; Ctrl-C, a lost link or an abandoned wait
 //! halt the stage; dropping a stage that may still move halts it too.
 
+use super::confirmation::FirstMoveConfirmation;
 use super::controller::GcsController;
 use super::error::GcsError;
 use super::safety::{SafetyLimits, SafetyViolation};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-
-/// Who, if anyone, must approve the first move.
-pub enum FirstMoveConfirmation {
-    /// No confirmation: a simulator, a dry run, or the operator passed the
-    /// explicit flag that waives it.
-    NotNeeded,
-    /// Ask this callback once, with a description of the move; `false` refuses.
-    Ask(Box<dyn FnMut(&str) -> bool + Send>),
-}
 
 /// How a stage maps to its controller and what it may do.
 #[derive(Debug, Clone, PartialEq)]
