@@ -1,4 +1,6 @@
 //! Scenarios shared by the TCP and serial (pty) tests of the GCS driver.
+// Each test binary that includes this module uses only part of it.
+#![allow(dead_code)]
 
 use nanopush::rig::gcs::{ControllerError, GcsController, GcsError, SimServer};
 use std::time::{Duration, Instant};
