@@ -180,6 +180,48 @@ impl ByteLink for ScriptedLink {
     }
 }
 
+/// A link that never stops sending bytes without a line feed.
+struct FloodLink;
+
+impl ByteLink for FloodLink {
+    fn write_all(&mut self, _: &[u8]) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn read_some(&mut self, buf: &mut [u8], _: Duration) -> std::io::Result<Option<usize>> {
+        buf.fill(b'x');
+        Ok(Some(buf.len()))
+    }
+    fn reopen(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn endpoint(&self) -> String {
+        "flood".into()
+    }
+}
+
+#[test]
+fn endless_input_is_an_error_not_a_hang() {
+    let timeout = Duration::from_millis(50);
+    let mut ctrl = GcsController::new(Transport::new(Box::new(FloodLink), timeout));
+    let started = Instant::now();
+    let err = ctrl.positions(&["1"]).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            GcsError::MalformedReply { .. } | GcsError::Timeout { .. }
+        ),
+        "{err}"
+    );
+    // The next command first discards stale input, which must also give up.
+    let err = ctrl.identify().unwrap_err();
+    assert!(matches!(err, GcsError::MalformedReply { .. }), "{err}");
+    assert!(
+        started.elapsed() < Duration::from_secs(2),
+        "took {:?}",
+        started.elapsed()
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     #[test]

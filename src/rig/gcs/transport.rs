@@ -70,13 +70,24 @@ impl Transport {
         self.link.write_all(bytes).map_err(|e| self.io_error(e))
     }
 
-    /// Drops buffered and in-flight input (waits briefly for stragglers).
+    /// Drops buffered and in-flight input (waits briefly for stragglers, but
+    /// never longer than the reply timeout: a link that keeps talking is an
+    /// error, not a reason to hang).
     pub fn discard_input(&mut self) -> Result<(), GcsError> {
         self.pending.clear();
+        let deadline = Instant::now() + self.timeout;
         let mut buf = [0u8; 1024];
         loop {
             match self.link.read_some(&mut buf, Duration::from_millis(20)) {
-                Ok(Some(n)) if n > 0 => continue,
+                Ok(Some(n)) if n > 0 => {
+                    if Instant::now() >= deadline {
+                        return Err(GcsError::MalformedReply {
+                            command: "(discarding stale input)".into(),
+                            reason: format!("the controller kept sending for {:?}", self.timeout),
+                            reply: String::from_utf8_lossy(&buf[..n.min(64)]).into_owned(),
+                        });
+                    }
+                }
                 Ok(_) => break,
                 Err(e) => return Err(self.io_error(e)),
             }
