@@ -128,6 +128,7 @@ fn garbage_while_moving_leaves_the_stage_halted() {
     let (sim, ctrl) = connect();
     let mut stage = stage(ctrl);
     stage.enable_servo().unwrap();
+    stage.set_speed_m_per_s(10e-6).unwrap();
     stage.start_move_m(&[90e-6, 50e-6]).unwrap();
     sim.set_fault(SimFault::Garbage);
     let err = stage.wait_settled().unwrap_err();
