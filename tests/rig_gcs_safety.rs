@@ -23,6 +23,27 @@ fn dry_stage(confirmation: FirstMoveConfirmation) -> (GcsStage, SentLog, Arc<Ato
     (stage, log.unwrap(), interrupt)
 }
 
+#[test]
+fn open_stage_from_a_real_hardware_rig_in_dry_run_sends_nothing_real() {
+    let mut rig = RigFile::load(Path::new("calib/rig-pi-e727-serial.toml")).unwrap();
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let (mut stage, log) = gcs::open_stage(&rig, true, false, interrupt.clone()).unwrap();
+    let log = log.expect("a dry run keeps a log");
+    stage.enable_servo().unwrap();
+    stage.move_to_m(&[52e-6, 50e-6, 7.5e-6]).unwrap();
+    assert!(
+        sent(&log).contains(&"MOV 1 52 2 50 3 7.5\n".to_string()),
+        "{:?}",
+        sent(&log)
+    );
+    // Without dry run the serial tty of the example does not exist here.
+    rig.stage.address = "/nonexistent/ttyUSB0".into();
+    assert!(matches!(
+        gcs::open_stage(&rig, false, false, interrupt),
+        Err(GcsError::Io { .. })
+    ));
+}
+
 fn sent(log: &SentLog) -> Vec<String> {
     log.lock()
         .unwrap()

@@ -64,3 +64,20 @@ pub fn connect(rig: &RigFile, dry_run: bool) -> Result<(GcsController, Option<Se
     };
     Ok((GcsController::new(Transport::new(link, timeout)), log))
 }
+
+/// Opens the stage a rig file describes, behind all host-side checks: the
+/// first move asks for confirmation on real hardware unless `dry_run` or
+/// `waive_confirmation` (the explicit CLI flag); `interrupt` is the Ctrl-C
+/// flag (see [`interrupt::ctrlc_flag`]).
+pub fn open_stage(
+    rig: &RigFile,
+    dry_run: bool,
+    waive_confirmation: bool,
+    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Result<(GcsStage, Option<SentLog>), GcsError> {
+    let (controller, log) = connect(rig, dry_run)?;
+    let confirmation =
+        FirstMoveConfirmation::for_rig(rig.stage.real_hardware, dry_run, waive_confirmation);
+    let stage = GcsStage::new(controller, rig.stage_settings(), confirmation, interrupt)?;
+    Ok((stage, log))
+}

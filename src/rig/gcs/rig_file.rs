@@ -281,6 +281,25 @@ mod tests {
     }
 
     #[test]
+    fn every_shipped_rig_file_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib");
+        let mut count = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if name.starts_with("rig-") && name.ends_with(".toml") {
+                let rig = RigFile::load(&path).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+                assert!(
+                    rig.calibration.starts_with(&dir),
+                    "calibration resolved against calib/"
+                );
+                count += 1;
+            }
+        }
+        assert!(count >= 3, "found {count} rig files");
+    }
+
+    #[test]
     fn inconsistent_rigs_are_refused_with_a_reason() {
         let bad = EXAMPLE.replace("soft_min_um = [", "soft_min_um = [1.0, ");
         let err = RigFile::from_toml(&bad, Path::new("bad.toml")).unwrap_err();
