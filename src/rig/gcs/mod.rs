@@ -1,0 +1,83 @@
+//! PI GCS 2.0 stage driver, controller simulator and host-side safety.
+//!
+//! Layers, bottom up: [`ByteLink`] (TCP, serial tty, dry-run recorder) ->
+//! [`Transport`] (line framing, reply deadlines) -> [`GcsController`] (one
+//! typed method per GCS command, controller units, `ERR?` after every setting
+//! command) -> [`GcsStage`] (metres, soft limits and step limits checked before
+//! sending, confirmation, halt on Ctrl-C / failure / drop). [`SimController`]
+//! and [`SimServer`] stand in for hardware, which nanopush was not tested on.
+
+pub mod confirmation;
+pub mod controller;
+pub mod controller_error;
+pub mod dry_run_link;
+pub mod error;
+pub mod interrupt;
+pub mod protocol;
+pub mod rig_file;
+pub mod safety;
+pub mod serial_link;
+pub mod sim_server;
+pub mod simulator;
+pub mod stage;
+pub mod tcp_link;
+pub mod transport;
+
+pub use confirmation::FirstMoveConfirmation;
+pub use controller::GcsController;
+pub use controller_error::ControllerError;
+pub use dry_run_link::{DryRunLink, SentLog};
+pub use error::GcsError;
+pub use rig_file::{CameraSource, LinkKind, RigFile, RigFileError, StageDriver};
+pub use safety::{SafetyLimits, SafetyViolation, SoftLimit};
+pub use serial_link::SerialLink;
+pub use sim_server::{SimFault, SimServer};
+pub use simulator::{SimAxisConfig, SimConfig, SimController};
+pub use stage::{GcsStage, StageSettings};
+pub use tcp_link::TcpLink;
+pub use transport::{ByteLink, Transport};
+
+/// Opens the link a rig file names and returns a driver on it. With
+/// `dry_run`, nothing is opened: the returned log receives every byte that
+/// would have been sent, and an in-process simulator answers.
+pub fn connect(rig: &RigFile, dry_run: bool) -> Result<(GcsController, Option<SentLog>), GcsError> {
+    let timeout = rig.reply_timeout();
+    let endpoint = rig.stage.address.clone();
+    let io = |source| GcsError::Io {
+        endpoint: endpoint.clone(),
+        source,
+    };
+    let (link, log): (Box<dyn ByteLink>, Option<SentLog>) = if dry_run {
+        let (link, log) = DryRunLink::new(SimConfig::default());
+        (Box::new(link), Some(log))
+    } else {
+        match rig.stage.link {
+            LinkKind::Tcp => (
+                Box::new(TcpLink::connect(&rig.stage.address, timeout).map_err(io)?),
+                None,
+            ),
+            LinkKind::Serial => (
+                Box::new(SerialLink::open(&rig.stage.address, rig.stage.baud).map_err(io)?),
+                None,
+            ),
+        }
+    };
+    Ok((GcsController::new(Transport::new(link, timeout)), log))
+}
+
+/// Opens the stage a rig file describes, behind all host-side checks: the
+/// first move asks for confirmation on real hardware unless `dry_run` or
+/// `waive_confirmation` (the explicit CLI flag); `interrupt` is the Ctrl-C
+/// flag (see [`interrupt::ctrlc_flag`]).
+pub fn open_stage(
+    rig: &RigFile,
+    dry_run: bool,
+    waive_confirmation: bool,
+    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Result<(GcsStage, Option<SentLog>), GcsError> {
+    let (controller, log) = connect(rig, dry_run)?;
+    let confirmation =
+        FirstMoveConfirmation::for_rig(rig.stage.real_hardware, dry_run, waive_confirmation);
+    let stage = GcsStage::new(controller, rig.stage_settings(), confirmation, interrupt)?;
+    Ok((stage, log))
+}

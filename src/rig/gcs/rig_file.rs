@@ -1,0 +1,315 @@
+//! Rig files (TOML, `calib/rig-*.toml`): which stage driver at which address,
+//! which camera, which pixel-to-stage calibration, and the host-side safety
+//! limits, in lab units (micrometres) converted to SI once, here.
+
+use super::safety::{SafetyLimits, SoftLimit};
+use super::stage::StageSettings;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// The schema tag every rig file carries.
+pub const RIG_SCHEMA: &str = "nanopush.rig/1";
+
+/// A whole rig description as written in TOML.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigFile {
+    /// Always [`RIG_SCHEMA`].
+    pub schema: String,
+    /// Free-text name of the rig.
+    #[serde(default)]
+    pub name: String,
+    /// The stage and how to reach it.
+    pub stage: StageSection,
+    /// Host-side safety limits.
+    pub safety: SafetySection,
+    /// Where frames come from.
+    pub camera: CameraSource,
+    /// Pixel-to-stage calibration file (relative to the rig file).
+    pub calibration: PathBuf,
+}
+
+/// How the stage is driven and reached.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StageSection {
+    /// The driver; only PI GCS 2.0 exists so far.
+    pub driver: StageDriver,
+    /// Link kind.
+    pub link: LinkKind,
+    /// `host:port` for TCP (PI default port 50000), a tty path for serial.
+    pub address: String,
+    /// Serial baud rate (ignored for TCP).
+    #[serde(default = "default_baud")]
+    pub baud: u32,
+    /// Reply timeout per command, milliseconds.
+    #[serde(default = "default_timeout_ms")]
+    pub timeout_ms: u64,
+    /// Longest wait for a move to settle, milliseconds.
+    #[serde(default = "default_settle_ms")]
+    pub settle_timeout_ms: u64,
+    /// Controller axis identifiers in stage order (x, y[, z]).
+    pub axes: Vec<String>,
+    /// Micrometres per controller position unit (1 for PI piezo controllers
+    /// that speak um, 1000 for stages that speak mm).
+    pub unit_um: f64,
+    /// True for real hardware: the first move then needs confirmation.
+    pub real_hardware: bool,
+}
+
+fn default_baud() -> u32 {
+    115_200
+}
+fn default_timeout_ms() -> u64 {
+    1000
+}
+fn default_settle_ms() -> u64 {
+    10_000
+}
+
+/// Stage drivers nanopush has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StageDriver {
+    /// Physik Instrumente GCS 2.0 (E-727, E-709, C-884, ...).
+    Gcs,
+}
+
+/// How the controller is connected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LinkKind {
+    /// TCP/IP.
+    Tcp,
+    /// RS-232 or USB virtual COM port.
+    Serial,
+}
+
+/// Host-side limits in lab units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SafetySection {
+    /// Soft lower limits per axis, micrometres.
+    pub soft_min_um: Vec<f64>,
+    /// Soft upper limits per axis, micrometres.
+    pub soft_max_um: Vec<f64>,
+    /// Largest single move, micrometres.
+    pub max_step_um: f64,
+    /// Top speed, micrometres per second.
+    pub top_speed_um_s: f64,
+}
+
+/// Where camera frames come from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "source", rename_all = "lowercase", deny_unknown_fields)]
+pub enum CameraSource {
+    /// A folder the camera's own software writes TIFF/PNG frames into.
+    Folder {
+        /// The watched folder (relative to the rig file).
+        path: PathBuf,
+    },
+    /// An OpenCV VideoCapture: device index, video file or GStreamer pipeline.
+    Opencv {
+        /// What to open, e.g. `"0"`, `"movie.avi"`, or a pipeline string.
+        open: String,
+    },
+    /// A GenICam camera through Aravis.
+    Aravis {
+        /// Aravis device name (empty: the first camera found).
+        device: String,
+    },
+    /// The simulated microscope.
+    Simulated,
+}
+
+/// A rig file that could not be read or makes no sense.
+#[derive(Debug, thiserror::Error)]
+pub enum RigFileError {
+    /// The file could not be read.
+    #[error("cannot read rig file {path}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The TOML did not parse into a rig.
+    #[error("rig file {path} is not valid")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said (with line and column).
+        source: Box<toml::de::Error>,
+    },
+    /// The values are inconsistent.
+    #[error("rig file {path}: {reason}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+impl RigFile {
+    /// Parses and validates rig TOML; `path` is only used in messages.
+    pub fn from_toml(text: &str, path: &Path) -> Result<Self, RigFileError> {
+        let rig: RigFile = toml::from_str(text).map_err(|e| RigFileError::Parse {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        })?;
+        rig.validate().map_err(|reason| RigFileError::Invalid {
+            path: path.to_path_buf(),
+            reason,
+        })?;
+        Ok(rig)
+    }
+
+    /// Reads and validates a rig file; relative paths inside it are resolved
+    /// against its folder.
+    pub fn load(path: &Path) -> Result<Self, RigFileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| RigFileError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut rig = Self::from_toml(&text, path)?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        rig.calibration = base.join(&rig.calibration);
+        if let CameraSource::Folder { path } = &mut rig.camera {
+            *path = base.join(&*path);
+        }
+        Ok(rig)
+    }
+
+    /// Writes the rig as TOML.
+    pub fn to_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string(self)
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        if self.schema != RIG_SCHEMA {
+            return Err(format!(
+                "schema is {:?}, expected {RIG_SCHEMA:?}",
+                self.schema
+            ));
+        }
+        let n = self.stage.axes.len();
+        if n == 0 {
+            return Err("stage.axes is empty".into());
+        }
+        for axis in &self.stage.axes {
+            super::protocol::validate_axis(axis).map_err(|e| format!("stage.axes: {e}"))?;
+        }
+        if self.safety.soft_min_um.len() != n || self.safety.soft_max_um.len() != n {
+            return Err(format!(
+                "safety.soft_min_um and soft_max_um need {n} entries (one per axis)"
+            ));
+        }
+        if !(self.stage.unit_um.is_finite() && self.stage.unit_um > 0.0) {
+            return Err(format!(
+                "stage.unit_um must be positive, got {}",
+                self.stage.unit_um
+            ));
+        }
+        if self.stage.timeout_ms == 0 || self.stage.settle_timeout_ms == 0 {
+            return Err("stage.timeout_ms and stage.settle_timeout_ms must be positive".into());
+        }
+        if self.stage.link == LinkKind::Serial
+            && super::serial_link::baud_rate(self.stage.baud).is_none()
+        {
+            return Err(format!(
+                "stage.baud {} is not a supported rate",
+                self.stage.baud
+            ));
+        }
+        self.safety_limits()
+            .validate()
+            .map_err(|e| format!("safety: {e}"))
+    }
+
+    /// The safety limits in SI units.
+    pub fn safety_limits(&self) -> SafetyLimits {
+        SafetyLimits {
+            soft_limits: self
+                .safety
+                .soft_min_um
+                .iter()
+                .zip(&self.safety.soft_max_um)
+                .map(|(&lo, &hi)| SoftLimit {
+                    min_m: lo * 1e-6,
+                    max_m: hi * 1e-6,
+                })
+                .collect(),
+            max_step_m: self.safety.max_step_um * 1e-6,
+            max_speed_m_per_s: self.safety.top_speed_um_s * 1e-6,
+        }
+    }
+
+    /// Stage settings in SI units.
+    pub fn stage_settings(&self) -> StageSettings {
+        StageSettings {
+            axes: self.stage.axes.clone(),
+            unit_m: self.stage.unit_um * 1e-6,
+            limits: self.safety_limits(),
+            settle_timeout: Duration::from_millis(self.stage.settle_timeout_ms),
+            poll_interval: Duration::from_millis(10),
+        }
+    }
+
+    /// Reply timeout per command.
+    pub fn reply_timeout(&self) -> Duration {
+        Duration::from_millis(self.stage.timeout_ms)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const EXAMPLE: &str = include_str!("../../../calib/rig-gcs-sim.toml");
+
+    #[test]
+    fn example_rig_round_trips() {
+        let rig = RigFile::from_toml(EXAMPLE, Path::new("rig-gcs-sim.toml")).unwrap();
+        assert_eq!(rig.stage.axes, vec!["1", "2"]);
+        let text = rig.to_toml().unwrap();
+        let back = RigFile::from_toml(&text, Path::new("again.toml")).unwrap();
+        assert_eq!(rig, back);
+        let limits = rig.safety_limits();
+        assert!((limits.soft_limits[0].max_m - rig.safety.soft_max_um[0] * 1e-6).abs() < 1e-15);
+    }
+
+    #[test]
+    fn every_shipped_rig_file_loads() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib");
+        let mut count = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if name.starts_with("rig-") && name.ends_with(".toml") {
+                let rig = RigFile::load(&path).unwrap_or_else(|e| panic!("{name}: {e:?}"));
+                assert!(
+                    rig.calibration.starts_with(&dir),
+                    "calibration resolved against calib/"
+                );
+                count += 1;
+            }
+        }
+        assert!(count >= 3, "found {count} rig files");
+    }
+
+    #[test]
+    fn inconsistent_rigs_are_refused_with_a_reason() {
+        let bad = EXAMPLE.replace("soft_min_um = [", "soft_min_um = [1.0, ");
+        let err = RigFile::from_toml(&bad, Path::new("bad.toml")).unwrap_err();
+        assert!(matches!(err, RigFileError::Invalid { .. }), "{err}");
+        let bad = EXAMPLE.replace("nanopush.rig/1", "nanopush.rig/9");
+        assert!(RigFile::from_toml(&bad, Path::new("bad.toml")).is_err());
+        let bad = EXAMPLE.replace("link = \"tcp\"", "link = \"carrier-pigeon\"");
+        assert!(matches!(
+            RigFile::from_toml(&bad, Path::new("bad.toml")),
+            Err(RigFileError::Parse { .. })
+        ));
+    }
+}

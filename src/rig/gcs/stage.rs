@@ -1,0 +1,229 @@
+//! The safe, SI-unit face of a GCS stage: every move is checked against the
+//! soft limits and the largest step before a byte is sent; the first move on
+//! real hardware needs confirmation; Ctrl-C, a lost link or an abandoned wait
+//! halt the stage; dropping a stage that may still move halts it too.
+
+use super::confirmation::FirstMoveConfirmation;
+use super::controller::GcsController;
+use super::error::GcsError;
+use super::safety::{SafetyLimits, SafetyViolation};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// How a stage maps to its controller and what it may do.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageSettings {
+    /// Controller axis identifiers, in stage-coordinate order (x, y[, z]).
+    pub axes: Vec<String>,
+    /// Metres per controller unit (1e-6 when the controller speaks micrometres).
+    pub unit_m: f64,
+    /// Host-side limits.
+    pub limits: SafetyLimits,
+    /// Longest wait for a move to settle before the stage is halted.
+    pub settle_timeout: Duration,
+    /// Pause between on-target polls.
+    pub poll_interval: Duration,
+}
+
+/// A GCS controller behind the host-side safety checks, speaking metres.
+pub struct GcsStage {
+    controller: GcsController,
+    settings: StageSettings,
+    confirmation: FirstMoveConfirmation,
+    interrupt: Arc<AtomicBool>,
+    may_be_moving: bool,
+}
+
+impl GcsStage {
+    /// Wraps a controller; checks the settings and that every axis exists.
+    pub fn new(
+        mut controller: GcsController,
+        settings: StageSettings,
+        confirmation: FirstMoveConfirmation,
+        interrupt: Arc<AtomicBool>,
+    ) -> Result<Self, GcsError> {
+        settings
+            .limits
+            .validate()
+            .map_err(GcsError::InvalidArgument)?;
+        if !(settings.unit_m.is_finite() && settings.unit_m > 0.0) {
+            return Err(GcsError::InvalidArgument(format!(
+                "unit must be positive, got {} m",
+                settings.unit_m
+            )));
+        }
+        if settings.axes.len() != settings.limits.soft_limits.len() {
+            return Err(GcsError::InvalidArgument(format!(
+                "{} axes but {} soft limits",
+                settings.axes.len(),
+                settings.limits.soft_limits.len()
+            )));
+        }
+        let present = controller.axes()?;
+        if let Some(missing) = settings.axes.iter().find(|a| !present.contains(a)) {
+            return Err(GcsError::InvalidArgument(format!(
+                "axis {missing} is not on the controller (it has {present:?})"
+            )));
+        }
+        Ok(Self {
+            controller,
+            settings,
+            confirmation,
+            interrupt,
+            may_be_moving: false,
+        })
+    }
+
+    /// The underlying controller, for queries the stage does not wrap.
+    pub fn controller(&mut self) -> &mut GcsController {
+        &mut self.controller
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &StageSettings {
+        &self.settings
+    }
+
+    fn check_interrupt(&mut self) -> Result<(), GcsError> {
+        if self.interrupt.load(Ordering::SeqCst) {
+            self.controller.halt_after_failure();
+            self.may_be_moving = false;
+            return Err(GcsError::Interrupted);
+        }
+        Ok(())
+    }
+
+    /// Runs `f`; if it fails while the stage may be moving, halts first.
+    fn guarded<T>(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<T, GcsError>,
+    ) -> Result<T, GcsError> {
+        let result = f(self);
+        if result.is_err() && self.may_be_moving {
+            if self.controller.halt_after_failure() {
+                self.may_be_moving = false;
+            } else {
+                tracing::error!(
+                    "could not halt the stage at {}: check it by hand",
+                    self.controller.endpoint()
+                );
+            }
+        }
+        result
+    }
+
+    /// Metres to controller units, rounded to 1e-9 unit (far below any
+    /// stage's resolution) so that 60e-6 m goes on the wire as `60`, not
+    /// `59.99999999999999`.
+    fn to_units(&self, value_m: f64) -> f64 {
+        (value_m / self.settings.unit_m * 1e9).round() / 1e9
+    }
+
+    /// Current position, metres, per axis.
+    pub fn position_m(&mut self) -> Result<Vec<f64>, GcsError> {
+        let axes: Vec<String> = self.settings.axes.clone();
+        let refs: Vec<&str> = axes.iter().map(String::as_str).collect();
+        let unit = self.settings.unit_m;
+        let pos = self.guarded(|s| s.controller.positions(&refs))?;
+        Ok(pos.into_iter().map(|p| p * unit).collect())
+    }
+
+    /// Switches closed-loop servo on for every stage axis.
+    pub fn enable_servo(&mut self) -> Result<(), GcsError> {
+        self.check_interrupt()?;
+        let axes = self.settings.axes.clone();
+        let refs: Vec<(&str, bool)> = axes.iter().map(|a| (a.as_str(), true)).collect();
+        self.controller.set_servo(&refs)
+    }
+
+    /// Sets the closed-loop speed of every axis (checked against the top speed).
+    pub fn set_speed_m_per_s(&mut self, speed_m_per_s: f64) -> Result<(), GcsError> {
+        self.settings.limits.check_speed(speed_m_per_s)?;
+        self.check_interrupt()?;
+        let value = self.to_units(speed_m_per_s);
+        let axes = self.settings.axes.clone();
+        let pairs: Vec<(&str, f64)> = axes.iter().map(|a| (a.as_str(), value)).collect();
+        self.controller.set_velocity(&pairs)
+    }
+
+    /// Starts an absolute move to `target_m` (metres, one per axis) after the
+    /// soft-limit and step checks; returns once the controller accepted it.
+    pub fn start_move_m(&mut self, target_m: &[f64]) -> Result<(), GcsError> {
+        self.settings
+            .limits
+            .check_target(&self.settings.axes, target_m)?;
+        self.check_interrupt()?;
+        let from_m = self.position_m()?;
+        self.settings.limits.check_step(&from_m, target_m)?;
+        if let FirstMoveConfirmation::Ask(ask) = &mut self.confirmation {
+            let text = format!(
+                "first move on {}: axes {:?} from {:?} um to {:?} um",
+                self.controller.endpoint(),
+                self.settings.axes,
+                from_m.iter().map(|v| v * 1e6).collect::<Vec<_>>(),
+                target_m.iter().map(|v| v * 1e6).collect::<Vec<_>>()
+            );
+            if !ask(&text) {
+                return Err(SafetyViolation::NotConfirmed.into());
+            }
+            self.confirmation = FirstMoveConfirmation::NotNeeded;
+        }
+        let axes = self.settings.axes.clone();
+        let units: Vec<f64> = target_m.iter().map(|&t| self.to_units(t)).collect();
+        let pairs: Vec<(&str, f64)> = axes.iter().map(String::as_str).zip(units).collect();
+        self.may_be_moving = true;
+        self.guarded(|s| s.controller.move_to(&pairs))
+    }
+
+    /// Waits until every axis is on target; halts the stage and fails on
+    /// Ctrl-C, on a link failure, or after the settle timeout.
+    pub fn wait_settled(&mut self) -> Result<(), GcsError> {
+        let deadline = Instant::now() + self.settings.settle_timeout;
+        let axes = self.settings.axes.clone();
+        let refs: Vec<&str> = axes.iter().map(String::as_str).collect();
+        loop {
+            self.check_interrupt()?;
+            let settled = self.guarded(|s| s.controller.on_target(&refs))?;
+            if settled.iter().all(|&b| b) {
+                self.may_be_moving = false;
+                return Ok(());
+            }
+            if Instant::now() >= deadline {
+                let timeout = self.settings.settle_timeout;
+                return self.guarded(|_| {
+                    Err(GcsError::Timeout {
+                        command: "ONT? (waiting to settle)".into(),
+                        timeout,
+                        partial: String::new(),
+                    })
+                });
+            }
+            std::thread::sleep(self.settings.poll_interval);
+        }
+    }
+
+    /// Moves to `target_m` and waits until settled.
+    pub fn move_to_m(&mut self, target_m: &[f64]) -> Result<(), GcsError> {
+        self.start_move_m(target_m)?;
+        self.wait_settled()
+    }
+
+    /// Halts every axis now.
+    pub fn halt(&mut self) -> Result<(), GcsError> {
+        self.controller.halt(&[])?;
+        self.may_be_moving = false;
+        Ok(())
+    }
+}
+
+impl Drop for GcsStage {
+    fn drop(&mut self) {
+        if self.may_be_moving && !self.controller.halt_after_failure() {
+            tracing::error!(
+                "stage dropped while it may be moving and HLT failed: check {}",
+                self.controller.endpoint()
+            );
+        }
+    }
+}

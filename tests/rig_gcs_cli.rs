@@ -1,0 +1,90 @@
+//! `nanopush rig sim-gcs` and `nanopush rig probe` from the outside: the
+//! probe reads a running simulator through a rig file, and dry-runs.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+
+fn nanopush() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+}
+
+/// Kills the simulator child (by its own id) when the test ends, even on panic.
+struct Sim(Child);
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn rig_text(port: u16) -> String {
+    std::fs::read_to_string("calib/rig-gcs-sim.toml")
+        .unwrap()
+        .replace("127.0.0.1:50000", &format!("127.0.0.1:{port}"))
+}
+
+#[test]
+fn probe_reads_a_running_simulator() {
+    let mut child = nanopush()
+        .args(["rig", "sim-gcs", "--port", "0"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let sim = Sim(child);
+    let mut first = String::new();
+    // Keep the reader (the pipe) open while the simulator runs.
+    let mut reader = BufReader::new(stdout);
+    reader.read_line(&mut first).unwrap();
+    let port: u16 = first.trim().rsplit(':').next().unwrap().parse().unwrap();
+
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(&rig, rig_text(port)).unwrap();
+    let out = nanopush()
+        .args(["rig", "probe", "--rig"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("GCS syntax:     2"), "{text}");
+    assert!(text.contains("axes:           1 2 3"), "{text}");
+    assert!(text.contains("pending error:  none"), "{text}");
+    drop(sim);
+    drop(reader);
+}
+
+#[test]
+fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    std::fs::write(&rig, rig_text(port)).unwrap();
+    let out = nanopush()
+        .args(["rig", "probe", "--dry-run", "--rig"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("\"*IDN?\\n\""), "{text}");
+    assert!(!text.contains("MOV "), "probe must not move: {text}");
+
+    let out = nanopush()
+        .args(["rig", "probe", "--rig"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("connecting"));
+}

@@ -1,0 +1,167 @@
+//! Host-side safety: soft limits and step limits refuse a move before any
+//! motion byte is sent, the dry run logs the exact bytes, the first real move
+//! needs confirmation, and Ctrl-C halts.
+
+use nanopush::rig::gcs::{
+    self, FirstMoveConfirmation, GcsError, GcsStage, RigFile, SafetyViolation, SentLog,
+};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+fn dry_stage(confirmation: FirstMoveConfirmation) -> (GcsStage, SentLog, Arc<AtomicBool>) {
+    let rig = RigFile::load(Path::new("calib/rig-gcs-sim.toml")).unwrap();
+    let (ctrl, log) = gcs::connect(&rig, true).unwrap();
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let stage = GcsStage::new(
+        ctrl,
+        rig.stage_settings(),
+        confirmation,
+        Arc::clone(&interrupt),
+    )
+    .unwrap();
+    (stage, log.unwrap(), interrupt)
+}
+
+#[test]
+fn open_stage_from_a_real_hardware_rig_in_dry_run_sends_nothing_real() {
+    let mut rig = RigFile::load(Path::new("calib/rig-pi-e727-serial.toml")).unwrap();
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let (mut stage, log) = gcs::open_stage(&rig, true, false, interrupt.clone()).unwrap();
+    let log = log.expect("a dry run keeps a log");
+    stage.enable_servo().unwrap();
+    stage.move_to_m(&[52e-6, 50e-6, 7.5e-6]).unwrap();
+    assert!(
+        sent(&log).contains(&"MOV 1 52 2 50 3 7.5\n".to_string()),
+        "{:?}",
+        sent(&log)
+    );
+    // Without dry run the serial tty of the example does not exist here.
+    rig.stage.address = "/nonexistent/ttyUSB0".into();
+    assert!(matches!(
+        gcs::open_stage(&rig, false, false, interrupt),
+        Err(GcsError::Io { .. })
+    ));
+}
+
+fn sent(log: &SentLog) -> Vec<String> {
+    log.lock()
+        .unwrap()
+        .iter()
+        .map(|b| String::from_utf8_lossy(b).into_owned())
+        .collect()
+}
+
+fn motion_commands(log: &SentLog) -> Vec<String> {
+    sent(log)
+        .into_iter()
+        .filter(|c| c.starts_with("MOV") || c.starts_with("VEL"))
+        .collect()
+}
+
+#[test]
+fn dry_run_logs_the_exact_bytes_of_a_move() {
+    let (mut stage, log, _) = dry_stage(FirstMoveConfirmation::NotNeeded);
+    stage.enable_servo().unwrap();
+    stage.move_to_m(&[60e-6, 45.5e-6]).unwrap();
+    let sent = sent(&log);
+    assert_eq!(sent[0], "SAI?\n");
+    assert!(sent.contains(&"SVO 1 1 2 1\n".to_string()), "{sent:?}");
+    assert!(sent.contains(&"MOV 1 60 2 45.5\n".to_string()), "{sent:?}");
+    assert_eq!(
+        sent.iter().filter(|c| *c == "ERR?\n").count(),
+        2,
+        "ERR? after each setting command"
+    );
+    let pos = stage.position_m().unwrap();
+    assert!((pos[0] - 60e-6).abs() < 1e-12 && (pos[1] - 45.5e-6).abs() < 1e-12);
+}
+
+#[test]
+fn soft_limit_violation_sends_nothing_at_all() {
+    let (mut stage, log, _) = dry_stage(FirstMoveConfirmation::NotNeeded);
+    stage.enable_servo().unwrap();
+    let before = sent(&log).len();
+    let err = stage.start_move_m(&[99e-6, 50e-6]).unwrap_err();
+    assert!(
+        matches!(err, GcsError::Safety(SafetyViolation::OutsideSoftLimits { ref axis, .. }) if axis == "1"),
+        "{err}"
+    );
+    assert_eq!(
+        sent(&log).len(),
+        before,
+        "bytes were sent for a refused move"
+    );
+    let err = stage.start_move_m(&[f64::NAN, 50e-6]).unwrap_err();
+    assert!(
+        matches!(err, GcsError::Safety(SafetyViolation::BadTarget(_))),
+        "{err}"
+    );
+    assert_eq!(sent(&log).len(), before);
+}
+
+#[test]
+fn too_large_a_step_or_speed_sends_no_motion() {
+    let (mut stage, log, _) = dry_stage(FirstMoveConfirmation::NotNeeded);
+    stage.enable_servo().unwrap();
+    // From (50, 50) um, 25 um is over the 20 um largest step.
+    let err = stage.start_move_m(&[75e-6, 50e-6]).unwrap_err();
+    assert!(
+        matches!(err, GcsError::Safety(SafetyViolation::StepTooLarge { .. })),
+        "{err}"
+    );
+    let err = stage.set_speed_m_per_s(250e-6).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            GcsError::Safety(SafetyViolation::SpeedNotAllowed { .. })
+        ),
+        "{err}"
+    );
+    assert!(
+        motion_commands(&log).is_empty(),
+        "{:?}",
+        motion_commands(&log)
+    );
+    stage.set_speed_m_per_s(150e-6).unwrap();
+    assert_eq!(motion_commands(&log), vec!["VEL 1 150 2 150\n"]);
+}
+
+#[test]
+fn first_move_needs_confirmation_once() {
+    let asked = Arc::new(AtomicUsize::new(0));
+    let counter = Arc::clone(&asked);
+    let refuse = FirstMoveConfirmation::Ask(Box::new(|_: &str| false));
+    let (mut stage, log, _) = dry_stage(refuse);
+    stage.enable_servo().unwrap();
+    let err = stage.start_move_m(&[55e-6, 50e-6]).unwrap_err();
+    assert!(
+        matches!(err, GcsError::Safety(SafetyViolation::NotConfirmed)),
+        "{err}"
+    );
+    assert!(motion_commands(&log).is_empty());
+
+    let accept = FirstMoveConfirmation::Ask(Box::new(move |text: &str| {
+        assert!(text.contains("first move"), "{text}");
+        counter.fetch_add(1, Ordering::SeqCst);
+        true
+    }));
+    let (mut stage, log, _) = dry_stage(accept);
+    stage.enable_servo().unwrap();
+    stage.move_to_m(&[55e-6, 50e-6]).unwrap();
+    stage.move_to_m(&[60e-6, 50e-6]).unwrap();
+    assert_eq!(asked.load(Ordering::SeqCst), 1);
+    assert_eq!(motion_commands(&log).len(), 2);
+}
+
+#[test]
+fn interrupt_halts_and_refuses_further_moves() {
+    let (mut stage, log, interrupt) = dry_stage(FirstMoveConfirmation::NotNeeded);
+    stage.enable_servo().unwrap();
+    interrupt.store(true, Ordering::SeqCst);
+    let err = stage.start_move_m(&[55e-6, 50e-6]).unwrap_err();
+    assert!(matches!(err, GcsError::Interrupted), "{err}");
+    let sent = sent(&log);
+    assert!(sent.contains(&"HLT\n".to_string()), "{sent:?}");
+    assert!(motion_commands(&log).is_empty());
+}
