@@ -1,8 +1,8 @@
 //! Pushing-model benchmarks: one paper-scene push (30 s of stage travel),
 //! target <= 50 us median; 10,000 pushes with random parameters, target <= 1 s.
 
-use criterion::{criterion_group, criterion_main, Criterion};
-use nanopush::model::{simulate_push, PushParams, Scene};
+use criterion::{Criterion, criterion_group, criterion_main};
+use nanopush::model::{PushParams, Scene, simulate_push};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
@@ -10,7 +10,8 @@ use std::path::Path;
 use std::time::Duration;
 
 fn paper() -> Scene {
-    Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml")).expect("paper scene")
+    Scene::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"))
+        .expect("paper scene")
 }
 
 fn random_pushes(n: usize, seed: u64) -> Vec<(Scene, PushParams)> {
@@ -40,8 +41,11 @@ fn random_pushes(n: usize, seed: u64) -> Vec<(Scene, PushParams)> {
 fn benches(c: &mut Criterion) {
     let s = paper();
     let mut g = c.benchmark_group("model");
-    g.warm_up_time(Duration::from_secs(1)).measurement_time(Duration::from_secs(3));
-    g.bench_function("paper_push_30s", |b| b.iter(|| simulate_push(black_box(&s), black_box(&s.push)).unwrap()));
+    g.warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(3));
+    g.bench_function("paper_push_30s", |b| {
+        b.iter(|| simulate_push(black_box(&s), black_box(&s.push)).unwrap())
+    });
     let pushes = random_pushes(10_000, 7);
     g.sample_size(10);
     g.bench_function("random_pushes_10k", |b| {
