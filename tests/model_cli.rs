@@ -126,9 +126,12 @@ fn bad_scene(edit: impl Fn(String) -> String) -> (bool, String) {
     )
 }
 
+/// A text edit turning the paper scene into a bad one.
+type Edit = Box<dyn Fn(String) -> String>;
+
 #[test]
 fn bad_scenes_exit_non_zero_naming_the_field() {
-    let cases: Vec<(&str, Box<dyn Fn(String) -> String>)> = vec![
+    let cases: Vec<(&str, Edit)> = vec![
         (
             "particle.radius_um",
             Box::new(|s: String| s.replace("radius_um = 5.0", "radius_um = -5.0")),

@@ -13,7 +13,7 @@
 //! | spinning | `push.offset_um != 0` | uniform-pressure friction moment (2/3) a (mu F + tau A); the real pressure shifts 2/3 by <~20 % |
 //! | tip riding over | `push.hold_contact_angle = false` | tip slip along the sphere vs the arc to the top, (R_p + R_t) phi; small-displacement geometry |
 //! | particle-particle contact | `[[neighbours]]` present | the pushed sphere reaching a neighbour's surface ends the push (outcome `particle-contact`) |
-//! | charge build-up | `environment.charge_adhesion_gain > 0` | W_tip(t) = W (1 + g (1 - exp(-t_session/tau))); phenomenological, from the reported ~30 min sticking |
+//! | charge build-up | `environment.charge_adhesion_gain > 0` | W_tip(t) = W (1 + g (1 - exp(-t_session/tau))); phenomenological, from the reported ~30 min sticking; no effect while the tip contact is capped at R_t |
 //! | capillarity | RH > 40 % | saturated meniscus F = 4 pi R gamma cos(theta_c) added to the substrate load (Israelachvili); ignores meniscus kinetics and the RH dependence above threshold |
 //! | piezo drift | `environment.drift_nm_s != 0` | constant drift added to stage travel; creep folded into it |
 //! | substrate tilt | `substrate.tilt_deg != 0` | rotates the force angle seen by the substrate by the tilt; gravity neglected (1e-11 N for 5 um PS) |

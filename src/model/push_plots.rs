@@ -30,6 +30,7 @@ pub fn write_push_outputs(
             line("critical sliding F_s*", &|r| r.critical_sliding_n * 1e6),
         ],
         markers: false,
+        lines: true,
         log_x: false,
     };
     let position = LineChart {
@@ -42,6 +43,7 @@ pub fn write_push_outputs(
             line("particle", &|r| r.particle_m * 1e6),
         ],
         markers: false,
+        lines: true,
         log_x: false,
     };
     let mut out = vec![csv];

@@ -195,7 +195,7 @@ pub fn chart(rows: &[StudyRow]) -> LineChart {
     let series = scenes
         .iter()
         .map(|s| {
-            let mut pts: Vec<(f64, f64)> = rows
+            let pts: Vec<(f64, f64)> = rows
                 .iter()
                 .filter(|r| r.scene == *s)
                 .map(|r| {
@@ -205,7 +205,6 @@ pub fn chart(rows: &[StudyRow]) -> LineChart {
                     )
                 })
                 .collect();
-            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
             Series {
                 name: s.to_string(),
                 points: pts,
@@ -213,11 +212,13 @@ pub fn chart(rows: &[StudyRow]) -> LineChart {
         })
         .collect();
     LineChart {
-        title: "pushing model: onset error vs wall time per push".into(),
+        title: "pushing model: onset error vs wall time per push (one point per solver setting)"
+            .into(),
         x_label: "wall time per push [us] (log)".into(),
         y_label: "log10 onset error [s] (floor 1e-12)".into(),
         series,
         markers: true,
+        lines: false,
         log_x: true,
     }
 }

@@ -26,6 +26,8 @@ pub struct LineChart {
     pub series: Vec<Series>,
     /// Draw markers on points (for sparse data such as a study).
     pub markers: bool,
+    /// Join points with lines (false: a scatter plot with markers).
+    pub lines: bool,
     /// Use a logarithmic x axis (positive x only).
     pub log_x: bool,
 }
@@ -106,17 +108,24 @@ impl LineChart {
                             p.0.is_finite() && p.1.is_finite() && (!self.log_x || p.0 > 0.0)
                         })
                         .collect();
-                    chart
-                        .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
-                        .map_err(|e| e.to_string())?
-                        .label(s.name.clone())
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                        });
-                    if self.markers {
+                    if self.lines {
                         chart
+                            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+                            .map_err(|e| e.to_string())?
+                            .label(s.name.clone())
+                            .legend(move |(x, y)| {
+                                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                            });
+                    }
+                    if self.markers || !self.lines {
+                        let drawn = chart
                             .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
                             .map_err(|e| e.to_string())?;
+                        if !self.lines {
+                            drawn
+                                .label(s.name.clone())
+                                .legend(move |(x, y)| Circle::new((x + 10, y), 4, color.filled()));
+                        }
                     }
                 }
                 chart
@@ -124,7 +133,11 @@ impl LineChart {
                     .background_style(WHITE.mix(0.85))
                     .border_style(BLACK)
                     .label_font(("sans-serif", 16))
-                    .position(SeriesLabelPosition::UpperLeft)
+                    .position(if self.lines {
+                        SeriesLabelPosition::UpperLeft
+                    } else {
+                        SeriesLabelPosition::MiddleRight
+                    })
                     .draw()
                     .map_err(|e| e.to_string())?;
             }};
@@ -181,6 +194,7 @@ mod tests {
                 points: vec![(0.0, 0.0), (1.0, 2.0), (2.0, f64::INFINITY)],
             }],
             markers: true,
+            lines: true,
             log_x: false,
         };
         let paths = chart.write_both(dir.path(), "c").unwrap();
