@@ -8,3 +8,14 @@ pub mod sim;
 pub mod stage;
 
 pub use error::RigError;
+
+use crate::calib::affine::AffineCalibration;
+
+/// Everything the executor drives: the nanostage, the coarse stage, the camera.
+/// A rig without a coarse stage refuses coarse moves with a [`RigError`].
+pub trait Rig: stage::NanoStage + stage::CoarseStage + camera::Camera {
+    /// Rig time in seconds: the simulated clock, or wall time since start on hardware.
+    fn now_s(&self) -> f64;
+    /// The camera's pixel -> nanostage calibration.
+    fn calibration(&self) -> &AffineCalibration;
+}

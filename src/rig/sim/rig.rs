@@ -76,11 +76,6 @@ impl SimRig {
         }
     }
 
-    /// The camera's pixel -> nanostage calibration (what a lab would have measured).
-    pub fn calibration(&self) -> &AffineCalibration {
-        &self.camera.calibration
-    }
-
     /// Frames grabbed so far (dropped ones included).
     pub fn frames(&self) -> usize {
         self.frames
@@ -128,6 +123,16 @@ impl SimRig {
                 angle_rad: self.camera.tip_angle_rad,
             }),
         })
+    }
+}
+
+impl crate::rig::Rig for SimRig {
+    fn now_s(&self) -> f64 {
+        self.stage.clock_s()
+    }
+    /// The camera's pixel -> nanostage calibration (what a lab would have measured).
+    fn calibration(&self) -> &AffineCalibration {
+        &self.camera.calibration
     }
 }
 
