@@ -1,1 +1,2 @@
 //! Synthetic microscope frames, overlays, plots and animations.
+pub mod plan_overlay;
