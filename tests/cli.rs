@@ -11,13 +11,18 @@ fn help_lists_every_top_level_command() {
     let out = nanopush().arg("--help").output().expect("run nanopush");
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
-    for cmd in ["simulate", "study", "detect", "plan", "assemble", "dry-run", "rig"] {
+    for cmd in [
+        "simulate", "study", "detect", "plan", "assemble", "dry-run", "rig",
+    ] {
         assert!(text.contains(cmd), "--help does not list `{cmd}`:\n{text}");
     }
 }
 
 #[test]
 fn unknown_command_exits_non_zero() {
-    let out = nanopush().arg("no-such-command").output().expect("run nanopush");
+    let out = nanopush()
+        .arg("no-such-command")
+        .output()
+        .expect("run nanopush");
     assert!(!out.status.success());
 }

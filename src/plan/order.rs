@@ -371,6 +371,11 @@ impl Scheduler<'_> {
                     if self.reroute(m, Some(&c)) {
                         return true;
                     }
+                    if let Some(spot) = self.buffer_spot(q, Some(&c)) {
+                        self.push(q, spot, true);
+                        self.compute_conflicts(m);
+                        return true;
+                    }
                 }
                 Role::Placed => {}
             }
@@ -381,7 +386,10 @@ impl Scheduler<'_> {
                 return true;
             }
         }
-        // 3. Wait cycle: reroute the pending move that waits for the fewest others.
+        // 3. Wait cycle (no move is ready): reroute the move that waits for the fewest others.
+        if !blocked.is_empty() {
+            return false;
+        }
         let mut cands: Vec<usize> = (0..self.moves.len()).filter(|&k| self.pending[k]).collect();
         cands.sort_by_key(|&k| (self.wait[k], k));
         for k in cands.into_iter().take(32) {
@@ -419,34 +427,47 @@ impl Scheduler<'_> {
         free
     }
 
+    /// Candidate spots around `centre`: 48 directions, distances from half a
+    /// pitch to eight pitches in quarter-pitch steps.
     fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
         let pitch = 2.0 * r + 1e-6;
         let mut spots = Vec::new();
-        for ring in [1.0f64, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0] {
-            let n = (8.0 * ring).ceil() as usize;
-            for a in 0..n {
-                let ang = std::f64::consts::TAU * a as f64 / n as f64;
-                spots.push(centre + Vector2::new(ang.cos(), ang.sin()) * pitch * ring);
+        for step in 2..=32 {
+            let dist = pitch * step as f64 / 4.0;
+            for a in 0..48 {
+                let ang = std::f64::consts::TAU * a as f64 / 48.0;
+                spots.push(centre + Vector2::new(ang.cos(), ang.sin()) * dist);
             }
         }
         spots
     }
 
-    /// A free spot near idle particle q, reachable now, outside corridor `avoid`.
+    /// A free spot near particle q, reachable now, outside corridor `avoid`:
+    /// off every site if possible, else off-site-agnostic (a temporary parking
+    /// spot; whoever it blocks later gets repaired in turn).
     fn buffer_spot(&self, q: usize, avoid: Option<&Corridor>) -> Option<Vector2<f64>> {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
         let mut spots = self.ring(from, r);
         spots.sort_by(|a, b| (a - from).norm().total_cmp(&(b - from).norm()));
-        spots.into_iter().find(|&spot| {
-            self.spot_free(q, spot, None)
-                && avoid.is_none_or(|c| !c.hits(spot, r, cl))
+        let usable = |spot: &Vector2<f64>, off_sites: bool| {
+            let free = if off_sites {
+                self.spot_free(q, *spot, None)
+            } else {
+                self.in_reach(*spot) && self.occ.disc_free(*spot, r, q, cl)
+            };
+            free && avoid.is_none_or(|c| !c.hits(*spot, r, cl))
                 && self
                     .occ
-                    .first_hit(&self.corridor(q, from, spot), q, cl)
+                    .first_hit(&self.corridor(q, from, *spot), q, cl)
                     .is_none()
-        })
+        };
+        spots
+            .iter()
+            .find(|s| usable(s, true))
+            .or_else(|| spots.iter().find(|s| usable(s, false)))
+            .copied()
     }
 
     /// Moves pending move k's particle to a waypoint near its site whose last
