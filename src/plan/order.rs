@@ -153,6 +153,7 @@ struct Scheduler<'a> {
     steps: Vec<Step>,
     buffer_pushes: usize,
     tip: Option<Vector2<f64>>,
+    releases_ready: Vec<usize>,
 }
 
 /// Orders the moves `pairs` (particle index, site index) into collision-free pushes.
@@ -195,6 +196,7 @@ pub fn order_moves(
         steps: Vec::new(),
         buffer_pushes: 0,
         tip: config.tip_start_m,
+        releases_ready: Vec::new(),
     };
     for k in 0..sch.moves.len() {
         sch.compute_conflicts(k);
@@ -319,17 +321,9 @@ impl Scheduler<'_> {
                 }
             }
             if let Some(k) = chosen {
-                let (p, to) = self.moves[k];
-                self.push(p, to, false);
-                self.pending[k] = false;
-                self.role[p] = Role::Placed;
+                self.complete(k);
                 remaining -= 1;
-                for b in std::mem::take(&mut self.releases[k]) {
-                    self.wait[b] -= 1;
-                    if self.wait[b] == 0 && self.pending[b] {
-                        ready.push(b);
-                    }
-                }
+                ready.extend(self.releases_ready.drain(..));
                 continue;
             }
             repairs += 1;
@@ -338,7 +332,12 @@ impl Scheduler<'_> {
                     "{remaining} of {total} moves still blocked after {max_repairs} buffer moves and detours"
                 )));
             }
-            if !self.repair(&blocked) {
+            let repaired = self.repair(&blocked);
+            remaining = self.pending.iter().filter(|&&p| p).count();
+            if remaining == 0 {
+                break;
+            }
+            if !repaired {
                 let k = (0..total).find(|&k| self.pending[k]).unwrap_or(0);
                 return Err(PlanError::Blocked(format!(
                     "particle {} cannot reach site at ({:.2}, {:.2}) um: no free buffer spot or detour",
@@ -352,6 +351,20 @@ impl Scheduler<'_> {
                 .collect();
         }
         Ok(())
+    }
+
+    /// Executes move k (its corridor is free) and releases the moves waiting for it.
+    fn complete(&mut self, k: usize) {
+        let (p, to) = self.moves[k];
+        self.push(p, to, false);
+        self.pending[k] = false;
+        self.role[p] = Role::Placed;
+        for b in std::mem::take(&mut self.releases[k]) {
+            self.wait[b] -= 1;
+            if self.wait[b] == 0 && self.pending[b] {
+                self.releases_ready.push(b);
+            }
+        }
     }
 
     /// Tries one repair: move a blocker out of the way or reroute a move. True on success.
@@ -386,7 +399,23 @@ impl Scheduler<'_> {
                 return true;
             }
         }
-        // 3. Wait cycle (no move is ready): reroute the move that waits for the fewest others.
+        // 3. Force the nearest waiting move whose corridor is free now; the
+        //    moves that waited for its site get detours later if they need them.
+        let tip = self.tip;
+        let mut waiting: Vec<(f64, usize)> = (0..self.moves.len())
+            .filter(|&k| self.pending[k] && self.wait[k] > 0)
+            .map(|k| (tip.map(|t| (self.landing(k) - t).norm()).unwrap_or(0.0), k))
+            .collect();
+        waiting.sort_by(|a, b| a.0.total_cmp(&b.0));
+        for (_, k) in waiting {
+            let (p, to) = self.moves[k];
+            let c = self.corridor(p, self.occ.pos[p], to);
+            if self.occ.first_hit(&c, p, self.config.clearance_m).is_none() {
+                self.complete(k);
+                return true;
+            }
+        }
+        // 4. Wait cycle (no move is ready): reroute the move that waits for the fewest others.
         if !blocked.is_empty() {
             return false;
         }
