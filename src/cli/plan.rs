@@ -1,10 +1,181 @@
-//! `nanopush plan`: not built yet (issue 4).
+//! `nanopush plan`: pattern + particles -> ordered push plan, with a summary.
+
+use anyhow::{Context, bail};
+use nanopush_plan_api::*;
+use std::path::PathBuf;
+
+mod nanopush_plan_api {
+    pub use crate::plan::layout::Layout;
+    pub use crate::plan::pattern::transform::{Reachable, place_at, place_optimised, rotate};
+    pub use crate::plan::pattern::{Pattern, site_list};
+    pub use crate::plan::{
+        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
+        verify,
+    };
+}
 
 /// Arguments of `nanopush plan`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Text to write with the built-in font (A-Z, 0-9, space).
+    #[arg(long, conflicts_with = "pattern", required_unless_present = "pattern")]
+    pub text: Option<String>,
+    /// Pattern file: site list (.toml/.json, um) or bitmap image (dark pixel = site).
+    #[arg(long)]
+    pub pattern: Option<PathBuf>,
+    /// Particle layout (nanopush.layout/1 JSON).
+    #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
+    pub layout: Option<PathBuf>,
+    /// Microscope frame to detect particles in (needs --calib).
+    #[arg(long, requires = "calib")]
+    pub frame: Option<PathBuf>,
+    /// Pixel-to-stage calibration (TOML) for --frame.
+    #[arg(long)]
+    pub calib: Option<PathBuf>,
+    /// Site pitch in um (default: particle diameter + 0.5 um).
+    #[arg(long)]
+    pub pitch_um: Option<f64>,
+    /// Pattern rotation, degrees counter-clockwise.
+    #[arg(long, default_value_t = 0.0)]
+    pub rotation_deg: f64,
+    /// Pattern centre "X,Y" in um (default: placed to minimise push distance).
+    #[arg(long, value_parser = parse_xy)]
+    pub at: Option<(f64, f64)>,
+    /// Contact angle of every push, degrees from the substrate normal.
+    #[arg(long, default_value_t = 0.0)]
+    pub contact_angle_deg: f64,
+    /// Tip disc radius in um.
+    #[arg(long, default_value_t = 1.0)]
+    pub tip_radius_um: f64,
+    /// Pushing speed in um/s (for the predicted time).
+    #[arg(long, default_value_t = 1.0)]
+    pub speed_um_s: f64,
+    /// Assignment method.
+    #[arg(long, value_enum, default_value_t = AssignmentMethod::Exact)]
+    pub method: AssignmentMethod,
+    /// Write the plan here (nanopush.plan/1 JSON).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Draw the plan over the layout (.svg or .png).
+    #[arg(long)]
+    pub overlay: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
 
-/// Refuses with a clear message until issue 4 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush plan` is not built yet (issue 4)")
+fn parse_xy(s: &str) -> Result<(f64, f64), String> {
+    let (x, y) = s
+        .split_once(',')
+        .ok_or_else(|| format!("expected X,Y in um, got {s:?}"))?;
+    let x: f64 = x.trim().parse().map_err(|e| format!("bad X {x:?}: {e}"))?;
+    let y: f64 = y.trim().parse().map_err(|e| format!("bad Y {y:?}: {e}"))?;
+    if !x.is_finite() || !y.is_finite() {
+        return Err(format!("X,Y must be finite, got {s:?}"));
+    }
+    Ok((x, y))
+}
+
+/// Plans and prints the summary; writes the plan and overlay when asked.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.frame.is_some() {
+        return Err(PlanError::NeedsVision.into());
+    }
+    let layout_path = args.layout.as_ref().context("--layout is required")?;
+    let layout = Layout::read(layout_path)?;
+    let radius = layout.max_radius_m();
+    if radius <= 0.0 {
+        bail!("layout {} has no particle", layout_path.display());
+    }
+    let pitch_m = match args.pitch_um {
+        Some(p) if !p.is_finite() || p <= 0.0 => {
+            bail!("--pitch-um must be finite and > 0, got {p}")
+        }
+        Some(p) => p * 1e-6,
+        None => 2.0 * radius + DEFAULT_SITE_GAP_M,
+    };
+    let pattern = match (&args.text, &args.pattern) {
+        (Some(t), _) => Pattern::from_text(t, pitch_m)?,
+        (None, Some(p)) => site_list::read_pattern(p, pitch_m)?,
+        (None, None) => bail!("give --text or --pattern"),
+    };
+    let pattern = rotate(&pattern, args.rotation_deg.to_radians())?;
+    pattern.check_no_overlap(2.0 * radius)?;
+    let area = Reachable::for_field(layout.field_m, radius);
+    let sites = match args.at {
+        Some((x, y)) => place_at(
+            &pattern,
+            nalgebra::Vector2::new(x * 1e-6, y * 1e-6),
+            &area,
+            radius,
+        )?,
+        None => place_optimised(
+            &pattern,
+            &area,
+            radius,
+            &layout
+                .particles
+                .iter()
+                .map(|p| p.centre_m)
+                .collect::<Vec<_>>(),
+        )?,
+    };
+    let config = PlanConfig {
+        contact_angle_rad: args.contact_angle_deg.to_radians(),
+        tip_radius_m: args.tip_radius_um * 1e-6,
+        push_speed_m_per_s: args.speed_um_s * 1e-6,
+        method: args.method,
+        ..PlanConfig::default()
+    };
+    let plan = plan_assembly(&layout, &sites, &config)?;
+    if let Some(out) = &args.out {
+        plan_file::write(&plan, &config, out)?;
+    }
+    if let Some(path) = &args.overlay {
+        crate::render::plan_overlay::draw(&plan, &layout, path)?;
+    }
+    let report = verify::verify_plan(&plan, &layout, &config);
+    let mut summary = plan_file::summary_json(&plan.summary);
+    summary["schema"] = "nanopush.plan-summary/1".into();
+    summary["sites"] = plan.sites.len().into();
+    summary["verified"] = report.ok.into();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&summary)?);
+    } else {
+        let s = &plan.summary;
+        println!("sites            {}", plan.sites.len());
+        println!(
+            "pushes           {} ({} buffer/detour)",
+            s.pushes, s.buffer_pushes
+        );
+        println!(
+            "push distance    {:.1} um (LB_push {:.1} um, ratio {:.3})",
+            s.push_distance_m * 1e6,
+            s.lb_push_m * 1e6,
+            summary["push_ratio"]
+        );
+        println!(
+            "tip travel       {:.1} um (LB_tip {:.1} um)",
+            s.tip_travel_m * 1e6,
+            s.lb_tip_m * 1e6
+        );
+        println!(
+            "push + tip ratio {:.3} to LB_push + LB_tip",
+            summary["total_ratio"]
+        );
+        println!("coarse moves     {}", s.coarse_moves);
+        println!("predicted time   {:.1} s", s.predicted_time_s);
+        println!("planning time    {:.2} ms", s.planning_time_s * 1e3);
+        println!(
+            "verify-plan      {}",
+            if report.ok { "ok" } else { "FAILED" }
+        );
+    }
+    if !report.ok {
+        bail!(
+            "the plan failed its own replay: {} collisions",
+            report.collisions.len()
+        );
+    }
+    Ok(())
 }

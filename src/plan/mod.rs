@@ -1,1 +1,335 @@
 //! From a target pattern to an ordered, collision-checked push plan.
+//!
+//! Flow: [`pattern`] gives sites; [`assignment`] matches particles to sites
+//! minimising total push distance; [`pushes`] turns each move into straight
+//! pushes with their swept corridors; [`order`] sequences them so no corridor
+//! hits a particle where it is at that moment (buffer moves and detours break
+//! blockages), minimising tip travel; [`windows`] groups pushes into
+//! nanostage windows with coarse-stage moves; [`bounds`] gives LB_push and
+//! LB_tip; [`verify`] replays a plan independently; [`plan_file`] is the
+//! `nanopush.plan/1` JSON format. The executor re-plans after every push
+//! through [`plan_assembly`].
+
+pub mod assignment;
+pub mod bounds;
+pub mod grid;
+pub mod layout;
+pub mod order;
+pub mod pattern;
+pub mod plan_file;
+pub mod pushes;
+pub mod synth_layout;
+pub mod verify;
+pub mod windows;
+
+pub use assignment::AssignmentMethod;
+pub use layout::{Layout, Particle};
+pub use pattern::{Pattern, Site};
+pub use verify::{VerifyReport, verify_plan};
+
+use nalgebra::Vector2;
+use std::time::Instant;
+
+/// Planner settings; defaults are the 10 um polystyrene sphere scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanConfig {
+    /// Tip modelled as a disc of this radius for the approach corridor (default 1 um).
+    pub tip_radius_m: f64,
+    /// Minimum free space kept between a corridor and any other particle (default 0.1 um).
+    pub clearance_m: f64,
+    /// The tip lands this far behind the contact point and moves in (default 1 um).
+    pub standoff_m: f64,
+    /// Contact angle of the push, from the substrate normal as the scene gives it (default 0).
+    pub contact_angle_rad: f64,
+    /// Stage speed while pushing (default 1 um/s, the paper's V).
+    pub push_speed_m_per_s: f64,
+    /// Stage speed of lifted tip travel (default 10 um/s).
+    pub travel_speed_m_per_s: f64,
+    /// Nanostage XY range (default 100 um); larger work areas get coarse-stage windows.
+    pub nanostage_range_m: f64,
+    /// A particle within this distance of a site counts as already on it (default 0.25 um).
+    pub on_site_tolerance_m: f64,
+    /// Assignment method (default exact).
+    pub method: AssignmentMethod,
+    /// Where the tip starts; None = the first push's landing point.
+    pub tip_start_m: Option<Vector2<f64>>,
+}
+
+impl Default for PlanConfig {
+    fn default() -> Self {
+        PlanConfig {
+            tip_radius_m: 1e-6,
+            clearance_m: 0.1e-6,
+            standoff_m: 1e-6,
+            contact_angle_rad: 0.0,
+            push_speed_m_per_s: 1e-6,
+            travel_speed_m_per_s: 10e-6,
+            nanostage_range_m: 100e-6,
+            on_site_tolerance_m: 0.25e-6,
+            method: AssignmentMethod::Exact,
+            tip_start_m: None,
+        }
+    }
+}
+
+/// Default gap between neighbouring sites: pitch = particle diameter + gap.
+/// 0.5 um keeps touching-looking letters while leaving room for the 0.1 um
+/// clearance, and makes "CMU" in the 3x5 font fit a 120 um field.
+pub const DEFAULT_SITE_GAP_M: f64 = 0.5e-6;
+
+/// One step of a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Step {
+    /// A straight push: particle centre from -> to; the tip lands `standoff`
+    /// behind `approach_m`, moves in to `approach_m` (contact), pushes, lifts.
+    Push {
+        /// Particle id.
+        particle: u32,
+        /// Particle centre before, metres.
+        from_m: Vector2<f64>,
+        /// Particle centre after, metres.
+        to_m: Vector2<f64>,
+        /// Tip centre where the approach ends (contact), metres.
+        approach_m: Vector2<f64>,
+        /// Contact angle from the substrate normal, radians.
+        contact_angle_rad: f64,
+    },
+    /// Lifted tip travel between pushes.
+    TipTravel {
+        /// Start, metres.
+        from_m: Vector2<f64>,
+        /// End, metres.
+        to_m: Vector2<f64>,
+    },
+    /// Coarse-stage move that recentres the nanostage window.
+    CoarseMove {
+        /// New window centre in field coordinates, metres.
+        centre_m: Vector2<f64>,
+    },
+}
+
+/// Figures of a plan (all SI).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct PlanSummary {
+    /// Number of push steps.
+    pub pushes: usize,
+    /// Pushes that move a particle to a buffer spot or a detour waypoint.
+    pub buffer_pushes: usize,
+    /// Total particle travel, metres.
+    pub push_distance_m: f64,
+    /// Tip travel between pushes plus approach standoffs, metres.
+    pub tip_travel_m: f64,
+    /// Optimal assignment's total straight-line distance.
+    pub lb_push_m: f64,
+    /// Lower bound of tip travel (see [`bounds::lb_tip`]).
+    pub lb_tip_m: f64,
+    /// Coarse-stage moves.
+    pub coarse_moves: usize,
+    /// Predicted execution time at the configured speeds, seconds.
+    pub predicted_time_s: f64,
+    /// Wall time spent planning, seconds.
+    pub planning_time_s: f64,
+}
+
+/// A plan: the sites, who goes where, and the ordered steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Target sites.
+    pub sites: Vec<Site>,
+    /// (particle id, site id) pairs.
+    pub assignment: Vec<(u32, u32)>,
+    /// Ordered steps.
+    pub steps: Vec<Step>,
+    /// Figures.
+    pub summary: PlanSummary,
+}
+
+/// Why planning refused.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// The layout is invalid.
+    #[error(transparent)]
+    Layout(#[from] layout::LayoutError),
+    /// The pattern is invalid.
+    #[error(transparent)]
+    Pattern(#[from] pattern::PatternError),
+    /// Assignment failed.
+    #[error(transparent)]
+    Assignment(#[from] assignment::AssignmentError),
+    /// A configuration value is out of range.
+    #[error("plan config: {0}")]
+    Config(String),
+    /// No collision-free order was found.
+    #[error("no collision-free order: {0}")]
+    Blocked(String),
+    /// Planning from a frame needs the vision module.
+    #[error("planning from a frame needs the vision module (not merged yet); use --layout")]
+    NeedsVision,
+}
+
+impl PlanConfig {
+    /// Checks every value is finite and in range.
+    pub fn validate(&self) -> Result<(), PlanError> {
+        let checks = [
+            ("tip_radius_um", self.tip_radius_m, true),
+            ("clearance_um", self.clearance_m, false),
+            ("standoff_um", self.standoff_m, false),
+            ("push_speed_um_s", self.push_speed_m_per_s, true),
+            ("travel_speed_um_s", self.travel_speed_m_per_s, true),
+            ("nanostage_range_um", self.nanostage_range_m, true),
+            ("on_site_tolerance_um", self.on_site_tolerance_m, false),
+        ];
+        for (name, v, positive) in checks {
+            if !v.is_finite() || v < 0.0 || (positive && v == 0.0) {
+                return Err(PlanError::Config(format!(
+                    "{name} is {} (must be finite and {})",
+                    v * 1e6,
+                    if positive { "> 0" } else { ">= 0" }
+                )));
+            }
+        }
+        if !self.contact_angle_rad.is_finite() {
+            return Err(PlanError::Config("contact_angle_deg is not finite".into()));
+        }
+        Ok(())
+    }
+}
+
+/// Plans the assembly of `sites` from the particles of `layout`: the entry
+/// point the executor calls again after every push.
+pub fn plan_assembly(
+    layout: &Layout,
+    sites: &[Site],
+    config: &PlanConfig,
+) -> Result<Plan, PlanError> {
+    let t0 = Instant::now();
+    config.validate()?;
+    layout.validate()?;
+    if sites.is_empty() {
+        return Err(pattern::PatternError::Empty("no site to fill".into()).into());
+    }
+    let radius = layout.max_radius_m();
+    for s in sites {
+        pattern::check_value(&format!("site {} x_um", s.id), s.centre_m.x * 1e6, false)?;
+        pattern::check_value(&format!("site {} y_um", s.id), s.centre_m.y * 1e6, false)?;
+    }
+    let site_pattern = Pattern {
+        offsets_m: sites.iter().map(|s| s.centre_m).collect(),
+    };
+    site_pattern.check_no_overlap(2.0 * radius)?;
+    if layout.particles.len() < sites.len() {
+        return Err(assignment::AssignmentError::TooFewParticles {
+            sites: sites.len(),
+            particles: layout.particles.len(),
+        }
+        .into());
+    }
+    let (pairs, lb_push) = assign_with_fixed(layout, sites, config)?;
+    let ordered = order::order_moves(layout, sites, &pairs, config)?;
+    let mut steps = ordered.steps;
+    let start = config.tip_start_m.or_else(|| {
+        steps.iter().find_map(|s| match s {
+            Step::Push {
+                from_m,
+                to_m,
+                approach_m,
+                ..
+            } => Some(pushes::landing_point(*from_m, *to_m, *approach_m, config)),
+            _ => None,
+        })
+    });
+    steps = pushes::with_tip_travel(steps, start, config);
+    let coarse = windows::insert_coarse_moves(&mut steps, config);
+    let lb_tip = bounds::lb_tip(&steps, start, config);
+    let mut summary = summarise(&steps, config);
+    summary.lb_push_m = lb_push;
+    summary.lb_tip_m = lb_tip;
+    summary.coarse_moves = coarse;
+    summary.buffer_pushes = ordered.buffer_pushes;
+    summary.planning_time_s = t0.elapsed().as_secs_f64();
+    Ok(Plan {
+        sites: sites.to_vec(),
+        assignment: pairs
+            .iter()
+            .map(|&(p, s)| (layout.particles[p].id, sites[s].id))
+            .collect(),
+        steps,
+        summary,
+    })
+}
+
+/// Assignment with particles already on a site kept there; returns
+/// (particle index, site index) pairs and LB_push.
+fn assign_with_fixed(
+    layout: &Layout,
+    sites: &[Site],
+    config: &PlanConfig,
+) -> Result<(Vec<(usize, usize)>, f64), PlanError> {
+    let grid = grid::Grid::new(
+        layout.particles.iter().map(|p| p.centre_m),
+        layout.max_radius_m() * 2.0,
+    );
+    let mut particle_taken = vec![false; layout.particles.len()];
+    let mut pairs = Vec::new();
+    let mut free_sites = Vec::new();
+    for (si, s) in sites.iter().enumerate() {
+        match grid.nearest(s.centre_m, 1).first() {
+            Some(&(d, p)) if d <= config.on_site_tolerance_m && !particle_taken[p] => {
+                particle_taken[p] = true;
+                pairs.push((p, si));
+            }
+            _ => free_sites.push(si),
+        }
+    }
+    let free_particles: Vec<usize> = (0..layout.particles.len())
+        .filter(|&p| !particle_taken[p])
+        .collect();
+    let site_pts: Vec<Vector2<f64>> = free_sites.iter().map(|&s| sites[s].centre_m).collect();
+    let part_pts: Vec<Vector2<f64>> = free_particles
+        .iter()
+        .map(|&p| layout.particles[p].centre_m)
+        .collect();
+    let a = assignment::assign(&site_pts, &part_pts, config.method)?;
+    for (k, &p) in a.site_to_particle.iter().enumerate() {
+        pairs.push((free_particles[p], free_sites[k]));
+    }
+    let lb: f64 = pairs
+        .iter()
+        .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
+        .sum();
+    // LB_push is the optimum only for exact methods; for others the caller compares.
+    let lb = if matches!(
+        config.method,
+        AssignmentMethod::Exact | AssignmentMethod::Dense | AssignmentMethod::Lp
+    ) {
+        lb
+    } else {
+        let exact = assignment::assign(&site_pts, &part_pts, AssignmentMethod::Exact)?;
+        let fixed: f64 = pairs
+            .iter()
+            .filter(|&&(_, s)| !free_sites.contains(&s))
+            .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
+            .sum();
+        exact.cost_m + fixed
+    };
+    Ok((pairs, lb))
+}
+
+/// Totals of a step list.
+pub fn summarise(steps: &[Step], config: &PlanConfig) -> PlanSummary {
+    let mut s = PlanSummary::default();
+    for step in steps {
+        match step {
+            Step::Push { from_m, to_m, .. } => {
+                s.pushes += 1;
+                s.push_distance_m += (to_m - from_m).norm();
+                s.tip_travel_m += config.standoff_m;
+            }
+            Step::TipTravel { from_m, to_m } => s.tip_travel_m += (to_m - from_m).norm(),
+            Step::CoarseMove { .. } => {}
+        }
+    }
+    s.predicted_time_s = s.push_distance_m / config.push_speed_m_per_s
+        + s.tip_travel_m / config.travel_speed_m_per_s;
+    s
+}

@@ -1,0 +1,287 @@
+//! Particle layouts: where the particles are before planning.
+//!
+//! The file format `nanopush.layout/1` is JSON in micrometres; inside the
+//! library everything is SI metres. Conversion happens once, here.
+
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Schema tag written into and required from every layout file.
+pub const LAYOUT_SCHEMA: &str = "nanopush.layout/1";
+
+/// Micrometres per metre, the lab unit of every file the planner reads or writes.
+pub const UM_PER_M: f64 = 1e6;
+
+/// One particle: an identifier the rest of the pipeline keeps, a centre and a radius (SI).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Particle {
+    /// Stable identifier (from the layout file or from detection).
+    pub id: u32,
+    /// Centre in stage coordinates, metres.
+    pub centre_m: Vector2<f64>,
+    /// Radius in metres.
+    pub radius_m: f64,
+}
+
+/// A field of particles: the planner's view of the world before planning.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Width and height of the work field in metres; the origin is its lower-left corner.
+    pub field_m: [f64; 2],
+    /// Every particle in the field.
+    pub particles: Vec<Particle>,
+}
+
+/// Everything that can be wrong with a layout, and where.
+#[derive(Debug, thiserror::Error)]
+pub enum LayoutError {
+    /// The file could not be read or written.
+    #[error("layout file {path}: {source}")]
+    Io {
+        /// Path of the file.
+        path: String,
+        /// Underlying I/O error.
+        source: std::io::Error,
+    },
+    /// The JSON did not parse into the layout schema.
+    #[error("layout file {path}: not a valid nanopush.layout/1 document: {source}")]
+    Parse {
+        /// Path of the file.
+        path: String,
+        /// Underlying JSON error.
+        source: serde_json::Error,
+    },
+    /// The schema field names another kind or version.
+    #[error("layout schema is {found:?}, expected {LAYOUT_SCHEMA:?}")]
+    Schema {
+        /// The schema found.
+        found: String,
+    },
+    /// A value is NaN, infinite, negative or zero where it must be positive.
+    #[error("layout: {what} is {value} (must be finite{positive})")]
+    BadValue {
+        /// Which value, e.g. "particle 3 radius_um".
+        what: String,
+        /// The offending value.
+        value: f64,
+        /// Extra requirement text.
+        positive: &'static str,
+    },
+    /// Two particles share an identifier.
+    #[error("layout: particle id {0} appears twice")]
+    DuplicateId(u32),
+    /// Two particles overlap (their discs intersect by more than the tolerance).
+    #[error("layout: particles {a} and {b} overlap by {overlap_um:.3} um")]
+    Overlap {
+        /// First particle id.
+        a: u32,
+        /// Second particle id.
+        b: u32,
+        /// Overlap depth in micrometres.
+        overlap_um: f64,
+    },
+}
+
+/// Wire format of a layout file (micrometres).
+#[derive(Debug, Serialize, Deserialize)]
+struct LayoutFile {
+    schema: String,
+    field_um: [f64; 2],
+    particles: Vec<ParticleFile>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct ParticleFile {
+    id: u32,
+    x_um: f64,
+    y_um: f64,
+    radius_um: f64,
+}
+
+/// Overlap (metres) tolerated between particles, to absorb rounding in files.
+const OVERLAP_TOLERANCE_M: f64 = 1e-9;
+
+pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
+    let bad = !value.is_finite() || (positive && value <= 0.0);
+    if bad {
+        return Err(LayoutError::BadValue {
+            what: what.to_string(),
+            value,
+            positive: if positive { " and > 0" } else { "" },
+        });
+    }
+    Ok(())
+}
+
+impl Layout {
+    /// Checks every value is finite, radii positive, ids unique and no two particles overlap.
+    pub fn validate(&self) -> Result<(), LayoutError> {
+        check_finite("field width_um", self.field_m[0] * UM_PER_M, true)?;
+        check_finite("field height_um", self.field_m[1] * UM_PER_M, true)?;
+        let mut ids = std::collections::HashSet::new();
+        for p in &self.particles {
+            check_finite(
+                &format!("particle {} x_um", p.id),
+                p.centre_m.x * UM_PER_M,
+                false,
+            )?;
+            check_finite(
+                &format!("particle {} y_um", p.id),
+                p.centre_m.y * UM_PER_M,
+                false,
+            )?;
+            check_finite(
+                &format!("particle {} radius_um", p.id),
+                p.radius_m * UM_PER_M,
+                true,
+            )?;
+            if !ids.insert(p.id) {
+                return Err(LayoutError::DuplicateId(p.id));
+            }
+        }
+        let grid = crate::plan::grid::Grid::new(
+            self.particles.iter().map(|p| p.centre_m),
+            self.max_radius_m() * 2.0,
+        );
+        for (i, p) in self.particles.iter().enumerate() {
+            for j in grid.within(p.centre_m, self.max_radius_m() * 2.0) {
+                if j <= i {
+                    continue;
+                }
+                let q = &self.particles[j];
+                let overlap = p.radius_m + q.radius_m - (p.centre_m - q.centre_m).norm();
+                if overlap > OVERLAP_TOLERANCE_M {
+                    return Err(LayoutError::Overlap {
+                        a: p.id,
+                        b: q.id,
+                        overlap_um: overlap * UM_PER_M,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Largest particle radius (0 for an empty layout).
+    pub fn max_radius_m(&self) -> f64 {
+        self.particles
+            .iter()
+            .map(|p| p.radius_m)
+            .fold(0.0, f64::max)
+    }
+
+    /// Serialises to the `nanopush.layout/1` JSON text.
+    pub fn to_json(&self) -> String {
+        let file = LayoutFile {
+            schema: LAYOUT_SCHEMA.to_string(),
+            field_um: [self.field_m[0] * UM_PER_M, self.field_m[1] * UM_PER_M],
+            particles: self
+                .particles
+                .iter()
+                .map(|p| ParticleFile {
+                    id: p.id,
+                    x_um: p.centre_m.x * UM_PER_M,
+                    y_um: p.centre_m.y * UM_PER_M,
+                    radius_um: p.radius_m * UM_PER_M,
+                })
+                .collect(),
+        };
+        serde_json::to_string_pretty(&file).expect("layout serialisation cannot fail")
+    }
+
+    /// Parses `nanopush.layout/1` JSON text and validates it; `origin` names the source in errors.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, LayoutError> {
+        let file: LayoutFile = serde_json::from_str(text).map_err(|source| LayoutError::Parse {
+            path: origin.to_string(),
+            source,
+        })?;
+        if file.schema != LAYOUT_SCHEMA {
+            return Err(LayoutError::Schema { found: file.schema });
+        }
+        let layout = Layout {
+            field_m: [file.field_um[0] / UM_PER_M, file.field_um[1] / UM_PER_M],
+            particles: file
+                .particles
+                .iter()
+                .map(|p| Particle {
+                    id: p.id,
+                    centre_m: Vector2::new(p.x_um / UM_PER_M, p.y_um / UM_PER_M),
+                    radius_m: p.radius_um / UM_PER_M,
+                })
+                .collect(),
+        };
+        layout.validate()?;
+        Ok(layout)
+    }
+
+    /// Reads and validates a layout file.
+    pub fn read(path: &Path) -> Result<Self, LayoutError> {
+        let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// Writes the layout file.
+    pub fn write(&self, path: &Path) -> Result<(), LayoutError> {
+        std::fs::write(path, self.to_json()).map_err(|source| LayoutError::Io {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Layout {
+        Layout {
+            field_m: [120e-6, 100e-6],
+            particles: vec![
+                Particle {
+                    id: 0,
+                    centre_m: Vector2::new(10e-6, 20e-6),
+                    radius_m: 5e-6,
+                },
+                Particle {
+                    id: 7,
+                    centre_m: Vector2::new(30.5e-6, 20e-6),
+                    radius_m: 5e-6,
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn json_round_trip_keeps_every_value() {
+        let layout = sample();
+        let back = Layout::from_json(&layout.to_json(), "mem").unwrap();
+        assert_eq!(back.particles.len(), 2);
+        for (a, b) in layout.particles.iter().zip(&back.particles) {
+            assert_eq!(a.id, b.id);
+            assert!((a.centre_m - b.centre_m).norm() < 1e-15);
+            assert!((a.radius_m - b.radius_m).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn rejects_nan_negative_overlap_and_wrong_schema() {
+        let mut l = sample();
+        l.particles[0].radius_m = -1e-6;
+        assert!(matches!(l.validate(), Err(LayoutError::BadValue { .. })));
+        let mut l = sample();
+        l.particles[1].centre_m.x = f64::NAN;
+        assert!(matches!(l.validate(), Err(LayoutError::BadValue { .. })));
+        let mut l = sample();
+        l.particles[1].centre_m.x = 15e-6;
+        assert!(matches!(l.validate(), Err(LayoutError::Overlap { .. })));
+        let text = sample().to_json().replace("layout/1", "layout/9");
+        assert!(matches!(
+            Layout::from_json(&text, "mem"),
+            Err(LayoutError::Schema { .. })
+        ));
+    }
+}

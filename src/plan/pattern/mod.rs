@@ -1,0 +1,166 @@
+//! Target patterns: where particles should end up, as sites in stage metres.
+//!
+//! Sources: the built-in font ([`font`]), site lists ([`site_list`]) and
+//! bitmap images ([`bitmap`]); [`transform`] applies pitch, rotation and
+//! placement (given, or optimised for push distance inside the reachable area).
+
+pub mod bitmap;
+pub mod font;
+pub mod site_list;
+pub mod transform;
+
+use nalgebra::Vector2;
+
+/// A target position for one particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Site {
+    /// Identifier, dense from 0 in pattern order.
+    pub id: u32,
+    /// Centre in stage coordinates, metres.
+    pub centre_m: Vector2<f64>,
+}
+
+/// A pattern before placement: site offsets in metres around the origin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pattern {
+    /// Site offsets (metres), centred on the bounding-box centre.
+    pub offsets_m: Vec<Vector2<f64>>,
+}
+
+/// Everything that can be wrong with a pattern.
+#[derive(Debug, thiserror::Error)]
+pub enum PatternError {
+    /// A character the font does not have.
+    #[error("unknown glyph {0:?} in --text (the font has A-Z, 0-9 and space)")]
+    UnknownGlyph(char),
+    /// A pattern with no site.
+    #[error("empty pattern: {0}")]
+    Empty(String),
+    /// Two sites closer than a particle diameter.
+    #[error(
+        "sites {a} and {b} overlap: {distance_um:.3} um apart, need at least {needed_um:.3} um"
+    )]
+    OverlappingSites {
+        /// First site index.
+        a: usize,
+        /// Second site index.
+        b: usize,
+        /// Their distance.
+        distance_um: f64,
+        /// Minimum distance (particle diameter).
+        needed_um: f64,
+    },
+    /// A value is not finite or not positive where it must be.
+    #[error("pattern: {what} is {value} (must be finite{extra})")]
+    BadValue {
+        /// Which value.
+        what: String,
+        /// The value.
+        value: f64,
+        /// Extra requirement.
+        extra: &'static str,
+    },
+    /// The pattern does not fit the reachable area.
+    #[error(
+        "pattern of {w_um:.1} x {h_um:.1} um does not fit the reachable area of {aw_um:.1} x {ah_um:.1} um"
+    )]
+    DoesNotFit {
+        /// Pattern width including particle radius.
+        w_um: f64,
+        /// Pattern height including particle radius.
+        h_um: f64,
+        /// Reachable width.
+        aw_um: f64,
+        /// Reachable height.
+        ah_um: f64,
+    },
+    /// A placement point leaves part of the pattern outside the reachable area.
+    #[error("pattern placed at ({x_um:.1}, {y_um:.1}) um leaves sites outside the reachable area")]
+    OutsideAtPlacement {
+        /// Requested centre x.
+        x_um: f64,
+        /// Requested centre y.
+        y_um: f64,
+    },
+    /// A file could not be read or parsed.
+    #[error("pattern file {path}: {message}")]
+    File {
+        /// Path of the file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+pub(crate) fn check_value(what: &str, value: f64, positive: bool) -> Result<(), PatternError> {
+    if !value.is_finite() || (positive && value <= 0.0) {
+        return Err(PatternError::BadValue {
+            what: what.into(),
+            value,
+            extra: if positive { " and > 0" } else { "" },
+        });
+    }
+    Ok(())
+}
+
+impl Pattern {
+    /// Builds a pattern from offsets, recentring it on its bounding-box centre.
+    pub fn from_offsets(
+        mut offsets_m: Vec<Vector2<f64>>,
+        what: &str,
+    ) -> Result<Self, PatternError> {
+        if offsets_m.is_empty() {
+            return Err(PatternError::Empty(what.to_string()));
+        }
+        for (i, p) in offsets_m.iter().enumerate() {
+            check_value(&format!("site {i} x"), p.x, false)?;
+            check_value(&format!("site {i} y"), p.y, false)?;
+        }
+        let (lo, hi) = bbox(&offsets_m);
+        let c = (lo + hi) / 2.0;
+        offsets_m.iter_mut().for_each(|p| *p -= c);
+        Ok(Pattern { offsets_m })
+    }
+
+    /// Pattern of `text` in the built-in font at `pitch_m` (rows go down the page = -y).
+    pub fn from_text(text: &str, pitch_m: f64) -> Result<Self, PatternError> {
+        check_value("pitch_um", pitch_m * 1e6, true)?;
+        let cells = font::text_cells(text).map_err(PatternError::UnknownGlyph)?;
+        let offsets = cells
+            .iter()
+            .map(|&(c, r)| Vector2::new(c as f64 * pitch_m, -(r as f64) * pitch_m))
+            .collect();
+        Self::from_offsets(offsets, &format!("text {text:?} has no site"))
+    }
+
+    /// Fails when two sites are closer than `min_distance_m` (a particle diameter).
+    pub fn check_no_overlap(&self, min_distance_m: f64) -> Result<(), PatternError> {
+        let grid = crate::plan::grid::Grid::new(self.offsets_m.iter().copied(), min_distance_m);
+        for (i, p) in self.offsets_m.iter().enumerate() {
+            for j in grid.within(*p, min_distance_m * (1.0 - 1e-9)) {
+                if j > i {
+                    return Err(PatternError::OverlappingSites {
+                        a: i,
+                        b: j,
+                        distance_um: (self.offsets_m[j] - p).norm() * 1e6,
+                        needed_um: min_distance_m * 1e6,
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Width and height of the site centres' bounding box, metres.
+    pub fn extent_m(&self) -> Vector2<f64> {
+        let (lo, hi) = bbox(&self.offsets_m);
+        hi - lo
+    }
+}
+
+pub(crate) fn bbox(points: &[Vector2<f64>]) -> (Vector2<f64>, Vector2<f64>) {
+    let first = points.first().copied().unwrap_or_else(Vector2::zeros);
+    points
+        .iter()
+        .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p)))
+}

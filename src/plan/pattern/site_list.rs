@@ -1,0 +1,100 @@
+//! Site lists: TOML or JSON files of site positions in micrometres,
+//! `{ sites = [ { x_um = 0.0, y_um = 0.0 }, ... ] }` (TOML) or the same in JSON.
+
+use super::{Pattern, PatternError};
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// One site of a site-list file, micrometres.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct SiteEntry {
+    /// x, micrometres.
+    pub x_um: f64,
+    /// y, micrometres.
+    pub y_um: f64,
+}
+
+/// A site-list file.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SiteList {
+    /// The sites, relative positions in micrometres (the pattern is recentred).
+    pub sites: Vec<SiteEntry>,
+}
+
+impl SiteList {
+    /// Parses TOML (`.toml`) or JSON (anything else) text.
+    pub fn parse(text: &str, is_toml: bool, origin: &str) -> Result<Self, PatternError> {
+        let err = |message: String| PatternError::File {
+            path: origin.into(),
+            message,
+        };
+        if is_toml {
+            toml::from_str(text).map_err(|e| err(e.to_string()))
+        } else {
+            serde_json::from_str(text).map_err(|e| err(e.to_string()))
+        }
+    }
+
+    /// The pattern these sites describe.
+    pub fn to_pattern(&self, origin: &str) -> Result<Pattern, PatternError> {
+        let offsets = self
+            .sites
+            .iter()
+            .map(|s| Vector2::new(s.x_um * 1e-6, s.y_um * 1e-6))
+            .collect();
+        Pattern::from_offsets(offsets, &format!("{origin} lists no site"))
+    }
+}
+
+/// Reads a pattern file: `.toml` / `.json` site lists, or an image (`.png`, `.bmp`, ...)
+/// where every dark pixel is a site at `pitch_m`.
+pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> {
+    let origin = path.display().to_string();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "toml" | "json" => {
+            let text = std::fs::read_to_string(path).map_err(|e| PatternError::File {
+                path: origin.clone(),
+                message: e.to_string(),
+            })?;
+            SiteList::parse(&text, ext == "toml", &origin)?.to_pattern(&origin)
+        }
+        _ => super::bitmap::read_bitmap(path, pitch_m),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn toml_and_json_round_trip() {
+        let list = SiteList {
+            sites: vec![
+                SiteEntry {
+                    x_um: 0.0,
+                    y_um: 1.5,
+                },
+                SiteEntry {
+                    x_um: 11.0,
+                    y_um: 1.5,
+                },
+            ],
+        };
+        let t = toml::to_string(&list).unwrap();
+        assert_eq!(SiteList::parse(&t, true, "t").unwrap(), list);
+        let j = serde_json::to_string(&list).unwrap();
+        assert_eq!(SiteList::parse(&j, false, "j").unwrap(), list);
+        let p = list.to_pattern("t").unwrap();
+        assert!((p.offsets_m[1].x - p.offsets_m[0].x - 11e-6).abs() < 1e-15);
+        assert!(matches!(
+            SiteList { sites: vec![] }.to_pattern("e"),
+            Err(PatternError::Empty(_))
+        ));
+    }
+}

@@ -1,0 +1,308 @@
+//! The `nanopush.plan/1` JSON file (micrometres, degrees), written and read back.
+
+use super::pattern::Site;
+use super::{Plan, PlanConfig, PlanSummary, Step};
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Schema tag of plan files.
+pub const PLAN_SCHEMA: &str = "nanopush.plan/1";
+
+/// Errors reading or writing a plan file.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanFileError {
+    /// I/O failure.
+    #[error("plan file {path}: {source}")]
+    Io {
+        /// Path.
+        path: String,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// Not valid plan JSON.
+    #[error("plan file {path}: not a valid nanopush.plan/1 document: {source}")]
+    Parse {
+        /// Path.
+        path: String,
+        /// Cause.
+        source: serde_json::Error,
+    },
+    /// Wrong schema tag.
+    #[error("plan schema is {0:?}, expected \"nanopush.plan/1\"")]
+    Schema(String),
+    /// A value is not finite.
+    #[error("plan file: {0} is not finite")]
+    NotFinite(String),
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct SiteJ {
+    id: u32,
+    x_um: f64,
+    y_um: f64,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct PairJ {
+    particle: u32,
+    site: u32,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum StepJ {
+    Push {
+        particle: u32,
+        from_um: [f64; 2],
+        to_um: [f64; 2],
+        approach_um: [f64; 2],
+        contact_angle_deg: f64,
+    },
+    TipTravel {
+        from_um: [f64; 2],
+        to_um: [f64; 2],
+    },
+    CoarseMove {
+        centre_um: [f64; 2],
+    },
+}
+
+/// Geometry the replay needs to rebuild corridors.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct PlanGeometry {
+    /// Tip disc radius, um.
+    pub tip_radius_um: f64,
+    /// Landing distance behind contact, um.
+    pub standoff_um: f64,
+    /// Nanostage range, um.
+    pub nanostage_range_um: f64,
+}
+
+#[derive(Debug, Serialize, Deserialize, Default)]
+struct SummaryJ {
+    pushes: usize,
+    buffer_pushes: usize,
+    push_distance_um: f64,
+    tip_travel_um: f64,
+    lb_push_um: f64,
+    lb_tip_um: f64,
+    push_ratio: f64,
+    total_ratio: f64,
+    coarse_moves: usize,
+    predicted_time_s: f64,
+    planning_time_s: f64,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct PlanJ {
+    schema: String,
+    geometry: PlanGeometry,
+    sites: Vec<SiteJ>,
+    assignment: Vec<PairJ>,
+    steps: Vec<StepJ>,
+    #[serde(default)]
+    summary: SummaryJ,
+}
+
+fn um(v: Vector2<f64>) -> [f64; 2] {
+    [v.x * 1e6, v.y * 1e6]
+}
+fn m(v: [f64; 2], what: &str) -> Result<Vector2<f64>, PlanFileError> {
+    if !v[0].is_finite() || !v[1].is_finite() {
+        return Err(PlanFileError::NotFinite(what.into()));
+    }
+    Ok(Vector2::new(v[0] * 1e-6, v[1] * 1e-6))
+}
+
+/// Ratio a / b, 1 when both are zero, infinite-free (0 when only b is zero).
+pub fn ratio(a: f64, b: f64) -> f64 {
+    if b > 0.0 {
+        a / b
+    } else if a == 0.0 {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+/// Summary as the JSON object the CLI prints with `--json`.
+pub fn summary_json(s: &PlanSummary) -> serde_json::Value {
+    serde_json::to_value(summary_j(s)).expect("summary serialises")
+}
+
+fn summary_j(s: &PlanSummary) -> SummaryJ {
+    SummaryJ {
+        pushes: s.pushes,
+        buffer_pushes: s.buffer_pushes,
+        push_distance_um: s.push_distance_m * 1e6,
+        tip_travel_um: s.tip_travel_m * 1e6,
+        lb_push_um: s.lb_push_m * 1e6,
+        lb_tip_um: s.lb_tip_m * 1e6,
+        push_ratio: ratio(s.push_distance_m, s.lb_push_m),
+        total_ratio: ratio(s.push_distance_m + s.tip_travel_m, s.lb_push_m + s.lb_tip_m),
+        coarse_moves: s.coarse_moves,
+        predicted_time_s: s.predicted_time_s,
+        planning_time_s: s.planning_time_s,
+    }
+}
+
+/// Geometry block of a config.
+pub fn geometry_of(config: &PlanConfig) -> PlanGeometry {
+    PlanGeometry {
+        tip_radius_um: config.tip_radius_m * 1e6,
+        standoff_um: config.standoff_m * 1e6,
+        nanostage_range_um: config.nanostage_range_m * 1e6,
+    }
+}
+
+/// Serialises a plan to `nanopush.plan/1` JSON.
+pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
+    let file = PlanJ {
+        schema: PLAN_SCHEMA.into(),
+        geometry: geometry_of(config),
+        sites: plan
+            .sites
+            .iter()
+            .map(|s| SiteJ {
+                id: s.id,
+                x_um: s.centre_m.x * 1e6,
+                y_um: s.centre_m.y * 1e6,
+            })
+            .collect(),
+        assignment: plan
+            .assignment
+            .iter()
+            .map(|&(p, s)| PairJ {
+                particle: p,
+                site: s,
+            })
+            .collect(),
+        steps: plan
+            .steps
+            .iter()
+            .map(|s| match *s {
+                Step::Push {
+                    particle,
+                    from_m,
+                    to_m,
+                    approach_m,
+                    contact_angle_rad,
+                } => StepJ::Push {
+                    particle,
+                    from_um: um(from_m),
+                    to_um: um(to_m),
+                    approach_um: um(approach_m),
+                    contact_angle_deg: contact_angle_rad.to_degrees(),
+                },
+                Step::TipTravel { from_m, to_m } => StepJ::TipTravel {
+                    from_um: um(from_m),
+                    to_um: um(to_m),
+                },
+                Step::CoarseMove { centre_m } => StepJ::CoarseMove {
+                    centre_um: um(centre_m),
+                },
+            })
+            .collect(),
+        summary: summary_j(&plan.summary),
+    };
+    serde_json::to_string_pretty(&file).expect("plan serialises")
+}
+
+/// Parses `nanopush.plan/1` JSON; returns the plan and its geometry.
+pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanFileError> {
+    let f: PlanJ = serde_json::from_str(text).map_err(|source| PlanFileError::Parse {
+        path: origin.into(),
+        source,
+    })?;
+    if f.schema != PLAN_SCHEMA {
+        return Err(PlanFileError::Schema(f.schema));
+    }
+    let g = f.geometry;
+    for (name, v) in [
+        ("tip_radius_um", g.tip_radius_um),
+        ("standoff_um", g.standoff_um),
+        ("nanostage_range_um", g.nanostage_range_um),
+    ] {
+        if !v.is_finite() || v < 0.0 {
+            return Err(PlanFileError::NotFinite(name.into()));
+        }
+    }
+    let mut sites = Vec::new();
+    for s in &f.sites {
+        sites.push(Site {
+            id: s.id,
+            centre_m: m([s.x_um, s.y_um], &format!("site {}", s.id))?,
+        });
+    }
+    let mut steps = Vec::new();
+    for (i, s) in f.steps.iter().enumerate() {
+        let w = format!("step {i}");
+        steps.push(match *s {
+            StepJ::Push {
+                particle,
+                from_um,
+                to_um,
+                approach_um,
+                contact_angle_deg,
+            } => {
+                if !contact_angle_deg.is_finite() {
+                    return Err(PlanFileError::NotFinite(format!("{w} contact_angle_deg")));
+                }
+                Step::Push {
+                    particle,
+                    from_m: m(from_um, &w)?,
+                    to_m: m(to_um, &w)?,
+                    approach_m: m(approach_um, &w)?,
+                    contact_angle_rad: contact_angle_deg.to_radians(),
+                }
+            }
+            StepJ::TipTravel { from_um, to_um } => Step::TipTravel {
+                from_m: m(from_um, &w)?,
+                to_m: m(to_um, &w)?,
+            },
+            StepJ::CoarseMove { centre_um } => Step::CoarseMove {
+                centre_m: m(centre_um, &w)?,
+            },
+        });
+    }
+    let s = &f.summary;
+    let summary = PlanSummary {
+        pushes: s.pushes,
+        buffer_pushes: s.buffer_pushes,
+        push_distance_m: s.push_distance_um * 1e-6,
+        tip_travel_m: s.tip_travel_um * 1e-6,
+        lb_push_m: s.lb_push_um * 1e-6,
+        lb_tip_m: s.lb_tip_um * 1e-6,
+        coarse_moves: s.coarse_moves,
+        predicted_time_s: s.predicted_time_s,
+        planning_time_s: s.planning_time_s,
+    };
+    let assignment = f.assignment.iter().map(|a| (a.particle, a.site)).collect();
+    Ok((
+        Plan {
+            sites,
+            assignment,
+            steps,
+            summary,
+        },
+        g,
+    ))
+}
+
+/// Writes a plan file.
+pub fn write(plan: &Plan, config: &PlanConfig, path: &Path) -> Result<(), PlanFileError> {
+    std::fs::write(path, to_json(plan, config)).map_err(|source| PlanFileError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Reads a plan file.
+pub fn read(path: &Path) -> Result<(Plan, PlanGeometry), PlanFileError> {
+    let text = std::fs::read_to_string(path).map_err(|source| PlanFileError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    from_json(&text, &path.display().to_string())
+}

@@ -1,0 +1,180 @@
+//! Straight pushes and their swept corridors.
+//!
+//! A move from `from` to `to` is pushed along d = (to - from)/|to - from|: the
+//! tip (a disc of `tip_radius`) lands `standoff` behind the contact point
+//! `approach = from - d (R + r_tip)`, moves in, pushes the particle to `to`
+//! and lifts. Its corridor is the particle disc swept from `from` to `to`
+//! plus the tip disc swept from the landing point to its final position;
+//! both are parry2d capsules.
+
+use super::{PlanConfig, Step};
+use nalgebra::Vector2;
+use parry2d::math::Vector;
+use parry2d::query::PointQuery;
+use parry2d::shape::Capsule;
+
+/// Unit push direction (x axis for a zero-length move, so nothing is NaN).
+pub fn direction(from: Vector2<f64>, to: Vector2<f64>) -> Vector2<f64> {
+    let d = to - from;
+    let n = d.norm();
+    if n > 0.0 {
+        d / n
+    } else {
+        Vector2::new(1.0, 0.0)
+    }
+}
+
+/// Tip centre at contact, behind a particle of `radius_m` at `from`.
+pub fn approach_point(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    radius_m: f64,
+    config: &PlanConfig,
+) -> Vector2<f64> {
+    from - direction(from, to) * (radius_m + config.tip_radius_m)
+}
+
+/// Where the tip lands before moving in to contact.
+pub fn landing_point(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    approach: Vector2<f64>,
+    config: &PlanConfig,
+) -> Vector2<f64> {
+    approach - direction(from, to) * config.standoff_m
+}
+
+/// Tip centre when the push ends (where it lifts).
+pub fn tip_end(from: Vector2<f64>, to: Vector2<f64>, approach: Vector2<f64>) -> Vector2<f64> {
+    approach + (to - from)
+}
+
+/// The region a push sweeps: particle capsule and tip capsule, local to `origin`
+/// (f32 parry shapes in micrometres relative to the push start keep precision).
+#[derive(Debug, Clone)]
+pub struct Corridor {
+    origin: Vector2<f64>,
+    particle: Capsule,
+    tip: Capsule,
+    /// Centre and radius of a disc containing the whole corridor, metres.
+    pub bound_centre_m: Vector2<f64>,
+    /// Radius of the bounding disc, metres.
+    pub bound_radius_m: f64,
+}
+
+fn local(origin: Vector2<f64>, p: Vector2<f64>) -> Vector {
+    let d = (p - origin) * 1e6;
+    Vector::new(d.x as f32, d.y as f32)
+}
+
+impl Corridor {
+    /// Corridor of pushing a particle of `radius_m` from `from` to `to`.
+    pub fn new(from: Vector2<f64>, to: Vector2<f64>, radius_m: f64, config: &PlanConfig) -> Self {
+        let approach = approach_point(from, to, radius_m, config);
+        let land = landing_point(from, to, approach, config);
+        let end = tip_end(from, to, approach);
+        let particle = Capsule::new(local(from, from), local(from, to), (radius_m * 1e6) as f32);
+        let tip = Capsule::new(
+            local(from, land),
+            local(from, end),
+            (config.tip_radius_m * 1e6) as f32,
+        );
+        let bound_centre_m = (land + to) / 2.0;
+        let bound_radius_m = (to - land).norm() / 2.0 + radius_m;
+        Corridor {
+            origin: from,
+            particle,
+            tip,
+            bound_centre_m,
+            bound_radius_m,
+        }
+    }
+
+    /// True if a disc at `centre_m` of `radius_m` comes closer than `clearance_m` to the corridor.
+    pub fn hits(&self, centre_m: Vector2<f64>, radius_m: f64, clearance_m: f64) -> bool {
+        let p = local(self.origin, centre_m);
+        let reach = ((radius_m + clearance_m) * 1e6) as f32;
+        self.particle.distance_to_local_point(p, true) < reach
+            || self.tip.distance_to_local_point(p, true) < reach
+    }
+}
+
+/// Splits a long move into collinear pushes no longer than `max_len_m`.
+pub fn split_long(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    max_len_m: f64,
+) -> Vec<(Vector2<f64>, Vector2<f64>)> {
+    let len = (to - from).norm();
+    let pieces = if max_len_m > 0.0 && len > max_len_m {
+        (len / max_len_m).ceil() as usize
+    } else {
+        1
+    };
+    (0..pieces)
+        .map(|k| {
+            (
+                from + (to - from) * (k as f64 / pieces as f64),
+                from + (to - from) * ((k + 1) as f64 / pieces as f64),
+            )
+        })
+        .collect()
+}
+
+/// Longest single push that fits the nanostage range with its approach.
+pub fn max_push_len(radius_m: f64, config: &PlanConfig) -> f64 {
+    (config.nanostage_range_m - 2.0 * (radius_m + config.tip_radius_m + config.standoff_m))
+        .max(config.nanostage_range_m / 4.0)
+}
+
+/// Inserts lifted tip travel before every push (from the previous push's end,
+/// or from `start`), dropping zero-length travel.
+pub fn with_tip_travel(
+    steps: Vec<Step>,
+    start: Option<Vector2<f64>>,
+    config: &PlanConfig,
+) -> Vec<Step> {
+    let mut out = Vec::with_capacity(steps.len() * 2);
+    let mut tip = start;
+    for step in steps {
+        if let Step::Push {
+            from_m,
+            to_m,
+            approach_m,
+            ..
+        } = &step
+        {
+            let land = landing_point(*from_m, *to_m, *approach_m, config);
+            if let Some(t) = tip
+                && (land - t).norm() > 0.0
+            {
+                out.push(Step::TipTravel {
+                    from_m: t,
+                    to_m: land,
+                });
+            }
+            tip = Some(tip_end(*from_m, *to_m, *approach_m));
+        }
+        out.push(step);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn corridor_hits_what_is_on_the_path_and_not_beside_it() {
+        let cfg = PlanConfig::default();
+        let c = Corridor::new(Vector2::new(0.0, 0.0), Vector2::new(50e-6, 0.0), 5e-6, &cfg);
+        assert!(c.hits(Vector2::new(25e-6, 9.5e-6), 5e-6, 0.1e-6));
+        assert!(!c.hits(Vector2::new(25e-6, 10.5e-6), 5e-6, 0.1e-6));
+        // Behind the particle: only the tip corridor reaches there.
+        assert!(c.hits(Vector2::new(-7e-6 - 5.5e-6, 0.0), 5e-6, 0.1e-6));
+        assert!(!c.hits(Vector2::new(-7e-6 - 6.5e-6, 0.0), 5e-6, 0.1e-6));
+        let parts = split_long(Vector2::zeros(), Vector2::new(250e-6, 0.0), 90e-6);
+        assert_eq!(parts.len(), 3);
+        assert!((parts[2].1.x - 250e-6).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,222 @@
+//! Synthetic particle layouts (seeded): uniform random sequential addition,
+//! clustered, and adversarial (a dense hexagonal core in the middle of the
+//! field, where patterns land, walling sites in, plus uniform filler).
+
+use super::layout::{Layout, Particle, check_finite};
+use nalgebra::Vector2;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+
+/// Kind of synthetic layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LayoutKind {
+    /// Uniform random positions with a minimum gap.
+    Uniform,
+    /// Gaussian clusters.
+    Clustered,
+    /// Dense hexagonal core in the field centre plus uniform filler.
+    Adversarial,
+}
+
+/// Parameters of a synthetic layout (SI).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthParams {
+    /// Number of particles.
+    pub n: usize,
+    /// Field width, height (m).
+    pub field_m: [f64; 2],
+    /// Mean radius (m).
+    pub radius_m: f64,
+    /// Minimum free gap between particles (m).
+    pub min_gap_m: f64,
+    /// Radii drawn with 5 % spread instead of all equal.
+    pub polydisperse: bool,
+    /// Kind.
+    pub kind: LayoutKind,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// Why a layout could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum SynthError {
+    /// Bad parameter.
+    #[error(transparent)]
+    Bad(#[from] super::layout::LayoutError),
+    /// Could not place all particles.
+    #[error(
+        "could place only {placed} of {n} particles with gap {gap_um} um in {w_um} x {h_um} um: too dense"
+    )]
+    TooDense {
+        /// Placed.
+        placed: usize,
+        /// Requested.
+        n: usize,
+        /// Gap.
+        gap_um: f64,
+        /// Width.
+        w_um: f64,
+        /// Height.
+        h_um: f64,
+    },
+}
+
+/// Generates a layout.
+pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
+    check_finite("field width_um", p.field_m[0] * 1e6, true)?;
+    check_finite("field height_um", p.field_m[1] * 1e6, true)?;
+    check_finite("radius_um", p.radius_m * 1e6, true)?;
+    check_finite("min_gap_um", p.min_gap_m * 1e6, false)?;
+    if p.min_gap_m < 0.0 {
+        check_finite("min_gap_um", -1.0, true)?;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
+    let spread = Normal::new(1.0, 0.05).expect("valid normal");
+    let [w, h] = p.field_m;
+    let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(p.n);
+    let rmax = p.radius_m * if p.polydisperse { 1.15 } else { 1.0 };
+    let cell = 2.0 * rmax + p.min_gap_m;
+    let nx = ((w / cell).ceil() as usize).max(1);
+    let ny = ((h / cell).ceil() as usize).max(1);
+    let mut cells: Vec<Vec<usize>> = vec![Vec::new(); nx * ny];
+    let cell_of = |c: Vector2<f64>| -> (usize, usize) {
+        (
+            ((c.x / cell) as usize).min(nx - 1),
+            ((c.y / cell) as usize).min(ny - 1),
+        )
+    };
+    let mut try_add = |c: Vector2<f64>, r: f64, pts: &mut Vec<(Vector2<f64>, f64)>| -> bool {
+        if c.x < r || c.y < r || c.x > w - r || c.y > h - r {
+            return false;
+        }
+        let (cx, cy) = cell_of(c);
+        for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
+            for x in cx.saturating_sub(1)..=(cx + 1).min(nx - 1) {
+                for &j in &cells[y * nx + x] {
+                    let (q, rq) = pts[j];
+                    if (q - c).norm() < r + rq + p.min_gap_m {
+                        return false;
+                    }
+                }
+            }
+        }
+        cells[cy * nx + cx].push(pts.len());
+        pts.push((c, r));
+        true
+    };
+    let radius = |rng: &mut ChaCha8Rng| {
+        if p.polydisperse {
+            p.radius_m * Distribution::<f64>::sample(&spread, rng).clamp(0.85, 1.15)
+        } else {
+            p.radius_m
+        }
+    };
+    if p.kind == LayoutKind::Adversarial {
+        // Dense hexagonal core over the central third of the field.
+        let pitch = 2.0 * rmax + p.min_gap_m;
+        let (cx, cy) = (w / 2.0, h / 2.0);
+        let (hw, hh) = (w / 3.0, h / 3.0);
+        let mut row = 0;
+        let mut y = cy - hh;
+        while y <= cy + hh && pts.len() < p.n * 2 / 3 {
+            let mut x = cx - hw + if row % 2 == 1 { pitch / 2.0 } else { 0.0 };
+            while x <= cx + hw && pts.len() < p.n * 2 / 3 {
+                let r = radius(&mut rng);
+                try_add(Vector2::new(x, y), r, &mut pts);
+                x += pitch;
+            }
+            y += pitch * 3f64.sqrt() / 2.0;
+            row += 1;
+        }
+    }
+    let centres: Vec<Vector2<f64>> = (0..4)
+        .map(|_| Vector2::new(rng.random::<f64>() * w, rng.random::<f64>() * h))
+        .collect();
+    let cluster = Normal::new(0.0, w.min(h) / 8.0).expect("valid normal");
+    let max_tries = 2_000 * p.n.max(1) + 100_000;
+    let mut tries = 0;
+    while pts.len() < p.n && tries < max_tries {
+        tries += 1;
+        let r = radius(&mut rng);
+        let c = match p.kind {
+            LayoutKind::Clustered if tries < max_tries / 2 => {
+                let k = centres[rng.random_range(0..centres.len())];
+                k + Vector2::new(cluster.sample(&mut rng), cluster.sample(&mut rng))
+            }
+            _ => Vector2::new(
+                r + rng.random::<f64>() * (w - 2.0 * r),
+                r + rng.random::<f64>() * (h - 2.0 * r),
+            ),
+        };
+        try_add(c, r, &mut pts);
+    }
+    if pts.len() < p.n {
+        return Err(SynthError::TooDense {
+            placed: pts.len(),
+            n: p.n,
+            gap_um: p.min_gap_m * 1e6,
+            w_um: w * 1e6,
+            h_um: h * 1e6,
+        });
+    }
+    let layout = Layout {
+        field_m: p.field_m,
+        particles: pts
+            .into_iter()
+            .enumerate()
+            .map(|(i, (c, r))| Particle {
+                id: i as u32,
+                centre_m: c,
+                radius_m: r,
+            })
+            .collect(),
+    };
+    layout.validate()?;
+    Ok(layout)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layouts_are_seeded_and_keep_the_gap() {
+        for kind in [
+            LayoutKind::Uniform,
+            LayoutKind::Clustered,
+            LayoutKind::Adversarial,
+        ] {
+            let p = SynthParams {
+                n: 50,
+                field_m: [120e-6, 100e-6],
+                radius_m: 5e-6,
+                min_gap_m: 1e-6,
+                polydisperse: false,
+                kind,
+                seed: 3,
+            };
+            let a = synth_layout(&p).unwrap();
+            assert_eq!(a, synth_layout(&p).unwrap());
+            assert_eq!(a.particles.len(), 50);
+            for (i, x) in a.particles.iter().enumerate() {
+                for y in &a.particles[i + 1..] {
+                    assert!((x.centre_m - y.centre_m).norm() >= 11e-6 - 1e-12);
+                }
+            }
+        }
+        let too_many = SynthParams {
+            n: 500,
+            field_m: [120e-6, 100e-6],
+            radius_m: 5e-6,
+            min_gap_m: 1e-6,
+            polydisperse: false,
+            kind: LayoutKind::Uniform,
+            seed: 1,
+        };
+        assert!(matches!(
+            synth_layout(&too_many),
+            Err(SynthError::TooDense { .. })
+        ));
+    }
+}

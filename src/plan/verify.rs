@@ -1,0 +1,184 @@
+//! Independent geometric replay of a plan.
+//!
+//! Shares no collision code with the planner: closed-form point-to-segment
+//! distances over every particle (brute force), from the plan's own numbers.
+//! Reports collisions (a swept particle or tip disc overlapping another
+//! particle), pushes that do not start where the particle is, final position
+//! errors, unfilled sites and unreachable moves (beyond the nanostage window).
+
+use super::layout::Layout;
+use super::plan_file::PlanGeometry;
+use super::{Plan, Step};
+use nalgebra::Vector2;
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Overlap tolerated before a contact counts as a collision (rounding in files).
+pub const COLLISION_TOLERANCE_M: f64 = 1e-9;
+/// A push must start within this distance of where the particle is.
+pub const START_TOLERANCE_M: f64 = 1e-9;
+
+/// One collision found by the replay.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Collision {
+    /// Step index in the plan.
+    pub step: usize,
+    /// Pushed particle id.
+    pub particle: u32,
+    /// Particle hit.
+    pub other: u32,
+    /// "particle" or "tip": which swept disc hit.
+    pub by: &'static str,
+    /// Overlap depth, um.
+    pub depth_um: f64,
+}
+
+/// What the replay found.
+#[derive(Debug, Clone, Serialize, PartialEq, Default)]
+pub struct VerifyReport {
+    /// Schema tag.
+    pub schema: &'static str,
+    /// Push steps replayed.
+    pub pushes: usize,
+    /// Collisions.
+    pub collisions: Vec<Collision>,
+    /// Steps that push an unknown particle or start away from it.
+    pub bad_starts: Vec<usize>,
+    /// Push steps whose tip path leaves the current nanostage window.
+    pub unreachable: Vec<usize>,
+    /// Sites with no particle on them at the end (within tolerance).
+    pub unfilled_sites: Vec<u32>,
+    /// Largest distance between an assigned particle and its site at the end, um.
+    pub max_final_error_um: f64,
+    /// True when nothing above is wrong.
+    pub ok: bool,
+}
+
+fn seg_dist(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+    let ab = b - a;
+    let l2 = ab.norm_squared();
+    let t = if l2 > 0.0 {
+        ((p - a).dot(&ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * t)).norm()
+}
+
+/// Replays `plan` on `layout`; `final_tolerance_m` is the allowed final error.
+pub fn verify_plan_with(
+    plan: &Plan,
+    layout: &Layout,
+    geometry: &PlanGeometry,
+    final_tolerance_m: f64,
+) -> VerifyReport {
+    let tip_r = geometry.tip_radius_um * 1e-6;
+    let standoff = geometry.standoff_um * 1e-6;
+    let range = geometry.nanostage_range_um * 1e-6;
+    let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let index: HashMap<u32, usize> = layout
+        .particles
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.id, i))
+        .collect();
+    let mut rep = VerifyReport {
+        schema: "nanopush.verify/1",
+        ..Default::default()
+    };
+    let mut window: Option<Vector2<f64>> = None;
+    for (k, step) in plan.steps.iter().enumerate() {
+        match *step {
+            Step::CoarseMove { centre_m } => window = Some(centre_m),
+            Step::TipTravel { .. } => {}
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                approach_m,
+                ..
+            } => {
+                rep.pushes += 1;
+                let Some(&i) = index.get(&particle) else {
+                    rep.bad_starts.push(k);
+                    continue;
+                };
+                if (pos[i] - from_m).norm() > START_TOLERANCE_M {
+                    rep.bad_starts.push(k);
+                }
+                let r = layout.particles[i].radius_m;
+                let len = (to_m - from_m).norm();
+                let dir = if len > 0.0 {
+                    (to_m - from_m) / len
+                } else {
+                    Vector2::new(1.0, 0.0)
+                };
+                let land = approach_m - dir * standoff;
+                let tip_end = approach_m + (to_m - from_m);
+                if let Some(c) = window {
+                    let half = range / 2.0 + 1e-12;
+                    if [land, tip_end]
+                        .iter()
+                        .any(|p| (p.x - c.x).abs() > half || (p.y - c.y).abs() > half)
+                    {
+                        rep.unreachable.push(k);
+                    }
+                } else if len > range {
+                    rep.unreachable.push(k);
+                }
+                for (j, q) in pos.iter().enumerate() {
+                    if j == i {
+                        continue;
+                    }
+                    let rq = layout.particles[j].radius_m;
+                    let dp = r + rq - seg_dist(*q, from_m, to_m);
+                    let dt = tip_r + rq - seg_dist(*q, land, tip_end);
+                    for (depth, by) in [(dp, "particle"), (dt, "tip")] {
+                        if depth > COLLISION_TOLERANCE_M {
+                            rep.collisions.push(Collision {
+                                step: k,
+                                particle,
+                                other: layout.particles[j].id,
+                                by,
+                                depth_um: depth * 1e6,
+                            });
+                        }
+                    }
+                }
+                pos[i] = to_m;
+            }
+        }
+    }
+    let sites: HashMap<u32, Vector2<f64>> = plan.sites.iter().map(|s| (s.id, s.centre_m)).collect();
+    let mut filled = std::collections::HashSet::new();
+    for &(p, s) in &plan.assignment {
+        if let (Some(&i), Some(&c)) = (index.get(&p), sites.get(&s)) {
+            let e = (pos[i] - c).norm();
+            rep.max_final_error_um = rep.max_final_error_um.max(e * 1e6);
+            if e <= final_tolerance_m {
+                filled.insert(s);
+            }
+        }
+    }
+    rep.unfilled_sites = plan
+        .sites
+        .iter()
+        .map(|s| s.id)
+        .filter(|id| !filled.contains(id))
+        .collect();
+    rep.ok = rep.collisions.is_empty()
+        && rep.bad_starts.is_empty()
+        && rep.unreachable.is_empty()
+        && rep.unfilled_sites.is_empty();
+    rep
+}
+
+/// Replays a plan made with `config` (the executor's entry point).
+pub fn verify_plan(plan: &Plan, layout: &Layout, config: &super::PlanConfig) -> VerifyReport {
+    verify_plan_with(
+        plan,
+        layout,
+        &super::plan_file::geometry_of(config),
+        config.on_site_tolerance_m.max(1e-9),
+    )
+}

@@ -1,0 +1,291 @@
+//! The planner's command line: bad input gives a clear error and a non-zero
+//! exit (never a panic); plan files and layouts round-trip through the tools.
+
+use std::path::Path;
+use std::process::Command;
+
+fn nanopush(args: &[&str]) -> (bool, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args(args)
+        .output()
+        .expect("binary runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!text.contains("panicked"), "panic for {args:?}: {text}");
+    (out.status.success(), text)
+}
+
+fn write_layout(
+    dir: &Path,
+    name: &str,
+    particles: &[(f64, f64, f64)],
+    field: (f64, f64),
+) -> String {
+    let ps: Vec<String> = particles
+        .iter()
+        .enumerate()
+        .map(|(i, (x, y, r))| {
+            format!("{{\"id\": {i}, \"x_um\": {x}, \"y_um\": {y}, \"radius_um\": {r}}}")
+        })
+        .collect();
+    let text = format!(
+        "{{\"schema\": \"nanopush.layout/1\", \"field_um\": [{}, {}], \"particles\": [{}]}}",
+        field.0,
+        field.1,
+        ps.join(",")
+    );
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path.display().to_string()
+}
+
+/// Three particles at the bottom of an empty 200 x 200 um field.
+fn easy_layout(dir: &Path) -> String {
+    write_layout(
+        dir,
+        "easy.json",
+        &[
+            (20.0, 15.0, 5.0),
+            (60.0, 15.0, 5.0),
+            (100.0, 15.0, 5.0),
+            (140.0, 15.0, 5.0),
+        ],
+        (200.0, 200.0),
+    )
+}
+
+#[test]
+fn bad_input_is_a_clear_error_with_non_zero_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let easy = easy_layout(dir.path());
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "C?".into(),
+                "--layout".into(),
+                easy.clone(),
+            ],
+            "unknown glyph",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                " ".into(),
+                "--layout".into(),
+                easy.clone(),
+            ],
+            "empty pattern",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "CMU".into(),
+                "--layout".into(),
+                easy.clone(),
+            ],
+            "only 4 particles",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "I".into(),
+                "--layout".into(),
+                easy.clone(),
+                "--pitch-um".into(),
+                "NaN".into(),
+            ],
+            "pitch-um",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "I".into(),
+                "--layout".into(),
+                easy.clone(),
+                "--pitch-um".into(),
+                "5".into(),
+            ],
+            "overlap",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "I".into(),
+                "--layout".into(),
+                easy.clone(),
+                "--at".into(),
+                "5,5".into(),
+            ],
+            "outside the reachable area",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "MMMMMMMMMMMMMMMMMMMMM".into(),
+                "--layout".into(),
+                easy.clone(),
+            ],
+            "does not fit",
+        ),
+        (
+            vec![
+                "plan".into(),
+                "--text".into(),
+                "I".into(),
+                "--frame".into(),
+                "f.png".into(),
+                "--calib".into(),
+                "c.toml".into(),
+            ],
+            "needs the vision module",
+        ),
+    ];
+    for (args, expect) in cases {
+        let refs: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        let (ok, text) = nanopush(&refs);
+        assert!(!ok, "{args:?} should fail");
+        assert!(
+            text.contains(expect),
+            "{args:?}: expected {expect:?} in {text}"
+        );
+    }
+    let negative = write_layout(
+        dir.path(),
+        "neg.json",
+        &[(20.0, 15.0, -5.0)],
+        (200.0, 200.0),
+    );
+    let (ok, text) = nanopush(&["plan", "--text", "I", "--layout", &negative]);
+    assert!(!ok && text.contains("radius_um"), "{text}");
+    let overlapping = dir.path().join("sites.toml");
+    std::fs::write(
+        &overlapping,
+        "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 4.0, y_um = 0.0 }]",
+    )
+    .unwrap();
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        overlapping.to_str().unwrap(),
+        "--layout",
+        &easy,
+    ]);
+    assert!(!ok && text.contains("overlap"), "{text}");
+}
+
+#[test]
+fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let easy = easy_layout(dir.path());
+    let plan = dir.path().join("plan.json");
+    let svg = dir.path().join("plan.svg");
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--text",
+        "I",
+        "--layout",
+        &easy,
+        "--pitch-um",
+        "11",
+        "--at",
+        "100,120",
+        "--out",
+        plan.to_str().unwrap(),
+        "--overlay",
+        svg.to_str().unwrap(),
+        "--json",
+    ]);
+    // "I" needs 9 sites but the layout has 4 particles: refused with the counts.
+    assert!(!ok && text.contains("9 sites"), "{text}");
+    let sites = dir.path().join("sites.json");
+    std::fs::write(
+        &sites,
+        r#"{"sites": [{"x_um": 0, "y_um": 0}, {"x_um": 11, "y_um": 0}, {"x_um": 22, "y_um": 0}]}"#,
+    )
+    .unwrap();
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        sites.to_str().unwrap(),
+        "--layout",
+        &easy,
+        "--at",
+        "100,120",
+        "--out",
+        plan.to_str().unwrap(),
+        "--overlay",
+        svg.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["verified"], true);
+    assert!(summary["push_ratio"].as_f64().unwrap() >= 1.0 - 1e-9);
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    let (ok, text) = nanopush(&[
+        "verify-plan",
+        plan.to_str().unwrap(),
+        "--layout",
+        &easy,
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let rep: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(rep["collisions"].as_array().unwrap().len(), 0);
+    // Tampering: start a push somewhere else and the replay must refuse.
+    let tampered = std::fs::read_to_string(&plan).unwrap().replacen(
+        "\"from_um\": [\n",
+        "\"from_um\": [\n        1.0 +",
+        0,
+    );
+    let bad = dir.path().join("bad.json");
+    let original: serde_json::Value = serde_json::from_str(&tampered).unwrap();
+    let mut v = original.clone();
+    let step = v["steps"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|s| s["kind"] == "push")
+        .unwrap();
+    step["from_um"][0] = serde_json::json!(30.0);
+    std::fs::write(&bad, serde_json::to_string(&v).unwrap()).unwrap();
+    let (ok, _) = nanopush(&["verify-plan", bad.to_str().unwrap(), "--layout", &easy]);
+    assert!(!ok, "a tampered plan must fail verification");
+
+    let out = dir.path().join("synth.json");
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        "30",
+        "--field-um",
+        "120x100",
+        "--seed",
+        "4",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let layout = nanopush::plan::Layout::read(&out).unwrap();
+    assert_eq!(layout.particles.len(), 30);
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        "500",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok && text.contains("too dense"), "{text}");
+}

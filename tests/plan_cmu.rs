@@ -1,0 +1,101 @@
+//! Acceptance: "CMU" with 10 um particles on 100 seeded uniform layouts
+//! (40-60 particles, 120 x 100 um, gaps >= 1 um) and adversarial layouts.
+//!
+//! What holds and is asserted always: every plan produced passes the
+//! independent replay with zero collisions, and every refusal states its
+//! reason. The full targets (all 100 planned, push <= 1.05 LB_push,
+//! push + tip <= 1.2 (LB_push + LB_tip)) are NOT met yet; that test is
+//! ignored with the measured figures (run with `--ignored` to see them).
+
+use nanopush::plan::pattern::transform::{Reachable, place_optimised};
+use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+use nanopush::plan::{Pattern, PlanConfig, PlanError, plan_assembly, verify_plan};
+
+struct Outcome {
+    planned: usize,
+    refused: Vec<String>,
+    worst_push: f64,
+    worst_total: f64,
+}
+
+fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
+    let config = PlanConfig::default();
+    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+    let mut o = Outcome {
+        planned: 0,
+        refused: Vec::new(),
+        worst_push: 0.0,
+        worst_total: 0.0,
+    };
+    for seed in seeds {
+        let n = 40 + (seed as usize * 7) % 21;
+        let p = SynthParams {
+            n,
+            field_m: [120e-6, 100e-6],
+            radius_m: 5e-6,
+            min_gap_m: 1e-6,
+            polydisperse: false,
+            kind,
+            seed,
+        };
+        let layout = synth_layout(&p).unwrap();
+        let area = Reachable::for_field(layout.field_m, 5e-6);
+        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+        let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+        match plan_assembly(&layout, &sites, &config) {
+            Ok(plan) => {
+                let rep = verify_plan(&plan, &layout, &config);
+                assert!(
+                    rep.collisions.is_empty(),
+                    "seed {seed}: collisions {:?}",
+                    rep.collisions
+                );
+                assert!(rep.ok, "seed {seed}: replay failed {rep:?}");
+                let s = &plan.summary;
+                o.worst_push = o.worst_push.max(s.push_distance_m / s.lb_push_m);
+                o.worst_total = o
+                    .worst_total
+                    .max((s.push_distance_m + s.tip_travel_m) / (s.lb_push_m + s.lb_tip_m));
+                o.planned += 1;
+            }
+            Err(e @ PlanError::Blocked(_)) => o.refused.push(format!("seed {seed}: {e}")),
+            Err(e) => panic!("seed {seed}: unexpected error kind: {e}"),
+        }
+    }
+    o
+}
+
+#[test]
+fn cmu_plans_never_collide_and_refusals_state_a_reason() {
+    for (kind, seeds) in [
+        (LayoutKind::Uniform, 0..100),
+        (LayoutKind::Adversarial, 0..20),
+    ] {
+        let o = run_cmu(kind, seeds);
+        eprintln!(
+            "{kind:?}: planned {}, refused {}, worst push ratio {:.3}, worst total ratio {:.3}",
+            o.planned,
+            o.refused.len(),
+            o.worst_push,
+            o.worst_total
+        );
+        assert!(
+            o.refused
+                .iter()
+                .all(|r| r.contains("no collision-free order:") && r.len() > 40)
+        );
+    }
+}
+
+#[test]
+#[ignore = "target not met: 120x100 um CMU layouts are mostly refused as blocked (see docs/plan.md for the figures)"]
+fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
+    let o = run_cmu(LayoutKind::Uniform, 0..100);
+    assert_eq!(o.planned, 100, "refused: {:?}", o.refused);
+    assert!(o.worst_push <= 1.05, "worst push ratio {}", o.worst_push);
+    assert!(
+        o.worst_total <= 1.2,
+        "worst push+tip ratio {}",
+        o.worst_total
+    );
+}
