@@ -53,6 +53,9 @@ pub struct PlanConfig {
     pub method: AssignmentMethod,
     /// Where the tip starts; None = the first push's landing point.
     pub tip_start_m: Option<Vector2<f64>>,
+    /// Particles never assigned or pushed (the executor gave up on them); they
+    /// stay in the layout as obstacles.
+    pub immovable: Vec<u32>,
 }
 
 impl Default for PlanConfig {
@@ -68,6 +71,7 @@ impl Default for PlanConfig {
             on_site_tolerance_m: 0.25e-6,
             method: AssignmentMethod::Exact,
             tip_start_m: None,
+            immovable: Vec::new(),
         }
     }
 }
@@ -282,7 +286,7 @@ fn assign_with_fixed(
         }
     }
     let free_particles: Vec<usize> = (0..layout.particles.len())
-        .filter(|&p| !particle_taken[p])
+        .filter(|&p| !particle_taken[p] && !config.immovable.contains(&layout.particles[p].id))
         .collect();
     let site_pts: Vec<Vector2<f64>> = free_sites.iter().map(|&s| sites[s].centre_m).collect();
     let part_pts: Vec<Vector2<f64>> = free_particles

@@ -30,10 +30,10 @@ pub trait NanoStage {
 
 /// The coarse XY stage that moves the sample under the nanostage's reach.
 pub trait CoarseStage {
-    /// Where the coarse stage is, metres.
-    fn position(&mut self) -> Result<[f64; 2], RigError>;
+    /// Where the coarse stage has put the nanostage's origin on the sample, metres.
+    fn coarse_position(&mut self) -> Result<[f64; 2], RigError>;
     /// Moves the coarse stage and returns once it has settled.
-    fn move_to(&mut self, target: [f64; 2]) -> Result<(), RigError>;
+    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError>;
 }
 
 /// Checks a target against a range before anything moves.

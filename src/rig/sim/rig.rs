@@ -8,11 +8,13 @@
 //! detector will miss in a given frame (drawn out of the frame).
 
 use super::stage::SimStage;
+use super::state::SimState;
 use crate::calib::affine::AffineCalibration;
 use crate::render::microscope::{ParticleView, RenderSettings, SceneView, TipView, render_frame};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
+use std::path::{Path, PathBuf};
 
 /// How the simulated camera sees the nanostage's range.
 #[derive(Debug, Clone)]
@@ -61,6 +63,7 @@ pub struct SimRig {
     frames: usize,
     drop_frames: Vec<usize>,
     hidden: Vec<(usize, usize)>,
+    persist_to: Option<PathBuf>,
 }
 
 impl SimRig {
@@ -73,7 +76,32 @@ impl SimRig {
             frames: 0,
             drop_frames: Vec::new(),
             hidden: Vec::new(),
+            persist_to: None,
         }
+    }
+
+    /// Saves the physical state to `path` after every move and frame, so a
+    /// killed run can be resumed on the same world ([`SimRig::restore_from`]).
+    pub fn persist_to(&mut self, path: PathBuf) -> Result<(), RigError> {
+        self.persist_to = Some(path);
+        self.persist()
+    }
+
+    /// Puts the world back as a saved state file left it.
+    pub fn restore_from(&mut self, path: &Path) -> Result<(), RigError> {
+        let state = SimState::load(path).map_err(|e| RigError::Io(e.to_string()))?;
+        self.stage.restore(&state);
+        self.frames = state.frames;
+        Ok(())
+    }
+
+    fn persist(&self) -> Result<(), RigError> {
+        let Some(path) = &self.persist_to else {
+            return Ok(());
+        };
+        let mut state = self.stage.snapshot();
+        state.frames = self.frames;
+        state.save(path).map_err(|e| RigError::Io(e.to_string()))
     }
 
     /// Frames grabbed so far (dropped ones included).
@@ -148,6 +176,7 @@ impl Camera for SimRig {
         let seed = self.seed ^ (n as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let frame = render_frame(&view, &self.camera.render, seed)
             .map_err(|e| RigError::Io(format!("simulated camera: {e}")))?;
+        self.persist()?;
         Ok(Some(TimedFrame {
             t_s: self.stage.clock_s(),
             frame,
@@ -163,7 +192,9 @@ impl NanoStage for SimRig {
         self.stage.position()
     }
     fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
-        self.stage.move_to(target, speed_m_per_s)
+        let moved = self.stage.move_to(target, speed_m_per_s);
+        self.persist()?;
+        moved
     }
     fn halt(&mut self) -> Result<(), RigError> {
         self.stage.halt()
@@ -171,10 +202,11 @@ impl NanoStage for SimRig {
 }
 
 impl CoarseStage for SimRig {
-    fn position(&mut self) -> Result<[f64; 2], RigError> {
+    fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
         Ok(self.stage.coarse_offset())
     }
-    fn move_to(&mut self, target: [f64; 2]) -> Result<(), RigError> {
-        self.stage.move_coarse(target)
+    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+        self.stage.move_coarse(target)?;
+        self.persist()
     }
 }

@@ -2,7 +2,8 @@
 //! stage's precision noise and a slow drift between tip and sample, and can be
 //! told to fail mid-move (for fault tests).
 
-use super::world::{ContactEvent, PushPhysics, World};
+use super::state::{SIM_STATE_SCHEMA, SavedParticle, SimState};
+use super::world::{ContactEvent, PushPhysics, SimParticle, World};
 use crate::rig::RigError;
 use crate::rig::stage::{AxisRange, NanoStage, StageXyz, check_in_range};
 use rand::SeedableRng;
@@ -56,7 +57,7 @@ pub struct SimStage {
     commanded: StageXyz,
     actual: StageXyz,
     clock_s: f64,
-    rng: ChaCha8Rng,
+    seed: u64,
     contacts: Vec<TimedContact>,
     moves: usize,
     fail_at_move: Option<usize>,
@@ -83,7 +84,7 @@ impl SimStage {
             commanded: park,
             actual: park,
             clock_s: 0.0,
-            rng: ChaCha8Rng::seed_from_u64(seed),
+            seed,
             contacts: Vec::new(),
             moves: 0,
             fail_at_move: None,
@@ -116,6 +117,49 @@ impl SimStage {
         self.moves
     }
 
+    /// The stage's changing state, for saving (frames are the camera's, set by the rig).
+    pub fn snapshot(&self) -> SimState {
+        SimState {
+            schema: SIM_STATE_SCHEMA.to_owned(),
+            particles: self
+                .world
+                .particles
+                .iter()
+                .map(|p| SavedParticle {
+                    id: p.id,
+                    x_m: p.x_m,
+                    y_m: p.y_m,
+                    radius_m: p.radius_m,
+                })
+                .collect(),
+            commanded: self.commanded,
+            actual: self.actual,
+            clock_s: self.clock_s,
+            coarse_offset: self.coarse_offset,
+            moves: self.moves,
+            frames: 0,
+        }
+    }
+
+    /// Puts the stage and the world back to a saved state.
+    pub fn restore(&mut self, state: &SimState) {
+        self.world.particles = state
+            .particles
+            .iter()
+            .map(|p| SimParticle {
+                id: p.id,
+                x_m: p.x_m,
+                y_m: p.y_m,
+                radius_m: p.radius_m,
+            })
+            .collect();
+        self.commanded = state.commanded;
+        self.actual = state.actual;
+        self.clock_s = state.clock_s;
+        self.coarse_offset = state.coarse_offset;
+        self.moves = state.moves;
+    }
+
     /// Where the coarse stage has put the nanostage's origin on the sample.
     pub fn coarse_offset(&self) -> [f64; 2] {
         self.coarse_offset
@@ -145,12 +189,18 @@ impl SimStage {
         self.actual
     }
 
+    /// Where a commanded target really puts the tip. The noise of move `n` is
+    /// drawn from a generator seeded by (seed, n), so a world restored from a
+    /// saved state goes on exactly as the original would have.
     fn realise(&mut self, target: StageXyz) -> StageXyz {
         let noise = Normal::new(0.0, self.config.precision_m.max(0.0)).expect("finite sigma");
+        let mut rng = ChaCha8Rng::seed_from_u64(
+            self.seed ^ (self.moves as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
         let d = self.config.drift_m_per_s;
         [
-            target[0] + self.coarse_offset[0] + d[0] * self.clock_s + noise.sample(&mut self.rng),
-            target[1] + self.coarse_offset[1] + d[1] * self.clock_s + noise.sample(&mut self.rng),
+            target[0] + self.coarse_offset[0] + d[0] * self.clock_s + noise.sample(&mut rng),
+            target[1] + self.coarse_offset[1] + d[1] * self.clock_s + noise.sample(&mut rng),
             target[2],
         ]
     }
@@ -283,6 +333,19 @@ mod tests {
         assert!(matches!(push(&mut s), Err(RigError::StageFault(_))));
         let x = s.position().unwrap()[0];
         assert!((x - 50e-6).abs() < 1e-12, "stopped at {x}");
+    }
+
+    #[test]
+    fn a_restored_stage_goes_on_exactly_as_the_original() {
+        let mut a = stage(3);
+        push(&mut a).unwrap();
+        let saved = a.snapshot();
+        let mut b = stage(3);
+        b.restore(&saved);
+        for s in [&mut a, &mut b] {
+            s.move_to([30e-6, 60e-6, 14e-6], 10e-6).unwrap();
+        }
+        assert_eq!(a.snapshot(), b.snapshot());
     }
 
     #[test]

@@ -1,0 +1,663 @@
+//! The closed loop: observe, plan, ask the model, push, check, recover.
+//!
+//! Every cycle starts from what the camera sees, so whatever happened (a lost
+//! contact, a missed detection, a stage fault, a resumed run) is handled the
+//! same way: the particles are re-tracked, the plan is made again from where
+//! they are (particles already on a site stay), and its first push is executed
+//! with the contact angle and duration the pushing model advises. After the
+//! push the next frame tells whether the particle followed the tip; if not,
+//! the contact was lost and the next cycle pushes it again from where it lies.
+//! A particle that fails `max_tries` times is left where it is.
+//!
+//! Coarse-stage moves are chosen here, not taken from the plan: before each
+//! push the window is moved only if the stroke does not fit the nanostage's
+//! range as it is, which keeps re-planning free of window state.
+
+use super::events::{RunEvent, RunSpec, SeenParticle};
+use super::journal::{JournalError, JournalWriter};
+use super::observe::{ObserveError, Perception, Sighting};
+use super::push_check::{CheckTolerances, PushCheck, check_push};
+use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
+use super::tracker::Tracker;
+use crate::model::Scene;
+use crate::model::advice::{PushAdvice, advise_push};
+use crate::plan::layout::{Layout, Particle};
+use crate::plan::pattern::Site;
+use crate::plan::{PlanConfig, Step, plan_assembly};
+use crate::rig::stage::StageXyz;
+use crate::rig::{Rig, RigError};
+use nalgebra::Vector2;
+use std::collections::HashMap;
+
+/// Executor settings; the defaults suit 10 um particles on the simulated rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AssemblySettings {
+    /// A particle this close to its site is placed (default 0.1 um).
+    pub placed_tolerance_m: f64,
+    /// A pushed particle this far off its push line turned around the tip (default 1.5 um).
+    pub off_line_tolerance_m: f64,
+    /// Lost contacts on one particle before it is left alone (default 3).
+    pub max_tries: u32,
+    /// Pushes after which the run stops, done or not (default 400).
+    pub max_pushes: usize,
+    /// Stage faults in a row after which the run stops (default 3).
+    pub max_stage_faults: u32,
+    /// Speed of lifted travel and vertical moves (default 10 um/s).
+    pub travel_speed_m_per_s: f64,
+    /// Gap between tip and particle where the tip is lowered (default 1 um).
+    pub clearance_m: f64,
+    /// Farthest a particle may be from its predicted place and keep its identity (default 4 um).
+    pub track_gate_m: f64,
+    /// Width of the field the particles lie in, metres (the planner's layout field).
+    pub field_m: [f64; 2],
+}
+
+impl Default for AssemblySettings {
+    fn default() -> Self {
+        Self {
+            placed_tolerance_m: 0.1e-6,
+            off_line_tolerance_m: 1.5e-6,
+            max_tries: 3,
+            max_pushes: 400,
+            max_stage_faults: 3,
+            travel_speed_m_per_s: 10e-6,
+            clearance_m: 1e-6,
+            track_gate_m: 4e-6,
+            field_m: [120e-6, 100e-6],
+        }
+    }
+}
+
+/// Why the loop could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum ExecError {
+    /// The journal could not be written: stop, or entries would be lost.
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    /// No frame could be analysed.
+    #[error(transparent)]
+    Observe(#[from] ObserveError),
+    /// The rig failed in a way that is not a recoverable fault.
+    #[error("rig: {0}")]
+    Rig(#[from] RigError),
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunEnd {
+    /// Every site filled within tolerance.
+    Done,
+    /// Stopped before that, with the reason.
+    Stopped(String),
+}
+
+/// One executed push, for reports (rig times bracket every move of the push).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PushRecord {
+    /// Rig time when the tip started down.
+    pub t_start_s: f64,
+    /// Rig time when the tip was lifted again.
+    pub t_end_s: f64,
+    /// True when the camera showed the contact was lost.
+    pub lost_contact_detected: bool,
+}
+
+/// Something that wants to see every analysed frame (the animation writer).
+pub trait FrameSink {
+    /// Called with each analysed frame, the sites, and the push about to be made.
+    fn frame(
+        &mut self,
+        sighting: &Sighting,
+        tracks: &[SeenParticle],
+        sites: &[Site],
+        push: Option<&PushIntent>,
+    );
+}
+
+/// A push the loop is about to make or has just made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PushIntent {
+    /// Track id of the particle.
+    pub particle: usize,
+    /// Centre before, on the sample.
+    pub from: [f64; 2],
+    /// Centre wanted after.
+    pub to: [f64; 2],
+    /// Particle radius.
+    pub radius_m: f64,
+}
+
+/// The closed loop over one rig.
+pub struct Assembly<'a> {
+    rig: &'a mut dyn Rig,
+    scene: Scene,
+    sites: Vec<Site>,
+    plan_config: PlanConfig,
+    perception: Perception,
+    settings: AssemblySettings,
+    journal: JournalWriter,
+    tracker: Tracker,
+    failures: HashMap<usize, u32>,
+    given_up: Vec<usize>,
+    repush_next: Option<usize>,
+    stage_faults: u32,
+    coarse_offset: [f64; 2],
+    pushes_done: usize,
+    frames_seen: usize,
+    /// Every push executed in this process, in order.
+    pub records: Vec<PushRecord>,
+    /// The last analysed frame.
+    pub last_sighting: Option<Sighting>,
+    sink: Option<&'a mut dyn FrameSink>,
+}
+
+/// What the loop needs besides the rig.
+pub struct AssemblyInputs {
+    /// The scene the model advises from.
+    pub scene: Scene,
+    /// Target sites on the sample.
+    pub sites: Vec<Site>,
+    /// Planner settings.
+    pub plan_config: PlanConfig,
+    /// Frame analysis.
+    pub perception: Perception,
+    /// Loop settings.
+    pub settings: AssemblySettings,
+}
+
+impl<'a> Assembly<'a> {
+    /// A new run: writes the run spec as the journal's first entry.
+    pub fn start(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        mut journal: JournalWriter,
+        spec: RunSpec,
+    ) -> Result<Self, ExecError> {
+        journal.append(rig.now_s(), &RunEvent::Start(spec))?;
+        Ok(Self::with_journal(rig, inputs, journal, 0))
+    }
+
+    /// A resumed run: `pushes_done` counts the pushes journalled before the stop.
+    pub fn resume(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        mut journal: JournalWriter,
+        pushes_done: usize,
+    ) -> Result<Self, ExecError> {
+        journal.append(rig.now_s(), &RunEvent::Resume)?;
+        Ok(Self::with_journal(rig, inputs, journal, pushes_done))
+    }
+
+    fn with_journal(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        journal: JournalWriter,
+        pushes_done: usize,
+    ) -> Self {
+        let coarse_offset = rig.coarse_position().unwrap_or([0.0, 0.0]);
+        Self {
+            rig,
+            tracker: Tracker::new(inputs.settings.track_gate_m),
+            scene: inputs.scene,
+            sites: inputs.sites,
+            plan_config: inputs.plan_config,
+            perception: inputs.perception,
+            settings: inputs.settings,
+            journal,
+            failures: HashMap::new(),
+            given_up: Vec::new(),
+            repush_next: None,
+            stage_faults: 0,
+            coarse_offset,
+            pushes_done,
+            frames_seen: 0,
+            records: Vec::new(),
+            last_sighting: None,
+            sink: None,
+        }
+    }
+
+    /// Shows every analysed frame to `sink` (the animation writer).
+    pub fn with_sink(mut self, sink: &'a mut dyn FrameSink) -> Self {
+        self.sink = Some(sink);
+        self
+    }
+
+    /// The target sites.
+    pub fn sites(&self) -> &[Site] {
+        &self.sites
+    }
+
+    /// Current particle tracks as journalled (micrometres).
+    pub fn tracks(&self) -> Vec<SeenParticle> {
+        self.tracker
+            .tracks()
+            .iter()
+            .map(|t| SeenParticle {
+                id: t.id,
+                x_um: t.last.x_m * 1e6,
+                y_um: t.last.y_m * 1e6,
+                r_um: t.last.radius_m * 1e6,
+            })
+            .collect()
+    }
+
+    /// Distance from every site to the nearest tracked particle, metres.
+    pub fn site_errors_m(&self) -> Vec<f64> {
+        self.sites
+            .iter()
+            .map(|s| {
+                self.tracker
+                    .tracks()
+                    .iter()
+                    .map(|t| (t.last.x_m - s.centre_m.x).hypot(t.last.y_m - s.centre_m.y))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect()
+    }
+
+    /// Runs the loop until every site is filled or it has to stop.
+    pub fn run(&mut self) -> Result<RunEnd, ExecError> {
+        let mut pending: Option<PushIntent> = None;
+        loop {
+            let predicted: Vec<(usize, f64, f64)> = pending
+                .iter()
+                .map(|p| (p.particle, p.to[0], p.to[1]))
+                .collect();
+            self.observe(&predicted, None)?;
+            if let Some(intent) = pending.take() {
+                self.check(&intent)?;
+            }
+            if self
+                .site_errors_m()
+                .iter()
+                .all(|e| *e <= self.settings.placed_tolerance_m)
+            {
+                self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
+                return Ok(RunEnd::Done);
+            }
+            if self.pushes_done >= self.settings.max_pushes {
+                return self.stop(format!(
+                    "{} pushes made without filling every site",
+                    self.pushes_done
+                ));
+            }
+            let Some(intent) = self.next_push()? else {
+                return self.stop("the planner found no push to make".to_owned());
+            };
+            match self.push(&intent) {
+                Ok(()) => {
+                    self.stage_faults = 0;
+                    pending = Some(intent);
+                }
+                Err(PushError::Rig(RigError::StageFault(why))) => {
+                    self.recover_from_fault(why)?;
+                    if self.stage_faults > self.settings.max_stage_faults {
+                        return self.stop(format!("{} stage faults in a row", self.stage_faults));
+                    }
+                }
+                Err(PushError::Rig(e)) => {
+                    let _ = self.rig.halt();
+                    self.journal.append(
+                        self.rig.now_s(),
+                        &RunEvent::MoveFailed {
+                            error: e.to_string(),
+                        },
+                    )?;
+                    return self.stop(format!("rig error: {e}"));
+                }
+                Err(PushError::Journal(e)) => return Err(e.into()),
+                Err(PushError::Refused(why)) => {
+                    self.fail(intent.particle)?;
+                    self.journal.append(
+                        self.rig.now_s(),
+                        &RunEvent::Check {
+                            particle: intent.particle,
+                            result: format!("refused: {why}"),
+                            error_nm: 0.0,
+                            lost_contact: false,
+                        },
+                    )?;
+                }
+            }
+        }
+    }
+
+    fn stop(&mut self, reason: String) -> Result<RunEnd, ExecError> {
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Stopped {
+                reason: reason.clone(),
+            },
+        )?;
+        Ok(RunEnd::Stopped(reason))
+    }
+
+    /// Grabs, detects, tracks and journals one frame.
+    fn observe(
+        &mut self,
+        predicted: &[(usize, f64, f64)],
+        push: Option<&PushIntent>,
+    ) -> Result<(), ExecError> {
+        let calibration = self.rig.calibration().clone();
+        let sighting = self
+            .perception
+            .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        for _ in 0..sighting.dropped {
+            self.journal
+                .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
+        }
+        self.tracker.update(&sighting.particles, predicted);
+        let tracks = self.tracks();
+        self.journal.append(
+            sighting.t_s,
+            &RunEvent::Observation {
+                frame: self.frames_seen,
+                particles: tracks.clone(),
+                tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
+            },
+        )?;
+        if let Some(sink) = self.sink.as_mut() {
+            sink.frame(&sighting, &tracks, &self.sites, push);
+        }
+        self.last_sighting = Some(sighting);
+        self.frames_seen += 1;
+        Ok(())
+    }
+
+    /// Was the last push a success? Journals the check and counts failures.
+    fn check(&mut self, intent: &PushIntent) -> Result<(), ExecError> {
+        let seen = self
+            .tracker
+            .track(intent.particle)
+            .filter(|t| t.missed_frames == 0)
+            .map(|t| [t.last.x_m, t.last.y_m]);
+        let tol = CheckTolerances {
+            placed_m: self.settings.placed_tolerance_m,
+            off_line_m: self.settings.off_line_tolerance_m,
+        };
+        let (result, error_nm, lost) = match seen {
+            None => ("unseen".to_owned(), 0.0, false),
+            Some(at) => {
+                let c = check_push(intent.from, intent.to, at, &tol);
+                let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
+                let name = match c {
+                    PushCheck::Placed { .. } => "placed",
+                    PushCheck::FellShort { .. } => "fell-short",
+                    PushCheck::LeftLine { .. } => "left-line",
+                    PushCheck::Overshot { .. } => "overshot",
+                };
+                (name.to_owned(), error_nm, c.lost_contact())
+            }
+        };
+        if let Some(r) = self.records.last_mut() {
+            r.lost_contact_detected = lost;
+        }
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Check {
+                particle: intent.particle,
+                result,
+                error_nm,
+                lost_contact: lost,
+            },
+        )?;
+        if lost {
+            self.fail(intent.particle)?;
+            self.repush_next = Some(intent.particle);
+        }
+        Ok(())
+    }
+
+    fn fail(&mut self, particle: usize) -> Result<(), ExecError> {
+        let tries = self.failures.entry(particle).or_insert(0);
+        *tries += 1;
+        if *tries >= self.settings.max_tries && !self.given_up.contains(&particle) {
+            let tries = *tries;
+            self.given_up.push(particle);
+            self.journal
+                .append(self.rig.now_s(), &RunEvent::GiveUp { particle, tries })?;
+        }
+        Ok(())
+    }
+
+    /// Plans from the current tracks and returns the plan's first push.
+    fn next_push(&mut self) -> Result<Option<PushIntent>, ExecError> {
+        let particles: Vec<Particle> = self
+            .tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.missed_frames < 3)
+            .map(|t| Particle {
+                id: t.id as u32,
+                centre_m: Vector2::new(t.last.x_m, t.last.y_m),
+                radius_m: t.last.radius_m,
+            })
+            .collect();
+        let layout = Layout {
+            field_m: self.settings.field_m,
+            particles,
+        };
+        let mut config = self.plan_config.clone();
+        config.on_site_tolerance_m = self.settings.placed_tolerance_m;
+        config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+        config.tip_start_m = self
+            .last_sighting
+            .as_ref()
+            .and_then(|s| s.tip_m)
+            .map(|t| Vector2::new(t[0], t[1]));
+        let plan = match plan_assembly(&layout, &self.sites, &config) {
+            Ok(plan) => plan,
+            Err(e) => {
+                self.journal.append(
+                    self.rig.now_s(),
+                    &RunEvent::Stopped {
+                        reason: format!("planner: {e}"),
+                    },
+                )?;
+                return Ok(None);
+            }
+        };
+        let s = &plan.summary;
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Plan {
+                pushes: s.pushes,
+                push_distance_um: s.push_distance_m * 1e6,
+                tip_travel_um: s.tip_travel_m * 1e6,
+                lb_push_um: s.lb_push_m * 1e6,
+                lb_tip_um: s.lb_tip_m * 1e6,
+                planning_ms: s.planning_time_s * 1e3,
+            },
+        )?;
+        let first = plan.steps.iter().find_map(|step| match step {
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } => Some((*particle as usize, *from_m, *to_m)),
+            _ => None,
+        });
+        Ok(first.map(|(particle, from, to)| {
+            let radius_m = self
+                .tracker
+                .track(particle)
+                .map_or(self.scene.particle_radius_m, |t| t.last.radius_m);
+            PushIntent {
+                particle,
+                from: [from.x, from.y],
+                to: [to.x, to.y],
+                radius_m,
+            }
+        }))
+    }
+
+    /// Asks the model, lays out the stroke, moves the stage.
+    fn push(&mut self, intent: &PushIntent) -> Result<(), PushError> {
+        let distance = (intent.to[0] - intent.from[0]).hypot(intent.to[1] - intent.from[1]);
+        let mut scene = self.scene.clone();
+        scene.particle_radius_m = intent.radius_m;
+        scene.environment.session_time_s += self.rig.now_s();
+        let advice =
+            advise_push(&scene, distance).map_err(|e| PushError::Refused(e.to_string()))?;
+        let repush = self.repush_next.take() == Some(intent.particle);
+        self.journal_decision(intent, &advice, repush)?;
+        let range = self.rig.range();
+        let safe_z = (2.0 * intent.radius_m + 2e-6).min(range[2].max_m);
+        let stroke = plan_stroke(&StrokeRequest {
+            from: intent.from,
+            to: intent.to,
+            radius_m: intent.radius_m,
+            contact_angle_rad: advice.contact_angle_rad,
+            travel_after_contact_m: advice.duration_s * scene.push.speed_m_per_s,
+            clearance_m: self.settings.clearance_m,
+            safe_z_m: safe_z,
+        })
+        .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
+        self.fit_window(&stroke)?;
+        let t_start_s = self.rig.now_s();
+        let travel = self.settings.travel_speed_m_per_s;
+        let here = self.rig.position()?;
+        if here[2] < safe_z {
+            self.move_on_sample_raw([here[0], here[1], safe_z], travel)?;
+        }
+        self.move_on_sample(stroke.above, travel)?;
+        self.move_on_sample(stroke.approach, travel)?;
+        self.move_on_sample(stroke.end, scene.push.speed_m_per_s)?;
+        self.move_on_sample(stroke.lift, travel)?;
+        self.pushes_done += 1;
+        self.records.push(PushRecord {
+            t_start_s,
+            t_end_s: self.rig.now_s(),
+            lost_contact_detected: false,
+        });
+        Ok(())
+    }
+
+    fn journal_decision(
+        &mut self,
+        intent: &PushIntent,
+        a: &PushAdvice,
+        repush: bool,
+    ) -> Result<(), JournalError> {
+        let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Decision {
+                particle: intent.particle,
+                from_um: um(intent.from),
+                to_um: um(intent.to),
+                contact_angle_deg: a.contact_angle_rad.to_degrees(),
+                duration_s: a.duration_s,
+                onset_s: a.onset_s,
+                critical_force_un: a.critical_force_n * 1e6,
+                ride_over_margin: a.ride_over_margin,
+                mode: format!("{:?}", a.mode).to_lowercase(),
+                repush,
+            },
+        )?;
+        Ok(())
+    }
+
+    /// Moves the coarse stage when the stroke does not fit the nanostage's range.
+    fn fit_window(&mut self, stroke: &Stroke) -> Result<(), PushError> {
+        let range = self.rig.range();
+        let points = [stroke.above, stroke.approach, stroke.end, stroke.lift];
+        let fits = |offset: [f64; 2]| {
+            points.iter().all(|p| {
+                (0..2).all(|i| {
+                    let v = p[i] - offset[i];
+                    v >= range[i].min_m && v <= range[i].max_m
+                })
+            })
+        };
+        if fits(self.coarse_offset) {
+            return Ok(());
+        }
+        let mid = [
+            (stroke.above[0] + stroke.lift[0]) / 2.0,
+            (stroke.above[1] + stroke.lift[1]) / 2.0,
+        ];
+        let offset = [
+            mid[0] - (range[0].min_m + range[0].max_m) / 2.0,
+            mid[1] - (range[1].min_m + range[1].max_m) / 2.0,
+        ];
+        if !fits(offset) {
+            return Err(PushError::Refused(
+                "the stroke is longer than the nanostage's range".to_owned(),
+            ));
+        }
+        let here = self.rig.position()?;
+        self.move_on_sample_raw(
+            [here[0], here[1], range[2].max_m],
+            self.settings.travel_speed_m_per_s,
+        )?;
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::CoarseMove {
+                offset_um: [offset[0] * 1e6, offset[1] * 1e6],
+            },
+        )?;
+        self.rig.move_coarse(offset)?;
+        self.coarse_offset = offset;
+        Ok(())
+    }
+
+    /// Moves the tip to a point given on the sample.
+    fn move_on_sample(&mut self, target: StageXyz, speed: f64) -> Result<(), PushError> {
+        let nano = [
+            target[0] - self.coarse_offset[0],
+            target[1] - self.coarse_offset[1],
+            target[2],
+        ];
+        self.move_on_sample_raw(nano, speed)
+    }
+
+    /// Moves the nanostage to `nano` (nanostage coordinates), journalling it first.
+    fn move_on_sample_raw(&mut self, nano: StageXyz, speed: f64) -> Result<(), PushError> {
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Move {
+                target_um: [nano[0] * 1e6, nano[1] * 1e6, nano[2] * 1e6],
+                speed_um_s: speed * 1e6,
+            },
+        )?;
+        self.rig.move_to(nano, speed)?;
+        Ok(())
+    }
+
+    /// After a stage fault: halt, lift the tip, and let the next cycle re-observe.
+    fn recover_from_fault(&mut self, why: String) -> Result<(), ExecError> {
+        self.stage_faults += 1;
+        let _ = self.rig.halt();
+        self.journal
+            .append(self.rig.now_s(), &RunEvent::MoveFailed { error: why })?;
+        let range = self.rig.range();
+        let here = self.rig.position()?;
+        if let Err(e) = self.move_on_sample_raw(
+            [here[0], here[1], range[2].max_m],
+            self.settings.travel_speed_m_per_s,
+        ) {
+            let _ = self.rig.halt();
+            return Err(match e {
+                PushError::Rig(r) => ExecError::Rig(r),
+                PushError::Journal(j) => ExecError::Journal(j),
+                PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why one push was not made.
+#[derive(Debug, thiserror::Error)]
+enum PushError {
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    /// The model or the geometry refused this push; the particle counts a failure.
+    #[error("{0}")]
+    Refused(String),
+}

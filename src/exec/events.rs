@@ -1,0 +1,136 @@
+//! What the executor writes to its journal: every command, observation and
+//! decision, in lab units. The journal is enough to resume a run and to
+//! rebuild its report.
+
+use serde::{Deserialize, Serialize};
+
+/// What a run was asked to do; the first journal entry, and what `--resume` restarts from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSpec {
+    /// Text of the pattern (`--text`) or the pattern file it came from.
+    pub pattern: String,
+    /// Scene file the model and the simulated rig use.
+    pub scene: String,
+    /// Layout file of the simulated rig, if one was given.
+    pub layout: Option<String>,
+    /// Seed of the simulated rig's random layout and noise.
+    pub seed: u64,
+    /// Target sites on the sample, micrometres.
+    pub sites_um: Vec<[f64; 2]>,
+    /// Particle radius the run was planned for, micrometres.
+    pub radius_um: f64,
+}
+
+/// A particle seen in a frame, with its track id.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SeenParticle {
+    /// Track id.
+    pub id: usize,
+    /// Centre on the sample, micrometres.
+    pub x_um: f64,
+    /// Centre on the sample, micrometres.
+    pub y_um: f64,
+    /// Radius, micrometres.
+    pub r_um: f64,
+}
+
+/// One journal event.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum RunEvent {
+    /// The run started.
+    Start(RunSpec),
+    /// The run was resumed after a stop; entries before this one came before the stop.
+    Resume,
+    /// A frame was grabbed and analysed.
+    Observation {
+        /// Frame number.
+        frame: usize,
+        /// Particles seen (tracked).
+        particles: Vec<SeenParticle>,
+        /// Tip apex on the sample, micrometres, when seen.
+        tip_um: Option<[f64; 2]>,
+    },
+    /// The camera dropped a frame.
+    FrameDropped,
+    /// A (re-)plan.
+    Plan {
+        /// Pushes in the plan.
+        pushes: usize,
+        /// Total particle travel, micrometres.
+        push_distance_um: f64,
+        /// Lifted tip travel, micrometres.
+        tip_travel_um: f64,
+        /// Lower bound of push distance, micrometres.
+        lb_push_um: f64,
+        /// Lower bound of tip travel, micrometres.
+        lb_tip_um: f64,
+        /// Wall time spent planning, milliseconds.
+        planning_ms: f64,
+    },
+    /// The model's choice for the next push.
+    Decision {
+        /// Track id of the particle.
+        particle: usize,
+        /// Centre before, micrometres.
+        from_um: [f64; 2],
+        /// Centre wanted after, micrometres.
+        to_um: [f64; 2],
+        /// Chosen contact angle, degrees.
+        contact_angle_deg: f64,
+        /// Push duration after first touch, seconds.
+        duration_s: f64,
+        /// Predicted onset of motion, seconds after first touch.
+        onset_s: f64,
+        /// Critical force of the predicted mode, micronewtons.
+        critical_force_un: f64,
+        /// Margin against the tip riding over, when the model computed it.
+        ride_over_margin: Option<f64>,
+        /// Predicted motion mode.
+        mode: String,
+        /// True when this push repeats one whose contact was lost.
+        repush: bool,
+    },
+    /// A nanostage move was commanded (nanostage coordinates).
+    Move {
+        /// Target, micrometres.
+        target_um: [f64; 3],
+        /// Speed, micrometres per second.
+        speed_um_s: f64,
+    },
+    /// A coarse-stage move was commanded.
+    CoarseMove {
+        /// New offset of the nanostage origin on the sample, micrometres.
+        offset_um: [f64; 2],
+    },
+    /// A move failed; the stage was halted.
+    MoveFailed {
+        /// What the rig said.
+        error: String,
+    },
+    /// The result of a push as the camera saw it.
+    Check {
+        /// Track id.
+        particle: usize,
+        /// placed, fell-short, left-line, overshot, unseen.
+        result: String,
+        /// Distance to the wanted position, nanometres.
+        error_nm: f64,
+        /// True when the tip lost the particle.
+        lost_contact: bool,
+    },
+    /// A particle failed too often and is planned around from now on.
+    GiveUp {
+        /// Track id.
+        particle: usize,
+        /// Failed pushes.
+        tries: u32,
+    },
+    /// Every site is filled within tolerance.
+    Done,
+    /// The run stopped before it was done.
+    Stopped {
+        /// Why.
+        reason: String,
+    },
+}

@@ -1,0 +1,98 @@
+//! From a camera frame to tracked particles on the sample: grab (retrying
+//! dropped frames), detect, map pixels through the calibration and the coarse
+//! offset, and match to tracks.
+
+use super::tracker::Observation;
+use crate::calib::affine::AffineCalibration;
+use crate::rig::RigError;
+use crate::rig::camera::Camera;
+use crate::vision::detect::{DetectSettings, detect_particles};
+use crate::vision::frame::Frame;
+use crate::vision::tip::{TipSettings, detect_tip};
+
+/// A frame's worth of observations.
+#[derive(Debug, Clone)]
+pub struct Sighting {
+    /// The frame itself (kept for the animation and the final image).
+    pub frame: Frame,
+    /// Rig time of the exposure.
+    pub t_s: f64,
+    /// Particles seen, on the sample (metres).
+    pub particles: Vec<Observation>,
+    /// Tip apex on the sample, metres, when found.
+    pub tip_m: Option<[f64; 2]>,
+    /// Frames dropped before this one was had.
+    pub dropped: usize,
+}
+
+/// Why no frame could be analysed.
+#[derive(Debug, thiserror::Error)]
+pub enum ObserveError {
+    /// The camera failed.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// Every try gave a dropped frame.
+    #[error("the camera dropped {0} frames in a row")]
+    NoFrame(usize),
+    /// The detector refused the frame.
+    #[error("detection failed: {0}")]
+    Detect(String),
+}
+
+/// How frames are turned into observations.
+#[derive(Debug, Clone)]
+pub struct Perception {
+    /// Particle detection settings (size hint in pixels).
+    pub detect: DetectSettings,
+    /// Tip detection settings.
+    pub tip: TipSettings,
+    /// Grabs tried before giving up on dropped frames.
+    pub max_grabs: usize,
+}
+
+impl Perception {
+    /// Grabs a frame and finds the particles and the tip on the sample.
+    pub fn sight(
+        &self,
+        camera: &mut dyn Camera,
+        calibration: &AffineCalibration,
+        coarse_offset_m: [f64; 2],
+    ) -> Result<Sighting, ObserveError> {
+        let mut dropped = 0;
+        let timed = loop {
+            match camera.grab()? {
+                Some(f) => break f,
+                None if dropped + 1 >= self.max_grabs => {
+                    return Err(ObserveError::NoFrame(dropped + 1));
+                }
+                None => dropped += 1,
+            }
+        };
+        let on_sample = |x_px: f64, y_px: f64| {
+            let [x, y] = calibration.pixel_to_stage_m(x_px, y_px);
+            [x + coarse_offset_m[0], y + coarse_offset_m[1]]
+        };
+        let detections = detect_particles(&timed.frame, &self.detect)
+            .map_err(|e| ObserveError::Detect(e.to_string()))?;
+        let particles = detections
+            .iter()
+            .filter(|d| !d.edge_clipped)
+            .map(|d| {
+                let [x_m, y_m] = on_sample(d.x_px, d.y_px);
+                Observation {
+                    x_m,
+                    y_m,
+                    radius_m: d.r_px * calibration.m_per_px(),
+                }
+            })
+            .collect();
+        let tip_m = detect_tip(&timed.frame, &self.tip).map(|t| on_sample(t.x_px, t.y_px));
+        Ok(Sighting {
+            frame: timed.frame,
+            t_s: timed.t_s,
+            particles,
+            tip_m,
+            dropped,
+        })
+    }
+}

@@ -1,0 +1,232 @@
+//! The end-of-run report, built from the journal (so a resumed run counts the
+//! pushes made before the stop) and the final site errors.
+//!
+//! The time lower bound is the least time any plan can take with this
+//! physics: the optimal assignment's push distance plus, for every particle
+//! that must move, the stage travel the cantilever needs before the particle
+//! starts (the model's predicted onset), at the push speed; plus the tip
+//! travel lower bound at the travel speed.
+
+use super::events::RunEvent;
+use super::journal::Entry;
+use crate::model::effects::ActiveEffect;
+use serde::{Deserialize, Serialize};
+
+/// Schema of `report.json`.
+pub const REPORT_SCHEMA: &str = "nanopush.assembly-report/1";
+
+/// Everything `nanopush assemble` reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AssemblyReport {
+    /// Always [`REPORT_SCHEMA`].
+    pub schema: String,
+    /// "done", or "stopped: <reason>".
+    pub outcome: String,
+    /// Target sites.
+    pub sites: usize,
+    /// Sites with a particle within the placement tolerance.
+    pub filled: usize,
+    /// Root-mean-square placement error over the sites, nanometres.
+    pub rms_error_nm: f64,
+    /// Largest placement error, nanometres.
+    pub max_error_nm: f64,
+    /// "ground-truth" (simulated rig) or "camera".
+    pub error_source: String,
+    /// Placement error of every site, nanometres.
+    pub site_errors_nm: Vec<f64>,
+    /// Pushes made.
+    pub pushes: usize,
+    /// Pushes that repeated one whose contact was lost.
+    pub repushes: usize,
+    /// Lost contacts the camera showed.
+    pub lost_contacts_detected: usize,
+    /// Lost contacts the simulated rig caused that the executor did not see
+    /// (null on a real rig, where nobody knows).
+    pub lost_contacts_missed: Option<usize>,
+    /// Rig time of the run, seconds.
+    pub time_s: f64,
+    /// Least time any plan could take with this physics, seconds (module doc).
+    pub lower_bound_s: f64,
+    /// Effects the scene made active, with why.
+    pub active_effects: Vec<ActiveEffect>,
+}
+
+/// Counts read off a journal.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct JournalCounts {
+    /// Decision entries.
+    pub pushes: usize,
+    /// Decision entries marked as repushes.
+    pub repushes: usize,
+    /// Check entries that found a lost contact.
+    pub lost_contacts_detected: usize,
+    /// Push distance and tip travel lower bounds of the first plan, micrometres.
+    pub first_plan_bounds_um: Option<(f64, f64)>,
+    /// Onset of the first push decision, seconds.
+    pub first_onset_s: Option<f64>,
+    /// Sites without a particle in the first observation.
+    pub sites_to_fill: Option<usize>,
+    /// The last entry's time.
+    pub last_t_s: f64,
+    /// "done", or "stopped: <reason>" of the last end entry; None while running.
+    pub outcome: Option<String>,
+}
+
+/// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
+/// decide which sites the first observation shows empty.
+pub fn count_journal(
+    entries: &[Entry<RunEvent>],
+    sites_um: &[[f64; 2]],
+    tolerance_um: f64,
+) -> JournalCounts {
+    let mut c = JournalCounts::default();
+    for e in entries {
+        c.last_t_s = c.last_t_s.max(e.t_s);
+        match &e.event {
+            RunEvent::Decision {
+                repush, onset_s, ..
+            } => {
+                c.pushes += 1;
+                c.repushes += usize::from(*repush);
+                c.first_onset_s.get_or_insert(*onset_s);
+            }
+            RunEvent::Check {
+                lost_contact: true, ..
+            } => c.lost_contacts_detected += 1,
+            RunEvent::Plan {
+                lb_push_um,
+                lb_tip_um,
+                ..
+            } => {
+                c.first_plan_bounds_um
+                    .get_or_insert((*lb_push_um, *lb_tip_um));
+            }
+            RunEvent::Observation { particles, .. } if c.sites_to_fill.is_none() => {
+                let empty = sites_um
+                    .iter()
+                    .filter(|s| {
+                        !particles
+                            .iter()
+                            .any(|p| (p.x_um - s[0]).hypot(p.y_um - s[1]) <= tolerance_um)
+                    })
+                    .count();
+                c.sites_to_fill = Some(empty);
+            }
+            RunEvent::Done => c.outcome = Some("done".to_owned()),
+            RunEvent::Stopped { reason } => c.outcome = Some(format!("stopped: {reason}")),
+            RunEvent::Resume => c.outcome = None,
+            _ => {}
+        }
+    }
+    c
+}
+
+/// The time lower bound (module doc), seconds.
+pub fn lower_bound_s(c: &JournalCounts, push_speed_m_per_s: f64, travel_speed_m_per_s: f64) -> f64 {
+    let (lb_push_um, lb_tip_um) = c.first_plan_bounds_um.unwrap_or((0.0, 0.0));
+    let onset_travel_um = c.first_onset_s.unwrap_or(0.0) * push_speed_m_per_s * 1e6;
+    let moves = c.sites_to_fill.unwrap_or(0) as f64;
+    (lb_push_um + moves * onset_travel_um) * 1e-6 / push_speed_m_per_s
+        + lb_tip_um * 1e-6 / travel_speed_m_per_s
+}
+
+/// Root mean square and maximum of errors in metres, as nanometres.
+pub fn error_figures_nm(errors_m: &[f64]) -> (f64, f64) {
+    if errors_m.is_empty() {
+        return (0.0, 0.0);
+    }
+    let rms = (errors_m.iter().map(|e| e * e).sum::<f64>() / errors_m.len() as f64).sqrt();
+    let max = errors_m.iter().copied().fold(0.0, f64::max);
+    (rms * 1e9, max * 1e9)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exec::events::SeenParticle;
+
+    fn entry(seq: u64, t_s: f64, event: RunEvent) -> Entry<RunEvent> {
+        Entry { seq, t_s, event }
+    }
+
+    fn decision(repush: bool) -> RunEvent {
+        RunEvent::Decision {
+            particle: 1,
+            from_um: [0.0, 0.0],
+            to_um: [10.0, 0.0],
+            contact_angle_deg: 45.0,
+            duration_s: 19.0,
+            onset_s: 9.0,
+            critical_force_un: 3.0,
+            ride_over_margin: None,
+            mode: "rolling".to_owned(),
+            repush,
+        }
+    }
+
+    #[test]
+    fn counts_and_bound_follow_the_journal() {
+        let seen = |x: f64| SeenParticle {
+            id: 0,
+            x_um: x,
+            y_um: 0.0,
+            r_um: 5.0,
+        };
+        let entries = vec![
+            entry(
+                0,
+                0.0,
+                RunEvent::Observation {
+                    frame: 0,
+                    particles: vec![seen(0.0), seen(50.0)],
+                    tip_um: None,
+                },
+            ),
+            entry(
+                1,
+                0.1,
+                RunEvent::Plan {
+                    pushes: 1,
+                    push_distance_um: 10.0,
+                    tip_travel_um: 5.0,
+                    lb_push_um: 10.0,
+                    lb_tip_um: 5.0,
+                    planning_ms: 1.0,
+                },
+            ),
+            entry(2, 0.2, decision(false)),
+            entry(
+                3,
+                20.0,
+                RunEvent::Check {
+                    particle: 1,
+                    result: "fell-short".into(),
+                    error_nm: 9000.0,
+                    lost_contact: true,
+                },
+            ),
+            entry(4, 21.0, decision(true)),
+            entry(
+                5,
+                40.0,
+                RunEvent::Stopped {
+                    reason: "test".into(),
+                },
+            ),
+        ];
+        let c = count_journal(&entries, &[[10.0, 0.0], [50.0, 0.0]], 0.1);
+        assert_eq!((c.pushes, c.repushes, c.lost_contacts_detected), (2, 1, 1));
+        assert_eq!(c.sites_to_fill, Some(1));
+        assert_eq!(c.outcome.as_deref(), Some("stopped: test"));
+        // (10 um + 1 x 9 um onset travel) at 1 um/s + 5 um at 10 um/s.
+        assert!((lower_bound_s(&c, 1e-6, 10e-6) - 19.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn error_figures_are_rms_and_max() {
+        let (rms, max) = error_figures_nm(&[3e-9, 4e-9]);
+        assert!((rms - (12.5f64).sqrt()).abs() < 1e-9);
+        assert_eq!(max, 4.0);
+        assert_eq!(error_figures_nm(&[]), (0.0, 0.0));
+    }
+}

@@ -1,0 +1,55 @@
+//! A simulated rig for a scene and a particle layout, with the defaults a lab
+//! would recognise: a 100 x 100 x 15 um nanostage, a camera at 0.25 um/px that
+//! sees the whole stage range with a margin, and the coarse stage centring the
+//! nanostage's range on the layout's field.
+
+use super::model_physics::ModelPhysics;
+use super::rig::{SimCameraConfig, SimRig};
+use super::stage::{SimStage, SimStageConfig};
+use super::world::{SimParticle, World};
+use crate::model::Scene;
+use crate::plan::Layout;
+use crate::rig::RigError;
+use crate::rig::stage::CoarseStage;
+
+/// Camera resolution of the simulated rig, micrometres per pixel.
+pub const SIM_UM_PER_PX: f64 = 0.25;
+/// Margin the simulated camera sees around the nanostage range, micrometres.
+pub const SIM_CAMERA_MARGIN_UM: f64 = 20.0;
+
+/// Builds the simulated rig: world from `layout`, physics from `scene`, noise from `seed`.
+pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig, RigError> {
+    let world = World {
+        particles: layout
+            .particles
+            .iter()
+            .map(|p| SimParticle {
+                id: p.id as usize,
+                x_m: p.centre_m.x,
+                y_m: p.centre_m.y,
+                radius_m: p.radius_m,
+            })
+            .collect(),
+        tip_friction: scene.tip_friction_coefficient,
+    };
+    let mut config = SimStageConfig::default();
+    config.drift_m_per_s = [scene.environment.drift_m_per_s, 0.0];
+    let range_um = [
+        (config.range[0].max_m - config.range[0].min_m) * 1e6,
+        (config.range[1].max_m - config.range[1].min_m) * 1e6,
+    ];
+    let centre_offset = [
+        (layout.field_m[0] - range_um[0] * 1e-6).max(0.0) / 2.0,
+        (layout.field_m[1] - range_um[1] * 1e-6).max(0.0) / 2.0,
+    ];
+    let stage = SimStage::new(
+        world,
+        Box::new(ModelPhysics::new(scene.clone())),
+        config,
+        seed,
+    );
+    let camera = SimCameraConfig::covering(range_um, SIM_CAMERA_MARGIN_UM, SIM_UM_PER_PX);
+    let mut rig = SimRig::new(stage, camera, seed);
+    rig.move_coarse(centre_offset)?;
+    Ok(rig)
+}
