@@ -55,6 +55,19 @@ pub struct DetectSettings {
     pub locator: Locator,
     /// Optional region of interest.
     pub roi: Option<RoiMask>,
+    /// Keep only particles whose centre is darker (`Dark`) or brighter
+    /// (`Bright`) than the background; `None` keeps both.
+    pub polarity: Option<Polarity>,
+}
+
+/// Contrast of a particle's centre against the background.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Polarity {
+    /// Centre darker than the background (dark spots, inverted rings).
+    Dark,
+    /// Centre brighter than the background (fluorescence, bright-core rings).
+    Bright,
 }
 
 impl Default for DetectSettings {
@@ -66,6 +79,7 @@ impl Default for DetectSettings {
             min_snr: 3.0,
             locator: Locator::ProfileFit,
             roi: None,
+            polarity: None,
         }
     }
 }
@@ -153,7 +167,13 @@ pub fn find_candidates(
 
 fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> Vec<Candidate> {
     let (w, h) = (frame.width(), frame.height());
-    let r = (0.5 * settings.diameter_px).round().max(1.0) as usize;
+    // Rings need the whole ring in the energy window; spots a tighter one so
+    // that crowded neighbours stay separate maxima.
+    let frac = match model_for(settings) {
+        ProfileModel::Ring => 0.5,
+        ProfileModel::Spot => 0.3,
+    };
+    let r = (frac * settings.diameter_px).round().max(1.0) as usize;
     let sq: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
     let energy = box_mean(&sq, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);

@@ -40,6 +40,8 @@ pub struct ParticleFit {
     pub snr: f64,
     /// Model used.
     pub model: ProfileModel,
+    /// Fitted centre intensity minus background, counts (sign = polarity).
+    pub centre_contrast: f64,
 }
 
 /// Why a particle could not be fitted.
@@ -225,6 +227,7 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         sigma_px: (0.5 * (fit.covariance[(0, 0)] + fit.covariance[(1, 1)])).sqrt(),
         snr: p[3].abs().max(p[5].abs()) / noise,
         model: ProfileModel::Ring,
+        centre_contrast: p[3] - p[5] * (-0.5 * (p[6] / p[7]).powi(2)).exp(),
     })
 }
 
@@ -255,7 +258,7 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         ));
     }
     let s = p[4].abs();
-    if !(s > 0.3 && s < 2.0 * r0.max(1.0)) {
+    if !(s > 0.3 && s < 0.8 * r0.max(1.0)) {
         return Err(ProfileFitError::Implausible("spot width out of range"));
     }
     Ok(ParticleFit {
@@ -265,6 +268,7 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         sigma_px: (0.5 * (fit.covariance[(0, 0)] + fit.covariance[(1, 1)])).sqrt(),
         snr: p[3].abs() / noise,
         model: ProfileModel::Spot,
+        centre_contrast: p[3],
     })
 }
 
