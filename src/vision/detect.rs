@@ -260,6 +260,16 @@ pub fn detect_particles(
     frame: &Frame,
     settings: &DetectSettings,
 ) -> Result<Vec<Detection>, DetectError> {
+    detect_particles_excluding(frame, settings, &|_, _| false)
+}
+
+/// As [`detect_particles`], skipping candidates where `exclude(x, y)` holds
+/// before any sub-pixel work (e.g. on the probe silhouette's edges).
+pub fn detect_particles_excluding(
+    frame: &Frame,
+    settings: &DetectSettings,
+    exclude: &dyn Fn(f64, f64) -> bool,
+) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
     let bp = bandpass(frame, settings.diameter_px);
@@ -270,6 +280,14 @@ pub fn detect_particles(
     let mut out: Vec<Detection> = Vec::with_capacity(cands.len());
     for c in &cands {
         let coarse = (c.x as f64, c.y as f64);
+        if exclude(coarse.0, coarse.1)
+            || settings
+                .roi
+                .as_ref()
+                .is_some_and(|r| !r.contains(coarse.0, coarse.1))
+        {
+            continue;
+        }
         let rs = || radial_symmetry_centre(frame, coarse.0, coarse.1, r_int + 2).unwrap_or(coarse);
         let (x, y, r, sigma, quality) = match settings.locator {
             Locator::PixelPeak => (coarse.0, coarse.1, radius, 0.5, c.snr),
