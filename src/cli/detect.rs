@@ -6,7 +6,7 @@ use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
 use crate::vision::analyse::{FrameAnalysis, analyse_frame};
-use crate::vision::detect::{DetectSettings, Locator};
+use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::overlay::draw_overlay;
@@ -38,6 +38,9 @@ pub struct Args {
     /// Sub-pixel locator.
     #[arg(long, value_enum, default_value = "profile-fit")]
     pub locator: LocatorArg,
+    /// Keep only dark-centred or bright-centred particles.
+    #[arg(long, value_parser = ["dark", "bright"])]
+    pub polarity: Option<String>,
     /// Do not look for the probe tip.
     #[arg(long)]
     pub no_tip: bool,
@@ -82,6 +85,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let settings = DetectSettings {
         diameter_px,
         locator: args.locator.into(),
+        polarity: match args.polarity.as_deref() {
+            Some("dark") => Some(Polarity::Dark),
+            Some("bright") => Some(Polarity::Bright),
+            _ => None,
+        },
         ..DetectSettings::default()
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);

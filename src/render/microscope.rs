@@ -298,8 +298,10 @@ mod tests {
 
     #[test]
     fn bad_settings_and_scenes_are_errors() {
-        let mut s = RenderSettings::default();
-        s.blur_sigma_px = f64::NAN;
+        let s = RenderSettings {
+            blur_sigma_px: f64::NAN,
+            ..RenderSettings::default()
+        };
         assert!(matches!(
             render_frame(&scene(), &s, 1),
             Err(RenderError::Setting { .. })

@@ -2,7 +2,9 @@
 //! probe silhouette (its edges would otherwise look like particles). This is
 //! what the simulated and real rigs call per frame.
 
-use super::detect::{DetectError, DetectSettings, Detection, detect_particles};
+use super::detect::{
+    DetectError, DetectSettings, Detection, detect_particles, detect_particles_excluding,
+};
 use super::frame::Frame;
 use super::tip::{TipDetection, TipSettings, detect_tip};
 
@@ -22,7 +24,13 @@ pub fn analyse_frame(
     tip: Option<&TipSettings>,
 ) -> Result<FrameAnalysis, DetectError> {
     let tip = tip.and_then(|t| detect_tip(frame, t));
-    let mut particles = detect_particles(frame, settings)?;
+    let margin = 0.5 * settings.diameter_px;
+    let mut particles = match &tip {
+        Some(t) => {
+            detect_particles_excluding(frame, settings, &|x, y| t.signed_distance(x, y) <= margin)?
+        }
+        None => detect_particles(frame, settings)?,
+    };
     if let Some(t) = &tip {
         particles.retain(|d| t.signed_distance(d.x_px, d.y_px) > 0.5 * settings.diameter_px);
     }

@@ -55,6 +55,19 @@ pub struct DetectSettings {
     pub locator: Locator,
     /// Optional region of interest.
     pub roi: Option<RoiMask>,
+    /// Keep only particles whose centre is darker (`Dark`) or brighter
+    /// (`Bright`) than the background; `None` keeps both.
+    pub polarity: Option<Polarity>,
+}
+
+/// Contrast of a particle's centre against the background.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Polarity {
+    /// Centre darker than the background (dark spots, inverted rings).
+    Dark,
+    /// Centre brighter than the background (fluorescence, bright-core rings).
+    Bright,
 }
 
 impl Default for DetectSettings {
@@ -66,6 +79,7 @@ impl Default for DetectSettings {
             min_snr: 3.0,
             locator: Locator::ProfileFit,
             roi: None,
+            polarity: None,
         }
     }
 }
@@ -153,7 +167,13 @@ pub fn find_candidates(
 
 fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> Vec<Candidate> {
     let (w, h) = (frame.width(), frame.height());
-    let r = (0.5 * settings.diameter_px).round().max(1.0) as usize;
+    // Rings need the whole ring in the energy window; spots a tighter one so
+    // that crowded neighbours stay separate maxima.
+    let frac = match model_for(settings) {
+        ProfileModel::Ring => 0.5,
+        ProfileModel::Spot => 0.3,
+    };
+    let r = (frac * settings.diameter_px).round().max(1.0) as usize;
     let sq: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
     let energy = box_mean(&sq, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
@@ -240,6 +260,16 @@ pub fn detect_particles(
     frame: &Frame,
     settings: &DetectSettings,
 ) -> Result<Vec<Detection>, DetectError> {
+    detect_particles_excluding(frame, settings, &|_, _| false)
+}
+
+/// As [`detect_particles`], skipping candidates where `exclude(x, y)` holds
+/// before any sub-pixel work (e.g. on the probe silhouette's edges).
+pub fn detect_particles_excluding(
+    frame: &Frame,
+    settings: &DetectSettings,
+    exclude: &dyn Fn(f64, f64) -> bool,
+) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
     let bp = bandpass(frame, settings.diameter_px);
@@ -250,6 +280,14 @@ pub fn detect_particles(
     let mut out: Vec<Detection> = Vec::with_capacity(cands.len());
     for c in &cands {
         let coarse = (c.x as f64, c.y as f64);
+        if exclude(coarse.0, coarse.1)
+            || settings
+                .roi
+                .as_ref()
+                .is_some_and(|r| !r.contains(coarse.0, coarse.1))
+        {
+            continue;
+        }
         let rs = || radial_symmetry_centre(frame, coarse.0, coarse.1, r_int + 2).unwrap_or(coarse);
         let (x, y, r, sigma, quality) = match settings.locator {
             Locator::PixelPeak => (coarse.0, coarse.1, radius, 0.5, c.snr),

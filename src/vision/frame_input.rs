@@ -311,3 +311,43 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), image::ImageError> {
         buf.save(path)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png_round_trip_keeps_8_and_16_bit_counts() {
+        let dir = tempfile::tempdir().unwrap();
+        for (bits, max) in [(8u8, 255.0f32), (16, 65535.0)] {
+            let px: Vec<f32> = (0..12 * 7).map(|i| ((i * 977) as f32) % max).collect();
+            let f = Frame::new(12, 7, px, bits).unwrap();
+            let p = dir.path().join(format!("f{bits}.png"));
+            save_png(&f, &p).unwrap();
+            assert_eq!(load_frame(&p, Channel::Luminance).unwrap(), f);
+            // Same image as a one-frame sequence folder.
+            assert_eq!(
+                load_frames(dir.path(), Channel::Luminance).unwrap().len(),
+                if bits == 8 { 1 } else { 2 }
+            );
+        }
+    }
+
+    #[test]
+    fn colour_channels_are_selectable() {
+        let img = image::DynamicImage::ImageRgb8(image::RgbImage::from_pixel(
+            2,
+            2,
+            image::Rgb([10, 200, 30]),
+        ));
+        assert_eq!(
+            image_to_frame(&img, Channel::Green).unwrap().at(0, 0),
+            200.0
+        );
+        assert_eq!(image_to_frame(&img, Channel::Red).unwrap().at(1, 1), 10.0);
+        let lum = image_to_frame(&img, Channel::Luminance).unwrap().at(0, 0);
+        assert!((lum - (0.299 * 10.0 + 0.587 * 200.0 + 0.114 * 30.0)).abs() < 1e-3);
+        assert_eq!("green".parse::<Channel>(), Ok(Channel::Green));
+        assert!("purple".parse::<Channel>().is_err());
+    }
+}

@@ -12,6 +12,9 @@ use thiserror::Error;
 use super::frame::Frame;
 use super::least_squares::{FitError, Sample, levenberg_marquardt};
 
+/// Core and ring must each exceed the residual noise by this factor.
+const RING_MIN_CONTRAST_SNR: f64 = 2.0;
+
 /// Which intensity model a particle is fitted with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -37,6 +40,8 @@ pub struct ParticleFit {
     pub snr: f64,
     /// Model used.
     pub model: ProfileModel,
+    /// Fitted centre intensity minus background, counts (sign = polarity).
+    pub centre_contrast: f64,
 }
 
 /// Why a particle could not be fitted.
@@ -202,11 +207,17 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
     if !(p[6] > 0.3 * r0
         && p[6] < 2.5 * r0
         && p[7].abs() > 0.2
-        && p[7].abs() < p[6]
+        && p[7].abs() < 0.4 * p[6]
         && p[4].abs() > 0.2)
     {
         return Err(ProfileFitError::Implausible(
             "ring radius or widths out of range",
+        ));
+    }
+    // A sphere's signature: core and ring of opposite contrast, both above the noise.
+    if p[3] * p[5] <= 0.0 || p[3].abs().min(p[5].abs()) < RING_MIN_CONTRAST_SNR * noise {
+        return Err(ProfileFitError::Implausible(
+            "no core and ring of opposite contrast",
         ));
     }
     Ok(ParticleFit {
@@ -216,6 +227,7 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         sigma_px: (0.5 * (fit.covariance[(0, 0)] + fit.covariance[(1, 1)])).sqrt(),
         snr: p[3].abs().max(p[5].abs()) / noise,
         model: ProfileModel::Ring,
+        centre_contrast: p[3] - p[5] * (-0.5 * (p[6] / p[7]).powi(2)).exp(),
     })
 }
 
@@ -246,7 +258,7 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         ));
     }
     let s = p[4].abs();
-    if !(s > 0.3 && s < 2.0 * r0.max(1.0)) {
+    if !(s > 0.3 && s < 0.8 * r0.max(1.0)) {
         return Err(ProfileFitError::Implausible("spot width out of range"));
     }
     Ok(ParticleFit {
@@ -256,6 +268,7 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         sigma_px: (0.5 * (fit.covariance[(0, 0)] + fit.covariance[(1, 1)])).sqrt(),
         snr: p[3].abs() / noise,
         model: ProfileModel::Spot,
+        centre_contrast: p[3],
     })
 }
 
