@@ -323,7 +323,7 @@ impl Scheduler<'_> {
             if let Some(k) = chosen {
                 self.complete(k);
                 remaining -= 1;
-                ready.extend(self.releases_ready.drain(..));
+                ready.append(&mut self.releases_ready);
                 continue;
             }
             repairs += 1;

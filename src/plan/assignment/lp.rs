@@ -38,7 +38,7 @@ pub fn solve(
         !side.forbidden.contains(&(s, p))
     };
     if !side.bottleneck {
-        return solve_lp(sites, particles, |s, p| allowed(s, p));
+        return solve_lp(sites, particles, allowed);
     }
     let mut thresholds: Vec<f64> = Vec::new();
     for (s, site) in sites.iter().enumerate() {
@@ -134,7 +134,7 @@ fn solve_lp(
 }
 
 fn csc_from_triplets(rows: usize, cols: usize, t: &mut [(usize, usize, f64)]) -> CscMatrix<f64> {
-    t.sort_by(|a, b| (a.1, a.0).cmp(&(b.1, b.0)));
+    t.sort_by_key(|a| (a.1, a.0));
     let mut colptr = vec![0usize; cols + 1];
     let mut rowval = Vec::with_capacity(t.len());
     let mut nzval = Vec::with_capacity(t.len());
