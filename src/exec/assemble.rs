@@ -18,7 +18,7 @@ use super::journal::{JournalError, JournalWriter};
 use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
-use super::tracker::Tracker;
+use super::tracker::{Moved, Tracker};
 use crate::model::Scene;
 use crate::model::advice::{PushAdvice, advise_push};
 use crate::plan::layout::{Layout, Particle};
@@ -260,12 +260,21 @@ impl<'a> Assembly<'a> {
     pub fn run(&mut self) -> Result<RunEnd, ExecError> {
         let mut pending: Option<PushIntent> = None;
         loop {
-            let predicted: Vec<(usize, f64, f64)> = pending
+            let moved: Vec<Moved> = pending
                 .iter()
-                .map(|p| (p.particle, p.to[0], p.to[1]))
+                .map(|p| Moved {
+                    id: p.particle,
+                    from: p.from,
+                    to: p.to,
+                })
                 .collect();
-            self.observe(&predicted, None)?;
+            self.observe(&moved, None)?;
             if let Some(intent) = pending.take() {
+                if !self.seen_now(intent.particle) {
+                    // Hidden under the probe, or not found: look again with the tip parked away.
+                    self.park_away_from(intent.to)?;
+                    self.observe(&moved, None)?;
+                }
                 self.check(&intent)?;
             }
             if self
@@ -282,8 +291,9 @@ impl<'a> Assembly<'a> {
                     self.pushes_done
                 ));
             }
-            let Some(intent) = self.next_push()? else {
-                return self.stop("the planner found no push to make".to_owned());
+            let intent = match self.next_push()? {
+                Ok(intent) => intent,
+                Err(reason) => return self.stop(reason),
             };
             match self.push(&intent) {
                 Ok(()) => {
@@ -334,12 +344,8 @@ impl<'a> Assembly<'a> {
     }
 
     /// Grabs, detects, tracks and journals one frame.
-    fn observe(
-        &mut self,
-        predicted: &[(usize, f64, f64)],
-        push: Option<&PushIntent>,
-    ) -> Result<(), ExecError> {
-        let calibration = self.rig.calibration().clone();
+    fn observe(&mut self, moved: &[Moved], push: Option<&PushIntent>) -> Result<(), ExecError> {
+        let calibration = *self.rig.calibration();
         let sighting = self
             .perception
             .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
@@ -347,7 +353,8 @@ impl<'a> Assembly<'a> {
             self.journal
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
         }
-        self.tracker.update(&sighting.particles, predicted);
+        self.tracker
+            .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
         let tracks = self.tracks();
         self.journal.append(
             sighting.t_s,
@@ -363,6 +370,39 @@ impl<'a> Assembly<'a> {
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
         Ok(())
+    }
+
+    fn seen_now(&self, particle: usize) -> bool {
+        self.tracker
+            .track(particle)
+            .is_some_and(|t| t.missed_frames == 0)
+    }
+
+    /// Lifts the tip and moves it to the corner of the nanostage's range farthest from `point`.
+    fn park_away_from(&mut self, point: [f64; 2]) -> Result<(), ExecError> {
+        let range = self.rig.range();
+        let here = self.rig.position()?;
+        let local = [
+            point[0] - self.coarse_offset[0],
+            point[1] - self.coarse_offset[1],
+        ];
+        let far = |i: usize| {
+            if (local[i] - range[i].min_m).abs() > (local[i] - range[i].max_m).abs() {
+                range[i].min_m
+            } else {
+                range[i].max_m
+            }
+        };
+        let top = range[2].max_m;
+        let speed = self.settings.travel_speed_m_per_s;
+        let moved = self
+            .move_on_sample_raw([here[0], here[1], top], speed)
+            .and_then(|()| self.move_on_sample_raw([far(0), far(1), top], speed));
+        moved.map_err(|e| match e {
+            PushError::Rig(r) => ExecError::Rig(r),
+            PushError::Journal(j) => ExecError::Journal(j),
+            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+        })
     }
 
     /// Was the last push a success? Journals the check and counts failures.
@@ -421,19 +461,10 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
-    /// Plans from the current tracks and returns the plan's first push.
-    fn next_push(&mut self) -> Result<Option<PushIntent>, ExecError> {
-        let particles: Vec<Particle> = self
-            .tracker
-            .tracks()
-            .iter()
-            .filter(|t| t.missed_frames < 3)
-            .map(|t| Particle {
-                id: t.id as u32,
-                centre_m: Vector2::new(t.last.x_m, t.last.y_m),
-                radius_m: t.last.radius_m,
-            })
-            .collect();
+    /// Plans from the current tracks and returns the plan's first push, or
+    /// why there is none.
+    fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
+        let particles = planning_particles(self.tracker.tracks());
         let layout = Layout {
             field_m: self.settings.field_m,
             particles,
@@ -448,15 +479,7 @@ impl<'a> Assembly<'a> {
             .map(|t| Vector2::new(t[0], t[1]));
         let plan = match plan_assembly(&layout, &self.sites, &config) {
             Ok(plan) => plan,
-            Err(e) => {
-                self.journal.append(
-                    self.rig.now_s(),
-                    &RunEvent::Stopped {
-                        reason: format!("planner: {e}"),
-                    },
-                )?;
-                return Ok(None);
-            }
+            Err(e) => return Ok(Err(format!("planner: {e}"))),
         };
         let s = &plan.summary;
         self.journal.append(
@@ -479,18 +502,20 @@ impl<'a> Assembly<'a> {
             } => Some((*particle as usize, *from_m, *to_m)),
             _ => None,
         });
-        Ok(first.map(|(particle, from, to)| {
-            let radius_m = self
-                .tracker
-                .track(particle)
-                .map_or(self.scene.particle_radius_m, |t| t.last.radius_m);
-            PushIntent {
-                particle,
-                from: [from.x, from.y],
-                to: [to.x, to.y],
-                radius_m,
-            }
-        }))
+        Ok(first
+            .ok_or_else(|| "the plan has no push left".to_owned())
+            .map(|(particle, from, to)| {
+                let radius_m = self
+                    .tracker
+                    .track(particle)
+                    .map_or(self.scene.particle_radius_m, |t| t.last.radius_m);
+                PushIntent {
+                    particle,
+                    from: [from.x, from.y],
+                    to: [to.x, to.y],
+                    radius_m,
+                }
+            }))
     }
 
     /// Asks the model, lays out the stroke, moves the stage.
@@ -515,7 +540,8 @@ impl<'a> Assembly<'a> {
             safe_z_m: safe_z,
         })
         .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
-        self.fit_window(&stroke)?;
+        let retreat = retreat_point(&stroke, intent.radius_m);
+        self.fit_window(&stroke, retreat)?;
         let t_start_s = self.rig.now_s();
         let travel = self.settings.travel_speed_m_per_s;
         let here = self.rig.position()?;
@@ -526,6 +552,7 @@ impl<'a> Assembly<'a> {
         self.move_on_sample(stroke.approach, travel)?;
         self.move_on_sample(stroke.end, scene.push.speed_m_per_s)?;
         self.move_on_sample(stroke.lift, travel)?;
+        self.move_on_sample(retreat, travel)?;
         self.pushes_done += 1;
         self.records.push(PushRecord {
             t_start_s,
@@ -561,9 +588,15 @@ impl<'a> Assembly<'a> {
     }
 
     /// Moves the coarse stage when the stroke does not fit the nanostage's range.
-    fn fit_window(&mut self, stroke: &Stroke) -> Result<(), PushError> {
+    fn fit_window(&mut self, stroke: &Stroke, retreat: StageXyz) -> Result<(), PushError> {
         let range = self.rig.range();
-        let points = [stroke.above, stroke.approach, stroke.end, stroke.lift];
+        let points = [
+            stroke.above,
+            stroke.approach,
+            stroke.end,
+            stroke.lift,
+            retreat,
+        ];
         let fits = |offset: [f64; 2]| {
             points.iter().all(|p| {
                 (0..2).all(|i| {
@@ -575,18 +608,22 @@ impl<'a> Assembly<'a> {
         if fits(self.coarse_offset) {
             return Ok(());
         }
-        let mid = [
-            (stroke.above[0] + stroke.lift[0]) / 2.0,
-            (stroke.above[1] + stroke.lift[1]) / 2.0,
-        ];
-        let offset = [
-            mid[0] - (range[0].min_m + range[0].max_m) / 2.0,
-            mid[1] - (range[1].min_m + range[1].max_m) / 2.0,
-        ];
-        if !fits(offset) {
-            return Err(PushError::Refused(
-                "the stroke is longer than the nanostage's range".to_owned(),
-            ));
+        // The smallest coarse move that brings every point into range: per axis,
+        // the current offset clamped into the interval of offsets that fit.
+        let mut offset = self.coarse_offset;
+        for i in 0..2 {
+            let lo = points.iter().map(|p| p[i]).fold(f64::INFINITY, f64::min);
+            let hi = points
+                .iter()
+                .map(|p| p[i])
+                .fold(f64::NEG_INFINITY, f64::max);
+            let (need_lo, need_hi) = (hi - range[i].max_m, lo - range[i].min_m);
+            if need_lo > need_hi {
+                return Err(PushError::Refused(
+                    "the stroke is longer than the nanostage's range".to_owned(),
+                ));
+            }
+            offset[i] = offset[i].clamp(need_lo, need_hi);
         }
         let here = self.rig.position()?;
         self.move_on_sample_raw(
@@ -648,6 +685,62 @@ impl<'a> Assembly<'a> {
         }
         Ok(())
     }
+}
+
+/// Where the tip waits after a push: back along the push line, a radius and
+/// a few micrometres behind the lift point, so that the probe does not hide
+/// the particle in the next frame; kept inside the nanostage's range.
+fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
+    let d = [
+        stroke.end[0] - stroke.approach[0],
+        stroke.end[1] - stroke.approach[1],
+    ];
+    let len = d[0].hypot(d[1]).max(f64::MIN_POSITIVE);
+    let back = radius_m + RETREAT_EXTRA_M;
+    [
+        stroke.lift[0] - d[0] / len * back,
+        stroke.lift[1] - d[1] / len * back,
+        stroke.lift[2],
+    ]
+}
+
+/// Extra distance of the retreat beyond one particle radius.
+const RETREAT_EXTRA_M: f64 = 3e-6;
+
+/// The particles the planner is told about. A track the camera has missed
+/// for a few frames is dropped; one missed more recently is kept unless a
+/// particle seen in this frame overlaps it (then the stale one is wrong).
+/// Radii are capped at half the distance to the nearest neighbour: measured
+/// radii are noisy and touching spheres cannot overlap, so a few nanometres of
+/// apparent overlap must not make the layout invalid.
+fn planning_particles(tracks: &[super::tracker::Track]) -> Vec<Particle> {
+    let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
+        (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
+    };
+    let kept: Vec<&super::tracker::Track> = tracks
+        .iter()
+        .filter(|t| t.missed_frames < 3)
+        .filter(|t| {
+            t.missed_frames == 0
+                || !tracks
+                    .iter()
+                    .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
+        })
+        .collect();
+    kept.iter()
+        .map(|t| {
+            let nearest = kept
+                .iter()
+                .filter(|u| u.id != t.id)
+                .map(|u| (t.last.x_m - u.last.x_m).hypot(t.last.y_m - u.last.y_m))
+                .fold(f64::INFINITY, f64::min);
+            Particle {
+                id: t.id as u32,
+                centre_m: Vector2::new(t.last.x_m, t.last.y_m),
+                radius_m: t.last.radius_m.min(0.5 * nearest * (1.0 - 1e-6)),
+            }
+        })
+        .collect()
 }
 
 /// Why one push was not made.

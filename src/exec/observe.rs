@@ -23,6 +23,17 @@ pub struct Sighting {
     pub tip_m: Option<[f64; 2]>,
     /// Frames dropped before this one was had.
     pub dropped: usize,
+    /// The part of the sample the frame shows (x, y lower and upper corners), metres,
+    /// shrunk by the particle size hint so that clipped particles count as unseen.
+    pub view_m: [[f64; 2]; 2],
+}
+
+impl Sighting {
+    /// True when a particle centred here would be seen whole in this frame.
+    pub fn shows(&self, x_m: f64, y_m: f64) -> bool {
+        let [lo, hi] = self.view_m;
+        x_m >= lo[0] && x_m <= hi[0] && y_m >= lo[1] && y_m <= hi[1]
+    }
 }
 
 /// Why no frame could be analysed.
@@ -87,12 +98,28 @@ impl Perception {
             })
             .collect();
         let tip_m = detect_tip(&timed.frame, &self.tip).map(|t| on_sample(t.x_px, t.y_px));
+        let margin = self.detect.diameter_px;
+        let (w, h) = (timed.frame.width() as f64, timed.frame.height() as f64);
+        let corners = [
+            on_sample(margin, margin),
+            on_sample(w - 1.0 - margin, margin),
+            on_sample(margin, h - 1.0 - margin),
+            on_sample(w - 1.0 - margin, h - 1.0 - margin),
+        ];
+        let lo = [0, 1].map(|i| corners.iter().map(|c| c[i]).fold(f64::INFINITY, f64::min));
+        let hi = [0, 1].map(|i| {
+            corners
+                .iter()
+                .map(|c| c[i])
+                .fold(f64::NEG_INFINITY, f64::max)
+        });
         Ok(Sighting {
             frame: timed.frame,
             t_s: timed.t_s,
             particles,
             tip_m,
             dropped,
+            view_m: [lo, hi],
         })
     }
 }

@@ -1,12 +1,14 @@
 //! Particle identity across frames.
 //!
 //! Between two frames only the pushed particle moves far, and the executor
-//! knows where it commanded it to go, so each track is matched at its
-//! *predicted* position. Matching is greedy by ascending distance inside a
+//! knows the push, so a pushed track is matched by its distance to the push
+//! segment (from -> to): wherever it stopped on the line, short of the target
+//! after a lost contact or at the target, it keeps its identity. Matching is greedy by ascending distance inside a
 //! gate: with particles a diameter apart and predictions good to a fraction
 //! of a radius, greedy and optimal matching agree, and greedy is simple and
 //! O(n m log nm). A track not seen in a frame (a missed detection, the tip
-//! hiding it) keeps its last position and counts the miss instead of vanishing.
+//! hiding it) keeps its last position and counts the miss instead of vanishing;
+//! a track outside the camera's view is not seen and not counted as missed.
 
 /// A particle seen in one frame, in stage metres.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,6 +43,34 @@ pub struct TrackUpdate {
     pub created: Vec<usize>,
 }
 
+/// A matching cost: the distance of an observation from a track, or None when it may not match.
+type MatchCost<'a> = dyn Fn(&Track, &Observation) -> Option<f64> + 'a;
+
+/// How far a particle nobody pushed may move between frames and be matched first (noise, drift).
+const STILL_GATE_M: f64 = 1e-6;
+
+/// A track the executor pushed since the last frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Moved {
+    /// Track id.
+    pub id: usize,
+    /// Where the push started, metres.
+    pub from: [f64; 2],
+    /// Where it was meant to end, metres.
+    pub to: [f64; 2],
+}
+
+fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let ab = [b[0] - a[0], b[1] - a[1]];
+    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * ab[0]).hypot(p[1] - a[1] - t * ab[1])
+}
+
 /// Keeps particle identities across frames.
 #[derive(Debug, Clone)]
 pub struct Tracker {
@@ -70,36 +100,57 @@ impl Tracker {
         self.tracks.iter().find(|t| t.id == id)
     }
 
-    /// Matches a frame's observations to tracks. `predicted` overrides the
-    /// expected position of the tracks the executor just moved (id, x_m, y_m).
+    /// Matches a frame's observations to tracks. `moved` names the tracks the
+    /// executor just pushed, with the push's start and target; `in_view` says
+    /// whether a position is inside the frame (tracks outside are not missed).
     pub fn update(
         &mut self,
         observations: &[Observation],
-        predicted: &[(usize, f64, f64)],
+        moved: &[Moved],
+        in_view: &dyn Fn(f64, f64) -> bool,
     ) -> TrackUpdate {
-        let expected = |t: &Track| {
-            predicted
-                .iter()
-                .find(|(id, ..)| *id == t.id)
-                .map_or((t.last.x_m, t.last.y_m), |&(_, x, y)| (x, y))
-        };
-        let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
-        for (ti, t) in self.tracks.iter().enumerate() {
-            let (ex, ey) = expected(t);
-            for (oi, o) in observations.iter().enumerate() {
-                let d = (o.x_m - ex).hypot(o.y_m - ey);
-                if d <= self.gate_m {
-                    pairs.push((d, ti, oi));
-                }
-            }
-        }
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mut track_taken = vec![false; self.tracks.len()];
         let mut obs_track: Vec<Option<usize>> = vec![None; observations.len()];
-        for (_, ti, oi) in pairs {
-            if !track_taken[ti] && obs_track[oi].is_none() {
-                track_taken[ti] = true;
-                obs_track[oi] = Some(ti);
+        let pushed = |t: &Track| moved.iter().find(|m| m.id == t.id).copied();
+        let still = |t: &Track, o: &Observation| {
+            (pushed(t).is_none()).then(|| (o.x_m - t.last.x_m).hypot(o.y_m - t.last.y_m))
+        };
+        let along_push = |t: &Track, o: &Observation| {
+            pushed(t).map(|m| distance_to_segment([o.x_m, o.y_m], m.from, m.to))
+        };
+        // Particles nobody pushed barely move: match them first, tightly, so a
+        // pushed particle's line cannot take a neighbour's observation; then the
+        // pushed ones along their lines; then whatever is left, loosely.
+        let tight = self.gate_m.min(STILL_GATE_M);
+        let passes: [(&MatchCost, f64); 3] = [
+            (&still, tight),
+            (&along_push, self.gate_m),
+            (&still, self.gate_m),
+        ];
+        for (cost, gate) in passes {
+            let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+            for (ti, t) in self
+                .tracks
+                .iter()
+                .enumerate()
+                .filter(|(ti, _)| !track_taken[*ti])
+            {
+                for (oi, o) in observations
+                    .iter()
+                    .enumerate()
+                    .filter(|(oi, _)| obs_track[*oi].is_none())
+                {
+                    if let Some(d) = cost(t, o).filter(|d| *d <= gate) {
+                        pairs.push((d, ti, oi));
+                    }
+                }
+            }
+            pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for (_, ti, oi) in pairs {
+                if !track_taken[ti] && obs_track[oi].is_none() {
+                    track_taken[ti] = true;
+                    obs_track[oi] = Some(ti);
+                }
             }
         }
         let mut update = TrackUpdate::default();
@@ -107,7 +158,7 @@ impl Tracker {
             let t = &mut self.tracks[ti];
             if *taken {
                 t.missed_frames = 0;
-            } else {
+            } else if in_view(t.last.x_m, t.last.y_m) {
                 t.missed_frames += 1;
                 update.missed.push(t.id);
             }
@@ -140,6 +191,8 @@ impl Tracker {
 mod tests {
     use super::*;
 
+    const ALL: fn(f64, f64) -> bool = |_, _| true;
+
     fn obs(x_um: f64, y_um: f64) -> Observation {
         Observation {
             x_m: x_um * 1e-6,
@@ -151,7 +204,7 @@ mod tests {
     #[test]
     fn first_frame_creates_one_track_per_observation() {
         let mut t = Tracker::new(4e-6);
-        let u = t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[]);
+        let u = t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[], &ALL);
         assert_eq!(u.ids, vec![0, 1]);
         assert_eq!(u.created, vec![0, 1]);
     }
@@ -159,10 +212,15 @@ mod tests {
     #[test]
     fn a_pushed_particle_keeps_its_id_through_its_prediction() {
         let mut t = Tracker::new(4e-6);
-        t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[]);
+        t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[], &ALL);
         // Particle 0 was pushed 25 um to the right, past particle 1's old place;
         // observations come in another order.
-        let u = t.update(&[obs(20.5, 0.0), obs(25.2, 0.3)], &[(0, 25e-6, 0.0)]);
+        let push = Moved {
+            id: 0,
+            from: [0.0, 0.0],
+            to: [25e-6, 0.0],
+        };
+        let u = t.update(&[obs(20.5, 0.0), obs(25.2, 0.3)], &[push], &ALL);
         assert_eq!(u.ids, vec![1, 0]);
         assert!(u.created.is_empty() && u.missed.is_empty());
         assert!((t.track(0).unwrap().last.x_m - 25.2e-6).abs() < 1e-12);
@@ -171,20 +229,45 @@ mod tests {
     #[test]
     fn a_missed_detection_keeps_the_track_and_counts_the_miss() {
         let mut t = Tracker::new(4e-6);
-        t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[]);
-        let u = t.update(&[obs(20.1, 0.0)], &[]);
+        t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[], &ALL);
+        let u = t.update(&[obs(20.1, 0.0)], &[], &ALL);
         assert_eq!(u.missed, vec![0]);
         assert_eq!(t.track(0).unwrap().missed_frames, 1);
-        let u = t.update(&[obs(0.1, 0.0), obs(20.1, 0.0)], &[]);
+        let u = t.update(&[obs(0.1, 0.0), obs(20.1, 0.0)], &[], &ALL);
         assert_eq!(u.ids, vec![0, 1]);
         assert_eq!(t.track(0).unwrap().missed_frames, 0);
     }
 
     #[test]
+    fn a_push_that_lost_contact_keeps_the_identity_of_the_particle_left_behind() {
+        let mut t = Tracker::new(4e-6);
+        t.update(&[obs(0.0, 0.0), obs(0.0, 30.0)], &[], &ALL);
+        let push = Moved {
+            id: 0,
+            from: [0.0, 0.0],
+            to: [25e-6, 0.0],
+        };
+        // The particle moved only 6 um: far from its target, on its push line.
+        let u = t.update(&[obs(6.0, 0.1), obs(0.0, 30.0)], &[push], &ALL);
+        assert_eq!(u.ids, vec![0, 1]);
+        assert!(u.created.is_empty());
+    }
+
+    #[test]
+    fn a_track_outside_the_view_is_not_missed() {
+        let mut t = Tracker::new(4e-6);
+        t.update(&[obs(0.0, 0.0), obs(200.0, 0.0)], &[], &ALL);
+        let left_half = |x: f64, _: f64| x < 100e-6;
+        let u = t.update(&[obs(0.0, 0.0)], &[], &left_half);
+        assert!(u.missed.is_empty());
+        assert_eq!(t.track(1).unwrap().missed_frames, 0);
+    }
+
+    #[test]
     fn an_observation_outside_every_gate_is_a_new_track() {
         let mut t = Tracker::new(4e-6);
-        t.update(&[obs(0.0, 0.0)], &[]);
-        let u = t.update(&[obs(0.0, 0.0), obs(50.0, 50.0)], &[]);
+        t.update(&[obs(0.0, 0.0)], &[], &ALL);
+        let u = t.update(&[obs(0.0, 0.0), obs(50.0, 50.0)], &[], &ALL);
         assert_eq!(u.ids, vec![0, 1]);
         assert_eq!(u.created, vec![1]);
     }

@@ -32,8 +32,10 @@ pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig
             .collect(),
         tip_friction: scene.tip_friction_coefficient,
     };
-    let mut config = SimStageConfig::default();
-    config.drift_m_per_s = [scene.environment.drift_m_per_s, 0.0];
+    let config = SimStageConfig {
+        drift_m_per_s: [scene.environment.drift_m_per_s, 0.0],
+        ..SimStageConfig::default()
+    };
     let range_um = [
         (config.range[0].max_m - config.range[0].min_m) * 1e6,
         (config.range[1].max_m - config.range[1].min_m) * 1e6,
