@@ -158,7 +158,8 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let mut rig = build_sim_rig(&scene, &layout, spec.seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
-    let pushes_done = count_journal(&contents.entries, &spec.sites_um, 0.1).pushes;
+    let tolerance_um = AssemblySettings::default().placed_tolerance_m * 1e6;
+    let pushes_done = count_journal(&contents.entries, &spec.sites_um, tolerance_um).pushes;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
     let run = {
         let mut progress = Progress::new(inputs.sites.len());

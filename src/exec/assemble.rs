@@ -32,7 +32,9 @@ use std::collections::HashMap;
 /// Executor settings; the defaults suit 10 um particles on the simulated rig.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AssemblySettings {
-    /// A particle this close to its site is placed (default 0.1 um).
+    /// A particle this close to its site is placed (default 0.2 um). It is
+    /// also the smallest correction: shorter pushes are below what the stage
+    /// noise and the onset prediction can deliver, and would only chatter.
     pub placed_tolerance_m: f64,
     /// A pushed particle this far off its push line turned around the tip (default 1.5 um).
     pub off_line_tolerance_m: f64,
@@ -55,7 +57,7 @@ pub struct AssemblySettings {
 impl Default for AssemblySettings {
     fn default() -> Self {
         Self {
-            placed_tolerance_m: 0.1e-6,
+            placed_tolerance_m: 0.2e-6,
             off_line_tolerance_m: 1.5e-6,
             max_tries: 3,
             max_pushes: 400,

@@ -10,6 +10,9 @@ use crate::vision::detect::{DetectSettings, detect_particles};
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipSettings, detect_tip};
 
+/// Relative radius error beyond which a detection is not taken for a particle.
+const RADIUS_TOLERANCE: f64 = 0.3;
+
 /// A frame's worth of observations.
 #[derive(Debug, Clone)]
 pub struct Sighting {
@@ -85,9 +88,13 @@ impl Perception {
         };
         let detections = detect_particles(&timed.frame, &self.detect)
             .map_err(|e| ObserveError::Detect(e.to_string()))?;
+        // The size hint is the particles' known size: a detection far from it is
+        // not one of them (the probe's outline, debris), and must not reach the planner.
+        let expected_r_px = self.detect.diameter_px / 2.0;
         let particles = detections
             .iter()
             .filter(|d| !d.edge_clipped)
+            .filter(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
             .map(|d| {
                 let [x_m, y_m] = on_sample(d.x_px, d.y_px);
                 Observation {

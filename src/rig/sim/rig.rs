@@ -35,19 +35,24 @@ pub struct SimCameraConfig {
 
 impl SimCameraConfig {
     /// A camera at `um_per_px` whose frame covers a nanostage range of
-    /// `range_um` with `margin_um` on every side.
+    /// `range_um` with `margin_um` on every side. Like a microscope camera
+    /// seen on a screen, image y runs down while stage y runs up, so patterns
+    /// read the right way up in the frames.
     pub fn covering(range_um: [f64; 2], margin_um: f64, um_per_px: f64) -> Self {
         let width_px = ((range_um[0] + 2.0 * margin_um) / um_per_px).ceil() as usize;
         let height_px = ((range_um[1] + 2.0 * margin_um) / um_per_px).ceil() as usize;
+        let m_per_px = um_per_px * 1e-6;
         Self {
             width_px,
             height_px,
-            calibration: AffineCalibration::from_scale_rotation(
-                um_per_px * 1e-6,
-                0.0,
-                [-margin_um * 1e-6, -margin_um * 1e-6],
-            ),
-            render: RenderSettings::with_snr(30.0, 12),
+            calibration: AffineCalibration {
+                linear: nalgebra::Matrix2::new(m_per_px, 0.0, 0.0, -m_per_px),
+                offset_m: nalgebra::Vector2::new(
+                    -margin_um * 1e-6,
+                    (range_um[1] + margin_um) * 1e-6,
+                ),
+            },
+            render: RenderSettings::with_snr(30.0, 16),
             tip_angle_rad: 60f64.to_radians(),
             frame_time_s: 0.05,
         }
