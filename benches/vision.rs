@@ -5,8 +5,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nanopush::render::microscope::{RenderSettings, TipView, render_frame};
 use nanopush::render::microscope_truth::{random_scene, with_tip};
 use nanopush::vision::analyse::analyse_frame;
-use nanopush::vision::detect::{DetectSettings, Locator, detect_particles};
+use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_candidates};
 use nanopush::vision::frame_input::{Channel, load_frame};
+use nanopush::vision::noise::estimate_noise_sigma;
 use nanopush::vision::tip::{TipSettings, detect_tip};
 
 fn bench(c: &mut Criterion) {
@@ -29,6 +30,13 @@ fn bench(c: &mut Criterion) {
         b.iter(|| analyse_frame(&frame, &settings, Some(&tip)))
     });
     g.bench_function("tip_only", |b| b.iter(|| detect_tip(&frame, &tip)));
+    // Stages, to see where the time goes.
+    g.bench_function("stage_noise_sigma", |b| {
+        b.iter(|| estimate_noise_sigma(&frame))
+    });
+    g.bench_function("stage_candidates", |b| {
+        b.iter(|| find_candidates(&frame, &settings))
+    });
     for locator in Locator::ALL {
         let s = DetectSettings {
             locator,

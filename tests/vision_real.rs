@@ -99,12 +99,12 @@ fn versus_trackpy(frame_rel: &str, reference: &str, channel: Channel, diameter_p
     assert!(extra <= 0.05, "{frame_rel}: extra {extra}");
 }
 
-/// Acceptance NOT met (docs/vision.md): measured on bulk_water_000 65 % of
-/// trackpy's detections matched within 1.5 px, 31 % extra; both sets of
-/// differences are distinct dim particles (>6 px from the other's detections),
-/// i.e. the significance rules disagree, not the positions.
+/// Acceptance NOT met (docs/vision.md): with spots accepted on mass
+/// significance, on bulk_water_000 93.6 % of trackpy's detections matched
+/// within 1.5 px, 91 % extra (distinct dim particles trackpy's minmass and
+/// 16 px local-maximum box reject), i.e. the significance rules disagree.
 #[test]
-#[ignore = "acceptance not met: 65 % matched, 31 % extra on bulk_water_000"]
+#[ignore = "acceptance not met: 93.6 % matched, 91 % extra on bulk_water_000"]
 fn bulk_water_matches_trackpy() {
     versus_trackpy(
         "bulk_water/bulk_water_000.png",
@@ -120,9 +120,9 @@ fn bulk_water_matches_trackpy() {
     );
 }
 
-/// Acceptance NOT met (docs/vision.md): 91 % of trackpy matched, 63 % extra.
+/// Acceptance NOT met (docs/vision.md): 97.1 % of trackpy matched, 121 % extra.
 #[test]
-#[ignore = "acceptance not met: 91 % matched, 63 % extra on T76S3F00001"]
+#[ignore = "acceptance not met: 97.1 % matched, 121 % extra on T76S3F00001"]
 fn trackpy_test_frame_matches_trackpy() {
     versus_trackpy(
         "trackpy_tests/T76S3F00001.png",

@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::box_mean;
+use super::filter::{box_mean, max_filter};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle};
@@ -140,6 +140,8 @@ pub struct Candidate {
 struct Bandpass {
     values: Vec<f32>,
     noise_var: f64,
+    /// Per-pixel noise of the raw frame, counts.
+    noise_sigma: f64,
 }
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
@@ -152,7 +154,11 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let big = ((2 * bg_r + 1) as f64).powi(2);
     // White noise through (3x3 mean - big mean): sum of squared kernel weights.
     let noise_var = sigma * sigma * (1.0 / 9.0 - 1.0 / big);
-    Bandpass { values, noise_var }
+    Bandpass {
+        values,
+        noise_var,
+        noise_sigma: sigma,
+    }
 }
 
 /// Candidates: local maxima of the band-pass energy above the noise threshold.
@@ -182,34 +188,20 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> V
     let threshold = (noise_e + settings.threshold_sigma * e_sd) as f32;
     let sat = frame.max_count();
     let all_saturated_or_flat = |x: usize, y: usize| frame.at(x, y) >= sat;
+    // A pixel can only be a local maximum where it equals the window max;
+    // the full window scan (with its tie rule) runs on those few pixels only.
+    let window_max = max_filter(&energy, w, h, r);
     let mut out = Vec::new();
-    let m = r as isize;
     for y in 0..h {
         for x in 0..w {
             let e = energy[y * w + x];
-            if e <= threshold || all_saturated_or_flat(x, y) && bp.values[y * w + x] == 0.0 {
+            if e <= threshold
+                || e < window_max[y * w + x]
+                || all_saturated_or_flat(x, y) && bp.values[y * w + x] == 0.0
+            {
                 continue;
             }
-            let mut is_max = true;
-            'scan: for dy in -m..=m {
-                let yy = y as isize + dy;
-                if yy < 0 || yy >= h as isize {
-                    continue;
-                }
-                for dx in -m..=m {
-                    let xx = x as isize + dx;
-                    if xx < 0 || xx >= w as isize || (dx == 0 && dy == 0) {
-                        continue;
-                    }
-                    let o = energy[yy as usize * w + xx as usize];
-                    // Ties go to the first pixel in raster order.
-                    if o > e || (o == e && (dy < 0 || (dy == 0 && dx < 0))) {
-                        is_max = false;
-                        break 'scan;
-                    }
-                }
-            }
-            if is_max {
+            if wins_ties(&energy, w, h, x, y, r) {
                 out.push(Candidate {
                     x,
                     y,
@@ -219,6 +211,29 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> V
         }
     }
     out
+}
+
+/// True unless an equal value earlier in raster order shares the window
+/// (a plateau gives one candidate, its first pixel).
+fn wins_ties(energy: &[f32], w: usize, h: usize, x: usize, y: usize, r: usize) -> bool {
+    let e = energy[y * w + x];
+    let m = r as isize;
+    for dy in -m..=0 {
+        let yy = y as isize + dy;
+        if yy < 0 || yy >= h as isize {
+            continue;
+        }
+        for dx in -m..=m {
+            let xx = x as isize + dx;
+            if xx < 0 || xx >= w as isize || (dy == 0 && dx >= 0) {
+                continue;
+            }
+            if energy[yy as usize * w + xx as usize] == e {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 fn check(frame: &Frame, settings: &DetectSettings) -> Result<(), DetectError> {
@@ -252,6 +267,45 @@ fn centroid(bp: &Bandpass, w: usize, h: usize, c: &Candidate, r: usize) -> (f64,
         (sx / s, sy / s)
     } else {
         (c.x as f64, c.y as f64)
+    }
+}
+
+/// Integrated band-passed intensity over the disc of radius `radius_px`
+/// around (cx, cy) (trackpy's "mass"), and the number of pixels summed.
+fn disc_mass(bp: &Bandpass, w: usize, h: usize, cx: f64, cy: f64, radius_px: f64) -> (f64, usize) {
+    let x0 = (cx - radius_px).floor().max(0.0) as usize;
+    let y0 = (cy - radius_px).floor().max(0.0) as usize;
+    let x1 = ((cx + radius_px).ceil() as usize).min(w - 1);
+    let y1 = ((cy + radius_px).ceil() as usize).min(h - 1);
+    let (mut sum, mut n) = (0.0, 0usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            if (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2) <= radius_px * radius_px {
+                sum += bp.values[y * w + x] as f64;
+                n += 1;
+            }
+        }
+    }
+    (sum, n)
+}
+
+/// Mass significance of a spot: its integrated contrast (signed for the
+/// wanted polarity, either sign when none is wanted) over the noise of a sum
+/// of `n` pixels, so the acceptance rule is in units of the frame's noise.
+fn mass_snr(bp: &Bandpass, mass: f64, n: usize, polarity: Option<Polarity>) -> f64 {
+    let signed = match polarity {
+        Some(Polarity::Dark) => -mass,
+        Some(Polarity::Bright) => mass,
+        None => mass.abs(),
+    };
+    signed / (bp.noise_sigma * (n.max(1) as f64).sqrt())
+}
+
+fn polarity_ok(centre_contrast: f64, polarity: Option<Polarity>) -> bool {
+    match polarity {
+        Some(Polarity::Dark) => centre_contrast < 0.0,
+        Some(Polarity::Bright) => centre_contrast > 0.0,
+        None => true,
     }
 }
 
@@ -299,10 +353,30 @@ pub fn detect_particles_excluding(
                 let (x, y) = rs();
                 (x, y, radius, 0.25, c.snr)
             }
+            Locator::ProfileFit if model == ProfileModel::Spot => {
+                // Spots (a few pixels across) are accepted on their mass
+                // significance, as trackpy does, not on the fit: the fit only
+                // places them, and a dim spot whose fit fails keeps its centroid.
+                let (xc, yc) = centroid(&bp, w, h, c, r_int);
+                let (mass, n) = disc_mass(&bp, w, h, xc, yc, radius);
+                let snr = mass_snr(&bp, mass, n, settings.polarity);
+                if snr < settings.threshold_sigma {
+                    continue;
+                }
+                match fit_particle(frame, xc, yc, radius, model) {
+                    Ok(f) if polarity_ok(f.centre_contrast, settings.polarity) => {
+                        (f.x_px, f.y_px, f.r_px, f.sigma_px, snr)
+                    }
+                    _ => (xc, yc, radius, 0.5, snr),
+                }
+            }
             Locator::ProfileFit => {
                 let (x0, y0) = rs();
                 match fit_particle(frame, x0, y0, radius, model) {
-                    Ok(f) if f.snr >= settings.min_snr => {
+                    Ok(f)
+                        if f.snr >= settings.min_snr
+                            && polarity_ok(f.centre_contrast, settings.polarity) =>
+                    {
                         (f.x_px, f.y_px, f.r_px, f.sigma_px, f.snr)
                     }
                     _ => continue,
@@ -332,9 +406,16 @@ pub fn detect_particles_excluding(
             edge_clipped,
         };
         // Two candidates that converged on one particle: keep the better.
+        // Spots accepted on mass are hard spheres: two closer than one
+        // diameter are one particle seen twice (its halo, a noise peak).
+        let merge_px = if settings.locator == Locator::ProfileFit && model == ProfileModel::Spot {
+            settings.diameter_px
+        } else {
+            0.5 * radius
+        };
         if let Some(prev) = out
             .iter_mut()
-            .find(|o| (o.x_px - x).powi(2) + (o.y_px - y).powi(2) < (0.5 * radius).powi(2))
+            .find(|o| (o.x_px - x).powi(2) + (o.y_px - y).powi(2) < merge_px.powi(2))
         {
             if d.quality > prev.quality {
                 *prev = d;

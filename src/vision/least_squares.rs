@@ -92,7 +92,10 @@ where
             let trial = p + step;
             let (tjtj, tjtr, trss) = normal(&trial, &mut grad);
             if trss.is_finite() && trss < rss {
-                let small = step.norm() < 1e-7 * (1.0 + p.norm()) || rss - trss < 1e-10 * rss;
+                // A relative decrease of 1e-8 moves a parameter by ~1e-4 of its
+                // standard error: converged, and stopping here saves the rounds
+                // of rejected trials that would otherwise end the fit.
+                let small = step.norm() < 1e-7 * (1.0 + p.norm()) || rss - trss < 1e-8 * rss;
                 p = trial;
                 jtj = tjtj;
                 jtr = tjtr;
