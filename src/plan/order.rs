@@ -625,7 +625,9 @@ impl Scheduler<'_> {
         let from = self.occ.pos[p];
         let r = self.radius(p);
         let cl = self.config.clearance_m;
+        // Waypoints around the site and around the middle of the straight path.
         let mut spots = self.ring(to, r);
+        spots.extend(self.ring((from + to) / 2.0, r));
         spots.sort_by(|a, b| {
             ((a - from).norm() + (a - to).norm()).total_cmp(&((b - from).norm() + (b - to).norm()))
         });
