@@ -79,6 +79,9 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
             o.worst_push,
             o.worst_total
         );
+        for r in o.refused.iter().take(12) {
+            eprintln!("  {r}");
+        }
         assert!(
             o.refused
                 .iter()
@@ -97,5 +100,85 @@ fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
         o.worst_total <= 1.2,
         "worst push+tip ratio {}",
         o.worst_total
+    );
+}
+
+/// The executor's loop: plan, execute only the first push (landing a little
+/// off target, within the on-site tolerance), re-plan from the new state.
+/// Every re-plan must succeed without collisions until the pattern is done.
+/// Returns (re-plans, refusals with their reasons).
+fn replan_after_every_push(seed: u64, immovable_idle: bool) -> (usize, Vec<String>) {
+    use nanopush::plan::Step;
+    use rand::{RngExt, SeedableRng};
+    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+    let p = SynthParams {
+        n: 40 + (seed as usize * 7) % 21,
+        field_m: [120e-6, 100e-6],
+        radius_m: 5e-6,
+        min_gap_m: 1e-6,
+        polydisperse: false,
+        kind: LayoutKind::Uniform,
+        seed,
+    };
+    let mut layout = synth_layout(&p).unwrap();
+    let area = Reachable::for_field(layout.field_m, 5e-6);
+    let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+    let mut config = PlanConfig {
+        on_site_tolerance_m: 0.1e-6,
+        ..PlanConfig::default()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut replans = 0;
+    for round in 0..200 {
+        let plan = match plan_assembly(&layout, &sites, &config) {
+            Ok(plan) => plan,
+            Err(e) => return (replans, vec![format!("seed {seed} round {round}: {e}")]),
+        };
+        replans += 1;
+        let rep = verify_plan(&plan, &layout, &config);
+        assert!(
+            rep.collisions.is_empty(),
+            "seed {seed} round {round}: {rep:?}"
+        );
+        if immovable_idle && round == 0 {
+            // Freeze one particle the plan does not use, as the executor does
+            // when it gives up on one.
+            let used: Vec<u32> = plan.assignment.iter().map(|a| a.0).collect();
+            if let Some(q) = layout.particles.iter().find(|q| !used.contains(&q.id)) {
+                config.immovable.push(q.id);
+            }
+        }
+        let Some((id, to)) = plan.steps.iter().find_map(|s| match s {
+            Step::Push { particle, to_m, .. } => Some((*particle, *to_m)),
+            _ => None,
+        }) else {
+            return (replans, Vec::new());
+        };
+        let ang: f64 = rng.random::<f64>() * std::f64::consts::TAU;
+        let err = 0.05e-6 * rng.random::<f64>();
+        let q = layout.particles.iter_mut().find(|q| q.id == id).unwrap();
+        q.centre_m = to + nalgebra::Vector2::new(ang.cos(), ang.sin()) * err;
+    }
+    (
+        replans,
+        vec![format!("seed {seed}: not done after 200 pushes")],
+    )
+}
+
+#[test]
+fn replanning_after_every_push_finishes_the_pattern() {
+    let mut refused = Vec::new();
+    let mut replans = 0;
+    for seed in 0..6 {
+        let (n, r) = replan_after_every_push(seed, seed % 2 == 1);
+        replans += n;
+        refused.extend(r);
+    }
+    eprintln!("re-plans {replans}, refused {}: {refused:?}", refused.len());
+    assert!(
+        refused
+            .iter()
+            .all(|r| r.contains("no collision-free order"))
     );
 }

@@ -15,6 +15,7 @@ pub mod bounds;
 pub mod grid;
 pub mod layout;
 pub mod order;
+pub mod parking;
 pub mod pattern;
 pub mod plan_file;
 pub mod pushes;
@@ -228,8 +229,10 @@ pub fn plan_assembly(
         }
         .into());
     }
-    let (pairs, lb_push) = assign_with_fixed(layout, sites, config)?;
-    let ordered = order::order_moves(layout, sites, &pairs, config)?;
+    let assigned = assign_with_fixed(layout, sites, config)?;
+    let pairs = assigned.pairs;
+    let lb_push = assigned.lb_push_m;
+    let ordered = order::order_moves(layout, sites, &pairs, &assigned.on_site, config)?;
     let mut steps = ordered.steps;
     let start = config.tip_start_m.or_else(|| {
         steps.iter().find_map(|s| match s {
@@ -262,25 +265,46 @@ pub fn plan_assembly(
     })
 }
 
-/// Assignment with particles already on a site kept there; returns
-/// (particle index, site index) pairs and LB_push.
+/// The assignment the planner executes, and its lower bound.
+struct Assigned {
+    /// (particle index, site index) pairs.
+    pairs: Vec<(usize, usize)>,
+    /// Particle indices already on their site (never pushed).
+    on_site: Vec<usize>,
+    /// LB_push: the optimal plain assignment's total distance.
+    lb_push_m: f64,
+}
+
+/// Largest free-sites x free-particles instance solved with parking costs
+/// (dense method); above it the plain assignment is used.
+const PARKING_AWARE_MAX_PAIRS: usize = 250_000;
+
+/// Assignment with particles already on a site kept there. For exact
+/// methods on small instances, unassigned particles that cover a site pay
+/// the push that clears them ([`assignment::with_parking`]).
 fn assign_with_fixed(
     layout: &Layout,
     sites: &[Site],
     config: &PlanConfig,
-) -> Result<(Vec<(usize, usize)>, f64), PlanError> {
+) -> Result<Assigned, PlanError> {
     let grid = grid::Grid::new(
         layout.particles.iter().map(|p| p.centre_m),
         layout.max_radius_m() * 2.0,
     );
     let mut particle_taken = vec![false; layout.particles.len()];
     let mut pairs = Vec::new();
+    let mut on_site = Vec::new();
     let mut free_sites = Vec::new();
     for (si, s) in sites.iter().enumerate() {
         match grid.nearest(s.centre_m, 1).first() {
-            Some(&(d, p)) if d <= config.on_site_tolerance_m && !particle_taken[p] => {
+            Some(&(d, p))
+                if d <= config.on_site_tolerance_m
+                    && !particle_taken[p]
+                    && !config.immovable.contains(&layout.particles[p].id) =>
+            {
                 particle_taken[p] = true;
                 pairs.push((p, si));
+                on_site.push(p);
             }
             _ => free_sites.push(si),
         }
@@ -288,35 +312,89 @@ fn assign_with_fixed(
     let free_particles: Vec<usize> = (0..layout.particles.len())
         .filter(|&p| !particle_taken[p] && !config.immovable.contains(&layout.particles[p].id))
         .collect();
+    if free_particles.len() < free_sites.len() {
+        return Err(assignment::AssignmentError::TooFewParticles {
+            sites: free_sites.len(),
+            particles: free_particles.len(),
+        }
+        .into());
+    }
     let site_pts: Vec<Vector2<f64>> = free_sites.iter().map(|&s| sites[s].centre_m).collect();
     let part_pts: Vec<Vector2<f64>> = free_particles
         .iter()
         .map(|&p| layout.particles[p].centre_m)
         .collect();
-    let a = assignment::assign(&site_pts, &part_pts, config.method)?;
-    for (k, &p) in a.site_to_particle.iter().enumerate() {
+    let plain = assignment::assign(&site_pts, &part_pts, config.method)?;
+    let exact_method = matches!(
+        config.method,
+        AssignmentMethod::Exact | AssignmentMethod::Dense | AssignmentMethod::Lp
+    );
+    let park = if exact_method && site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS {
+        park_costs(layout, &site_pts, &free_particles, config)
+    } else {
+        Vec::new()
+    };
+    let chosen = if park.iter().any(|&c| c > 0.0) {
+        assignment::with_parking::solve(&site_pts, &part_pts, &park)
+    } else {
+        plain.site_to_particle.clone()
+    };
+    for (k, &p) in chosen.iter().enumerate() {
         pairs.push((free_particles[p], free_sites[k]));
     }
-    let lb: f64 = pairs
+    let fixed: f64 = pairs[..on_site.len()]
         .iter()
         .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
         .sum();
-    // LB_push is the optimum only for exact methods; for others the caller compares.
-    let lb = if matches!(
-        config.method,
-        AssignmentMethod::Exact | AssignmentMethod::Dense | AssignmentMethod::Lp
-    ) {
-        lb
+    // LB_push is the optimum only for exact methods; for others compare with it.
+    let free_lb = if exact_method {
+        plain.cost_m
     } else {
-        let exact = assignment::assign(&site_pts, &part_pts, AssignmentMethod::Exact)?;
-        let fixed: f64 = pairs
-            .iter()
-            .filter(|&&(_, s)| !free_sites.contains(&s))
-            .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
-            .sum();
-        exact.cost_m + fixed
+        assignment::assign(&site_pts, &part_pts, AssignmentMethod::Exact)?.cost_m
     };
-    Ok((pairs, lb))
+    Ok(Assigned {
+        pairs,
+        on_site,
+        lb_push_m: free_lb + fixed,
+    })
+}
+
+/// Parking cost of every free particle (0 unless it covers a free site).
+fn park_costs(
+    layout: &Layout,
+    site_pts: &[Vector2<f64>],
+    free_particles: &[usize],
+    config: &PlanConfig,
+) -> Vec<f64> {
+    let r = layout.max_radius_m();
+    let site_grid = grid::Grid::new(site_pts.iter().copied(), 2.0 * r);
+    let all: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let particle_grid = grid::Grid::new(all.iter().copied(), 2.0 * r);
+    let lo = Vector2::new(r, r);
+    let hi = Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r);
+    let max = layout.field_m[0] + layout.field_m[1];
+    free_particles
+        .iter()
+        .map(|&p| {
+            let pr = layout.particles[p].radius_m;
+            if parking::covers_site(all[p], pr, &site_grid, site_pts, r, config.clearance_m) {
+                parking::park_cost(
+                    p,
+                    &all,
+                    &particle_grid,
+                    &site_grid,
+                    site_pts,
+                    r,
+                    config.clearance_m,
+                    lo,
+                    hi,
+                    max,
+                )
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 /// Totals of a step list.

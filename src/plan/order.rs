@@ -132,7 +132,7 @@ enum Role {
     Idle,
     /// Assigned to move `k`, not yet done.
     Pending(usize),
-    /// On its final site: must not be touched.
+    /// On its final site, or immovable: must not be touched.
     Placed,
 }
 
@@ -161,15 +161,26 @@ pub fn order_moves(
     layout: &Layout,
     sites: &[Site],
     pairs: &[(usize, usize)],
+    on_site: &[usize],
     config: &PlanConfig,
 ) -> Result<Ordered, PlanError> {
-    let n = layout.particles.len();
-    let mut role = vec![Role::Idle; n];
+    // Immovable particles are obstacles like placed ones: never pushed.
+    let mut role: Vec<Role> = layout
+        .particles
+        .iter()
+        .map(|q| {
+            if config.immovable.contains(&q.id) {
+                Role::Placed
+            } else {
+                Role::Idle
+            }
+        })
+        .collect();
     let mut moves = Vec::new();
     let mut site_move = vec![None; sites.len()];
     for &(p, s) in pairs {
         let target = sites[s].centre_m;
-        if (layout.particles[p].centre_m - target).norm() <= 1e-12 {
+        if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
             role[p] = Role::Placed;
         } else {
             role[p] = Role::Pending(moves.len());
@@ -201,6 +212,7 @@ pub fn order_moves(
     for k in 0..sch.moves.len() {
         sch.compute_conflicts(k);
     }
+    sch.clear_sites();
     sch.run()?;
     Ok(Ordered {
         steps: sch.steps,
@@ -338,19 +350,64 @@ impl Scheduler<'_> {
                 break;
             }
             if !repaired {
-                let k = (0..total).find(|&k| self.pending[k]).unwrap_or(0);
-                return Err(PlanError::Blocked(format!(
-                    "particle {} cannot reach site at ({:.2}, {:.2}) um: no free buffer spot or detour",
-                    self.layout.particles[self.moves[k].0].id,
-                    self.moves[k].1.x * 1e6,
-                    self.moves[k].1.y * 1e6
-                )));
+                return Err(PlanError::Blocked(self.blocked_reason(&blocked)));
             }
             ready = (0..total)
                 .filter(|&k| self.pending[k] && self.wait[k] == 0)
                 .collect();
         }
         Ok(())
+    }
+
+    /// Pushes every idle particle that covers a site to a parking spot off
+    /// the sites before the moves start, outermost first (nearest the
+    /// pattern's edge has the freest corridor); a particle with no free
+    /// parking move now is left to the repairs of the main loop.
+    fn clear_sites(&mut self) {
+        let r = self.occ.max_radius_m;
+        let mut covering: Vec<usize> = (0..self.occ.pos.len())
+            .filter(|&q| {
+                self.role[q] == Role::Idle
+                    && super::parking::covers_site(
+                        self.occ.pos[q],
+                        self.radius(q),
+                        &self.site_grid,
+                        &self.site_pts,
+                        r,
+                        self.config.clearance_m,
+                    )
+            })
+            .collect();
+        for _round in 0..3 {
+            let before = covering.len();
+            covering.retain(|&q| match self.buffer_spot_off_sites(q) {
+                Some(spot) => {
+                    self.push(q, spot, true);
+                    false
+                }
+                None => true,
+            });
+            if covering.is_empty() || covering.len() == before {
+                break;
+            }
+        }
+        for k in 0..self.moves.len() {
+            self.compute_conflicts(k);
+        }
+    }
+
+    /// A free spot off every site, reachable from q's place now, nearest first.
+    fn buffer_spot_off_sites(&self, q: usize) -> Option<Vector2<f64>> {
+        let from = self.occ.pos[q];
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        self.ring(from, r).into_iter().find(|spot| {
+            self.spot_free(q, *spot, None)
+                && self
+                    .occ
+                    .first_hit(&self.corridor(q, from, *spot), q, cl)
+                    .is_none()
+        })
     }
 
     /// Executes move k (its corridor is free) and releases the moves waiting for it.
@@ -377,6 +434,9 @@ impl Scheduler<'_> {
                 Role::Idle => {
                     if let Some(spot) = self.buffer_spot(q, Some(&c)) {
                         self.push(q, spot, true);
+                        return true;
+                    }
+                    if self.clear_way_then_buffer(q, &c) {
                         return true;
                     }
                 }
@@ -459,16 +519,7 @@ impl Scheduler<'_> {
     /// Candidate spots around `centre`: 48 directions, distances from half a
     /// pitch to eight pitches in quarter-pitch steps.
     fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
-        let pitch = 2.0 * r + 1e-6;
-        let mut spots = Vec::new();
-        for step in 2..=32 {
-            let dist = pitch * step as f64 / 4.0;
-            for a in 0..48 {
-                let ang = std::f64::consts::TAU * a as f64 / 48.0;
-                spots.push(centre + Vector2::new(ang.cos(), ang.sin()) * dist);
-            }
-        }
-        spots
+        super::parking::ring(centre, 2.0 * r + 1e-6)
     }
 
     /// A free spot near particle q, reachable now, outside corridor `avoid`:
@@ -499,6 +550,74 @@ impl Scheduler<'_> {
             .copied()
     }
 
+    /// Two-level buffer move: idle particle q has no free way to a spot off
+    /// `avoid`, but some spot's way is blocked only by idle particles that
+    /// can each be buffered directly (off `avoid` and off q's way); those go
+    /// first, then q. True when at least the first of them moved.
+    fn clear_way_then_buffer(&mut self, q: usize, avoid: &Corridor) -> bool {
+        let from = self.occ.pos[q];
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        for spot in self.ring(from, r) {
+            if !self.spot_free(q, spot, None) || avoid.hits(spot, r, cl) {
+                continue;
+            }
+            let way = self.corridor(q, from, spot);
+            let hits = self.occ.all_hits(&way, q, cl);
+            if hits.is_empty() || hits.len() > 2 || hits.iter().any(|&h| self.role[h] != Role::Idle)
+            {
+                continue;
+            }
+            let mut moved = false;
+            for &h in &hits {
+                let target = self
+                    .buffer_spot(h, Some(avoid))
+                    .filter(|t| !way.hits(*t, self.radius(h), cl));
+                match target {
+                    Some(t) => {
+                        self.push(h, t, true);
+                        moved = true;
+                    }
+                    None => break,
+                }
+            }
+            if moved {
+                if self.occ.first_hit(&way, q, cl).is_none() && self.spot_free(q, spot, None) {
+                    self.push(q, spot, true);
+                }
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Why nothing could move: the first blocked moves and what blocks them.
+    fn blocked_reason(&self, blocked: &[(usize, usize)]) -> String {
+        if blocked.is_empty() {
+            return "every remaining move waits for another (a cycle no detour breaks)".into();
+        }
+        blocked
+            .iter()
+            .take(3)
+            .map(|&(k, q)| {
+                let (p, to) = self.moves[k];
+                let what = match self.role[q] {
+                    Role::Idle => "an unassigned particle with no free buffer spot",
+                    Role::Pending(_) => "a particle still to move",
+                    Role::Placed => "a placed or immovable particle, and no detour",
+                };
+                format!(
+                    "particle {} to ({:.2}, {:.2}) um blocked by particle {} ({what})",
+                    self.layout.particles[p].id,
+                    to.x * 1e6,
+                    to.y * 1e6,
+                    self.layout.particles[q].id
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+
     /// Moves pending move k's particle to a waypoint near its site whose last
     /// leg crosses no particle and no pending site; true on success.
     fn reroute(&mut self, k: usize, avoid: Option<&Corridor>) -> bool {
@@ -506,7 +625,9 @@ impl Scheduler<'_> {
         let from = self.occ.pos[p];
         let r = self.radius(p);
         let cl = self.config.clearance_m;
+        // Waypoints around the site and around the middle of the straight path.
         let mut spots = self.ring(to, r);
+        spots.extend(self.ring((from + to) / 2.0, r));
         spots.sort_by(|a, b| {
             ((a - from).norm() + (a - to).norm()).total_cmp(&((b - from).norm() + (b - to).norm()))
         });

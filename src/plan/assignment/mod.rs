@@ -6,6 +6,8 @@
 //! - [`dense_jv`]: the textbook dense shortest-augmenting-path method
 //!   (Jonker-Volgenant / Crouse, what scipy runs); the reference for tests.
 //! - [`greedy`]: nearest free particle, site by site; a baseline.
+//! - [`with_parking`]: adds the cost of clearing unassigned particles off
+//!   the sites (what the planner uses when a site is covered).
 //! - [`lp`]: a linear program solved with clarabel for side constraints
 //!   (forbidden pairs, size classes) and the bottleneck (min-max) variant.
 //!
@@ -16,6 +18,7 @@ pub mod dense_jv;
 pub mod greedy;
 pub mod lp;
 pub mod sparse_ssp;
+pub mod with_parking;
 
 use nalgebra::Vector2;
 
