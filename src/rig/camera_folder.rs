@@ -4,8 +4,11 @@
 //! New files are taken in name or modification-time order. A file is read
 //! only once its size and modification time have stayed the same for
 //! `stable_for`, and only kept if it decodes; a file that does not decode is
-//! retried after another stable period and skipped (with a warning, and
-//! listed in [`FolderCamera::skipped`]) after `max_decode_attempts`. A grab
+//! retried after twice the previous wait (a writer that pauses mid-file gets
+//! time to finish; any change to the file starts the count again) and
+//! skipped (with a warning, and listed in [`FolderCamera::skipped`]) after
+//! `max_decode_attempts` reads of the same unchanged content: with the
+//! defaults, 50 + 100 + 200 ms. A grab
 //! waits at most `timeout` and then returns `Ok(None)` ("no frame"), so a
 //! writer that stops or a file that stays half-written never hangs the caller.
 //! Polling (not inotify) keeps it portable and works on network shares.
@@ -40,7 +43,7 @@ pub struct FolderCameraSettings {
     pub timeout: Duration,
     /// Pause between folder scans.
     pub poll_interval: Duration,
-    /// Failed decodes (each after a stable period) before a file is skipped.
+    /// Failed decodes of the same unchanged file before it is skipped.
     pub max_decode_attempts: u32,
     /// Which colour channel makes the grey frame.
     pub channel: Channel,
@@ -101,6 +104,9 @@ struct Watch {
     size: u64,
     modified: Option<SystemTime>,
     unchanged_since: Instant,
+    /// How long the file must stay unchanged before the next read: the
+    /// stable time, doubled after every failed decode.
+    wait: Duration,
     failures: u32,
 }
 
@@ -192,15 +198,19 @@ impl FolderCamera {
             size: c.size,
             modified: c.modified,
             unchanged_since: now,
+            wait: stable_for,
             failures: 0,
         });
         if watch.size != c.size || watch.modified != c.modified {
+            // Still being written: earlier failed reads do not count.
             watch.size = c.size;
             watch.modified = c.modified;
             watch.unchanged_since = now;
+            watch.wait = stable_for;
+            watch.failures = 0;
             return Look::NotYet;
         }
-        if c.size == 0 || now.duration_since(watch.unchanged_since) < stable_for {
+        if c.size == 0 || now.duration_since(watch.unchanged_since) < watch.wait {
             return Look::NotYet;
         }
         let decoded = std::fs::read(&c.path)
@@ -220,6 +230,7 @@ impl FolderCamera {
             Err(reason) => {
                 watch.failures += 1;
                 watch.unchanged_since = now;
+                watch.wait *= 2;
                 if watch.failures >= self.settings.max_decode_attempts {
                     tracing::warn!(
                         "camera folder: skipping {} after {} failed reads: {reason}",

@@ -2,6 +2,8 @@
 //! the simulated rig ([`sim`]) and PI GCS 2.0 controllers ([`gcs`]).
 
 pub mod camera;
+#[cfg(feature = "aravis")]
+pub mod camera_aravis;
 pub mod camera_clock;
 pub mod camera_error;
 pub mod camera_folder;
