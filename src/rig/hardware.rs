@@ -24,7 +24,7 @@ use super::stage::{AxisRange, CoarseStage, NanoStage, StageXyz, check_in_range};
 use crate::calib::affine::{AffineCalibration, CalibError};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// A GCS stage as the executor's nanostage.
 pub struct GcsNanoStage {
@@ -32,6 +32,7 @@ pub struct GcsNanoStage {
     endpoint: String,
     range: [AxisRange; 3],
     servo_on: bool,
+    interrupt: Arc<AtomicBool>,
     /// Last velocity set per axis, controller units per second.
     velocity_units: Vec<Option<f64>>,
 }
@@ -39,7 +40,9 @@ pub struct GcsNanoStage {
 impl GcsNanoStage {
     /// Wraps a stage of two (x, y) or three (x, y, z) axes. The range is the
     /// rig file's soft limits narrowed to the controller's travel (`TMN?`/`TMX?`).
-    pub fn new(mut stage: GcsStage) -> Result<Self, GcsError> {
+    /// `interrupt` is the stage's Ctrl-C flag: while it is up, moves are
+    /// refused before anything (not even `VEL`) is sent.
+    pub fn new(mut stage: GcsStage, interrupt: Arc<AtomicBool>) -> Result<Self, GcsError> {
         let settings = stage.settings().clone();
         let n = settings.axes.len();
         if !(2..=3).contains(&n) {
@@ -76,6 +79,7 @@ impl GcsNanoStage {
             stage,
             range,
             servo_on: false,
+            interrupt,
             velocity_units: vec![None; n],
         })
     }
@@ -134,6 +138,11 @@ impl GcsNanoStage {
 
     fn move_checked(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), GcsError> {
         let n = self.axes();
+        if self.interrupt.load(Ordering::SeqCst) {
+            // The stage halted when the flag was seen; make sure, then refuse.
+            let _ = self.stage.halt();
+            return Err(GcsError::Interrupted);
+        }
         self.stage
             .settings()
             .limits
@@ -304,7 +313,7 @@ impl HardwareRig {
             Arc::clone(&interrupt),
         )?;
         Ok(Self {
-            stage: GcsNanoStage::new(stage)?,
+            stage: GcsNanoStage::new(stage, Arc::clone(&interrupt))?,
             coarse: opts.coarse,
             camera,
             calibration,
