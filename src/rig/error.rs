@@ -23,6 +23,10 @@ pub enum RigError {
     /// The controller or camera did not answer in time.
     #[error("{device} did not answer within {timeout_ms} ms")]
     Timeout { device: String, timeout_ms: u64 },
+    /// The rig has no coarse stage (a hardware rig whose rig file names none);
+    /// nothing was moved.
+    #[error("this rig has no coarse stage: move the sample by hand, or add one to the rig")]
+    NoCoarseStage,
     /// The camera or another input could not be read.
     #[error("{0}")]
     Io(String),

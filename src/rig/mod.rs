@@ -2,8 +2,17 @@
 //! the simulated rig ([`sim`]) and PI GCS 2.0 controllers ([`gcs`]).
 
 pub mod camera;
+#[cfg(feature = "aravis")]
+pub mod camera_aravis;
+pub mod camera_clock;
+pub mod camera_error;
+pub mod camera_folder;
+pub mod camera_open;
+pub mod camera_source;
+pub mod camera_video;
 pub mod error;
 pub mod gcs;
+pub mod hardware;
 pub mod sim;
 pub mod stage;
 

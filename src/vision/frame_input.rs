@@ -224,7 +224,7 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
 }
 
 /// Converts an OpenCV matrix (8U/16U, 1/3/4 channels, BGR order) to a frame.
-fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
+pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
     let (w, h) = (mat.cols().max(0) as usize, mat.rows().max(0) as usize);
     let nch = mat.channels().max(1) as usize;
     let mat = if mat.is_continuous() {

@@ -4,6 +4,7 @@
 
 use super::safety::{SafetyLimits, SoftLimit};
 use super::stage::StageSettings;
+pub use crate::rig::camera_source::CameraSource;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -100,29 +101,6 @@ pub struct SafetySection {
     pub top_speed_um_s: f64,
 }
 
-/// Where camera frames come from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "source", rename_all = "lowercase", deny_unknown_fields)]
-pub enum CameraSource {
-    /// A folder the camera's own software writes TIFF/PNG frames into.
-    Folder {
-        /// The watched folder (relative to the rig file).
-        path: PathBuf,
-    },
-    /// An OpenCV VideoCapture: device index, video file or GStreamer pipeline.
-    Opencv {
-        /// What to open, e.g. `"0"`, `"movie.avi"`, or a pipeline string.
-        open: String,
-    },
-    /// A GenICam camera through Aravis.
-    Aravis {
-        /// Aravis device name (empty: the first camera found).
-        device: String,
-    },
-    /// The simulated microscope.
-    Simulated,
-}
-
 /// A rig file that could not be read or makes no sense.
 #[derive(Debug, thiserror::Error)]
 pub enum RigFileError {
@@ -176,9 +154,7 @@ impl RigFile {
         let mut rig = Self::from_toml(&text, path)?;
         let base = path.parent().unwrap_or(Path::new("."));
         rig.calibration = base.join(&rig.calibration);
-        if let CameraSource::Folder { path } = &mut rig.camera {
-            *path = base.join(&*path);
-        }
+        rig.camera.resolve_paths(base);
         Ok(rig)
     }
 
@@ -223,6 +199,7 @@ impl RigFile {
                 self.stage.baud
             ));
         }
+        self.camera.validate()?;
         self.safety_limits()
             .validate()
             .map_err(|e| format!("safety: {e}"))

@@ -1,0 +1,236 @@
+//! The `[camera]` section of a rig file: which kind of camera, and its fields,
+//! in lab units (milliseconds). One enum variant per way frames reach nanopush.
+
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Where camera frames come from (`[camera] kind = "..."` in a rig file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum CameraSource {
+    /// A folder the camera's own acquisition software writes TIFF/PNG frames into.
+    Folder {
+        /// The watched folder (relative to the rig file).
+        path: PathBuf,
+        /// In which order new files are taken.
+        #[serde(default)]
+        order: FrameOrder,
+        /// Every new frame in turn, or only the newest (older ones are skipped).
+        #[serde(default)]
+        pick: FramePick,
+        /// Ignore the files already in the folder when the camera opens.
+        #[serde(default = "default_true")]
+        skip_existing: bool,
+        /// A file counts as complete once its size has not changed for this long.
+        #[serde(default = "default_stable_ms")]
+        stable_ms: u64,
+        /// Longest wait for the next frame before `grab` returns "no frame".
+        #[serde(default = "default_frame_timeout_ms")]
+        timeout_ms: u64,
+    },
+    /// A video file read through OpenCV VideoCapture (one frame per grab).
+    Video {
+        /// The file (relative to the rig file).
+        path: PathBuf,
+    },
+    /// A video device (V4L2 `/dev/videoN`, ...) through OpenCV VideoCapture.
+    Device {
+        /// Device index (`0` for `/dev/video0`).
+        index: i32,
+    },
+    /// A GStreamer pipeline through OpenCV VideoCapture (ends in `appsink`).
+    Gstreamer {
+        /// The pipeline string.
+        pipeline: String,
+    },
+    /// A GenICam camera (GigE Vision / USB3 Vision) through Aravis; needs the
+    /// `aravis` cargo feature.
+    Aravis {
+        /// Aravis device id (empty: the first camera found).
+        #[serde(default)]
+        device: String,
+        /// Longest wait for a frame buffer, milliseconds.
+        #[serde(default = "default_frame_timeout_ms")]
+        timeout_ms: u64,
+    },
+    /// The simulated microscope (the simulated rig's camera).
+    Simulated,
+}
+
+/// In which order a watched folder's new files become frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameOrder {
+    /// By file name (zero-padded frame numbers sort right).
+    #[default]
+    Name,
+    /// By modification time (name breaks ties).
+    Mtime,
+}
+
+/// Which of the waiting frames a grab returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FramePick {
+    /// Every frame in turn: nothing is skipped.
+    #[default]
+    Every,
+    /// Only the newest complete frame; older waiting ones are skipped (for a
+    /// camera that streams faster than the executor looks).
+    Latest,
+}
+
+fn default_true() -> bool {
+    true
+}
+fn default_stable_ms() -> u64 {
+    50
+}
+fn default_frame_timeout_ms() -> u64 {
+    5000
+}
+
+impl CameraSource {
+    /// Resolves relative file paths against `base` (the rig file's folder).
+    pub fn resolve_paths(&mut self, base: &Path) {
+        match self {
+            Self::Folder { path, .. } | Self::Video { path } => *path = base.join(&*path),
+            _ => {}
+        }
+    }
+
+    /// Checks the values (positive times, non-empty pipeline); the reason on failure.
+    pub fn validate(&self) -> Result<(), String> {
+        match self {
+            Self::Folder {
+                stable_ms,
+                timeout_ms,
+                ..
+            } if *timeout_ms == 0 || *stable_ms > *timeout_ms => Err(format!(
+                "camera.timeout_ms ({timeout_ms}) must be positive and at least camera.stable_ms ({stable_ms})"
+            )),
+            Self::Aravis { timeout_ms: 0, .. } => Err("camera.timeout_ms must be positive".into()),
+            Self::Device { index } if *index < 0 => {
+                Err(format!("camera.index must be >= 0, got {index}"))
+            }
+            Self::Gstreamer { pipeline } if pipeline.trim().is_empty() => {
+                Err("camera.pipeline is empty".into())
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The kind as written in the rig file.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Folder { .. } => "folder",
+            Self::Video { .. } => "video",
+            Self::Device { .. } => "device",
+            Self::Gstreamer { .. } => "gstreamer",
+            Self::Aravis { .. } => "aravis",
+            Self::Simulated => "simulated",
+        }
+    }
+}
+
+/// Milliseconds from a file to a [`Duration`].
+pub(crate) fn ms(value: u64) -> Duration {
+    Duration::from_millis(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Debug, PartialEq, Serialize, Deserialize)]
+    struct Section {
+        camera: CameraSource,
+    }
+
+    fn every_kind() -> Vec<CameraSource> {
+        vec![
+            CameraSource::Folder {
+                path: "frames".into(),
+                order: FrameOrder::Mtime,
+                pick: FramePick::Latest,
+                skip_existing: false,
+                stable_ms: 80,
+                timeout_ms: 2000,
+            },
+            CameraSource::Video {
+                path: "run.avi".into(),
+            },
+            CameraSource::Device { index: 2 },
+            CameraSource::Gstreamer {
+                pipeline: "videotestsrc ! videoconvert ! appsink".into(),
+            },
+            CameraSource::Aravis {
+                device: "Aravis-Fake-GV01".into(),
+                timeout_ms: 300,
+            },
+            CameraSource::Simulated,
+        ]
+    }
+
+    #[test]
+    fn every_kind_round_trips_through_toml() {
+        for camera in every_kind() {
+            let text = toml::to_string(&Section {
+                camera: camera.clone(),
+            })
+            .unwrap();
+            assert!(
+                text.contains(&format!("kind = \"{}\"", camera.kind())),
+                "{text}"
+            );
+            let back: Section = toml::from_str(&text).unwrap();
+            assert_eq!(back.camera, camera);
+            assert_eq!(camera.validate(), Ok(()));
+        }
+    }
+
+    #[test]
+    fn folder_defaults_and_bad_values() {
+        let s: Section = toml::from_str("[camera]\nkind = \"folder\"\npath = \"f\"\n").unwrap();
+        assert_eq!(
+            s.camera,
+            CameraSource::Folder {
+                path: "f".into(),
+                order: FrameOrder::Name,
+                pick: FramePick::Every,
+                skip_existing: true,
+                stable_ms: 50,
+                timeout_ms: 5000,
+            }
+        );
+        let bad: Section = toml::from_str(
+            "[camera]\nkind = \"folder\"\npath = \"f\"\nstable_ms = 900\ntimeout_ms = 100\n",
+        )
+        .unwrap();
+        assert!(bad.camera.validate().unwrap_err().contains("stable_ms"));
+        assert!(
+            toml::from_str::<Section>("[camera]\nkind = \"webcam\"\n").is_err(),
+            "unknown kinds are refused"
+        );
+        assert!(
+            toml::from_str::<Section>("[camera]\nkind = \"device\"\nindex = 0\npath = \"x\"\n")
+                .is_err(),
+            "unknown fields are refused"
+        );
+    }
+
+    #[test]
+    fn relative_paths_resolve_against_the_rig_folder() {
+        let mut cam = CameraSource::Video {
+            path: "run.avi".into(),
+        };
+        cam.resolve_paths(Path::new("/lab/calib"));
+        assert_eq!(
+            cam,
+            CameraSource::Video {
+                path: "/lab/calib/run.avi".into()
+            }
+        );
+    }
+}
