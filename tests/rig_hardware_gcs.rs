@@ -168,11 +168,11 @@ fn halt_works_and_a_missing_coarse_stage_is_a_typed_error() {
     let mut rig = open(&b);
     rig.halt().unwrap();
     assert!(matches!(
-        CoarseStage::move_to(&mut rig, [1e-3, 0.0]),
+        CoarseStage::move_coarse(&mut rig, [1e-3, 0.0]),
         Err(RigError::NoCoarseStage)
     ));
     assert!(matches!(
-        CoarseStage::position(&mut rig),
+        CoarseStage::coarse_position(&mut rig),
         Err(RigError::NoCoarseStage)
     ));
 }

@@ -371,15 +371,15 @@ impl NanoStage for HardwareRig {
 }
 
 impl CoarseStage for HardwareRig {
-    fn position(&mut self) -> Result<[f64; 2], RigError> {
+    fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
         match &mut self.coarse {
-            Some(c) => c.position(),
+            Some(c) => c.coarse_position(),
             None => Err(RigError::NoCoarseStage),
         }
     }
-    fn move_to(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
         match &mut self.coarse {
-            Some(c) => c.move_to(target),
+            Some(c) => c.move_coarse(target),
             None => Err(RigError::NoCoarseStage),
         }
     }
