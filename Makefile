@@ -19,8 +19,9 @@ lint: deps
 	$(CARGO) fmt --check
 	$(CARGO) clippy --all-targets -- -D warnings
 
+# Benches are compiled by clippy --all-targets; they are run by `make bench`, not here.
 test: lint
-	$(CARGO) test --all-targets
+	$(CARGO) test --lib --bins --tests
 	$(CARGO) test --doc
 
 bench: deps
@@ -28,3 +29,9 @@ bench: deps
 
 fmt:
 	$(CARGO) fmt
+
+# Peer tools outside the product (Python venvs): trackpy, scipy, PIPython.
+peers:
+	bash scripts/peers/setup-venv.sh
+	bash scripts/peers/setup-venv-scipy.sh
+	bash scripts/peers/setup-venv-pipython.sh
