@@ -13,6 +13,7 @@ mod plan;
 mod rig_probe;
 mod rig_sim_gcs;
 mod simulate;
+mod study_assemble;
 mod study_model;
 mod study_plan;
 mod study_vision;
@@ -65,6 +66,8 @@ enum StudyCommand {
     Vision(study_vision::Args),
     /// Assignment and ordering methods against distance ratio and time.
     Plan(study_plan::Args),
+    /// Many seeded closed-loop runs against the assembly acceptance figures.
+    Assemble(study_assemble::Args),
 }
 
 #[derive(Subcommand, Debug)]
@@ -102,6 +105,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Study(StudyCommand::Model(a)) => study_model::run(a),
         Command::Study(StudyCommand::Vision(a)) => study_vision::run(a),
         Command::Study(StudyCommand::Plan(a)) => study_plan::run(a),
+        Command::Study(StudyCommand::Assemble(a)) => study_assemble::run(a),
         Command::Detect(a) => detect::run(a),
         Command::Calibrate(a) => calibrate::run(a),
         Command::Synth(SynthCommand::Frame(a)) => synth_frame::run(a),

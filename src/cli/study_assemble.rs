@@ -1,0 +1,385 @@
+//! `nanopush study assemble`: many seeded closed-loop runs of one pattern on the
+//! simulated rig, aggregated against the closed-loop acceptance figures (share of
+//! runs that fill every site, placement RMS, missed lost contacts, time against
+//! the lower bound).
+//!
+//! Each run is this binary's own `assemble --json` in a child process: a run that
+//! panics or is killed cannot take the study down, and the study sees exactly
+//! what a user sees.
+
+use anyhow::{Context, bail};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Arguments of `nanopush study assemble`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Text to assemble.
+    #[arg(long, default_value = "CMU")]
+    pub text: String,
+    /// Number of seeded runs.
+    #[arg(long, default_value_t = 50)]
+    pub runs: u64,
+    /// Seed of the first run; run k uses first_seed + k.
+    #[arg(long, default_value_t = 1)]
+    pub first_seed: u64,
+    /// Scene of every run.
+    #[arg(long, default_value = "calib/paper-ps-ito.toml")]
+    pub scene: PathBuf,
+    /// Output folder: one sub-folder per run, plus study-assemble.{json,md}.
+    #[arg(long, default_value = "out/study-assemble")]
+    pub out: PathBuf,
+}
+
+/// What `assemble --json` prints, as far as the study needs it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunFigures {
+    /// Target sites.
+    pub sites: usize,
+    /// Sites filled at the end.
+    pub filled: usize,
+    /// Placement RMS over the sites, nm.
+    pub rms_error_nm: f64,
+    /// Worst placement error, nm.
+    pub max_error_nm: f64,
+    /// Pushes executed.
+    pub pushes: usize,
+    /// Pushes that repeated a failed one.
+    pub repushes: usize,
+    /// Lost contacts the loop saw.
+    pub lost_contacts_detected: usize,
+    /// Lost contacts the simulator caused but the loop did not see.
+    pub lost_contacts_missed: usize,
+    /// Rig time of the run, s.
+    pub time_s: f64,
+    /// The planner's lower bound on that time, s.
+    pub lower_bound_s: f64,
+}
+
+/// One run of the study: its seed, figures (or why it has none) and wall time.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RunRow {
+    /// Seed of the layout and the rig's noise.
+    pub seed: u64,
+    /// The run's report, when it produced one.
+    pub figures: Option<RunFigures>,
+    /// Why there is no report (the error the run printed).
+    pub error: Option<String>,
+    /// Wall time of the child process, s.
+    pub wall_s: f64,
+}
+
+/// The aggregate the acceptance list asks for.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct StudySummary {
+    /// Schema tag of study-assemble.json.
+    pub schema: String,
+    /// Pattern text.
+    pub text: String,
+    /// Runs attempted.
+    pub runs: usize,
+    /// Runs that filled every site.
+    pub complete_runs: usize,
+    /// Worst per-run placement RMS among complete runs, nm.
+    pub worst_rms_nm: Option<f64>,
+    /// Median per-run placement RMS among complete runs, nm.
+    pub median_rms_nm: Option<f64>,
+    /// Lost contacts missed, summed over runs.
+    pub missed_lost_contacts: usize,
+    /// Lost contacts detected, summed over runs.
+    pub detected_lost_contacts: usize,
+    /// Median of time / lower bound among complete runs.
+    pub median_time_ratio: Option<f64>,
+    /// Worst time / lower bound among complete runs.
+    pub worst_time_ratio: Option<f64>,
+    /// Median wall time of a run, s.
+    pub median_wall_s: Option<f64>,
+    /// Every run.
+    pub rows: Vec<RunRow>,
+}
+
+/// Schema tag of the study's JSON output.
+pub const STUDY_ASSEMBLE_SCHEMA: &str = "nanopush.study-assemble/1";
+
+/// Runs the seeds one after the other and writes the table and JSON.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    if !args.scene.is_file() {
+        bail!("scene {} does not exist", args.scene.display());
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let exe = std::env::current_exe().context("locating the nanopush binary")?;
+    let mut rows = Vec::new();
+    for k in 0..args.runs {
+        let seed = args.first_seed + k;
+        let row = run_one(&exe, &args, seed)?;
+        print_row(&row);
+        rows.push(row);
+    }
+    let summary = summarise(&args.text, rows);
+    let json = args.out.join("study-assemble.json");
+    std::fs::write(&json, serde_json::to_string_pretty(&summary)?)
+        .with_context(|| format!("writing {}", json.display()))?;
+    let md = args.out.join("study-assemble.md");
+    std::fs::write(&md, to_markdown(&summary))
+        .with_context(|| format!("writing {}", md.display()))?;
+    print!("{}", acceptance_text(&summary));
+    println!("table: {}  data: {}", md.display(), json.display());
+    Ok(())
+}
+
+fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
+    let dir = args.out.join(format!("seed-{seed}"));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
+    }
+    let t0 = Instant::now();
+    let output = Command::new(exe)
+        .arg("assemble")
+        .args(["--text", &args.text])
+        .arg("--scene")
+        .arg(&args.scene)
+        .args(["--seed", &seed.to_string()])
+        .arg("--out")
+        .arg(&dir)
+        .arg("--json")
+        .output()
+        .with_context(|| format!("running {} assemble", exe.display()))?;
+    let wall_s = t0.elapsed().as_secs_f64();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let parsed = stdout
+        .lines()
+        .rev()
+        .find_map(|l| serde_json::from_str::<RunFigures>(l.trim()).ok());
+    let error = match (&parsed, output.status.success()) {
+        (Some(_), _) => None,
+        (None, _) => Some(last_line(&String::from_utf8_lossy(&output.stderr))),
+    };
+    Ok(RunRow {
+        seed,
+        figures: parsed,
+        error,
+        wall_s,
+    })
+}
+
+fn last_line(s: &str) -> String {
+    s.lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("no output")
+        .trim()
+        .to_string()
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+fn max(v: &[f64]) -> Option<f64> {
+    v.iter().copied().max_by(f64::total_cmp)
+}
+
+/// Aggregates the runs; figures of incomplete runs count only in the lost-contact sums.
+pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
+    let complete: Vec<&RunFigures> = rows
+        .iter()
+        .filter_map(|r| r.figures.as_ref())
+        .filter(|f| f.sites > 0 && f.filled == f.sites)
+        .collect();
+    let rms: Vec<f64> = complete.iter().map(|f| f.rms_error_nm).collect();
+    let ratios: Vec<f64> = complete
+        .iter()
+        .filter(|f| f.lower_bound_s > 0.0)
+        .map(|f| f.time_s / f.lower_bound_s)
+        .collect();
+    let all = || rows.iter().filter_map(|r| r.figures.as_ref());
+    StudySummary {
+        schema: STUDY_ASSEMBLE_SCHEMA.to_string(),
+        text: text.to_string(),
+        runs: rows.len(),
+        complete_runs: complete.len(),
+        worst_rms_nm: max(&rms),
+        median_rms_nm: median(rms.clone()),
+        missed_lost_contacts: all().map(|f| f.lost_contacts_missed).sum(),
+        detected_lost_contacts: all().map(|f| f.lost_contacts_detected).sum(),
+        median_time_ratio: median(ratios.clone()),
+        worst_time_ratio: max(&ratios),
+        median_wall_s: median(rows.iter().map(|r| r.wall_s).collect()),
+        rows,
+    }
+}
+
+fn print_row(r: &RunRow) {
+    match (&r.figures, &r.error) {
+        (Some(f), _) => println!(
+            "seed {:>3}: {}/{} sites, rms {:.0} nm, {} pushes ({} re), lost {} seen {} missed, time {:.0} s / LB {:.0} s, wall {:.1} s",
+            r.seed,
+            f.filled,
+            f.sites,
+            f.rms_error_nm,
+            f.pushes,
+            f.repushes,
+            f.lost_contacts_detected,
+            f.lost_contacts_missed,
+            f.time_s,
+            f.lower_bound_s,
+            r.wall_s
+        ),
+        (None, e) => println!(
+            "seed {:>3}: no report: {}",
+            r.seed,
+            e.as_deref().unwrap_or("?")
+        ),
+    }
+}
+
+fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map(|x| format!("{x:.digits$}"))
+        .unwrap_or_else(|| "-".to_string())
+}
+
+/// The acceptance figures with their targets, one line each.
+pub fn acceptance_text(s: &StudySummary) -> String {
+    let share = s.complete_runs as f64 / s.runs.max(1) as f64;
+    format!(
+        "{text}: {c}/{n} runs filled every site ({pct:.0} %, target >= 98 %)\n\
+         placement RMS: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
+         lost contacts: {d} detected, {m} missed (target 0 missed)\n\
+         time / lower bound: median {mt}, worst {wt} (target <= 1.5)\n\
+         wall time per run: median {mw} s\n",
+        text = s.text,
+        c = s.complete_runs,
+        n = s.runs,
+        pct = 100.0 * share,
+        mr = fmt_opt(s.median_rms_nm, 0),
+        wr = fmt_opt(s.worst_rms_nm, 0),
+        d = s.detected_lost_contacts,
+        m = s.missed_lost_contacts,
+        mt = fmt_opt(s.median_time_ratio, 2),
+        wt = fmt_opt(s.worst_time_ratio, 2),
+        mw = fmt_opt(s.median_wall_s, 1),
+    )
+}
+
+fn to_markdown(s: &StudySummary) -> String {
+    let mut out = format!(
+        "# Closed-loop study: {} on the simulated rig\n\nGenerated by `nanopush study assemble --text {} --runs {}`.\n\n```\n{}```\n\n| seed | filled | rms [nm] | max [nm] | pushes | re-pushes | lost seen | lost missed | time [s] | LB [s] | wall [s] | error |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        s.text,
+        s.text,
+        s.runs,
+        acceptance_text(s)
+    );
+    for r in &s.rows {
+        match &r.figures {
+            Some(f) => out.push_str(&format!(
+                "| {} | {}/{} | {:.0} | {:.0} | {} | {} | {} | {} | {:.0} | {:.0} | {:.1} | |\n",
+                r.seed,
+                f.filled,
+                f.sites,
+                f.rms_error_nm,
+                f.max_error_nm,
+                f.pushes,
+                f.repushes,
+                f.lost_contacts_detected,
+                f.lost_contacts_missed,
+                f.time_s,
+                f.lower_bound_s,
+                r.wall_s
+            )),
+            None => out.push_str(&format!(
+                "| {} | - | - | - | - | - | - | - | - | - | {:.1} | {} |\n",
+                r.seed,
+                r.wall_s,
+                r.error.as_deref().unwrap_or("").replace('|', "/")
+            )),
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn figures(filled: usize, rms: f64, missed: usize, time: f64) -> RunFigures {
+        RunFigures {
+            sites: 3,
+            filled,
+            rms_error_nm: rms,
+            max_error_nm: rms * 2.0,
+            pushes: 5,
+            repushes: 1,
+            lost_contacts_detected: 1,
+            lost_contacts_missed: missed,
+            time_s: time,
+            lower_bound_s: 100.0,
+        }
+    }
+
+    fn row(seed: u64, f: Option<RunFigures>) -> RunRow {
+        RunRow {
+            seed,
+            error: f.is_none().then(|| "planner refused".to_string()),
+            figures: f,
+            wall_s: seed as f64,
+        }
+    }
+
+    #[test]
+    fn incomplete_runs_do_not_count_in_rms_or_time_but_do_in_missed_contacts() {
+        let s = summarise(
+            "CMU",
+            vec![
+                row(1, Some(figures(3, 100.0, 0, 120.0))),
+                row(2, Some(figures(3, 300.0, 0, 200.0))),
+                row(3, Some(figures(2, 900.0, 2, 900.0))),
+                row(4, None),
+            ],
+        );
+        assert_eq!((s.runs, s.complete_runs), (4, 2));
+        assert_eq!(s.worst_rms_nm, Some(300.0));
+        assert_eq!(s.median_rms_nm, Some(200.0));
+        assert_eq!(s.missed_lost_contacts, 2);
+        assert_eq!(s.detected_lost_contacts, 3);
+        assert_eq!(s.worst_time_ratio, Some(2.0));
+        assert_eq!(s.median_time_ratio, Some(1.6));
+        assert!(acceptance_text(&s).contains("2/4 runs filled every site (50 %"));
+    }
+
+    #[test]
+    fn study_json_reads_back() {
+        let s = summarise("L", vec![row(1, Some(figures(3, 50.0, 0, 150.0)))]);
+        let text = serde_json::to_string(&s).unwrap();
+        let back: StudySummary = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.schema, STUDY_ASSEMBLE_SCHEMA);
+        assert_eq!(back.rows.len(), 1);
+        assert_eq!(back.rows[0].figures.as_ref().unwrap().filled, 3);
+        assert_eq!(back.median_time_ratio, Some(1.5));
+    }
+
+    #[test]
+    fn markdown_lists_every_run_with_its_error() {
+        let s = summarise(
+            "L",
+            vec![row(1, Some(figures(3, 50.0, 0, 150.0))), row(2, None)],
+        );
+        let md = to_markdown(&s);
+        assert!(md.contains("| 1 | 3/3 |"));
+        assert!(md.contains("planner refused"));
+    }
+}
