@@ -152,10 +152,7 @@ fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
         .with_context(|| format!("running {} assemble", exe.display()))?;
     let wall_s = t0.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&output.stdout);
-    let parsed = stdout
-        .lines()
-        .rev()
-        .find_map(|l| serde_json::from_str::<RunFigures>(l.trim()).ok());
+    let parsed = parse_figures(&stdout);
     let error = match (&parsed, output.status.success()) {
         (Some(_), _) => None,
         (None, _) => Some(last_line(&String::from_utf8_lossy(&output.stderr))),
@@ -166,6 +163,15 @@ fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
         error,
         wall_s,
     })
+}
+
+/// The report object `assemble --json` printed (pretty, so over several lines).
+fn parse_figures(stdout: &str) -> Option<RunFigures> {
+    let start = stdout.find('{')?;
+    serde_json::Deserializer::from_str(&stdout[start..])
+        .into_iter::<RunFigures>()
+        .next()?
+        .ok()
 }
 
 fn last_line(s: &str) -> String {
@@ -370,6 +376,17 @@ mod tests {
         assert_eq!(back.rows.len(), 1);
         assert_eq!(back.rows[0].figures.as_ref().unwrap().filled, 3);
         assert_eq!(back.median_time_ratio, Some(1.5));
+    }
+
+    #[test]
+    fn figures_are_read_from_pretty_json_after_other_output() {
+        let f = figures(3, 50.0, 0, 150.0);
+        let out = format!(
+            "warming up\n{}\n",
+            serde_json::to_string_pretty(&f).unwrap()
+        );
+        assert_eq!(parse_figures(&out).unwrap().filled, 3);
+        assert!(parse_figures("error: no such scene").is_none());
     }
 
     #[test]
