@@ -12,7 +12,7 @@ use thiserror::Error;
 use super::filter::{box_mean, max_filter};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
-use super::profile_fit::{ProfileModel, fit_particle};
+use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
 use super::roi::RoiMask;
 
@@ -176,7 +176,7 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> V
     // Rings need the whole ring in the energy window; spots a tighter one so
     // that crowded neighbours stay separate maxima.
     let frac = match model_for(settings) {
-        ProfileModel::Ring => 0.5,
+        ProfileModel::Ring => 0.3,
         ProfileModel::Spot => 0.3,
     };
     let r = (frac * settings.diameter_px).round().max(1.0) as usize;
@@ -211,6 +211,73 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> V
         }
     }
     out
+}
+
+/// Ring cores as candidates too: in a cluster of touching rings the energy's
+/// maxima sit between particles, but each core stays a local extremum of the
+/// band-passed frame (bright or dark by polarity). Cores within a quarter
+/// diameter of an energy candidate add nothing and are skipped.
+fn add_core_candidates(
+    out: &mut Vec<Candidate>,
+    bp: &Bandpass,
+    w: usize,
+    h: usize,
+    settings: &DetectSettings,
+) {
+    let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
+    let sd = bp.noise_var.max(1e-12).sqrt();
+    let threshold = settings.threshold_sigma * sd;
+    let signs: &[f32] = match settings.polarity {
+        Some(Polarity::Bright) => &[1.0],
+        Some(Polarity::Dark) => &[-1.0],
+        None => &[1.0, -1.0],
+    };
+    let edge = r.min(w / 2).min(h / 2);
+    let near2 = (0.25 * settings.diameter_px).powi(2);
+    for &sign in signs {
+        let v: Vec<f32> = bp.values.iter().map(|x| sign * x).collect();
+        let window_max = max_filter(&v, w, h, r);
+        for y in edge..h - edge {
+            for x in edge..w - edge {
+                let e = v[y * w + x];
+                if (e as f64) <= threshold
+                    || e < window_max[y * w + x]
+                    || !wins_ties(&v, w, h, x, y, r)
+                {
+                    continue;
+                }
+                let taken = out.iter().any(|c| {
+                    (c.x as f64 - x as f64).powi(2) + (c.y as f64 - y as f64).powi(2) < near2
+                });
+                if !taken {
+                    out.push(Candidate {
+                        x,
+                        y,
+                        snr: e as f64 / sd,
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// Candidates between `near` and `far` pixels from `c`: other particles whose
+/// pixels reach into its fit window. (A particle can give several candidates,
+/// on its core and on its ring, so `near` is a trade-off; see the caller.)
+fn neighbour_candidates(
+    cands: &[Candidate],
+    c: &Candidate,
+    near: f64,
+    far: f64,
+) -> Vec<(f64, f64)> {
+    cands
+        .iter()
+        .map(|o| (o.x as f64, o.y as f64))
+        .filter(|&(x, y)| {
+            let d = (x - c.x as f64).hypot(y - c.y as f64);
+            d >= near && d <= far
+        })
+        .collect()
 }
 
 /// True unless an equal value earlier in raster order shares the window
@@ -327,12 +394,16 @@ pub fn detect_particles_excluding(
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
     let bp = bandpass(frame, settings.diameter_px);
-    let cands = candidates_from(frame, settings, &bp);
+    let mut cands = candidates_from(frame, settings, &bp);
+    let n_energy = cands.len();
+    if model_for(settings) == ProfileModel::Ring {
+        add_core_candidates(&mut cands, &bp, w, h, settings);
+    }
     let radius = 0.5 * settings.diameter_px;
     let r_int = radius.round().max(1.0) as usize;
     let model = model_for(settings);
     let mut out: Vec<Detection> = Vec::with_capacity(cands.len());
-    for c in &cands {
+    for (k, c) in cands.iter().enumerate() {
         let coarse = (c.x as f64, c.y as f64);
         if exclude(coarse.0, coarse.1)
             || settings
@@ -372,7 +443,21 @@ pub fn detect_particles_excluding(
             }
             Locator::ProfileFit => {
                 let (x0, y0) = rs();
-                match fit_particle(frame, x0, y0, radius, model) {
+                let d = settings.diameter_px;
+                // Touching particles pull their candidates towards each other:
+                // when the fit fails, cut the window at the bisectors of nearby
+                // candidates (`refine_touching` redoes it with the found centres).
+                let fitted = fit_particle(frame, x0, y0, radius, model).or_else(|_| {
+                    fit_particle_among(
+                        frame,
+                        c.x as f64,
+                        c.y as f64,
+                        radius,
+                        model,
+                        &neighbour_candidates(&cands, c, 0.45 * d, 1.6 * d),
+                    )
+                });
+                match fitted {
                     Ok(f)
                         if f.snr >= settings.min_snr
                             && polarity_ok(f.centre_contrast, settings.polarity) =>
@@ -408,21 +493,61 @@ pub fn detect_particles_excluding(
         // Two candidates that converged on one particle: keep the better.
         // Spots accepted on mass are hard spheres: two closer than one
         // diameter are one particle seen twice (its halo, a noise peak).
-        let merge_px = if settings.locator == Locator::ProfileFit && model == ProfileModel::Spot {
-            settings.diameter_px
-        } else {
-            0.5 * radius
+        // Fitted rings likewise: two closer than 0.6 diameter overlap by 40 %, which
+        // spheres on a substrate cannot (0.6, not 1.0, leaves room for a loose size hint).
+        let merge_px = match (settings.locator, model) {
+            (Locator::ProfileFit, ProfileModel::Spot) => settings.diameter_px,
+            (Locator::ProfileFit, ProfileModel::Ring) => 0.6 * settings.diameter_px,
+            _ => 0.5 * radius,
         };
         if let Some(prev) = out
             .iter_mut()
             .find(|o| (o.x_px - x).powi(2) + (o.y_px - y).powi(2) < merge_px.powi(2))
         {
-            if d.quality > prev.quality {
+            // A core candidate only fills in where the energy candidates found nothing.
+            if d.quality > prev.quality && k < n_energy {
                 *prev = d;
             }
             continue;
         }
         out.push(d);
     }
+    if settings.locator == Locator::ProfileFit && model == ProfileModel::Ring {
+        refine_touching(frame, &mut out, radius, settings);
+    }
     Ok(out)
+}
+
+/// Refits every ring with a neighbour closer than 1.25 diameters on a window cut
+/// at the bisectors of the neighbours' found centres: a one-sphere model cannot
+/// explain a neighbour's core and ring, and touching is what an assembled
+/// pattern is made of. A refit that fails or jumps keeps the first fit.
+fn refine_touching(frame: &Frame, found: &mut [Detection], radius: f64, settings: &DetectSettings) {
+    let reach = 1.25 * settings.diameter_px;
+    let centres: Vec<(f64, f64)> = found.iter().map(|d| (d.x_px, d.y_px)).collect();
+    for (i, d) in found.iter_mut().enumerate() {
+        let neighbours: Vec<(f64, f64)> = centres
+            .iter()
+            .enumerate()
+            .filter(|&(j, c)| j != i && (c.0 - d.x_px).hypot(c.1 - d.y_px) < reach)
+            .map(|(_, &c)| c)
+            .collect();
+        if neighbours.is_empty() {
+            continue;
+        }
+        if let Ok(f) = fit_particle_among(
+            frame,
+            d.x_px,
+            d.y_px,
+            radius,
+            ProfileModel::Ring,
+            &neighbours,
+        ) && f.snr >= settings.min_snr
+            && (f.x_px - d.x_px).hypot(f.y_px - d.y_px) < 0.5 * radius
+        {
+            d.x_px = f.x_px;
+            d.y_px = f.y_px;
+            d.sigma_px = f.sigma_px;
+        }
+    }
 }

@@ -134,15 +134,38 @@ pub fn fit_particle(
     radius_px: f64,
     model: ProfileModel,
 ) -> Result<ParticleFit, ProfileFitError> {
+    fit_particle_among(frame, cx, cy, radius_px, model, &[])
+}
+
+/// As [`fit_particle`], for a particle with neighbours centred at `neighbours`:
+/// pixels nearer a neighbour than (cx, cy) are left out of a ring fit, because
+/// a one-sphere model cannot explain a touching sphere's core and ring (touching
+/// particles are what an assembled pattern is made of).
+pub fn fit_particle_among(
+    frame: &Frame,
+    cx: f64,
+    cy: f64,
+    radius_px: f64,
+    model: ProfileModel,
+    neighbours: &[(f64, f64)],
+) -> Result<ParticleFit, ProfileFitError> {
     match model {
-        ProfileModel::Ring => fit_ring(frame, cx, cy, radius_px),
+        ProfileModel::Ring => fit_ring(frame, cx, cy, radius_px, neighbours),
         ProfileModel::Spot => fit_spot(frame, cx, cy, radius_px),
     }
 }
 
-fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, ProfileFitError> {
+fn fit_ring(
+    frame: &Frame,
+    cx: f64,
+    cy: f64,
+    r0: f64,
+    neighbours: &[(f64, f64)],
+) -> Result<ParticleFit, ProfileFitError> {
     let half = r0 + 5.0;
-    let samples = window_samples(frame, cx, cy, half);
+    let mut samples = window_samples(frame, cx, cy, half);
+    let d2 = |s: &Sample, p: (f64, f64)| (s.0 - p.0).powi(2) + (s.1 - p.1).powi(2);
+    samples.retain(|s| neighbours.iter().all(|&n| d2(s, (cx, cy)) <= d2(s, n)));
     // Background from the window's outer band, core from the centre.
     let outer: Vec<f64> = samples
         .iter()
@@ -204,8 +227,10 @@ fn fit_ring(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
             "centre moved beyond the particle",
         ));
     }
-    if !(p[6] > 0.3 * r0
-        && p[6] < 2.5 * r0
+    // Sizes from 0.5x to 1.6x the hint are accepted: several sizes in one frame,
+    // but not a "ring" drawn by background texture at twice the hint.
+    if !(p[6] > 0.5 * r0
+        && p[6] < 1.6 * r0
         && p[7].abs() > 0.2
         && p[7].abs() < 0.4 * p[6]
         && p[4].abs() > 0.2)
