@@ -466,7 +466,7 @@ impl<'a> Assembly<'a> {
     /// Plans from the current tracks and returns the plan's first push, or
     /// why there is none.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
-        let particles = planning_particles(self.tracker.tracks());
+        let particles = planning_particles(self.tracker.tracks(), self.scene.particle_radius_m);
         let layout = Layout {
             field_m: self.settings.field_m,
             particles,
@@ -507,10 +507,8 @@ impl<'a> Assembly<'a> {
         Ok(first
             .ok_or_else(|| "the plan has no push left".to_owned())
             .map(|(particle, from, to)| {
-                let radius_m = self
-                    .tracker
-                    .track(particle)
-                    .map_or(self.scene.particle_radius_m, |t| t.last.radius_m);
+                // The scene's radius, as for planning (see `planning_particles`).
+                let radius_m = self.scene.particle_radius_m;
                 PushIntent {
                     particle,
                     from: [from.x, from.y],
@@ -712,10 +710,13 @@ const RETREAT_EXTRA_M: f64 = 3e-6;
 /// The particles the planner is told about. A track the camera has missed
 /// for a few frames is dropped; one missed more recently is kept unless a
 /// particle seen in this frame overlaps it (then the stale one is wrong).
-/// Radii are capped at half the distance to the nearest neighbour: measured
-/// radii are noisy and touching spheres cannot overlap, so a few nanometres of
-/// apparent overlap must not make the layout invalid.
-fn planning_particles(tracks: &[super::tracker::Track]) -> Vec<Particle> {
+/// Every particle gets the scene's radius: detections outside the size gate are
+/// already dropped, and a measured radius is noisier than the batch's (a touching
+/// neighbour biases it), while the planner spaces sites by the largest radius.
+/// Radii are capped at half the distance to the nearest neighbour: touching
+/// spheres cannot overlap, so a few nanometres of apparent overlap must not make
+/// the layout invalid.
+fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Vec<Particle> {
     let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
@@ -739,7 +740,7 @@ fn planning_particles(tracks: &[super::tracker::Track]) -> Vec<Particle> {
             Particle {
                 id: t.id as u32,
                 centre_m: Vector2::new(t.last.x_m, t.last.y_m),
-                radius_m: t.last.radius_m.min(0.5 * nearest * (1.0 - 1e-6)),
+                radius_m: radius_m.min(0.5 * nearest * (1.0 - 1e-6)),
             }
         })
         .collect()
