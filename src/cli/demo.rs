@@ -1,28 +1,83 @@
-//! `nanopush demo`: until the assembly demo exists, simulates the paper scene
-//! and writes its plots and time series.
+//! `nanopush demo`: the main job on the simulated rig. Assembles a pattern
+//! ('CMU' by default) from a fixed seed with the full closed loop (camera,
+//! detection, tracking, planning, model-advised pushes, checks, re-pushes) and
+//! prints where the report is; also simulates the paper scene's single push
+//! and writes its plots, the model's reference case.
 
+use super::assemble;
 use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
 use crate::model::push_sim::{SolverSettings, simulate_push_series};
 use crate::model::summary::PushSummary;
 use anyhow::Context;
+use clap::Parser;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `nanopush demo`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Output directory.
+    /// Output directory (its `assemble` and `paper-push` folders are replaced).
     #[arg(long, default_value = "out/demo")]
     pub out: PathBuf,
-    /// Scene to simulate.
+    /// Scene of the rig and of the single push.
     #[arg(long, default_value = "calib/paper-ps-ito.toml")]
     pub scene: PathBuf,
+    /// Text to assemble.
+    #[arg(long, default_value = "CMU")]
+    pub text: String,
+    /// Seed of the layout and the rig's noise.
+    #[arg(long, default_value_t = DEMO_SEED)]
+    pub seed: u64,
 }
 
-/// Simulates the scene, writes plots, CSV and the JSON summary, prints where.
+/// The demo's fixed seed.
+pub const DEMO_SEED: u64 = 2;
+
+/// `assemble`'s arguments, parsed from a command line the demo writes.
+#[derive(Parser, Debug)]
+struct AssembleCommand {
+    #[command(flatten)]
+    args: assemble::Args,
+}
+
+/// Simulates the paper push, then assembles the pattern; prints where everything is.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    let push_dir = args.out.join("paper-push");
+    paper_push(&args.scene, &push_dir)?;
+    let assemble_dir = args.out.join("assemble");
+    if assemble_dir.exists() {
+        std::fs::remove_dir_all(&assemble_dir)
+            .with_context(|| format!("clearing the previous demo in {}", assemble_dir.display()))?;
+    }
+    let seed = args.seed.to_string();
+    let command = AssembleCommand::try_parse_from([
+        "assemble".as_ref(),
+        "--text".as_ref(),
+        args.text.as_str().as_ref(),
+        "--scene".as_ref(),
+        args.scene.as_os_str(),
+        "--seed".as_ref(),
+        seed.as_str().as_ref(),
+        "--out".as_ref(),
+        assemble_dir.as_os_str(),
+    ] as [&std::ffi::OsStr; 9])?;
+    println!(
+        "assembling '{}' on the simulated rig (seed {})",
+        args.text, args.seed
+    );
+    let result = assemble::run(command.args);
+    println!("paper-scene push: {}", push_dir.display());
+    println!(
+        "assembly report:  {}",
+        assemble_dir.join("report.md").display()
+    );
+    result
+}
+
+/// The paper scene's push: summary, plots, CSV and JSON.
+fn paper_push(scene_path: &Path, out: &Path) -> anyhow::Result<()> {
     let scene =
-        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+        Scene::load(scene_path).with_context(|| format!("scene {}", scene_path.display()))?;
     let p = scene.push;
     let (r, rows) = simulate_push_series(&scene, &p, &SolverSettings::default(), 601)
         .context("simulation failed")?;
@@ -34,13 +89,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &r,
     );
     print!("{}", summary.to_text());
-    let files = write_push_outputs(&args.out, &scene.name, &rows).map_err(anyhow::Error::msg)?;
-    let json = Path::new(&args.out).join("push-summary.json");
+    write_push_outputs(out, &scene.name, &rows).map_err(anyhow::Error::msg)?;
+    let json = out.join("push-summary.json");
     std::fs::write(&json, serde_json::to_string_pretty(&summary)?)
         .with_context(|| format!("writing {}", json.display()))?;
-    println!("demo outputs in {}:", args.out.display());
-    for f in files.iter().chain(std::iter::once(&json)) {
-        println!("  {}", f.display());
-    }
     Ok(())
 }
