@@ -182,3 +182,41 @@ fn replanning_after_every_push_finishes_the_pattern() {
             .all(|r| r.contains("no collision-free order"))
     );
 }
+
+#[test]
+#[ignore = "debug"]
+fn debug_seed() {
+    let seed: u64 = std::env::var("SEED").unwrap().parse().unwrap();
+    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+    let p = SynthParams {
+        n: 40 + (seed as usize * 7) % 21,
+        field_m: [120e-6, 100e-6],
+        radius_m: 5e-6,
+        min_gap_m: 1e-6,
+        polydisperse: false,
+        kind: LayoutKind::Uniform,
+        seed,
+    };
+    let layout = synth_layout(&p).unwrap();
+    let area = Reachable::for_field(layout.field_m, 5e-6);
+    let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+    for q in &layout.particles {
+        eprintln!(
+            "P {} {:.2} {:.2}",
+            q.id,
+            q.centre_m.x * 1e6,
+            q.centre_m.y * 1e6
+        );
+    }
+    for s in &sites {
+        eprintln!(
+            "S {} {:.2} {:.2}",
+            s.id,
+            s.centre_m.x * 1e6,
+            s.centre_m.y * 1e6
+        );
+    }
+    let r = plan_assembly(&layout, &sites, &PlanConfig::default());
+    eprintln!("{:?}", r.map(|p| p.assignment));
+}

@@ -233,9 +233,9 @@ pub fn plan_assembly(
         .into());
     }
     let assigned = assign_with_fixed(layout, sites, config)?;
-    let pairs = assigned.pairs;
     let lb_push = assigned.lb_push_m;
-    let ordered = order::order_moves(layout, sites, &pairs, &assigned.on_site, config)?;
+    let ordered = order::order_moves(layout, sites, &assigned.pairs, &assigned.on_site, config)?;
+    let pairs = &ordered.pairs;
     let mut steps = ordered.steps;
     let start = config.tip_start_m.or_else(|| {
         steps.iter().find_map(|s| match s {

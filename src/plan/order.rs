@@ -30,6 +30,9 @@ pub struct Ordered {
     pub steps: Vec<Step>,
     /// Pushes that went to a buffer spot or a waypoint.
     pub buffer_pushes: usize,
+    /// (particle index, site index) of every site as executed: repairs may
+    /// hand a site to another particle than the assignment's.
+    pub pairs: Vec<(usize, usize)>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,6 +49,8 @@ enum Role {
 #[derive(Debug, Clone)]
 struct Move {
     particle: usize,
+    /// Index of the site in the caller's list.
+    site_index: usize,
     /// Waypoints then the site, from the particle's current position.
     route: Vec<Vector2<f64>>,
     rank: usize,
@@ -95,15 +100,18 @@ pub fn order_moves(
         .collect();
     let mut move_sites = Vec::new();
     let mut moves = Vec::new();
+    let mut placed_pairs = Vec::new();
     for &(p, s) in pairs {
         let target = sites[s].centre_m;
         if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
             role[p] = Role::Placed;
+            placed_pairs.push((p, s));
         } else {
             role[p] = Role::Pending(moves.len());
             move_sites.push(target);
             moves.push(Move {
                 particle: p,
+                site_index: s,
                 route: vec![target],
                 rank: 0,
                 pending: true,
@@ -121,6 +129,8 @@ pub fn order_moves(
         .map(|m| layout.particles[m.particle].radius_m)
         .collect();
     let r = layout.max_radius_m();
+    // Sites are held at the largest radius: moves may trade particles.
+    let site_radii = vec![r; moves.len()];
     let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
     let mut sch = Scheduler {
         config,
@@ -128,7 +138,7 @@ pub fn order_moves(
         occ: Occupancy::new(layout),
         role,
         moves,
-        obstacles: SiteObstacles::new(move_sites, radii.clone(), fixed, config),
+        obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
         site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
         site_pts,
         reach: Reach {
@@ -152,6 +162,10 @@ pub fn order_moves(
     }
     sch.run()?;
     Ok(Ordered {
+        pairs: placed_pairs
+            .into_iter()
+            .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
+            .collect(),
         steps: sch.steps,
         buffer_pushes: sch.buffer_pushes,
     })
@@ -190,7 +204,7 @@ impl Scheduler<'_> {
             .route_corridors(k)
             .iter()
             .flat_map(|c| self.obstacles.sites_hit(c))
-            .filter(|&b| b != k && self.moves[b].pending)
+            .filter(|&b| b != k && self.moves[b].pending && self.moves[b].rank > self.moves[k].rank)
             .collect();
         list.sort_unstable();
         list.dedup();
@@ -309,6 +323,11 @@ impl Scheduler<'_> {
     /// Tries one repair for the blocked ready moves; true on success.
     fn repair(&mut self, blocked: &[(usize, usize)]) -> bool {
         for &(k, q) in blocked {
+            if self.swap_with(k, q) {
+                return true;
+            }
+        }
+        for &(k, q) in blocked {
             let avoid = self.route_corridors(k);
             if self.role[q] == Role::Idle && self.buffer_idle(q, &avoid) {
                 return true;
@@ -333,19 +352,42 @@ impl Scheduler<'_> {
         false
     }
 
+    /// Route for move k's site with `particle` starting at `from`, missing
+    /// the sites filled before it and, when `dynamic`, every other particle
+    /// where it is now.
+    fn route_for(
+        &self,
+        k: usize,
+        particle: usize,
+        from: Vector2<f64>,
+        dynamic: bool,
+    ) -> Option<Vec<Vector2<f64>>> {
+        let rank = self.moves[k].rank;
+        let r = self.radius(particle);
+        let free = |c: &Corridor| {
+            self.obstacles
+                .misses(c, |s| s != k && self.moves[s].rank < rank)
+                && (!dynamic
+                    || self
+                        .occ
+                        .first_hit(c, particle, self.config.clearance_m)
+                        .is_none())
+        };
+        find_route(
+            from,
+            self.obstacles.site(k),
+            r,
+            self.config,
+            self.reach,
+            &free,
+        )
+    }
+
     /// Reroutes move k around the particles where they are now (and the
     /// sites filled before it); true when its route changed.
     fn reroute(&mut self, k: usize) -> bool {
         let p = self.moves[k].particle;
-        let rank = self.moves[k].rank;
-        let from = self.occ.pos[p];
-        let site = self.obstacles.site(k);
-        let free = |c: &Corridor| {
-            self.obstacles
-                .misses(c, |s| self.moves[s].rank < rank && s != k)
-                && self.occ.first_hit(c, p, self.config.clearance_m).is_none()
-        };
-        match find_route(from, site, self.radius(p), self.config, self.reach, &free) {
+        match self.route_for(k, p, self.occ.pos[p], true) {
             Some(route) if route != self.moves[k].route => {
                 self.moves[k].route = route;
                 self.compute_conflicts(k);
@@ -355,22 +397,43 @@ impl Scheduler<'_> {
         }
     }
 
-    /// The route of move k from `from` past the sites filled before it.
-    fn static_route(&self, k: usize, from: Vector2<f64>) -> Option<Vec<Vector2<f64>>> {
-        let rank = self.moves[k].rank;
-        let free = |c: &Corridor| {
-            self.obstacles
-                .misses(c, |s| self.moves[s].rank < rank && s != k)
-        };
+    /// Hands move k to particle q, which is in the way of k's particle:
+    /// an idle q takes over (k's particle becomes idle), a pending q trades
+    /// sites with it; true when q has a route free of every particle now
+    /// (so the swap makes progress) and the other changed move has a route.
+    fn swap_with(&mut self, k: usize, q: usize) -> bool {
         let p = self.moves[k].particle;
-        find_route(
-            from,
-            self.obstacles.site(k),
-            self.radius(p),
-            self.config,
-            self.reach,
-            &free,
-        )
+        match self.role[q] {
+            Role::Idle => {
+                let Some(route) = self.route_for(k, q, self.occ.pos[q], true) else {
+                    return false;
+                };
+                self.moves[k].particle = q;
+                self.moves[k].route = route;
+                self.role[q] = Role::Pending(k);
+                self.role[p] = Role::Idle;
+                self.compute_conflicts(k);
+                true
+            }
+            Role::Pending(m) => {
+                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], true) else {
+                    return false;
+                };
+                let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false) else {
+                    return false;
+                };
+                self.moves[k].particle = q;
+                self.moves[k].route = route_k;
+                self.moves[m].particle = p;
+                self.moves[m].route = route_m;
+                self.role[q] = Role::Pending(k);
+                self.role[p] = Role::Pending(m);
+                self.compute_conflicts(k);
+                self.compute_conflicts(m);
+                true
+            }
+            Role::Placed => false,
+        }
     }
 
     /// Pushes idle particle q to a buffer spot clear of `avoid`; true on success.
@@ -389,7 +452,7 @@ impl Scheduler<'_> {
     fn buffer_pending(&mut self, m: usize, avoid: &[Corridor]) -> bool {
         let q = self.moves[m].particle;
         for spot in self.buffer_spots(q, avoid).into_iter().take(24) {
-            if let Some(route) = self.static_route(m, spot) {
+            if let Some(route) = self.route_for(m, q, spot, false) {
                 self.push(q, spot, true);
                 self.moves[m].route = route;
                 self.compute_conflicts(m);

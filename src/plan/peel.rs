@@ -10,7 +10,9 @@
 //! shortest detour goes. The result: a rank per move (0 = filled first)
 //! and its route, which misses every site of lower rank; a move must wait
 //! for the moves whose routes cross its site, which always have a lower
-//! rank, so the waits never form a cycle.
+//! rank, so the waits never form a cycle. A particle that starts on other
+//! sites must leave them before they are filled: its move is ranked before
+//! theirs.
 
 use super::PlanConfig;
 use super::grid::Grid;
@@ -29,9 +31,11 @@ pub struct SiteObstacles {
     fixed: Vec<(Vector2<f64>, f64)>,
     fixed_grid: Grid,
     max_radius_m: f64,
-    /// Clearance kept from sites and fixed particles (config clearance plus
-    /// the on-site tolerance: a particle lands anywhere within it).
-    pub clearance_m: f64,
+    /// Clearance kept from sites: the config's clearance plus the on-site
+    /// tolerance (a particle lands anywhere within it).
+    site_clearance_m: f64,
+    /// Clearance kept from fixed particles (where they are is known).
+    fixed_clearance_m: f64,
 }
 
 impl SiteObstacles {
@@ -55,7 +59,8 @@ impl SiteObstacles {
             site_radius,
             fixed,
             max_radius_m,
-            clearance_m: config.clearance_m + config.on_site_tolerance_m,
+            site_clearance_m: config.clearance_m + config.on_site_tolerance_m,
+            fixed_clearance_m: config.clearance_m,
         }
     }
 
@@ -67,26 +72,41 @@ impl SiteObstacles {
     /// Sites the corridor hits (every site, whatever its rank).
     pub fn sites_hit(&self, c: &Corridor) -> Vec<usize> {
         let mut out = Vec::new();
-        let reach = c.bound_radius_m + self.max_radius_m + self.clearance_m;
+        let reach = c.bound_radius_m + self.max_radius_m + self.site_clearance_m;
         self.site_grid
             .for_each_within(c.bound_centre_m, reach, |s| {
-                if c.hits(self.site_pts[s], self.site_radius[s], self.clearance_m) {
+                if c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m) {
                     out.push(s);
                 }
             });
         out
     }
 
+    /// Sites that a disc at `centre_m` of `radius_m` covers now: a particle
+    /// starting there leaves them on its way, so its route may cross them.
+    pub fn covered_by(&self, centre_m: Vector2<f64>, radius_m: f64) -> Vec<usize> {
+        let reach = radius_m + self.max_radius_m + self.site_clearance_m;
+        let mut out = Vec::new();
+        self.site_grid.for_each_within(centre_m, reach, |s| {
+            if (self.site_pts[s] - centre_m).norm()
+                < radius_m + self.site_radius[s] + self.site_clearance_m
+            {
+                out.push(s);
+            }
+        });
+        out
+    }
+
     /// True when the corridor misses every fixed particle and every site
     /// for which `filled(site)` holds.
     pub fn misses(&self, c: &Corridor, filled: impl Fn(usize) -> bool) -> bool {
-        let reach = c.bound_radius_m + self.max_radius_m + self.clearance_m;
+        let reach = c.bound_radius_m + self.max_radius_m + self.site_clearance_m;
         let mut free = true;
         self.site_grid
             .for_each_within(c.bound_centre_m, reach, |s| {
                 if free
                     && filled(s)
-                    && c.hits(self.site_pts[s], self.site_radius[s], self.clearance_m)
+                    && c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m)
                 {
                     free = false;
                 }
@@ -96,7 +116,7 @@ impl SiteObstacles {
         }
         self.fixed_grid
             .for_each_within(c.bound_centre_m, reach, |f| {
-                if free && c.hits(self.fixed[f].0, self.fixed[f].1, self.clearance_m) {
+                if free && c.hits(self.fixed[f].0, self.fixed[f].1, self.fixed_clearance_m) {
                     free = false;
                 }
             });
@@ -116,7 +136,7 @@ pub struct FillOrder {
 /// Why no fill order exists.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
-    "{walled} sites are walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites (first: site at ({x_um:.2}, {y_um:.2}) um)"
+    "{walled} sites are walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites, or their particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)"
 )]
 pub struct Walled {
     /// Sites left without a route.
@@ -140,11 +160,21 @@ pub fn peel(
     let mut rank: Vec<Option<usize>> = vec![None; m];
     let mut route: Vec<Option<Vec<Vector2<f64>>>> = vec![None; m];
     let mut straight = vec![false; m];
+    let covered: Vec<Vec<usize>> = (0..m)
+        .map(|k| obstacles.covered_by(starts[k], radius[k]))
+        .collect();
     for step in (0..m).rev() {
         // Remaining sites are the ones without a rank (all filled before `step`).
         let filled = |s: usize| rank[s].is_none();
         let remaining: Vec<usize> = (0..m).filter(|&k| rank[k].is_none()).collect();
-        for &k in &remaining {
+        // A move whose particle still covers another remaining site cannot be
+        // the last of them: that site is filled after the particle has left.
+        let eligible: Vec<usize> = remaining
+            .iter()
+            .copied()
+            .filter(|&k| covered[k].iter().all(|&s| s == k || !filled(s)))
+            .collect();
+        for &k in &eligible {
             if !straight[k] {
                 let c = Corridor::new(starts[k], obstacles.site(k), radius[k], config);
                 straight[k] = obstacles.misses(&c, |s| s != k && filled(s));
@@ -156,7 +186,7 @@ pub fn peel(
             .sum::<Vector2<f64>>()
             / remaining.len() as f64;
         // Outermost straight move first; else the shortest detour.
-        let pick = remaining
+        let pick = eligible
             .iter()
             .filter(|&&k| straight[k])
             .max_by(|&&a, &&b| {
@@ -167,7 +197,7 @@ pub fn peel(
             .map(|&k| (k, vec![obstacles.site(k)]));
         let pick = pick.or_else(|| {
             let mut best: Option<(f64, usize, Vec<Vector2<f64>>)> = None;
-            for &k in &remaining {
+            for &k in &eligible {
                 let free = |c: &Corridor| obstacles.misses(c, |s| s != k && filled(s));
                 let found = route[k].clone().or_else(|| {
                     find_route(
