@@ -17,7 +17,7 @@ use super::grid::Grid;
 use super::layout::Layout;
 use super::occupancy::Occupancy;
 use super::pattern::Site;
-use super::peel::{SiteObstacles, peel};
+use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
 use super::route::{Reach, find_route};
 use super::{PlanConfig, PlanError, Step};
@@ -150,9 +150,7 @@ pub fn order_moves(
         tip: config.tip_start_m,
     };
     sch.clear_sites();
-    let starts: Vec<Vector2<f64>> = sch.moves.iter().map(|m| sch.occ.pos[m.particle]).collect();
-    let order = peel(&sch.obstacles, &starts, &radii, config, sch.reach)
-        .map_err(|w| PlanError::Blocked(w.to_string()))?;
+    let order = sch.peel_with_clearing(&radii)?;
     for (k, m) in sch.moves.iter_mut().enumerate() {
         m.rank = order.rank[k];
         m.route = order.route[k].clone();
@@ -171,7 +169,55 @@ pub fn order_moves(
     })
 }
 
+/// Buffer pushes allowed to break covering cycles before the peel gives up.
+const MAX_CYCLE_BREAKS: usize = 8;
+
 impl Scheduler<'_> {
+    /// Peels the sites; when it is stuck because particles cover each
+    /// other's sites (a cycle), pushes one of them off the sites and
+    /// peels again.
+    fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, PlanError> {
+        let mut breaks = 0;
+        loop {
+            let starts: Vec<Vector2<f64>> = self
+                .moves
+                .iter()
+                .map(|m| self.occ.pos[m.particle])
+                .collect();
+            let walled = match peel(&self.obstacles, &starts, radii, self.config, self.reach) {
+                Ok(order) => return Ok(order),
+                Err(w) => w,
+            };
+            let cleared = breaks < MAX_CYCLE_BREAKS
+                && walled.stuck.iter().any(|&k| {
+                    let p = self.moves[k].particle;
+                    let covers_other = self
+                        .obstacles
+                        .covered_by(self.occ.pos[p], self.radius(p))
+                        .iter()
+                        .any(|&s| s != k);
+                    let spot = covers_other
+                        .then(|| {
+                            self.buffer_spots(p, &[])
+                                .into_iter()
+                                .find(|s| self.off_sites(*s, self.radius(p)))
+                        })
+                        .flatten();
+                    match spot {
+                        Some(spot) => {
+                            self.push(p, spot, true);
+                            true
+                        }
+                        None => false,
+                    }
+                });
+            if !cleared {
+                return Err(PlanError::Blocked(walled.to_string()));
+            }
+            breaks += 1;
+        }
+    }
+
     fn radius(&self, p: usize) -> f64 {
         self.layout.particles[p].radius_m
     }

