@@ -399,8 +399,8 @@ impl Scheduler<'_> {
     }
 
     /// Route for move k's site with `particle` starting at `from`, missing
-    /// the sites filled before it and, when `dynamic`, every other particle
-    /// where it is now.
+    /// the sites filled before it (by rank) or already filled, and, when
+    /// `dynamic`, every other particle where it is now.
     fn route_for(
         &self,
         k: usize,
@@ -411,13 +411,13 @@ impl Scheduler<'_> {
         let rank = self.moves[k].rank;
         let r = self.radius(particle);
         let free = |c: &Corridor| {
-            self.obstacles
-                .misses(c, |s| s != k && self.moves[s].rank < rank)
-                && (!dynamic
-                    || self
-                        .occ
-                        .first_hit(c, particle, self.config.clearance_m)
-                        .is_none())
+            self.obstacles.misses(c, |s| {
+                s != k && (self.moves[s].rank < rank || !self.moves[s].pending)
+            }) && (!dynamic
+                || self
+                    .occ
+                    .first_hit(c, particle, self.config.clearance_m)
+                    .is_none())
         };
         find_route(
             from,
