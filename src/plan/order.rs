@@ -174,8 +174,8 @@ const MAX_CYCLE_BREAKS: usize = 8;
 
 impl Scheduler<'_> {
     /// Peels the sites; when it is stuck because particles cover each
-    /// other's sites (a cycle), pushes one of them off the sites and
-    /// peels again.
+    /// other's sites (a cycle), pushes one of them to the nearest spot where
+    /// it covers no site but its own, and peels again.
     fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, PlanError> {
         let mut breaks = 0;
         loop {
@@ -198,9 +198,12 @@ impl Scheduler<'_> {
                         .any(|&s| s != k);
                     let spot = covers_other
                         .then(|| {
-                            self.buffer_spots(p, &[])
-                                .into_iter()
-                                .find(|s| self.off_sites(*s, self.radius(p)))
+                            self.buffer_spots(p, &[]).into_iter().find(|s| {
+                                self.obstacles
+                                    .covered_by(*s, self.radius(p))
+                                    .iter()
+                                    .all(|&c| c == k)
+                            })
                         })
                         .flatten();
                     match spot {
