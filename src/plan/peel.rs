@@ -272,8 +272,8 @@ mod tests {
         };
         let order = peel(&obs, &starts, &[r; 4], &cfg, reach).unwrap();
         // Every route misses the sites filled before it.
-        for k in 0..4 {
-            let mut at = starts[k];
+        for (k, start) in starts.iter().enumerate() {
+            let mut at = *start;
             for p in &order.route[k] {
                 let c = Corridor::new(at, *p, r, &cfg);
                 assert!(
@@ -288,6 +288,11 @@ mod tests {
         let mut ranks = order.rank.clone();
         ranks.sort();
         assert_eq!(ranks, vec![0, 1, 2, 3]);
+        assert_eq!(
+            (order.rank[0], order.rank[3]),
+            (3, 0),
+            "near end last, far end first"
+        );
         assert_eq!(
             order.route[0].len(),
             1,
