@@ -13,7 +13,7 @@ use std::time::Duration;
 fn cmu(c: &mut Criterion) {
     let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
     let config = PlanConfig::default();
-    // Seeds whose layouts the planner currently plans (others are refused fast).
+    // The 100 uniform acceptance layouts (planned or refused, as they come).
     let mut cases = Vec::new();
     for seed in 0..100u64 {
         let n = 40 + (seed as usize * 7) % 21;

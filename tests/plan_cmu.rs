@@ -2,10 +2,12 @@
 //! (40-60 particles, 120 x 100 um, gaps >= 1 um) and adversarial layouts.
 //!
 //! What holds and is asserted always: every plan produced passes the
-//! independent replay with zero collisions, and every refusal states its
-//! reason. The full targets (all 100 planned, push <= 1.05 LB_push,
-//! push + tip <= 1.2 (LB_push + LB_tip)) are NOT met yet; that test is
-//! ignored with the measured figures (run with `--ignored` to see them).
+//! independent replay with zero collisions, every refusal states its
+//! reason, at least 90 of the 100 uniform layouts are planned (measured: 97),
+//! and re-planning after every push finishes all 6 executor-style runs. The
+//! full targets (all 100 planned, push <= 1.05 LB_push, push + tip <= 1.2
+//! (LB_push + LB_tip)) are NOT met yet; that test is ignored with the
+//! measured figures (run with `--ignored` to see them).
 
 use nanopush::plan::pattern::transform::{Reachable, place_optimised};
 use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
@@ -16,6 +18,24 @@ struct Outcome {
     refused: Vec<String>,
     worst_push: f64,
     worst_total: f64,
+    /// Push ratio and push+tip ratio of every planned layout.
+    ratios: Vec<(f64, f64)>,
+}
+
+impl Outcome {
+    /// Median push ratio, median push+tip ratio, and how many plans meet 1.05 / 1.2.
+    fn spread(&self) -> (f64, f64, usize, usize) {
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(0.0)
+        };
+        (
+            median(self.ratios.iter().map(|r| r.0).collect()),
+            median(self.ratios.iter().map(|r| r.1).collect()),
+            self.ratios.iter().filter(|r| r.0 <= 1.05).count(),
+            self.ratios.iter().filter(|r| r.1 <= 1.2).count(),
+        )
+    }
 }
 
 fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
@@ -26,6 +46,7 @@ fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
         refused: Vec::new(),
         worst_push: 0.0,
         worst_total: 0.0,
+        ratios: Vec::new(),
     };
     for seed in seeds {
         let n = 40 + (seed as usize * 7) % 21;
@@ -52,10 +73,11 @@ fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
                 );
                 assert!(rep.ok, "seed {seed}: replay failed {rep:?}");
                 let s = &plan.summary;
-                o.worst_push = o.worst_push.max(s.push_distance_m / s.lb_push_m);
-                o.worst_total = o
-                    .worst_total
-                    .max((s.push_distance_m + s.tip_travel_m) / (s.lb_push_m + s.lb_tip_m));
+                let push = s.push_distance_m / s.lb_push_m;
+                let total = (s.push_distance_m + s.tip_travel_m) / (s.lb_push_m + s.lb_tip_m);
+                o.worst_push = o.worst_push.max(push);
+                o.worst_total = o.worst_total.max(total);
+                o.ratios.push((push, total));
                 o.planned += 1;
             }
             Err(e @ PlanError::Blocked(_)) => o.refused.push(format!("seed {seed}: {e}")),
@@ -72,8 +94,9 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
         (LayoutKind::Adversarial, 0..20),
     ] {
         let o = run_cmu(kind, seeds);
+        let (med_push, med_total, push_ok, total_ok) = o.spread();
         eprintln!(
-            "{kind:?}: planned {}, refused {}, worst push ratio {:.3}, worst total ratio {:.3}",
+            "{kind:?}: planned {}, refused {}, push ratio median {med_push:.3} worst {:.3} ({push_ok} <= 1.05), push+tip ratio median {med_total:.3} worst {:.3} ({total_ok} <= 1.2)",
             o.planned,
             o.refused.len(),
             o.worst_push,
@@ -87,11 +110,15 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
                 .iter()
                 .all(|r| r.contains("no collision-free order:") && r.len() > 40)
         );
+        if kind == LayoutKind::Uniform {
+            // Regression floor under the measured figure (see docs/plan.md).
+            assert!(o.planned >= 90, "only {} of 100 planned", o.planned);
+        }
     }
 }
 
 #[test]
-#[ignore = "target not met: 120x100 um CMU layouts are mostly refused as blocked (see docs/plan.md for the figures)"]
+#[ignore = "targets not met: 97/100 planned (target 100), worst push ratio 1.361 (target 1.05), worst push+tip ratio 2.700 (target 1.2); see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);
@@ -105,7 +132,8 @@ fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
 
 /// The executor's loop: plan, execute only the first push (landing a little
 /// off target, within the on-site tolerance), re-plan from the new state.
-/// Every re-plan must succeed without collisions until the pattern is done.
+/// Every re-plan must succeed without collisions until the pattern is done
+/// (the replay of each plan is asserted collision-free inside).
 /// Returns (re-plans, refusals with their reasons).
 fn replan_after_every_push(seed: u64, immovable_idle: bool) -> (usize, Vec<String>) {
     use nanopush::plan::Step;
@@ -176,9 +204,5 @@ fn replanning_after_every_push_finishes_the_pattern() {
         refused.extend(r);
     }
     eprintln!("re-plans {replans}, refused {}: {refused:?}", refused.len());
-    assert!(
-        refused
-            .iter()
-            .all(|r| r.contains("no collision-free order"))
-    );
+    assert!(refused.is_empty(), "runs not finished: {refused:?}");
 }

@@ -14,11 +14,14 @@ pub mod assignment;
 pub mod bounds;
 pub mod grid;
 pub mod layout;
+pub mod occupancy;
 pub mod order;
 pub mod parking;
 pub mod pattern;
+pub mod peel;
 pub mod plan_file;
 pub mod pushes;
+pub mod route;
 pub mod synth_layout;
 pub mod verify;
 pub mod windows;
@@ -230,9 +233,9 @@ pub fn plan_assembly(
         .into());
     }
     let assigned = assign_with_fixed(layout, sites, config)?;
-    let pairs = assigned.pairs;
     let lb_push = assigned.lb_push_m;
-    let ordered = order::order_moves(layout, sites, &pairs, &assigned.on_site, config)?;
+    let ordered = order::order_moves(layout, sites, &assigned.pairs, &assigned.on_site, config)?;
+    let pairs = &ordered.pairs;
     let mut steps = ordered.steps;
     let start = config.tip_start_m.or_else(|| {
         steps.iter().find_map(|s| match s {

@@ -1,22 +1,27 @@
-//! Collision-free ordering of pushes, minimising tip travel.
+//! Collision-free ordering of the moves, minimising tip travel.
 //!
-//! Moves wait for each other when one's corridor crosses the other's site
-//! (the site must still be empty when the corridor is swept). Among the moves
-//! that wait for nobody, the one whose landing point is nearest the tip is
-//! taken, provided its corridor (checked with parry2d) hits no particle where
-//! it is at that moment. When nothing can go: a blocking idle or waiting
-//! particle is pushed to a buffer spot, or the blocked move is rerouted
-//! through a waypoint next to its site whose last leg crosses nothing
-//! (a detour; this also breaks wait cycles). A bounded number of such repairs
-//! is allowed; beyond it the planner refuses with the reason.
+//! Unassigned particles that cover a site are first pushed off the sites.
+//! Then [`peel`] gives every move a fill rank and a route (straight, or
+//! through waypoints) that misses every site filled before it; a move waits
+//! for the moves whose routes cross its site (always lower ranks, so no
+//! cycle). Among the moves that wait for nobody, the one whose first landing
+//! point is nearest the tip goes next, provided every leg of its route
+//! (particle and tip corridors, parry2d) misses every particle where it is
+//! now. Otherwise a repair: an unassigned blocker is pushed to a buffer spot
+//! off the sites, the blocked move is rerouted around the particles, or a
+//! blocking particle still to move is buffered and rerouted from there.
+//! Repairs are bounded; beyond them, or when none applies, the planner
+//! refuses and names the blocked move and its blocker.
 
 use super::grid::Grid;
 use super::layout::Layout;
+use super::occupancy::Occupancy;
 use super::pattern::Site;
+use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
+use super::route::{Reach, find_route};
 use super::{PlanConfig, PlanError, Step};
 use nalgebra::Vector2;
-use std::collections::HashMap;
 
 /// Ordered push steps and how many of them are buffer/detour pushes.
 #[derive(Debug, Clone)]
@@ -25,105 +30,9 @@ pub struct Ordered {
     pub steps: Vec<Step>,
     /// Pushes that went to a buffer spot or a waypoint.
     pub buffer_pushes: usize,
-}
-
-/// Particle positions that change as pushes are executed, bucketed for queries.
-struct Occupancy {
-    pos: Vec<Vector2<f64>>,
-    radius: Vec<f64>,
-    cell_m: f64,
-    cells: HashMap<(i64, i64), Vec<usize>>,
-    max_radius_m: f64,
-}
-
-impl Occupancy {
-    fn new(layout: &Layout) -> Self {
-        let max_radius_m = layout.max_radius_m();
-        let mut o = Occupancy {
-            pos: layout.particles.iter().map(|p| p.centre_m).collect(),
-            radius: layout.particles.iter().map(|p| p.radius_m).collect(),
-            cell_m: (4.0 * max_radius_m).max(1e-9),
-            cells: HashMap::new(),
-            max_radius_m,
-        };
-        for i in 0..o.pos.len() {
-            let k = o.key(o.pos[i]);
-            o.cells.entry(k).or_default().push(i);
-        }
-        o
-    }
-    fn key(&self, p: Vector2<f64>) -> (i64, i64) {
-        (
-            (p.x / self.cell_m).floor() as i64,
-            (p.y / self.cell_m).floor() as i64,
-        )
-    }
-    fn set(&mut self, i: usize, p: Vector2<f64>) {
-        let old = self.key(self.pos[i]);
-        if let Some(v) = self.cells.get_mut(&old) {
-            v.retain(|&x| x != i);
-        }
-        self.pos[i] = p;
-        let k = self.key(p);
-        self.cells.entry(k).or_default().push(i);
-    }
-    fn for_each_near(&self, c: Vector2<f64>, r: f64, mut f: impl FnMut(usize) -> bool) {
-        let (x0, y0) = self.key(c - Vector2::new(r, r));
-        let (x1, y1) = self.key(c + Vector2::new(r, r));
-        for x in x0..=x1 {
-            for y in y0..=y1 {
-                if let Some(v) = self.cells.get(&(x, y)) {
-                    for &i in v {
-                        if !f(i) {
-                            return;
-                        }
-                    }
-                }
-            }
-        }
-    }
-    /// First particle other than `except` that the corridor hits.
-    fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {
-        let mut hit = None;
-        self.for_each_near(
-            c.bound_centre_m,
-            c.bound_radius_m + self.max_radius_m + clearance,
-            |i| {
-                if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
-                    hit = Some(i);
-                    return false;
-                }
-                true
-            },
-        );
-        hit
-    }
-    /// Every particle other than `except` that the corridor hits.
-    fn all_hits(&self, c: &Corridor, except: usize, clearance: f64) -> Vec<usize> {
-        let mut hits = Vec::new();
-        self.for_each_near(
-            c.bound_centre_m,
-            c.bound_radius_m + self.max_radius_m + clearance,
-            |i| {
-                if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
-                    hits.push(i);
-                }
-                true
-            },
-        );
-        hits
-    }
-    fn disc_free(&self, p: Vector2<f64>, r: f64, except: usize, clearance: f64) -> bool {
-        let mut free = true;
-        self.for_each_near(p, r + self.max_radius_m + clearance, |i| {
-            if i != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {
-                free = false;
-                return false;
-            }
-            true
-        });
-        free
-    }
+    /// (particle index, site index) of every site as executed: repairs may
+    /// hand a site to another particle than the assignment's.
+    pub pairs: Vec<(usize, usize)>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -136,27 +45,41 @@ enum Role {
     Placed,
 }
 
+/// One particle-to-site move.
+#[derive(Debug, Clone)]
+struct Move {
+    particle: usize,
+    /// Index of the site in the caller's list.
+    site_index: usize,
+    /// Waypoints then the site, from the particle's current position.
+    route: Vec<Vector2<f64>>,
+    rank: usize,
+    pending: bool,
+    /// Pending moves whose routes cross this move's site.
+    wait: usize,
+    /// Moves this one's route crosses (they wait for it).
+    releases: Vec<usize>,
+}
+
 struct Scheduler<'a> {
     config: &'a PlanConfig,
     layout: &'a Layout,
     occ: Occupancy,
     role: Vec<Role>,
-    moves: Vec<(usize, Vector2<f64>)>,
-    pending: Vec<bool>,
-    wait: Vec<usize>,
-    releases: Vec<Vec<usize>>,
+    moves: Vec<Move>,
+    /// Sites of the moves (index = move) and fixed particles.
+    obstacles: SiteObstacles,
+    /// Every site (buffer spots stay off all of them).
     site_grid: Grid,
     site_pts: Vec<Vector2<f64>>,
-    site_move: Vec<Option<usize>>,
-    reach_lo: Vector2<f64>,
-    reach_hi: Vector2<f64>,
+    reach: Reach,
     steps: Vec<Step>,
     buffer_pushes: usize,
     tip: Option<Vector2<f64>>,
-    releases_ready: Vec<usize>,
 }
 
-/// Orders the moves `pairs` (particle index, site index) into collision-free pushes.
+/// Orders the moves `pairs` (particle index, site index) into collision-free
+/// pushes; particles in `on_site` (and immovable ones) are never pushed.
 pub fn order_moves(
     layout: &Layout,
     sites: &[Site],
@@ -164,7 +87,6 @@ pub fn order_moves(
     on_site: &[usize],
     config: &PlanConfig,
 ) -> Result<Ordered, PlanError> {
-    // Immovable particles are obstacles like placed ones: never pushed.
     let mut role: Vec<Role> = layout
         .particles
         .iter()
@@ -176,51 +98,129 @@ pub fn order_moves(
             }
         })
         .collect();
+    let mut move_sites = Vec::new();
     let mut moves = Vec::new();
-    let mut site_move = vec![None; sites.len()];
+    let mut placed_pairs = Vec::new();
     for &(p, s) in pairs {
         let target = sites[s].centre_m;
         if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
             role[p] = Role::Placed;
+            placed_pairs.push((p, s));
         } else {
             role[p] = Role::Pending(moves.len());
-            site_move[s] = Some(moves.len());
-            moves.push((p, target));
+            move_sites.push(target);
+            moves.push(Move {
+                particle: p,
+                site_index: s,
+                route: vec![target],
+                rank: 0,
+                pending: true,
+                wait: 0,
+                releases: Vec::new(),
+            });
         }
     }
+    let fixed: Vec<(Vector2<f64>, f64)> = (0..layout.particles.len())
+        .filter(|&q| role[q] == Role::Placed)
+        .map(|q| (layout.particles[q].centre_m, layout.particles[q].radius_m))
+        .collect();
+    let radii: Vec<f64> = moves
+        .iter()
+        .map(|m| layout.particles[m.particle].radius_m)
+        .collect();
     let r = layout.max_radius_m();
+    // Sites are held at the largest radius: moves may trade particles.
+    let site_radii = vec![r; moves.len()];
     let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
     let mut sch = Scheduler {
         config,
         layout,
         occ: Occupancy::new(layout),
         role,
-        pending: vec![true; moves.len()],
-        wait: vec![0; moves.len()],
-        releases: vec![Vec::new(); moves.len()],
+        moves,
+        obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
         site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
         site_pts,
-        site_move,
-        moves,
-        reach_lo: Vector2::new(r, r),
-        reach_hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
+        reach: Reach {
+            lo: Vector2::new(r, r),
+            hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
+        },
         steps: Vec::new(),
         buffer_pushes: 0,
         tip: config.tip_start_m,
-        releases_ready: Vec::new(),
     };
+    sch.clear_sites();
+    let order = sch.peel_with_clearing(&radii)?;
+    for (k, m) in sch.moves.iter_mut().enumerate() {
+        m.rank = order.rank[k];
+        m.route = order.route[k].clone();
+    }
     for k in 0..sch.moves.len() {
         sch.compute_conflicts(k);
     }
-    sch.clear_sites();
     sch.run()?;
     Ok(Ordered {
+        pairs: placed_pairs
+            .into_iter()
+            .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
+            .collect(),
         steps: sch.steps,
         buffer_pushes: sch.buffer_pushes,
     })
 }
 
+/// Buffer pushes allowed to break covering cycles before the peel gives up.
+const MAX_CYCLE_BREAKS: usize = 8;
+
 impl Scheduler<'_> {
+    /// Peels the sites; when it is stuck because particles cover each
+    /// other's sites (a cycle), pushes one of them to the nearest spot where
+    /// it covers no site but its own, and peels again.
+    fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, PlanError> {
+        let mut breaks = 0;
+        loop {
+            let starts: Vec<Vector2<f64>> = self
+                .moves
+                .iter()
+                .map(|m| self.occ.pos[m.particle])
+                .collect();
+            let walled = match peel(&self.obstacles, &starts, radii, self.config, self.reach) {
+                Ok(order) => return Ok(order),
+                Err(w) => w,
+            };
+            let cleared = breaks < MAX_CYCLE_BREAKS
+                && walled.stuck.iter().any(|&k| {
+                    let p = self.moves[k].particle;
+                    let covers_other = self
+                        .obstacles
+                        .covered_by(self.occ.pos[p], self.radius(p))
+                        .iter()
+                        .any(|&s| s != k);
+                    let spot = covers_other
+                        .then(|| {
+                            self.buffer_spots(p, &[]).into_iter().find(|s| {
+                                self.obstacles
+                                    .covered_by(*s, self.radius(p))
+                                    .iter()
+                                    .all(|&c| c == k)
+                            })
+                        })
+                        .flatten();
+                    match spot {
+                        Some(spot) => {
+                            self.push(p, spot, true);
+                            true
+                        }
+                        None => false,
+                    }
+                });
+            if !cleared {
+                return Err(PlanError::Blocked(walled.to_string()));
+            }
+            breaks += 1;
+        }
+    }
+
     fn radius(&self, p: usize) -> f64 {
         self.layout.particles[p].radius_m
     }
@@ -229,53 +229,59 @@ impl Scheduler<'_> {
         Corridor::new(from, to, self.radius(p), self.config)
     }
 
-    /// Pending moves whose site lies on move k's corridor (they wait for k).
-    fn site_conflicts(&self, k: usize, from: Vector2<f64>) -> Vec<usize> {
-        let (p, to) = self.moves[k];
-        let c = self.corridor(p, from, to);
-        let r = self.occ.max_radius_m;
-        let mut out = Vec::new();
-        self.site_grid.for_each_within(
-            c.bound_centre_m,
-            c.bound_radius_m + r + self.config.clearance_m,
-            |s| {
-                if let Some(b) = self.site_move[s]
-                    && b != k
-                    && self.pending[b]
-                    && c.hits(
-                        self.site_pts[s],
-                        self.radius(self.moves[b].0),
-                        self.config.clearance_m,
-                    )
-                {
-                    out.push(b);
-                }
-            },
-        );
-        out
+    /// Corridors of move k's route from its particle's current position.
+    fn route_corridors(&self, k: usize) -> Vec<Corridor> {
+        let p = self.moves[k].particle;
+        let mut at = self.occ.pos[p];
+        self.moves[k]
+            .route
+            .iter()
+            .map(|&b| {
+                let c = self.corridor(p, at, b);
+                at = b;
+                c
+            })
+            .collect()
     }
 
+    /// Recomputes which pending moves wait for move k (their site is on its route).
     fn compute_conflicts(&mut self, k: usize) {
-        for b in std::mem::take(&mut self.releases[k]) {
-            self.wait[b] -= 1;
+        for b in std::mem::take(&mut self.moves[k].releases) {
+            self.moves[b].wait -= 1;
         }
-        let from = self.occ.pos[self.moves[k].0];
-        let list = self.site_conflicts(k, from);
+        let mut list: Vec<usize> = self
+            .route_corridors(k)
+            .iter()
+            .flat_map(|c| self.obstacles.sites_hit(c))
+            .filter(|&b| b != k && self.moves[b].pending && self.moves[b].rank > self.moves[k].rank)
+            .collect();
+        list.sort_unstable();
+        list.dedup();
         for &b in &list {
-            self.wait[b] += 1;
+            self.moves[b].wait += 1;
         }
-        self.releases[k] = list;
+        self.moves[k].releases = list;
     }
 
+    /// Where the tip lands for move k's first leg.
     fn landing(&self, k: usize) -> Vector2<f64> {
-        let (p, to) = self.moves[k];
+        let p = self.moves[k].particle;
         let from = self.occ.pos[p];
+        let to = self.moves[k].route[0];
         landing_point(
             from,
             to,
             approach_point(from, to, self.radius(p), self.config),
             self.config,
         )
+    }
+
+    /// First particle that a leg of move k's route hits now.
+    fn first_blocker(&self, k: usize) -> Option<usize> {
+        let p = self.moves[k].particle;
+        self.route_corridors(k)
+            .iter()
+            .find_map(|c| self.occ.first_hit(c, p, self.config.clearance_m))
     }
 
     /// Appends the push steps of particle p going straight to `to` and updates positions.
@@ -299,32 +305,45 @@ impl Scheduler<'_> {
         self.occ.set(p, to);
     }
 
+    /// Executes move k (its route is free) and releases the moves waiting for it.
+    fn complete(&mut self, k: usize) {
+        let p = self.moves[k].particle;
+        let route = self.moves[k].route.clone();
+        let last = route.len() - 1;
+        for (i, b) in route.into_iter().enumerate() {
+            self.push(p, b, i < last);
+        }
+        self.moves[k].pending = false;
+        self.role[p] = Role::Placed;
+        for b in std::mem::take(&mut self.moves[k].releases) {
+            self.moves[b].wait -= 1;
+        }
+    }
+
     fn run(&mut self) -> Result<(), PlanError> {
         let total = self.moves.len();
-        let mut remaining = total;
         let mut repairs = 0usize;
-        let max_repairs = 3 * total + 20;
-        let mut ready: Vec<usize> = (0..total).filter(|&k| self.wait[k] == 0).collect();
-        while remaining > 0 {
-            ready.retain(|&k| self.pending[k]);
-            let mut chosen = None;
-            let mut blocked: Vec<(usize, usize)> = Vec::new();
+        let max_repairs = 4 * total + 20;
+        loop {
             let tip = self.tip;
-            let mut order: Vec<(f64, usize)> = ready
-                .iter()
-                .map(|&k| (tip.map(|t| (self.landing(k) - t).norm()).unwrap_or(0.0), k))
+            let mut ready: Vec<(f64, usize)> = (0..total)
+                .filter(|&k| self.moves[k].pending && self.moves[k].wait == 0)
+                .map(|k| (tip.map(|t| (self.landing(k) - t).norm()).unwrap_or(0.0), k))
                 .collect();
-            // Check the nearest first; partial selection keeps this linear in practice.
-            while !order.is_empty() {
-                let (best_i, _) = order
-                    .iter()
-                    .enumerate()
-                    .min_by(|a, b| a.1.0.total_cmp(&b.1.0).then(a.1.1.cmp(&b.1.1)))
-                    .expect("non-empty");
-                let (_, k) = order.swap_remove(best_i);
-                let (p, to) = self.moves[k];
-                let c = self.corridor(p, self.occ.pos[p], to);
-                match self.occ.first_hit(&c, p, self.config.clearance_m) {
+            if ready.is_empty() {
+                if self.moves.iter().any(|m| m.pending) {
+                    // Cannot happen: the lowest pending rank waits for nobody.
+                    return Err(PlanError::Blocked(
+                        "every remaining move waits for another".into(),
+                    ));
+                }
+                return Ok(());
+            }
+            ready.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            let mut blocked = Vec::new();
+            let mut chosen = None;
+            for &(_, k) in &ready {
+                match self.first_blocker(k) {
                     None => {
                         chosen = Some(k);
                         break;
@@ -334,35 +353,192 @@ impl Scheduler<'_> {
             }
             if let Some(k) = chosen {
                 self.complete(k);
-                remaining -= 1;
-                ready.append(&mut self.releases_ready);
                 continue;
             }
             repairs += 1;
             if repairs > max_repairs {
+                let remaining = self.moves.iter().filter(|m| m.pending).count();
                 return Err(PlanError::Blocked(format!(
-                    "{remaining} of {total} moves still blocked after {max_repairs} buffer moves and detours"
+                    "{remaining} of {total} moves still blocked after {max_repairs} buffer moves and detours; {}",
+                    self.blocked_reason(&blocked)
                 )));
             }
-            let repaired = self.repair(&blocked);
-            remaining = self.pending.iter().filter(|&&p| p).count();
-            if remaining == 0 {
-                break;
-            }
-            if !repaired {
+            if !self.repair(&blocked) {
                 return Err(PlanError::Blocked(self.blocked_reason(&blocked)));
             }
-            ready = (0..total)
-                .filter(|&k| self.pending[k] && self.wait[k] == 0)
-                .collect();
         }
-        Ok(())
     }
 
-    /// Pushes every idle particle that covers a site to a parking spot off
-    /// the sites before the moves start, outermost first (nearest the
-    /// pattern's edge has the freest corridor); a particle with no free
-    /// parking move now is left to the repairs of the main loop.
+    /// Tries one repair for the blocked ready moves; true on success.
+    fn repair(&mut self, blocked: &[(usize, usize)]) -> bool {
+        for &(k, q) in blocked {
+            if self.swap_with(k, q) {
+                return true;
+            }
+        }
+        for &(k, q) in blocked {
+            let avoid = self.route_corridors(k);
+            if self.role[q] == Role::Idle && self.buffer_idle(q, &avoid) {
+                return true;
+            }
+            if self.reroute(k) {
+                return true;
+            }
+            if let Role::Pending(m) = self.role[q]
+                && self.buffer_pending(m, &avoid)
+            {
+                return true;
+            }
+        }
+        for &(k, q) in blocked {
+            if self.role[q] == Role::Idle {
+                let avoid = self.route_corridors(k);
+                if self.clear_way_then_buffer(q, &avoid) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Route for move k's site with `particle` starting at `from`, missing
+    /// the sites filled before it (by rank) or already filled, and, when
+    /// `dynamic`, every other particle where it is now.
+    fn route_for(
+        &self,
+        k: usize,
+        particle: usize,
+        from: Vector2<f64>,
+        dynamic: bool,
+    ) -> Option<Vec<Vector2<f64>>> {
+        let rank = self.moves[k].rank;
+        let r = self.radius(particle);
+        let free = |c: &Corridor| {
+            self.obstacles.misses(c, |s| {
+                s != k && (self.moves[s].rank < rank || !self.moves[s].pending)
+            }) && (!dynamic
+                || self
+                    .occ
+                    .first_hit(c, particle, self.config.clearance_m)
+                    .is_none())
+        };
+        find_route(
+            from,
+            self.obstacles.site(k),
+            r,
+            self.config,
+            self.reach,
+            &free,
+        )
+    }
+
+    /// Reroutes move k around the particles where they are now (and the
+    /// sites filled before it); true when its route changed.
+    fn reroute(&mut self, k: usize) -> bool {
+        let p = self.moves[k].particle;
+        match self.route_for(k, p, self.occ.pos[p], true) {
+            Some(route) if route != self.moves[k].route => {
+                self.moves[k].route = route;
+                self.compute_conflicts(k);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Hands move k to particle q, which is in the way of k's particle:
+    /// an idle q takes over (k's particle becomes idle), a pending q trades
+    /// sites with it; true when q has a route free of every particle now
+    /// (so the swap makes progress) and the other changed move has a route.
+    fn swap_with(&mut self, k: usize, q: usize) -> bool {
+        let p = self.moves[k].particle;
+        match self.role[q] {
+            Role::Idle => {
+                let Some(route) = self.route_for(k, q, self.occ.pos[q], true) else {
+                    return false;
+                };
+                self.moves[k].particle = q;
+                self.moves[k].route = route;
+                self.role[q] = Role::Pending(k);
+                self.role[p] = Role::Idle;
+                self.compute_conflicts(k);
+                true
+            }
+            Role::Pending(m) => {
+                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], true) else {
+                    return false;
+                };
+                let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false) else {
+                    return false;
+                };
+                self.moves[k].particle = q;
+                self.moves[k].route = route_k;
+                self.moves[m].particle = p;
+                self.moves[m].route = route_m;
+                self.role[q] = Role::Pending(k);
+                self.role[p] = Role::Pending(m);
+                self.compute_conflicts(k);
+                self.compute_conflicts(m);
+                true
+            }
+            Role::Placed => false,
+        }
+    }
+
+    /// Pushes idle particle q to a buffer spot clear of `avoid`; true on success.
+    fn buffer_idle(&mut self, q: usize, avoid: &[Corridor]) -> bool {
+        match self.buffer_spots(q, avoid).into_iter().next() {
+            Some(spot) => {
+                self.push(q, spot, true);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Pushes move m's particle (in someone's way) to a buffer spot clear of
+    /// `avoid` from which m still has a route; true on success.
+    fn buffer_pending(&mut self, m: usize, avoid: &[Corridor]) -> bool {
+        let q = self.moves[m].particle;
+        for spot in self.buffer_spots(q, avoid).into_iter().take(24) {
+            if let Some(route) = self.route_for(m, q, spot, false) {
+                self.push(q, spot, true);
+                self.moves[m].route = route;
+                self.compute_conflicts(m);
+                return true;
+            }
+        }
+        false
+    }
+
+    /// Free spots near particle q, reachable now in one push and clear of
+    /// `avoid`: off every site first, nearest first; then spots on sites.
+    fn buffer_spots(&self, q: usize, avoid: &[Corridor]) -> Vec<Vector2<f64>> {
+        let from = self.occ.pos[q];
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        let usable = |spot: &Vector2<f64>| {
+            self.reach.contains(*spot)
+                && self.occ.disc_free(*spot, r, q, cl)
+                && avoid.iter().all(|c| !c.hits(*spot, r, cl))
+                && self
+                    .occ
+                    .first_hit(&self.corridor(q, from, *spot), q, cl)
+                    .is_none()
+        };
+        let (mut off, mut on): (Vec<Vector2<f64>>, Vec<Vector2<f64>>) = self
+            .ring(from, r)
+            .into_iter()
+            .partition(|s| self.off_sites(*s, r));
+        off.retain(usable);
+        on.retain(usable);
+        off.extend(on);
+        off
+    }
+
+    /// Pushes every idle particle that covers a site to a spot off the sites
+    /// before the moves start; one with no free parking push now is left to
+    /// the repairs.
     fn clear_sites(&mut self) {
         let r = self.occ.max_radius_m;
         let mut covering: Vec<usize> = (0..self.occ.pos.len())
@@ -380,186 +556,56 @@ impl Scheduler<'_> {
             .collect();
         for _round in 0..3 {
             let before = covering.len();
-            covering.retain(|&q| match self.buffer_spot_off_sites(q) {
-                Some(spot) => {
-                    self.push(q, spot, true);
-                    false
+            covering.retain(|&q| {
+                let spot = self
+                    .buffer_spots(q, &[])
+                    .into_iter()
+                    .find(|s| self.off_sites(*s, self.radius(q)));
+                match spot {
+                    Some(spot) => {
+                        self.push(q, spot, true);
+                        false
+                    }
+                    None => true,
                 }
-                None => true,
             });
             if covering.is_empty() || covering.len() == before {
                 break;
             }
         }
-        for k in 0..self.moves.len() {
-            self.compute_conflicts(k);
-        }
     }
 
-    /// A free spot off every site, reachable from q's place now, nearest first.
-    fn buffer_spot_off_sites(&self, q: usize) -> Option<Vector2<f64>> {
-        let from = self.occ.pos[q];
-        let r = self.radius(q);
-        let cl = self.config.clearance_m;
-        self.ring(from, r).into_iter().find(|spot| {
-            self.spot_free(q, *spot, None)
-                && self
-                    .occ
-                    .first_hit(&self.corridor(q, from, *spot), q, cl)
-                    .is_none()
-        })
+    /// True when a disc of radius r at `spot` keeps clearance from every site.
+    fn off_sites(&self, spot: Vector2<f64>, r: f64) -> bool {
+        !super::parking::covers_site(
+            spot,
+            r,
+            &self.site_grid,
+            &self.site_pts,
+            self.occ.max_radius_m,
+            self.config.clearance_m,
+        )
     }
 
-    /// Executes move k (its corridor is free) and releases the moves waiting for it.
-    fn complete(&mut self, k: usize) {
-        let (p, to) = self.moves[k];
-        self.push(p, to, false);
-        self.pending[k] = false;
-        self.role[p] = Role::Placed;
-        for b in std::mem::take(&mut self.releases[k]) {
-            self.wait[b] -= 1;
-            if self.wait[b] == 0 && self.pending[b] {
-                self.releases_ready.push(b);
-            }
-        }
-    }
-
-    /// Tries one repair: move a blocker out of the way or reroute a move. True on success.
-    fn repair(&mut self, blocked: &[(usize, usize)]) -> bool {
-        // 1. A blocked ready move whose blocker can be moved aside.
-        for &(k, q) in blocked {
-            let (p, to) = self.moves[k];
-            let c = self.corridor(p, self.occ.pos[p], to);
-            match self.role[q] {
-                Role::Idle => {
-                    if let Some(spot) = self.buffer_spot(q, Some(&c)) {
-                        self.push(q, spot, true);
-                        return true;
-                    }
-                    if self.clear_way_then_buffer(q, &c) {
-                        return true;
-                    }
-                }
-                Role::Pending(m) => {
-                    if self.reroute(m, Some(&c)) {
-                        return true;
-                    }
-                    if let Some(spot) = self.buffer_spot(q, Some(&c)) {
-                        self.push(q, spot, true);
-                        self.compute_conflicts(m);
-                        return true;
-                    }
-                }
-                Role::Placed => {}
-            }
-        }
-        // 2. Reroute a blocked move itself (detour), e.g. past placed particles.
-        for &(k, _) in blocked {
-            if self.reroute(k, None) {
-                return true;
-            }
-        }
-        // 3. Force the nearest waiting move whose corridor is free now; the
-        //    moves that waited for its site get detours later if they need them.
-        let tip = self.tip;
-        let mut waiting: Vec<(f64, usize)> = (0..self.moves.len())
-            .filter(|&k| self.pending[k] && self.wait[k] > 0)
-            .map(|k| (tip.map(|t| (self.landing(k) - t).norm()).unwrap_or(0.0), k))
-            .collect();
-        waiting.sort_by(|a, b| a.0.total_cmp(&b.0));
-        for (_, k) in waiting {
-            let (p, to) = self.moves[k];
-            let c = self.corridor(p, self.occ.pos[p], to);
-            if self.occ.first_hit(&c, p, self.config.clearance_m).is_none() {
-                self.complete(k);
-                return true;
-            }
-        }
-        // 4. Wait cycle (no move is ready): reroute the move that waits for the fewest others.
-        if !blocked.is_empty() {
-            return false;
-        }
-        let mut cands: Vec<usize> = (0..self.moves.len()).filter(|&k| self.pending[k]).collect();
-        cands.sort_by_key(|&k| (self.wait[k], k));
-        for k in cands.into_iter().take(32) {
-            if self.reroute(k, None) {
-                return true;
-            }
-        }
-        false
-    }
-
-    fn in_reach(&self, p: Vector2<f64>) -> bool {
-        p.x >= self.reach_lo.x
-            && p.y >= self.reach_lo.y
-            && p.x <= self.reach_hi.x
-            && p.y <= self.reach_hi.y
-    }
-
-    /// Spot is free of particles (except `p`) and of every site (except `own_site`).
-    fn spot_free(&self, p: usize, spot: Vector2<f64>, own_site: Option<Vector2<f64>>) -> bool {
-        let r = self.radius(p);
-        let cl = self.config.clearance_m;
-        if !self.in_reach(spot) || !self.occ.disc_free(spot, r, p, cl) {
-            return false;
-        }
-        let mut free = true;
-        self.site_grid
-            .for_each_within(spot, 2.0 * self.occ.max_radius_m + cl, |s| {
-                let sp = self.site_pts[s];
-                if own_site.is_none_or(|o| (o - sp).norm() > 1e-12)
-                    && (sp - spot).norm() < r + self.occ.max_radius_m + cl
-                {
-                    free = false;
-                }
-            });
-        free
-    }
-
-    /// Candidate spots around `centre`: 48 directions, distances from half a
-    /// pitch to eight pitches in quarter-pitch steps.
+    /// Candidate spots around `centre` (see [`super::parking::ring`]).
     fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
         super::parking::ring(centre, 2.0 * r + 1e-6)
     }
 
-    /// A free spot near particle q, reachable now, outside corridor `avoid`:
-    /// off every site if possible, else off-site-agnostic (a temporary parking
-    /// spot; whoever it blocks later gets repaired in turn).
-    fn buffer_spot(&self, q: usize, avoid: Option<&Corridor>) -> Option<Vector2<f64>> {
-        let from = self.occ.pos[q];
-        let r = self.radius(q);
-        let cl = self.config.clearance_m;
-        let mut spots = self.ring(from, r);
-        spots.sort_by(|a, b| (a - from).norm().total_cmp(&(b - from).norm()));
-        let usable = |spot: &Vector2<f64>, off_sites: bool| {
-            let free = if off_sites {
-                self.spot_free(q, *spot, None)
-            } else {
-                self.in_reach(*spot) && self.occ.disc_free(*spot, r, q, cl)
-            };
-            free && avoid.is_none_or(|c| !c.hits(*spot, r, cl))
-                && self
-                    .occ
-                    .first_hit(&self.corridor(q, from, *spot), q, cl)
-                    .is_none()
-        };
-        spots
-            .iter()
-            .find(|s| usable(s, true))
-            .or_else(|| spots.iter().find(|s| usable(s, false)))
-            .copied()
-    }
-
-    /// Two-level buffer move: idle particle q has no free way to a spot off
-    /// `avoid`, but some spot's way is blocked only by idle particles that
-    /// can each be buffered directly (off `avoid` and off q's way); those go
-    /// first, then q. True when at least the first of them moved.
-    fn clear_way_then_buffer(&mut self, q: usize, avoid: &Corridor) -> bool {
+    /// Two-level buffer move: idle particle q has no free push to a spot
+    /// clear of `avoid`, but some spot's way is blocked only by idle
+    /// particles that can each be buffered directly; those go first, then q.
+    /// True when at least the first of them moved.
+    fn clear_way_then_buffer(&mut self, q: usize, avoid: &[Corridor]) -> bool {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
         for spot in self.ring(from, r) {
-            if !self.spot_free(q, spot, None) || avoid.hits(spot, r, cl) {
+            if !self.reach.contains(spot)
+                || !self.off_sites(spot, r)
+                || !self.occ.disc_free(spot, r, q, cl)
+                || avoid.iter().any(|c| c.hits(spot, r, cl))
+            {
                 continue;
             }
             let way = self.corridor(q, from, spot);
@@ -570,10 +616,9 @@ impl Scheduler<'_> {
             }
             let mut moved = false;
             for &h in &hits {
-                let target = self
-                    .buffer_spot(h, Some(avoid))
-                    .filter(|t| !way.hits(*t, self.radius(h), cl));
-                match target {
+                let mut keep_clear = avoid.to_vec();
+                keep_clear.push(way.clone());
+                match self.buffer_spots(h, &keep_clear).into_iter().next() {
                     Some(t) => {
                         self.push(h, t, true);
                         moved = true;
@@ -582,7 +627,7 @@ impl Scheduler<'_> {
                 }
             }
             if moved {
-                if self.occ.first_hit(&way, q, cl).is_none() && self.spot_free(q, spot, None) {
+                if self.occ.first_hit(&way, q, cl).is_none() && self.occ.disc_free(spot, r, q, cl) {
                     self.push(q, spot, true);
                 }
                 return true;
@@ -593,21 +638,19 @@ impl Scheduler<'_> {
 
     /// Why nothing could move: the first blocked moves and what blocks them.
     fn blocked_reason(&self, blocked: &[(usize, usize)]) -> String {
-        if blocked.is_empty() {
-            return "every remaining move waits for another (a cycle no detour breaks)".into();
-        }
         blocked
             .iter()
             .take(3)
             .map(|&(k, q)| {
-                let (p, to) = self.moves[k];
+                let p = self.moves[k].particle;
+                let to = self.obstacles.site(k);
                 let what = match self.role[q] {
                     Role::Idle => "an unassigned particle with no free buffer spot",
-                    Role::Pending(_) => "a particle still to move",
-                    Role::Placed => "a placed or immovable particle, and no detour",
+                    Role::Pending(_) => "a particle still to move, with no buffer spot",
+                    Role::Placed => "a placed or immovable particle",
                 };
                 format!(
-                    "particle {} to ({:.2}, {:.2}) um blocked by particle {} ({what})",
+                    "particle {} to ({:.2}, {:.2}) um blocked by particle {} ({what}) and no detour of two waypoints",
                     self.layout.particles[p].id,
                     to.x * 1e6,
                     to.y * 1e6,
@@ -616,46 +659,5 @@ impl Scheduler<'_> {
             })
             .collect::<Vec<_>>()
             .join("; ")
-    }
-
-    /// Moves pending move k's particle to a waypoint near its site whose last
-    /// leg crosses no particle and no pending site; true on success.
-    fn reroute(&mut self, k: usize, avoid: Option<&Corridor>) -> bool {
-        let (p, to) = self.moves[k];
-        let from = self.occ.pos[p];
-        let r = self.radius(p);
-        let cl = self.config.clearance_m;
-        // Waypoints around the site and around the middle of the straight path.
-        let mut spots = self.ring(to, r);
-        spots.extend(self.ring((from + to) / 2.0, r));
-        spots.sort_by(|a, b| {
-            ((a - from).norm() + (a - to).norm()).total_cmp(&((b - from).norm() + (b - to).norm()))
-        });
-        for spot in spots {
-            if (spot - from).norm() < 1e-9
-                || !self.spot_free(p, spot, None)
-                || avoid.is_some_and(|c| c.hits(spot, r, cl))
-            {
-                continue;
-            }
-            if self
-                .occ
-                .first_hit(&self.corridor(p, from, spot), p, cl)
-                .is_some()
-            {
-                continue;
-            }
-            // Last leg: no particle other than p (ignoring p's current place) and no pending site.
-            let last = self.corridor(p, spot, to);
-            if !self.occ.all_hits(&last, p, cl).is_empty()
-                || !self.site_conflicts(k, spot).is_empty()
-            {
-                continue;
-            }
-            self.push(p, spot, true);
-            self.compute_conflicts(k);
-            return true;
-        }
-        false
     }
 }

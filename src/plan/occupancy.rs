@@ -1,0 +1,116 @@
+//! Where the particles are while a plan is being built: positions that
+//! change as pushes are added, bucketed for corridor queries.
+//!
+//! Written by hand: a dynamic bucket grid of a few dozen moving discs is
+//! smaller than wiring a spatial-index crate for it.
+
+use super::layout::Layout;
+use super::pushes::Corridor;
+use nalgebra::Vector2;
+use std::collections::HashMap;
+
+/// Particle positions that change as pushes are executed, bucketed for queries.
+pub struct Occupancy {
+    /// Current centres.
+    pub pos: Vec<Vector2<f64>>,
+    /// Radii.
+    pub radius: Vec<f64>,
+    cell_m: f64,
+    cells: HashMap<(i64, i64), Vec<usize>>,
+    /// Largest radius.
+    pub max_radius_m: f64,
+}
+
+impl Occupancy {
+    /// Positions of the layout's particles.
+    pub fn new(layout: &Layout) -> Self {
+        let max_radius_m = layout.max_radius_m();
+        let mut o = Occupancy {
+            pos: layout.particles.iter().map(|p| p.centre_m).collect(),
+            radius: layout.particles.iter().map(|p| p.radius_m).collect(),
+            cell_m: (4.0 * max_radius_m).max(1e-9),
+            cells: HashMap::new(),
+            max_radius_m,
+        };
+        for i in 0..o.pos.len() {
+            let k = o.key(o.pos[i]);
+            o.cells.entry(k).or_default().push(i);
+        }
+        o
+    }
+    fn key(&self, p: Vector2<f64>) -> (i64, i64) {
+        (
+            (p.x / self.cell_m).floor() as i64,
+            (p.y / self.cell_m).floor() as i64,
+        )
+    }
+    /// Moves particle i to p.
+    pub fn set(&mut self, i: usize, p: Vector2<f64>) {
+        let old = self.key(self.pos[i]);
+        if let Some(v) = self.cells.get_mut(&old) {
+            v.retain(|&x| x != i);
+        }
+        self.pos[i] = p;
+        let k = self.key(p);
+        self.cells.entry(k).or_default().push(i);
+    }
+    /// Calls f on particles in cells near the square of half-side r around c until f returns false.
+    pub fn for_each_near(&self, c: Vector2<f64>, r: f64, mut f: impl FnMut(usize) -> bool) {
+        let (x0, y0) = self.key(c - Vector2::new(r, r));
+        let (x1, y1) = self.key(c + Vector2::new(r, r));
+        for x in x0..=x1 {
+            for y in y0..=y1 {
+                if let Some(v) = self.cells.get(&(x, y)) {
+                    for &i in v {
+                        if !f(i) {
+                            return;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    /// First particle other than `except` that the corridor hits.
+    pub fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {
+        let mut hit = None;
+        self.for_each_near(
+            c.bound_centre_m,
+            c.bound_radius_m + self.max_radius_m + clearance,
+            |i| {
+                if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
+                    hit = Some(i);
+                    return false;
+                }
+                true
+            },
+        );
+        hit
+    }
+    /// Every particle other than `except` that the corridor hits.
+    pub fn all_hits(&self, c: &Corridor, except: usize, clearance: f64) -> Vec<usize> {
+        let mut hits = Vec::new();
+        self.for_each_near(
+            c.bound_centre_m,
+            c.bound_radius_m + self.max_radius_m + clearance,
+            |i| {
+                if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
+                    hits.push(i);
+                }
+                true
+            },
+        );
+        hits
+    }
+    /// True when a disc at p of radius r keeps clearance from every particle but `except`.
+    pub fn disc_free(&self, p: Vector2<f64>, r: f64, except: usize, clearance: f64) -> bool {
+        let mut free = true;
+        self.for_each_near(p, r + self.max_radius_m + clearance, |i| {
+            if i != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {
+                free = false;
+                return false;
+            }
+            true
+        });
+        free
+    }
+}
