@@ -19,8 +19,9 @@ use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
 use super::tracker::{Moved, Tracker};
-use crate::model::Scene;
+use crate::calib::affine::AffineCalibration;
 use crate::model::advice::{PushAdvice, advise_push};
+use crate::model::{ModelError, Scene};
 use crate::plan::layout::{Layout, Particle};
 use crate::plan::pattern::Site;
 use crate::plan::{PlanConfig, Step, plan_assembly};
@@ -104,16 +105,47 @@ pub struct PushRecord {
     pub lost_contact_detected: bool,
 }
 
-/// Something that wants to see every analysed frame (the animation writer).
+/// Everything the loop knows when a frame has been analysed: what the
+/// animation, the recorder and the progress bar draw from.
+pub struct FrameView<'s> {
+    /// The analysed frame.
+    pub sighting: &'s Sighting,
+    /// Tracked particles after this frame (micrometres).
+    pub tracks: &'s [SeenParticle],
+    /// Target sites.
+    pub sites: &'s [Site],
+    /// The push whose result this frame shows, if any.
+    pub push: Option<&'s PushIntent>,
+    /// The pushes of the latest plan still to come (the first is next).
+    pub plan: &'s [PlannedPush],
+    /// Pixel -> nanostage map of the frame.
+    pub calibration: &'s AffineCalibration,
+}
+
+/// Something that wants to see every analysed frame (animation, recorder, progress).
 pub trait FrameSink {
-    /// Called with each analysed frame, the sites, and the push about to be made.
-    fn frame(
-        &mut self,
-        sighting: &Sighting,
-        tracks: &[SeenParticle],
-        sites: &[Site],
-        push: Option<&PushIntent>,
-    );
+    /// Called once per analysed frame.
+    fn frame(&mut self, view: &FrameView<'_>);
+}
+
+/// Shows every frame to each of several sinks, in order.
+pub struct FanOut<'a>(pub Vec<&'a mut dyn FrameSink>);
+
+impl FrameSink for FanOut<'_> {
+    fn frame(&mut self, view: &FrameView<'_>) {
+        for sink in self.0.iter_mut() {
+            sink.frame(view);
+        }
+    }
+}
+
+/// One push of a plan, on the sample, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedPush {
+    /// Particle centre before.
+    pub from: [f64; 2],
+    /// Particle centre after.
+    pub to: [f64; 2],
 }
 
 /// A push the loop is about to make or has just made.
@@ -150,6 +182,7 @@ pub struct Assembly<'a> {
     pub records: Vec<PushRecord>,
     /// The last analysed frame.
     pub last_sighting: Option<Sighting>,
+    plan: Vec<PlannedPush>,
     sink: Option<&'a mut dyn FrameSink>,
 }
 
@@ -215,6 +248,7 @@ impl<'a> Assembly<'a> {
             frames_seen: 0,
             records: Vec::new(),
             last_sighting: None,
+            plan: Vec::new(),
             sink: None,
         }
     }
@@ -270,12 +304,12 @@ impl<'a> Assembly<'a> {
                     to: p.to,
                 })
                 .collect();
-            self.observe(&moved, None)?;
+            self.observe(&moved, pending.as_ref())?;
             if let Some(intent) = pending.take() {
                 if !self.seen_now(intent.particle) {
                     // Hidden under the probe, or not found: look again with the tip parked away.
                     self.park_away_from(intent.to)?;
-                    self.observe(&moved, None)?;
+                    self.observe(&moved, Some(&intent))?;
                 }
                 self.check(&intent)?;
             }
@@ -348,9 +382,10 @@ impl<'a> Assembly<'a> {
     /// Grabs, detects, tracks and journals one frame.
     fn observe(&mut self, moved: &[Moved], push: Option<&PushIntent>) -> Result<(), ExecError> {
         let calibration = *self.rig.calibration();
-        let sighting = self
-            .perception
-            .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        let mut sighting =
+            self.perception
+                .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        sighting.stage_m = self.rig.position().ok();
         for _ in 0..sighting.dropped {
             self.journal
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
@@ -367,7 +402,14 @@ impl<'a> Assembly<'a> {
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {
-            sink.frame(&sighting, &tracks, &self.sites, push);
+            sink.frame(&FrameView {
+                sighting: &sighting,
+                tracks: &tracks,
+                sites: &self.sites,
+                push,
+                plan: &self.plan,
+                calibration: &calibration,
+            });
         }
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
@@ -495,6 +537,17 @@ impl<'a> Assembly<'a> {
                 planning_ms: s.planning_time_s * 1e3,
             },
         )?;
+        self.plan = plan
+            .steps
+            .iter()
+            .filter_map(|step| match step {
+                Step::Push { from_m, to_m, .. } => Some(PlannedPush {
+                    from: [from_m.x, from_m.y],
+                    to: [to_m.x, to_m.y],
+                }),
+                _ => None,
+            })
+            .collect();
         let first = plan.steps.iter().find_map(|step| match step {
             Step::Push {
                 particle,
@@ -522,12 +575,9 @@ impl<'a> Assembly<'a> {
 
     /// Asks the model, lays out the stroke, moves the stage.
     fn push(&mut self, intent: &PushIntent) -> Result<(), PushError> {
-        let distance = (intent.to[0] - intent.from[0]).hypot(intent.to[1] - intent.from[1]);
-        let mut scene = self.scene.clone();
-        scene.particle_radius_m = intent.radius_m;
-        scene.environment.session_time_s += self.rig.now_s();
-        let advice =
-            advise_push(&scene, distance).map_err(|e| PushError::Refused(e.to_string()))?;
+        let scene = scene_for_push(&self.scene, intent.radius_m, self.rig.now_s());
+        let advice = decide_push(&self.scene, intent, self.rig.now_s())
+            .map_err(|e| PushError::Refused(e.to_string()))?;
         let repush = self.repush_next.take() == Some(intent.particle);
         self.journal_decision(intent, &advice, repush)?;
         let range = self.rig.range();
@@ -689,6 +739,30 @@ impl<'a> Assembly<'a> {
     }
 }
 
+/// The scene as the model sees one push: the particle's measured radius, and
+/// the session time grown by the run time so far (charge build-up).
+pub fn scene_for_push(scene: &Scene, radius_m: f64, run_time_s: f64) -> Scene {
+    let mut scene = scene.clone();
+    scene.particle_radius_m = radius_m;
+    scene.environment.session_time_s += run_time_s;
+    scene
+}
+
+/// The executor's decision for one push: the model's contact angle and
+/// duration for this particle, this distance, at this point of the run. The
+/// loop journals exactly these numbers (a `decision` entry).
+pub fn decide_push(
+    scene: &Scene,
+    intent: &PushIntent,
+    run_time_s: f64,
+) -> Result<PushAdvice, ModelError> {
+    let distance = (intent.to[0] - intent.from[0]).hypot(intent.to[1] - intent.from[1]);
+    advise_push(
+        &scene_for_push(scene, intent.radius_m, run_time_s),
+        distance,
+    )
+}
+
 /// Where the tip waits after a push: back along the push line, a radius and
 /// a few micrometres behind the lift point, so that the probe does not hide
 /// the particle in the next frame; kept inside the nanostage's range.
@@ -715,7 +789,7 @@ const RETREAT_EXTRA_M: f64 = 3e-6;
 /// Radii are capped at half the distance to the nearest neighbour: measured
 /// radii are noisy and touching spheres cannot overlap, so a few nanometres of
 /// apparent overlap must not make the layout invalid.
-fn planning_particles(tracks: &[super::tracker::Track]) -> Vec<Particle> {
+pub fn planning_particles(tracks: &[super::tracker::Track]) -> Vec<Particle> {
     let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
