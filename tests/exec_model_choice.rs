@@ -140,12 +140,13 @@ fn higher_rolling_resistance_gets_longer_pushes_with_the_models_angle() {
         }
     }
     // The first three pushes are the same particles over the same distances in
-    // both runs (same layout, same plan); only the physics differs.
+    // both runs (same layout, same plan); only the physics differs. Durations
+    // differ by far more than the nanometres the starts differ by.
     for (a, b) in lo.iter().zip(&hi).take(3) {
-        assert_eq!(
-            (a.particle, a.from_um, a.to_um),
-            (b.particle, b.from_um, b.to_um)
-        );
+        assert_eq!((a.particle, a.to_um), (b.particle, b.to_um));
+        // Starts agree to camera noise (frames differ once the runs' times do).
+        let start_gap_um = (a.from_um[0] - b.from_um[0]).hypot(a.from_um[1] - b.from_um[1]);
+        assert!(start_gap_um < 0.05, "starts {start_gap_um} um apart");
         assert!(
             b.onset_s > a.onset_s,
             "onset {} vs {}",

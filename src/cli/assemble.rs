@@ -220,6 +220,10 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let tolerance_um = AssemblySettings::default().placed_tolerance_m * 1e6;
     let pushes_done = count_journal(&contents.entries, &spec.sites_um, tolerance_um).pushes;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
+    let last_tip = contents.entries.iter().rev().find_map(|e| match &e.event {
+        RunEvent::Move { target_um, .. } => Some([target_um[0] * 1e-6, target_um[1] * 1e-6]),
+        _ => None,
+    });
     let resumes = contents
         .entries
         .iter()
@@ -233,7 +237,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
         let mut progress = Progress::new(inputs.sites.len());
         let mut fan = FanOut(vec![&mut progress, &mut animation]);
         let mut assembly =
-            Assembly::resume(&mut rig, inputs, journal, pushes_done)?.with_sink(&mut fan);
+            Assembly::resume(&mut rig, inputs, journal, pushes_done, last_tip)?.with_sink(&mut fan);
         let end = assembly.run()?;
         Finished::of(assembly, end)
     };

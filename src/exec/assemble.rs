@@ -183,6 +183,8 @@ pub struct Assembly<'a> {
     /// The last analysed frame.
     pub last_sighting: Option<Sighting>,
     plan: Vec<PlannedPush>,
+    park_before_first_look: bool,
+    tip_hint_m: Option<[f64; 2]>,
     sink: Option<&'a mut dyn FrameSink>,
 }
 
@@ -212,15 +214,25 @@ impl<'a> Assembly<'a> {
         Ok(Self::with_journal(rig, inputs, journal, 0))
     }
 
-    /// A resumed run: `pushes_done` counts the pushes journalled before the stop.
+    /// A resumed run: `pushes_done` counts the pushes journalled before the
+    /// stop; `last_tip_nano_m` is the last nanostage target the journal holds.
     pub fn resume(
         rig: &'a mut dyn Rig,
         inputs: AssemblyInputs,
         mut journal: JournalWriter,
         pushes_done: usize,
+        last_tip_nano_m: Option<[f64; 2]>,
     ) -> Result<Self, ExecError> {
         journal.append(rig.now_s(), &RunEvent::Resume)?;
-        Ok(Self::with_journal(rig, inputs, journal, pushes_done))
+        let mut run = Self::with_journal(rig, inputs, journal, pushes_done);
+        // The process may have stopped anywhere, with the tip down or hiding the
+        // particle it just pushed: lift it and look from where a new run starts.
+        run.park_before_first_look = true;
+        // Plan on from where the tip was, as the stopped run would have: the
+        // planner's order depends on the tip's start.
+        run.tip_hint_m =
+            last_tip_nano_m.map(|t| [t[0] + run.coarse_offset[0], t[1] + run.coarse_offset[1]]);
+        Ok(run)
     }
 
     fn with_journal(
@@ -249,6 +261,8 @@ impl<'a> Assembly<'a> {
             records: Vec::new(),
             last_sighting: None,
             plan: Vec::new(),
+            park_before_first_look: false,
+            tip_hint_m: None,
             sink: None,
         }
     }
@@ -294,6 +308,9 @@ impl<'a> Assembly<'a> {
 
     /// Runs the loop until every site is filled or it has to stop.
     pub fn run(&mut self) -> Result<RunEnd, ExecError> {
+        if std::mem::take(&mut self.park_before_first_look) {
+            self.park_at_start()?;
+        }
         let mut pending: Option<PushIntent> = None;
         loop {
             let moved: Vec<Moved> = pending
@@ -449,6 +466,23 @@ impl<'a> Assembly<'a> {
         })
     }
 
+    /// Lifts the tip and moves it where a new run starts: the nanostage's
+    /// origin corner, at the top of its travel. From there the probe hides no
+    /// particle of the work area (the first frame of a run sees them all).
+    fn park_at_start(&mut self) -> Result<(), ExecError> {
+        let range = self.rig.range();
+        let here = self.rig.position()?;
+        let top = range[2].max_m;
+        let speed = self.settings.travel_speed_m_per_s;
+        self.move_on_sample_raw([here[0], here[1], top], speed)
+            .and_then(|()| self.move_on_sample_raw([range[0].min_m, range[1].min_m, top], speed))
+            .map_err(|e| match e {
+                PushError::Rig(r) => ExecError::Rig(r),
+                PushError::Journal(j) => ExecError::Journal(j),
+                PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+            })
+    }
+
     /// Was the last push a success? Journals the check and counts failures.
     fn check(&mut self, intent: &PushIntent) -> Result<(), ExecError> {
         let seen = self
@@ -517,9 +551,9 @@ impl<'a> Assembly<'a> {
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
         config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
         config.tip_start_m = self
-            .last_sighting
-            .as_ref()
-            .and_then(|s| s.tip_m)
+            .tip_hint_m
+            .take()
+            .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
             .map(|t| Vector2::new(t[0], t[1]));
         let plan = match plan_assembly(&layout, &self.sites, &config) {
             Ok(plan) => plan,
