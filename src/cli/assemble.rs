@@ -1,31 +1,33 @@
 //! `nanopush assemble`: assemble a pattern on the simulated rig, or resume a
-//! run from its journal. Writes the journal, the simulated rig's state,
-//! `report.json`, `final.png` and `sites.json` in the output folder.
+//! run from its journal. Writes, in the output folder: the journal, the
+//! simulated rig's state, `report.json`, `report.md`, `final.png`,
+//! `sites.json`, the run animation (`run.mp4`, `run-resume-<k>.mp4` after a
+//! resume), force plots of the pushes, and with `--record` a recording that
+//! `nanopush dry-run` replays.
 
+use crate::exec::animation::AnimationWriter;
+use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, write_report_md};
 use crate::exec::assemble::{
-    Assembly, AssemblyInputs, AssemblySettings, FrameSink, PushIntent, PushRecord, RunEnd,
+    Assembly, AssemblySettings, FanOut, FrameSink, FrameView, PushRecord, RunEnd,
 };
-use crate::exec::events::{RunEvent, RunSpec, SeenParticle};
+use crate::exec::events::RunEvent;
 use crate::exec::journal::{JournalWriter, read_journal};
-use crate::exec::observe::{Perception, Sighting};
+use crate::exec::observe::Sighting;
+use crate::exec::recording::{RecordingSpec, RecordingWriter};
 use crate::exec::report::{
     AssemblyReport, REPORT_SCHEMA, count_journal, error_figures_nm, lower_bound_s,
 };
+use crate::exec::sim_run::{
+    SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, prepare_sim_run,
+};
 use crate::model::{Scene, simulate_push};
-use crate::plan::pattern::transform::{Reachable, place_optimised};
-use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
+use crate::plan::Site;
 use crate::rig::Rig;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
-use crate::vision::detect::DetectSettings;
 use crate::vision::frame_input::save_png;
-use crate::vision::tip::TipSettings;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
-
-/// Field of the simulated rig's random layouts, micrometres.
-const SIM_FIELD_UM: [f64; 2] = [120.0, 100.0];
 
 /// Arguments of `nanopush assemble`.
 #[derive(clap::Args, Debug)]
@@ -57,6 +59,9 @@ pub struct Args {
     /// Continue the run whose journal this is, on the same world.
     #[arg(long, conflicts_with_all = ["text", "pattern", "layout"])]
     pub resume: Option<PathBuf>,
+    /// Also write a recording of the run (frames, stage log, calibration) to this folder.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
     /// Fault injection (tests): frames the camera drops, counted from 0.
     #[arg(long, hide = true, value_delimiter = ',')]
     pub drop_frames: Vec<usize>,
@@ -69,6 +74,8 @@ pub struct Args {
 }
 
 const JOURNAL: &str = "journal.jsonl";
+/// The animation shows frames at half size (a 560 px frame becomes 280 px).
+const ANIMATION_SCALE: f64 = 0.5;
 const SIM_STATE: &str = "sim-state.json";
 
 /// Runs the assembly and prints the report.
@@ -77,10 +84,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(journal) => resume(&args, journal)?,
         None => start(&args)?,
     };
+    let out = match &args.resume {
+        Some(journal) => journal.parent().unwrap_or(Path::new(".")).to_path_buf(),
+        None => args.out.clone(),
+    };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&json_summary(&report))?);
     } else {
-        print_summary(&report, &args.out);
+        print_summary(&report, &out);
     }
     if report.outcome != "done" {
         bail!("assembly did not finish: {}", report.outcome);
@@ -88,27 +99,42 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The library request these arguments make.
+fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
+    let mut hide = Vec::new();
+    for pair in &args.hide {
+        let parsed = pair
+            .split_once(':')
+            .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
+            .with_context(|| format!("--hide takes particle:frame, got {pair}"))?;
+        hide.push(parsed);
+    }
+    Ok(SimRunRequest {
+        text: args.text.clone(),
+        pattern: args.pattern.clone(),
+        scene: args.scene.clone(),
+        layout: args.layout.clone(),
+        seed: args.seed,
+        particles: args.particles,
+        faults: SimFaults {
+            drop_frames: args.drop_frames.clone(),
+            fail_at_move: args.fail_at_move,
+            hide,
+        },
+    })
+}
+
 fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
-    let scene = load_scene(&args.scene)?;
+    // Everything that can refuse the input does so before the folder is touched.
+    let SimRun {
+        scene,
+        layout,
+        sites,
+        spec,
+        mut rig,
+    } = prepare_sim_run(&request(args)?)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let layout = layout_for(args.layout.as_deref(), &scene, args.seed, args.particles)?;
-    let sites = sites_for(args, &scene, &layout)?;
-    let spec = RunSpec {
-        pattern: args
-            .text
-            .clone()
-            .or_else(|| args.pattern.as_ref().map(|p| p.display().to_string()))
-            .unwrap_or_default(),
-        scene: args.scene.display().to_string(),
-        layout: args.layout.as_ref().map(|p| p.display().to_string()),
-        seed: args.seed,
-        sites_um: sites
-            .iter()
-            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-            .collect(),
-        radius_um: scene.particle_radius_m * 1e6,
-    };
     let journal_path = args.out.join(JOURNAL);
     let journal = JournalWriter::create(&journal_path).with_context(|| {
         format!(
@@ -116,17 +142,50 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
             journal_path.display()
         )
     })?;
-    let mut rig = build_sim_rig(&scene, &layout, args.seed)?;
-    inject_faults(&mut rig, args)?;
     rig.persist_to(args.out.join(SIM_STATE))?;
+    let mut recorder = match &args.record {
+        Some(dir) => Some(RecordingWriter::create(
+            dir,
+            RecordingSpec {
+                schema: String::new(),
+                source: format!(
+                    "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
+                    spec.pattern, spec.seed, args.particles
+                ),
+                frames: String::new(),
+                calibration: String::new(),
+                particle_radius_um: spec.radius_um,
+                frame_interval_s: None,
+                stage_log: None,
+                sites_um: Some(spec.sites_um.clone()),
+                pattern_text: None,
+                pattern: None,
+                field_um: Some([layout.field_m[0] * 1e6, layout.field_m[1] * 1e6]),
+                scene: None,
+                detect_tip: true,
+            },
+            rig.calibration(),
+            std::fs::read_to_string(&args.scene).ok().as_deref(),
+        )?),
+        None => None,
+    };
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
+    let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
-        let mut assembly =
-            Assembly::start(&mut rig, inputs, journal, spec)?.with_sink(&mut progress);
+        let mut sinks: Vec<&mut dyn FrameSink> = vec![&mut progress, &mut animation];
+        if let Some(r) = recorder.as_mut() {
+            sinks.push(r);
+        }
+        let mut fan = FanOut(sinks);
+        let mut assembly = Assembly::start(&mut rig, inputs, journal, spec)?.with_sink(&mut fan);
         let end = assembly.run()?;
         Finished::of(assembly, end)
     };
+    if let Some(r) = recorder {
+        r.finish().context("writing the recording")?;
+    }
+    animation.finish().context("writing the animation")?;
     finish(run, &rig, &scene, &args.out, &journal_path)
 }
 
@@ -161,13 +220,28 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let tolerance_um = AssemblySettings::default().placed_tolerance_m * 1e6;
     let pushes_done = count_journal(&contents.entries, &spec.sites_um, tolerance_um).pushes;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
+    let last_tip = contents.entries.iter().rev().find_map(|e| match &e.event {
+        RunEvent::Move { target_um, .. } => Some([target_um[0] * 1e-6, target_um[1] * 1e-6]),
+        _ => None,
+    });
+    let resumes = contents
+        .entries
+        .iter()
+        .filter(|e| e.event == RunEvent::Resume)
+        .count();
+    let mut animation = AnimationWriter::new(
+        &out.join(format!("run-resume-{}.mp4", resumes + 1)),
+        ANIMATION_SCALE,
+    );
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
+        let mut fan = FanOut(vec![&mut progress, &mut animation]);
         let mut assembly =
-            Assembly::resume(&mut rig, inputs, journal, pushes_done)?.with_sink(&mut progress);
+            Assembly::resume(&mut rig, inputs, journal, pushes_done, last_tip)?.with_sink(&mut fan);
         let end = assembly.run()?;
         Finished::of(assembly, end)
     };
+    animation.finish().context("writing the animation")?;
     finish(run, &rig, &scene, &out, journal_path)
 }
 
@@ -259,6 +333,7 @@ fn finish(
             settings.travel_speed_m_per_s,
         ),
         active_effects: effects,
+        effect_work: Some(rig.stage.effect_work()),
     };
     std::fs::write(
         out.join("report.json"),
@@ -268,6 +343,30 @@ fn finish(
         save_png(&last.frame, &out.join("final.png"))?;
     }
     write_sites(&run.sites, rig, &out.join("sites.json"))?;
+    let pushes = journal_pushes(&entries);
+    let plots = write_force_plots(&pushes, scene, out)
+        .map_err(anyhow::Error::msg)
+        .context("writing the force plots")?;
+    let name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
+    let mut animations: Vec<String> = std::fs::read_dir(out)?
+        .filter_map(|e| e.ok().and_then(|e| name(&e.path())))
+        .filter(|n| n.starts_with("run") && n.ends_with(".mp4"))
+        .collect();
+    animations.sort();
+    let files = ReportFiles {
+        final_frame: run.last.as_ref().map(|_| "final.png".to_owned()),
+        animations,
+        force_plots: plots
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+            .filter_map(|p| name(p))
+            .collect(),
+        journal: name(journal_path).unwrap_or_else(|| JOURNAL.to_owned()),
+        sites: "sites.json".to_owned(),
+        report_json: "report.json".to_owned(),
+    };
+    write_report_md(&out.join("report.md"), &report, &pushes, &sites_um, &files)
+        .context("writing report.md")?;
     Ok(report)
 }
 
@@ -296,81 +395,6 @@ fn load_scene(path: &Path) -> anyhow::Result<Scene> {
     Scene::load(path).with_context(|| format!("scene {}", path.display()))
 }
 
-fn layout_for(path: Option<&Path>, scene: &Scene, seed: u64, n: usize) -> anyhow::Result<Layout> {
-    match path {
-        Some(p) => Ok(Layout::read(p)?),
-        None => Ok(synth_layout(&SynthParams {
-            n,
-            field_m: [SIM_FIELD_UM[0] * 1e-6, SIM_FIELD_UM[1] * 1e-6],
-            radius_m: scene.particle_radius_m,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind: LayoutKind::Uniform,
-            seed,
-        })?),
-    }
-}
-
-fn sites_for(args: &Args, scene: &Scene, layout: &Layout) -> anyhow::Result<Vec<Site>> {
-    let r = scene.particle_radius_m;
-    let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
-    let pattern = match (&args.text, &args.pattern) {
-        (Some(text), _) => Pattern::from_text(text, pitch)?,
-        (None, Some(path)) => crate::plan::pattern::site_list::read_pattern(path, pitch)?,
-        (None, None) => bail!("give --text or --pattern"),
-    };
-    let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-    Ok(place_optimised(
-        &pattern,
-        &Reachable::for_field(layout.field_m, r),
-        r,
-        &centres,
-    )?)
-}
-
-fn inputs_for(scene: &Scene, sites: Vec<Site>, rig: &SimRig, field_m: [f64; 2]) -> AssemblyInputs {
-    let m_per_px = rig.calibration().m_per_px();
-    let settings = AssemblySettings {
-        field_m,
-        ..AssemblySettings::default()
-    };
-    AssemblyInputs {
-        scene: scene.clone(),
-        sites,
-        plan_config: PlanConfig {
-            push_speed_m_per_s: scene.push.speed_m_per_s,
-            travel_speed_m_per_s: settings.travel_speed_m_per_s,
-            ..PlanConfig::default()
-        },
-        perception: Perception {
-            detect: DetectSettings {
-                diameter_px: 2.0 * scene.particle_radius_m / m_per_px,
-                ..DetectSettings::default()
-            },
-            tip: TipSettings::default(),
-            max_grabs: 5,
-        },
-        settings,
-    }
-}
-
-fn inject_faults(rig: &mut SimRig, args: &Args) -> anyhow::Result<()> {
-    for &n in &args.drop_frames {
-        rig.drop_frame(n);
-    }
-    if let Some(n) = args.fail_at_move {
-        rig.stage.fail_at_move(n);
-    }
-    for pair in &args.hide {
-        let (id, frame) = pair
-            .split_once(':')
-            .and_then(|(a, b)| Some((a.parse().ok()?, b.parse().ok()?)))
-            .with_context(|| format!("--hide takes particle:frame, got {pair}"))?;
-        rig.hide_particle_in_frame(id, frame);
-    }
-    Ok(())
-}
-
 /// Shows sites filled on a progress bar (hidden when stderr is not a terminal).
 struct Progress {
     bar: indicatif::ProgressBar,
@@ -390,23 +414,18 @@ impl Progress {
 }
 
 impl FrameSink for Progress {
-    fn frame(
-        &mut self,
-        _: &Sighting,
-        tracks: &[SeenParticle],
-        sites: &[Site],
-        push: Option<&PushIntent>,
-    ) {
-        let filled = sites
+    fn frame(&mut self, view: &FrameView<'_>) {
+        let filled = view
+            .sites
             .iter()
             .filter(|s| {
-                tracks.iter().any(|t| {
+                view.tracks.iter().any(|t| {
                     (t.x_um * 1e-6 - s.centre_m.x).hypot(t.y_um * 1e-6 - s.centre_m.y) <= 0.1e-6
                 })
             })
             .count();
         self.bar.set_position(filled as u64);
-        if let Some(p) = push {
+        if let Some(p) = view.push {
             self.bar
                 .set_message(format!("pushing particle {}", p.particle));
         }
@@ -454,5 +473,5 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
     for e in &r.active_effects {
         println!("  effect           {}: {}", e.name, e.reason);
     }
-    println!("report: {}", out.join("report.json").display());
+    println!("report: {}", out.join("report.md").display());
 }

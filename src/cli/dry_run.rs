@@ -1,10 +1,93 @@
-//! `nanopush dry-run`: not built yet (issue 5).
+//! `nanopush dry-run --recording DIR`: detection, tracking and planning on a
+//! recording (docs/exec.md has the format), printing frame by frame what the
+//! loop would command; writes `dry-run.json` and an annotated animation
+//! `dry-run.mp4` in `--out`. The recording itself is only read.
+
+use crate::exec::animation::AnimationWriter;
+use crate::exec::dry_run::{DryRunReport, dry_run};
+use crate::exec::recording::open_recording;
+use crate::model::Scene;
+use anyhow::{Context, bail};
+use std::path::PathBuf;
 
 /// Arguments of `nanopush dry-run`.
 #[derive(clap::Args, Debug)]
-pub struct Args {}
+pub struct Args {
+    /// Recording folder (recording.toml, frames, calibration, optional stage log).
+    #[arg(long)]
+    pub recording: PathBuf,
+    /// Scene for the model's advice (default: the recording's scene, if it names one).
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Output folder for dry-run.json and dry-run.mp4 (must not hold a dry-run yet).
+    #[arg(long, default_value = "out/dry-run")]
+    pub out: PathBuf,
+    /// Print the whole dry-run as JSON instead of one line per frame.
+    #[arg(long)]
+    pub json: bool,
+}
 
-/// Refuses with a clear message until issue 5 builds this command.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`nanopush dry-run` is not built yet (issue 5)")
+/// Replays the recording and prints what would be commanded.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let recording = open_recording(&args.recording)?;
+    let scene_path = args
+        .scene
+        .clone()
+        .or_else(|| recording.spec.scene.as_ref().map(|s| recording.file(s)));
+    let scene = match &scene_path {
+        Some(p) => Some(Scene::load(p).with_context(|| format!("scene {}", p.display()))?),
+        None => None,
+    };
+    if let Some(s) = &scene {
+        let want = recording.spec.particle_radius_um;
+        let have = s.particle_radius_m * 1e6;
+        if (want - have).abs() > 0.05 * want {
+            bail!(
+                "the scene's particles have radius {have:.2} um, the recording's {want:.2} um: \
+                 give a scene for these particles with --scene"
+            );
+        }
+    }
+    let report_path = args.out.join("dry-run.json");
+    if report_path.exists() {
+        bail!(
+            "{} exists: choose another --out (nothing was overwritten)",
+            report_path.display()
+        );
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut animation = AnimationWriter::new(&args.out.join("dry-run.mp4"), 1.0);
+    let report = dry_run(&recording, scene.as_ref(), Some(&mut animation))?;
+    animation.finish().context("writing the animation")?;
+    std::fs::write(&report_path, serde_json::to_string_pretty(&report)?)
+        .with_context(|| format!("writing {}", report_path.display()))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_frames(&report);
+        println!(
+            "dry-run: {} and {}",
+            report_path.display(),
+            args.out.join("dry-run.mp4").display()
+        );
+    }
+    Ok(())
+}
+
+fn print_frames(r: &DryRunReport) {
+    for f in &r.frames {
+        let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
+            format!("tip ({:.1}, {:.1}) um", t[0], t[1])
+        });
+        println!(
+            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}",
+            f.frame,
+            f.t_s,
+            f.particles.len(),
+            f.filled,
+            r.sites_um.len(),
+            f.command.describe()
+        );
+    }
 }

@@ -19,8 +19,9 @@ use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
 use super::tracker::{Moved, Tracker};
-use crate::model::Scene;
+use crate::calib::affine::AffineCalibration;
 use crate::model::advice::{PushAdvice, advise_push};
+use crate::model::{ModelError, Scene};
 use crate::plan::layout::{Layout, Particle};
 use crate::plan::pattern::Site;
 use crate::plan::{PlanConfig, Step, plan_assembly};
@@ -104,16 +105,47 @@ pub struct PushRecord {
     pub lost_contact_detected: bool,
 }
 
-/// Something that wants to see every analysed frame (the animation writer).
+/// Everything the loop knows when a frame has been analysed: what the
+/// animation, the recorder and the progress bar draw from.
+pub struct FrameView<'s> {
+    /// The analysed frame.
+    pub sighting: &'s Sighting,
+    /// Tracked particles after this frame (micrometres).
+    pub tracks: &'s [SeenParticle],
+    /// Target sites.
+    pub sites: &'s [Site],
+    /// The push whose result this frame shows, if any.
+    pub push: Option<&'s PushIntent>,
+    /// The pushes of the latest plan still to come (the first is next).
+    pub plan: &'s [PlannedPush],
+    /// Pixel -> nanostage map of the frame.
+    pub calibration: &'s AffineCalibration,
+}
+
+/// Something that wants to see every analysed frame (animation, recorder, progress).
 pub trait FrameSink {
-    /// Called with each analysed frame, the sites, and the push about to be made.
-    fn frame(
-        &mut self,
-        sighting: &Sighting,
-        tracks: &[SeenParticle],
-        sites: &[Site],
-        push: Option<&PushIntent>,
-    );
+    /// Called once per analysed frame.
+    fn frame(&mut self, view: &FrameView<'_>);
+}
+
+/// Shows every frame to each of several sinks, in order.
+pub struct FanOut<'a>(pub Vec<&'a mut dyn FrameSink>);
+
+impl FrameSink for FanOut<'_> {
+    fn frame(&mut self, view: &FrameView<'_>) {
+        for sink in self.0.iter_mut() {
+            sink.frame(view);
+        }
+    }
+}
+
+/// One push of a plan, on the sample, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedPush {
+    /// Particle centre before.
+    pub from: [f64; 2],
+    /// Particle centre after.
+    pub to: [f64; 2],
 }
 
 /// A push the loop is about to make or has just made.
@@ -150,6 +182,9 @@ pub struct Assembly<'a> {
     pub records: Vec<PushRecord>,
     /// The last analysed frame.
     pub last_sighting: Option<Sighting>,
+    plan: Vec<PlannedPush>,
+    park_before_first_look: bool,
+    tip_hint_m: Option<[f64; 2]>,
     sink: Option<&'a mut dyn FrameSink>,
 }
 
@@ -179,15 +214,25 @@ impl<'a> Assembly<'a> {
         Ok(Self::with_journal(rig, inputs, journal, 0))
     }
 
-    /// A resumed run: `pushes_done` counts the pushes journalled before the stop.
+    /// A resumed run: `pushes_done` counts the pushes journalled before the
+    /// stop; `last_tip_nano_m` is the last nanostage target the journal holds.
     pub fn resume(
         rig: &'a mut dyn Rig,
         inputs: AssemblyInputs,
         mut journal: JournalWriter,
         pushes_done: usize,
+        last_tip_nano_m: Option<[f64; 2]>,
     ) -> Result<Self, ExecError> {
         journal.append(rig.now_s(), &RunEvent::Resume)?;
-        Ok(Self::with_journal(rig, inputs, journal, pushes_done))
+        let mut run = Self::with_journal(rig, inputs, journal, pushes_done);
+        // The process may have stopped anywhere, with the tip down or hiding the
+        // particle it just pushed: lift it and look from where a new run starts.
+        run.park_before_first_look = true;
+        // Plan on from where the tip was, as the stopped run would have: the
+        // planner's order depends on the tip's start.
+        run.tip_hint_m =
+            last_tip_nano_m.map(|t| [t[0] + run.coarse_offset[0], t[1] + run.coarse_offset[1]]);
+        Ok(run)
     }
 
     fn with_journal(
@@ -215,6 +260,9 @@ impl<'a> Assembly<'a> {
             frames_seen: 0,
             records: Vec::new(),
             last_sighting: None,
+            plan: Vec::new(),
+            park_before_first_look: false,
+            tip_hint_m: None,
             sink: None,
         }
     }
@@ -260,6 +308,9 @@ impl<'a> Assembly<'a> {
 
     /// Runs the loop until every site is filled or it has to stop.
     pub fn run(&mut self) -> Result<RunEnd, ExecError> {
+        if std::mem::take(&mut self.park_before_first_look) {
+            self.park_at_start()?;
+        }
         let mut pending: Option<PushIntent> = None;
         loop {
             let moved: Vec<Moved> = pending
@@ -270,12 +321,12 @@ impl<'a> Assembly<'a> {
                     to: p.to,
                 })
                 .collect();
-            self.observe(&moved, None)?;
+            self.observe(&moved, pending.as_ref())?;
             if let Some(intent) = pending.take() {
                 if !self.seen_now(intent.particle) {
                     // Hidden under the probe, or not found: look again with the tip parked away.
                     self.park_away_from(intent.to)?;
-                    self.observe(&moved, None)?;
+                    self.observe(&moved, Some(&intent))?;
                 }
                 self.check(&intent)?;
             }
@@ -348,9 +399,10 @@ impl<'a> Assembly<'a> {
     /// Grabs, detects, tracks and journals one frame.
     fn observe(&mut self, moved: &[Moved], push: Option<&PushIntent>) -> Result<(), ExecError> {
         let calibration = *self.rig.calibration();
-        let sighting = self
-            .perception
-            .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        let mut sighting =
+            self.perception
+                .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        sighting.stage_m = self.rig.position().ok();
         for _ in 0..sighting.dropped {
             self.journal
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
@@ -367,7 +419,14 @@ impl<'a> Assembly<'a> {
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {
-            sink.frame(&sighting, &tracks, &self.sites, push);
+            sink.frame(&FrameView {
+                sighting: &sighting,
+                tracks: &tracks,
+                sites: &self.sites,
+                push,
+                plan: &self.plan,
+                calibration: &calibration,
+            });
         }
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
@@ -405,6 +464,23 @@ impl<'a> Assembly<'a> {
             PushError::Journal(j) => ExecError::Journal(j),
             PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
         })
+    }
+
+    /// Lifts the tip and moves it where a new run starts: the nanostage's
+    /// origin corner, at the top of its travel. From there the probe hides no
+    /// particle of the work area (the first frame of a run sees them all).
+    fn park_at_start(&mut self) -> Result<(), ExecError> {
+        let range = self.rig.range();
+        let here = self.rig.position()?;
+        let top = range[2].max_m;
+        let speed = self.settings.travel_speed_m_per_s;
+        self.move_on_sample_raw([here[0], here[1], top], speed)
+            .and_then(|()| self.move_on_sample_raw([range[0].min_m, range[1].min_m, top], speed))
+            .map_err(|e| match e {
+                PushError::Rig(r) => ExecError::Rig(r),
+                PushError::Journal(j) => ExecError::Journal(j),
+                PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+            })
     }
 
     /// Was the last push a success? Journals the check and counts failures.
@@ -475,9 +551,9 @@ impl<'a> Assembly<'a> {
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
         config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
         config.tip_start_m = self
-            .last_sighting
-            .as_ref()
-            .and_then(|s| s.tip_m)
+            .tip_hint_m
+            .take()
+            .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
             .map(|t| Vector2::new(t[0], t[1]));
         let plan = match plan_assembly(&layout, &self.sites, &config) {
             Ok(plan) => plan,
@@ -495,6 +571,17 @@ impl<'a> Assembly<'a> {
                 planning_ms: s.planning_time_s * 1e3,
             },
         )?;
+        self.plan = plan
+            .steps
+            .iter()
+            .filter_map(|step| match step {
+                Step::Push { from_m, to_m, .. } => Some(PlannedPush {
+                    from: [from_m.x, from_m.y],
+                    to: [to_m.x, to_m.y],
+                }),
+                _ => None,
+            })
+            .collect();
         let first = plan.steps.iter().find_map(|step| match step {
             Step::Push {
                 particle,
@@ -520,12 +607,9 @@ impl<'a> Assembly<'a> {
 
     /// Asks the model, lays out the stroke, moves the stage.
     fn push(&mut self, intent: &PushIntent) -> Result<(), PushError> {
-        let distance = (intent.to[0] - intent.from[0]).hypot(intent.to[1] - intent.from[1]);
-        let mut scene = self.scene.clone();
-        scene.particle_radius_m = intent.radius_m;
-        scene.environment.session_time_s += self.rig.now_s();
-        let advice =
-            advise_push(&scene, distance).map_err(|e| PushError::Refused(e.to_string()))?;
+        let scene = scene_for_push(&self.scene, intent.radius_m, self.rig.now_s());
+        let advice = decide_push(&self.scene, intent, self.rig.now_s())
+            .map_err(|e| PushError::Refused(e.to_string()))?;
         let repush = self.repush_next.take() == Some(intent.particle);
         self.journal_decision(intent, &advice, repush)?;
         let range = self.rig.range();
@@ -687,6 +771,30 @@ impl<'a> Assembly<'a> {
     }
 }
 
+/// The scene as the model sees one push: the particle's measured radius, and
+/// the session time grown by the run time so far (charge build-up).
+pub fn scene_for_push(scene: &Scene, radius_m: f64, run_time_s: f64) -> Scene {
+    let mut scene = scene.clone();
+    scene.particle_radius_m = radius_m;
+    scene.environment.session_time_s += run_time_s;
+    scene
+}
+
+/// The executor's decision for one push: the model's contact angle and
+/// duration for this particle, this distance, at this point of the run. The
+/// loop journals exactly these numbers (a `decision` entry).
+pub fn decide_push(
+    scene: &Scene,
+    intent: &PushIntent,
+    run_time_s: f64,
+) -> Result<PushAdvice, ModelError> {
+    let distance = (intent.to[0] - intent.from[0]).hypot(intent.to[1] - intent.from[1]);
+    advise_push(
+        &scene_for_push(scene, intent.radius_m, run_time_s),
+        distance,
+    )
+}
+
 /// Where the tip waits after a push: back along the push line, a radius and
 /// a few micrometres behind the lift point, so that the probe does not hide
 /// the particle in the next frame; kept inside the nanostage's range.
@@ -716,7 +824,7 @@ const RETREAT_EXTRA_M: f64 = 3e-6;
 /// Radii are capped at half the distance to the nearest neighbour: touching
 /// spheres cannot overlap, so a few nanometres of apparent overlap must not make
 /// the layout invalid.
-fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Vec<Particle> {
+pub fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Vec<Particle> {
     let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };

@@ -1,10 +1,15 @@
 //! The closed-loop executor: detect, plan, push, verify, recover.
 
+pub mod animation;
+pub mod artifacts;
 pub mod assemble;
+pub mod dry_run;
 pub mod events;
 pub mod journal;
 pub mod observe;
 pub mod push_check;
+pub mod recording;
 pub mod report;
+pub mod sim_run;
 pub mod stroke;
 pub mod tracker;

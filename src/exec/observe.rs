@@ -29,6 +29,10 @@ pub struct Sighting {
     /// The part of the sample the frame shows (x, y lower and upper corners), metres,
     /// shrunk by the particle size hint so that clipped particles count as unseen.
     pub view_m: [[f64; 2]; 2],
+    /// Where the coarse stage had put the nanostage's origin on the sample, metres.
+    pub coarse_offset_m: [f64; 2],
+    /// Commanded nanostage position when the frame was taken, if the caller knows it.
+    pub stage_m: Option<[f64; 3]>,
 }
 
 impl Sighting {
@@ -127,6 +131,8 @@ impl Perception {
             tip_m,
             dropped,
             view_m: [lo, hi],
+            coarse_offset_m,
+            stage_m: None,
         })
     }
 }

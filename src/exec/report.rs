@@ -11,6 +11,7 @@ use super::events::RunEvent;
 use super::journal::Entry;
 use crate::model::effects::ActiveEffect;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// Schema of `report.json`.
 pub const REPORT_SCHEMA: &str = "nanopush.assembly-report/1";
@@ -49,6 +50,10 @@ pub struct AssemblyReport {
     pub lower_bound_s: f64,
     /// Effects the scene made active, with why.
     pub active_effects: Vec<ActiveEffect>,
+    /// Simulated contacts that evaluated each effect (effect name -> count);
+    /// an effect the scene turns off never appears. Null on a real rig.
+    #[serde(default)]
+    pub effect_work: Option<BTreeMap<String, u64>>,
 }
 
 /// Counts read off a journal.

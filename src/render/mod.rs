@@ -6,4 +6,6 @@ pub mod noise;
 pub mod plan_overlay;
 pub mod plot;
 pub mod probe;
+pub mod run_overlay;
 pub mod sphere;
+pub mod video;

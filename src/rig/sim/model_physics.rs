@@ -4,20 +4,28 @@
 
 use super::world::{ContactQuery, ContactResponse, PushPhysics};
 use crate::model::{Outcome, PushParams, Scene, simulate_push};
+use std::cell::RefCell;
+use std::collections::BTreeMap;
 
 /// Contact angles are kept inside the model's open interval (0, 90) deg.
 const ANGLE_MARGIN_RAD: f64 = 1e-3;
 
-/// Answers contacts with [`simulate_push`] on a scene.
+/// Answers contacts with [`simulate_push`] on a scene, counting per effect
+/// the contacts whose simulation evaluated it (the model evaluates exactly the
+/// effects it reports active).
 #[derive(Debug, Clone)]
 pub struct ModelPhysics {
     scene: Scene,
+    work: RefCell<BTreeMap<String, u64>>,
 }
 
 impl ModelPhysics {
     /// Physics of this scene (probe, materials, environment).
     pub fn new(scene: Scene) -> Self {
-        Self { scene }
+        Self {
+            scene,
+            work: RefCell::new(BTreeMap::new()),
+        }
     }
 }
 
@@ -35,7 +43,14 @@ impl PushPhysics for ModelPhysics {
             speed_m_per_s: q.speed_m_per_s,
             duration_s: q.travel_after_contact_m / q.speed_m_per_s,
         };
-        match simulate_push(&scene, &params) {
+        let result = simulate_push(&scene, &params);
+        if let Ok(r) = &result {
+            let mut work = self.work.borrow_mut();
+            for e in &r.active_effects {
+                *work.entry(e.name.clone()).or_insert(0) += 1;
+            }
+        }
+        match result {
             Ok(r) if matches!(r.outcome, Outcome::Rolling | Outcome::Sliding) => {
                 ContactResponse::Moves {
                     onset_travel_m: (q.travel_after_contact_m - r.displacement_m).max(0.0),
@@ -45,6 +60,10 @@ impl PushPhysics for ModelPhysics {
             // tip passes over it. A push the model refuses is treated alike.
             _ => ContactResponse::Stays,
         }
+    }
+
+    fn effect_work(&self) -> BTreeMap<String, u64> {
+        self.work.borrow().clone()
     }
 }
 

@@ -107,6 +107,11 @@ impl SimStage {
         &self.contacts
     }
 
+    /// Contacts so far that evaluated each model effect (see [`PushPhysics::effect_work`]).
+    pub fn effect_work(&self) -> std::collections::BTreeMap<String, u64> {
+        self.physics.effect_work()
+    }
+
     /// Makes move number `n` (counted from 0 over the stage's life) stop halfway with a fault.
     pub fn fail_at_move(&mut self, n: usize) {
         self.fail_at_move = Some(n);

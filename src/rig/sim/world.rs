@@ -62,6 +62,12 @@ pub enum ContactResponse {
 pub trait PushPhysics {
     /// Answers one contact.
     fn respond(&self, query: &ContactQuery) -> ContactResponse;
+    /// Contacts so far that evaluated each effect (name -> count), so a test
+    /// can see that an effect a scene turns off did no work; empty when the
+    /// physics does not count.
+    fn effect_work(&self) -> std::collections::BTreeMap<String, u64> {
+        std::collections::BTreeMap::new()
+    }
 }
 
 /// How a contact ended, as ground truth for tests and reports.

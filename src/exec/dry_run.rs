@@ -1,0 +1,410 @@
+//! Dry-run: detection, tracking and planning on a recording, frame by frame,
+//! saying what the loop would command without moving anything. The same
+//! perception, tracker, planner and model decision as the closed loop
+//! ([`super::assemble`]); only the rig is replaced by the recorded frames.
+
+use super::assemble::{
+    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, planning_particles,
+};
+use super::events::SeenParticle;
+use super::observe::{ObserveError, Perception};
+use super::recording::Recording;
+use super::tracker::Tracker;
+use crate::model::Scene;
+use crate::plan::pattern::site_list::read_pattern;
+use crate::plan::pattern::transform::{Reachable, place_optimised};
+use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
+use crate::rig::RigError;
+use crate::rig::camera::{Camera, TimedFrame};
+use crate::vision::detect::DetectSettings;
+use crate::vision::tip::TipSettings;
+use nalgebra::Vector2;
+use serde::{Deserialize, Serialize};
+
+/// Schema of `dry-run.json`.
+pub const DRY_RUN_SCHEMA: &str = "nanopush.dry-run/1";
+
+/// A particle this close to its site counts as placed (the loop's default).
+const PLACED_TOLERANCE_M: f64 = 0.2e-6;
+/// Tracking gate (the loop's default).
+const TRACK_GATE_M: f64 = 4e-6;
+
+/// What the loop would command after one frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum DryCommand {
+    /// The next push, with the model's choice when a scene is known.
+    Push {
+        /// Track id.
+        particle: usize,
+        /// Centre now, micrometres.
+        from_um: [f64; 2],
+        /// Centre wanted, micrometres.
+        to_um: [f64; 2],
+        /// Model's contact angle, degrees.
+        contact_angle_deg: Option<f64>,
+        /// Model's push duration, seconds.
+        duration_s: Option<f64>,
+        /// Why the model gave no advice, if it refused.
+        model_refused: Option<String>,
+    },
+    /// Every site is filled: nothing to command.
+    Done,
+    /// The planner found no push; the reason it gave.
+    Refused {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// One frame of a dry-run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DryRunFrame {
+    /// Frame number.
+    pub frame: usize,
+    /// Time of the frame, seconds.
+    pub t_s: f64,
+    /// Tracked particles.
+    pub particles: Vec<SeenParticle>,
+    /// Tip apex on the sample, micrometres.
+    pub tip_um: Option<[f64; 2]>,
+    /// Sites with a particle within the placement tolerance.
+    pub filled: usize,
+    /// What the loop would command.
+    pub command: DryCommand,
+}
+
+/// The whole dry-run (`dry-run.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DryRunReport {
+    /// Always [`DRY_RUN_SCHEMA`].
+    pub schema: String,
+    /// The recording's folder.
+    pub recording: String,
+    /// Target sites, micrometres.
+    pub sites_um: Vec<[f64; 2]>,
+    /// Frame by frame.
+    pub frames: Vec<DryRunFrame>,
+}
+
+/// Why a dry-run could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum DryRunError {
+    /// The target pattern could not be read or placed on the recorded particles.
+    #[error("target: {0}")]
+    Target(String),
+    /// A frame could not be analysed.
+    #[error("frame {frame}: {source}")]
+    Frame {
+        frame: usize,
+        #[source]
+        source: ObserveError,
+    },
+}
+
+/// The recorded frames as a camera: each grab gives the next frame.
+struct Replay<'r> {
+    recording: &'r Recording,
+    next: usize,
+}
+
+impl Camera for Replay<'_> {
+    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        let i = self.next;
+        let frame = self
+            .recording
+            .frames
+            .get(i)
+            .ok_or_else(|| RigError::Io("the recording has no more frames".into()))?;
+        self.next += 1;
+        Ok(Some(TimedFrame {
+            t_s: self.recording.time_s(i),
+            frame: frame.clone(),
+        }))
+    }
+}
+
+/// Runs perception, tracking and planning over every frame of `recording`;
+/// with a `scene`, also the model's decision for each push. `sink` sees every
+/// frame (the annotated animation).
+pub fn dry_run(
+    recording: &Recording,
+    scene: Option<&Scene>,
+    mut sink: Option<&mut dyn FrameSink>,
+) -> Result<DryRunReport, DryRunError> {
+    let radius_m = recording.spec.particle_radius_um * 1e-6;
+    let calibration = recording.calibration;
+    let perception = Perception {
+        detect: DetectSettings {
+            diameter_px: 2.0 * radius_m / calibration.m_per_px(),
+            ..DetectSettings::default()
+        },
+        tip: TipSettings::default(),
+        max_grabs: 1,
+    };
+    let mut camera = Replay { recording, next: 0 };
+    let mut tracker = Tracker::new(TRACK_GATE_M);
+    let mut sites: Option<Vec<Site>> = None;
+    let mut field_m = [0.0, 0.0];
+    let mut frames = Vec::new();
+    for i in 0..recording.frames.len() {
+        let mut sighting = perception
+            .sight(&mut camera, &calibration, recording.coarse_offset_m(i))
+            .map_err(|source| DryRunError::Frame { frame: i, source })?;
+        if !recording.spec.detect_tip {
+            sighting.tip_m = None;
+        }
+        sighting.stage_m = recording
+            .stage_log
+            .as_ref()
+            .and_then(|log| log[i].stage_um)
+            .map(|p| [p[0] * 1e-6, p[1] * 1e-6, p[2] * 1e-6]);
+        tracker.update(&sighting.particles, &[], &|x, y| sighting.shows(x, y));
+        if sites.is_none() {
+            field_m = recording
+                .spec
+                .field_um
+                .map_or(sighting.view_m[1], |f| [f[0] * 1e-6, f[1] * 1e-6]);
+            sites = Some(target_sites(
+                recording,
+                &sighting.particles,
+                field_m,
+                radius_m,
+            )?);
+        }
+        let sites = sites.as_deref().unwrap_or_default();
+        let tracks: Vec<SeenParticle> = tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.missed_frames == 0)
+            .map(|t| SeenParticle {
+                id: t.id,
+                x_um: t.last.x_m * 1e6,
+                y_um: t.last.y_m * 1e6,
+                r_um: t.last.radius_m * 1e6,
+            })
+            .collect();
+        let filled = sites
+            .iter()
+            .filter(|s| {
+                tracks.iter().any(|t| {
+                    (t.x_um * 1e-6 - s.centre_m.x).hypot(t.y_um * 1e-6 - s.centre_m.y)
+                        <= PLACED_TOLERANCE_M
+                })
+            })
+            .count();
+        let (command, plan) = if filled == sites.len() {
+            (DryCommand::Done, Vec::new())
+        } else {
+            next_command(
+                tracker.tracks(),
+                sites,
+                field_m,
+                sighting.tip_m,
+                scene,
+                sighting.t_s,
+            )
+        };
+        if let Some(s) = sink.as_mut() {
+            s.frame(&FrameView {
+                sighting: &sighting,
+                tracks: &tracks,
+                sites,
+                push: None,
+                plan: &plan,
+                calibration: &calibration,
+            });
+        }
+        frames.push(DryRunFrame {
+            frame: i,
+            t_s: sighting.t_s,
+            particles: tracks,
+            tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
+            filled,
+            command,
+        });
+    }
+    Ok(DryRunReport {
+        schema: DRY_RUN_SCHEMA.to_owned(),
+        recording: recording.dir.display().to_string(),
+        sites_um: sites
+            .unwrap_or_default()
+            .iter()
+            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+            .collect(),
+        frames,
+    })
+}
+
+/// The sites: as recorded, or the pattern placed on the first frame's particles.
+fn target_sites(
+    recording: &Recording,
+    first: &[super::tracker::Observation],
+    field_m: [f64; 2],
+    radius_m: f64,
+) -> Result<Vec<Site>, DryRunError> {
+    let spec = &recording.spec;
+    if let Some(sites) = &spec.sites_um {
+        return Ok(sites
+            .iter()
+            .enumerate()
+            .map(|(id, s)| Site {
+                id: id as u32,
+                centre_m: Vector2::new(s[0] * 1e-6, s[1] * 1e-6),
+            })
+            .collect());
+    }
+    let pitch = 2.0 * radius_m + DEFAULT_SITE_GAP_M;
+    let target = |e: String| DryRunError::Target(e);
+    let pattern = match (&spec.pattern_text, &spec.pattern) {
+        (Some(text), _) => Pattern::from_text(text, pitch).map_err(|e| target(e.to_string()))?,
+        (None, Some(rel)) => {
+            read_pattern(&recording.file(rel), pitch).map_err(|e| target(e.to_string()))?
+        }
+        (None, None) => return Err(target("the recording names no target".into())),
+    };
+    if pattern.offsets_m.len() > first.len() {
+        return Err(target(format!(
+            "the pattern has {} sites but the first frame shows {} particles",
+            pattern.offsets_m.len(),
+            first.len()
+        )));
+    }
+    let centres: Vec<_> = first.iter().map(|o| Vector2::new(o.x_m, o.y_m)).collect();
+    place_optimised(
+        &pattern,
+        &Reachable::for_field(field_m, radius_m),
+        radius_m,
+        &centres,
+    )
+    .map_err(|e| target(e.to_string()))
+}
+
+/// Plans from the tracks and names the first push (with the model's choice).
+fn next_command(
+    tracks: &[super::tracker::Track],
+    sites: &[Site],
+    field_m: [f64; 2],
+    tip_m: Option<[f64; 2]>,
+    scene: Option<&Scene>,
+    t_s: f64,
+) -> (DryCommand, Vec<PlannedPush>) {
+    // The scene's radius, or without a scene the median measured one.
+    let radius_m = scene.map_or_else(|| median_radius_m(tracks), |s| s.particle_radius_m);
+    let layout = Layout {
+        field_m,
+        particles: planning_particles(tracks, radius_m),
+    };
+    let config = PlanConfig {
+        on_site_tolerance_m: PLACED_TOLERANCE_M,
+        tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),
+        push_speed_m_per_s: scene.map_or(1e-6, |s| s.push.speed_m_per_s),
+        ..PlanConfig::default()
+    };
+    let plan = match plan_assembly(&layout, sites, &config) {
+        Ok(p) => p,
+        Err(e) => {
+            return (
+                DryCommand::Refused {
+                    reason: format!("planner: {e}"),
+                },
+                Vec::new(),
+            );
+        }
+    };
+    let pushes: Vec<(u32, PlannedPush)> = plan
+        .steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } => Some((
+                *particle,
+                PlannedPush {
+                    from: [from_m.x, from_m.y],
+                    to: [to_m.x, to_m.y],
+                },
+            )),
+            _ => None,
+        })
+        .collect();
+    let Some(&(particle, first)) = pushes.first() else {
+        return (
+            DryCommand::Refused {
+                reason: "the plan has no push left".into(),
+            },
+            Vec::new(),
+        );
+    };
+    let radius_m = tracks
+        .iter()
+        .find(|t| t.id == particle as usize)
+        .map_or(5e-6, |t| t.last.radius_m);
+    let intent = PushIntent {
+        particle: particle as usize,
+        from: first.from,
+        to: first.to,
+        radius_m,
+    };
+    let advice = scene.map(|s| decide_push(s, &intent, t_s));
+    let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];
+    let command = DryCommand::Push {
+        particle: intent.particle,
+        from_um: um(first.from),
+        to_um: um(first.to),
+        contact_angle_deg: advice
+            .as_ref()
+            .and_then(|a| a.as_ref().ok())
+            .map(|a| a.contact_angle_rad.to_degrees()),
+        duration_s: advice
+            .as_ref()
+            .and_then(|a| a.as_ref().ok())
+            .map(|a| a.duration_s),
+        model_refused: advice.and_then(|a| a.err()).map(|e| e.to_string()),
+    };
+    (command, pushes.into_iter().map(|p| p.1).collect())
+}
+
+impl DryCommand {
+    /// One line for the terminal.
+    pub fn describe(&self) -> String {
+        match self {
+            DryCommand::Push {
+                particle,
+                from_um,
+                to_um,
+                contact_angle_deg,
+                duration_s,
+                model_refused,
+            } => {
+                let mut s = format!(
+                    "push particle {particle} from ({:.2}, {:.2}) to ({:.2}, {:.2}) um",
+                    from_um[0], from_um[1], to_um[0], to_um[1]
+                );
+                match (contact_angle_deg, duration_s, model_refused) {
+                    (Some(a), Some(d), _) => {
+                        s.push_str(&format!(" at {a:.1} deg for {d:.2} s"));
+                    }
+                    (_, _, Some(why)) => s.push_str(&format!(" (model refuses: {why})")),
+                    _ => {}
+                }
+                s
+            }
+            DryCommand::Done => "nothing: every site is filled".to_owned(),
+            DryCommand::Refused { reason } => format!("nothing: {reason}"),
+        }
+    }
+}
+
+/// Median measured radius of the tracks (5 um when there are none).
+fn median_radius_m(tracks: &[super::tracker::Track]) -> f64 {
+    let mut r: Vec<f64> = tracks.iter().map(|t| t.last.radius_m).collect();
+    if r.is_empty() {
+        return 5e-6;
+    }
+    r.sort_by(f64::total_cmp);
+    r[r.len() / 2]
+}

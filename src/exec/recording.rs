@@ -1,0 +1,517 @@
+//! Recordings: what a run saw, kept so that detection, tracking and planning
+//! can be replayed without a rig (`nanopush dry-run`).
+//!
+//! A recording is a folder:
+//!
+//! * `recording.toml` (schema `nanopush.recording/1`): where the frames are, the
+//!   calibration file, the particle radius, the target (absolute `sites_um`, or a
+//!   pattern to place: `pattern_text` or a site-list file `pattern`), and
+//!   optionally a stage log, a scene for the model's advice, the field and
+//!   the frame interval;
+//! * the frames: a folder of images (sorted by name) or a video file;
+//! * the calibration: a `nanopush.calibration/1` TOML file;
+//! * optionally the stage log, JSON Lines: a header `{"schema":
+//!   "nanopush.stage-log/1"}`, then one line per frame with its time, the
+//!   coarse stage offset and the commanded nanostage position.
+//!
+//! [`RecordingWriter`] writes one as a run goes (a [`FrameSink`]);
+//! [`open_recording`] reads and checks one.
+
+use super::assemble::{FrameSink, FrameView};
+use crate::calib::affine::AffineCalibration;
+use crate::vision::frame::Frame;
+use crate::vision::frame_input::{Channel, load_frames, save_png};
+use serde::{Deserialize, Serialize};
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
+
+/// Schema of `recording.toml`.
+pub const RECORDING_SCHEMA: &str = "nanopush.recording/1";
+/// Schema of the stage log's header line.
+pub const STAGE_LOG_SCHEMA: &str = "nanopush.stage-log/1";
+/// Name of the description file inside a recording folder.
+pub const RECORDING_FILE: &str = "recording.toml";
+
+/// The description file of a recording (lab units).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordingSpec {
+    /// Always [`RECORDING_SCHEMA`].
+    pub schema: String,
+    /// Where the frames came from (provenance, free text).
+    pub source: String,
+    /// Folder of images or video file, relative to the recording.
+    pub frames: String,
+    /// Calibration TOML, relative to the recording.
+    pub calibration: String,
+    /// Radius of the particles, micrometres.
+    pub particle_radius_um: f64,
+    /// Seconds between frames when there is no stage log (default 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame_interval_s: Option<f64>,
+    /// Stage log (JSON Lines), relative to the recording.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage_log: Option<String>,
+    /// Target sites on the sample, micrometres (as the run used them).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sites_um: Option<Vec<[f64; 2]>>,
+    /// Text in the built-in font, placed on the first frame's particles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern_text: Option<String>,
+    /// Site-list file, relative to the recording, placed like `pattern_text`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pattern: Option<String>,
+    /// Field the particles lie in, micrometres from the origin (default: what the first frame shows).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub field_um: Option<[f64; 2]>,
+    /// Scene TOML for the model's advice, relative to the recording.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene: Option<String>,
+    /// Look for the probe tip (default true; false for frames without a probe).
+    #[serde(default = "yes")]
+    pub detect_tip: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// One stage-log line: the state of the stages when a frame was taken.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StageLogEntry {
+    /// Frame number, from 0, in the order of the frames.
+    pub frame: usize,
+    /// Rig time of the exposure, seconds.
+    pub t_s: f64,
+    /// Coarse stage offset of the nanostage origin on the sample, micrometres.
+    pub coarse_offset_um: [f64; 2],
+    /// Commanded nanostage position, micrometres, when known.
+    pub stage_um: Option<[f64; 3]>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Header {
+    schema: String,
+}
+
+/// Why a recording could not be written or read. Every variant names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordingError {
+    /// The folder or a file it names does not exist.
+    #[error(
+        "recording {path}: not found (a recording is a folder with {RECORDING_FILE}; see docs/exec.md)"
+    )]
+    Missing { path: PathBuf },
+    /// Reading or writing failed.
+    #[error("recording {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file does not parse or breaks the format.
+    #[error("recording {path}: {message}")]
+    Format { path: PathBuf, message: String },
+    /// The parts do not fit together (frame count vs stage log, no target).
+    #[error("recording {path}: {message}")]
+    Mismatch { path: PathBuf, message: String },
+}
+
+/// A recording read back and checked.
+#[derive(Debug, Clone)]
+pub struct Recording {
+    /// The folder.
+    pub dir: PathBuf,
+    /// Its description.
+    pub spec: RecordingSpec,
+    /// Pixel -> nanostage map.
+    pub calibration: AffineCalibration,
+    /// Every frame, in order.
+    pub frames: Vec<Frame>,
+    /// One entry per frame, when the recording has a stage log.
+    pub stage_log: Option<Vec<StageLogEntry>>,
+}
+
+impl Recording {
+    /// Time of frame `i`: the stage log's, else `i` frame intervals.
+    pub fn time_s(&self, i: usize) -> f64 {
+        match &self.stage_log {
+            Some(log) => log[i].t_s,
+            None => i as f64 * self.spec.frame_interval_s.unwrap_or(1.0),
+        }
+    }
+
+    /// Coarse offset of frame `i`, metres (zero without a stage log).
+    pub fn coarse_offset_m(&self, i: usize) -> [f64; 2] {
+        self.stage_log.as_ref().map_or([0.0, 0.0], |log| {
+            [
+                log[i].coarse_offset_um[0] * 1e-6,
+                log[i].coarse_offset_um[1] * 1e-6,
+            ]
+        })
+    }
+
+    /// A path inside the recording.
+    pub fn file(&self, relative: &str) -> PathBuf {
+        self.dir.join(relative)
+    }
+}
+
+/// Reads a recording folder and checks that its parts fit together.
+pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
+    let spec_path = dir.join(RECORDING_FILE);
+    if !spec_path.is_file() {
+        return Err(RecordingError::Missing { path: spec_path });
+    }
+    let text = std::fs::read_to_string(&spec_path).map_err(|source| RecordingError::Io {
+        path: spec_path.clone(),
+        source,
+    })?;
+    let format = |message: String| RecordingError::Format {
+        path: spec_path.clone(),
+        message,
+    };
+    let spec: RecordingSpec = toml::from_str(&text).map_err(|e| format(e.to_string()))?;
+    if spec.schema != RECORDING_SCHEMA {
+        return Err(format(format!(
+            "schema is {:?}, expected {RECORDING_SCHEMA:?}",
+            spec.schema
+        )));
+    }
+    if !(spec.particle_radius_um.is_finite() && spec.particle_radius_um > 0.0) {
+        return Err(format(format!(
+            "particle_radius_um must be positive, got {}",
+            spec.particle_radius_um
+        )));
+    }
+    if let Some(dt) = spec.frame_interval_s
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        return Err(format(format!(
+            "frame_interval_s must be positive, got {dt}"
+        )));
+    }
+    let targets = [
+        spec.sites_um.is_some(),
+        spec.pattern_text.is_some(),
+        spec.pattern.is_some(),
+    ];
+    if targets.iter().filter(|t| **t).count() != 1 {
+        return Err(RecordingError::Mismatch {
+            path: spec_path.clone(),
+            message: "give exactly one of sites_um, pattern_text, pattern".to_owned(),
+        });
+    }
+    let cal_path = dir.join(&spec.calibration);
+    if !cal_path.is_file() {
+        return Err(RecordingError::Missing { path: cal_path });
+    }
+    let calibration = AffineCalibration::load(&cal_path).map_err(|e| RecordingError::Format {
+        path: cal_path.clone(),
+        message: e.to_string(),
+    })?;
+    let frames_path = dir.join(&spec.frames);
+    if !frames_path.exists() {
+        return Err(RecordingError::Missing { path: frames_path });
+    }
+    let frames =
+        load_frames(&frames_path, Channel::Luminance).map_err(|e| RecordingError::Format {
+            path: frames_path.clone(),
+            message: e.to_string(),
+        })?;
+    let stage_log = match &spec.stage_log {
+        None => None,
+        Some(rel) => {
+            let path = dir.join(rel);
+            let log = read_stage_log(&path)?;
+            if log.len() != frames.len() {
+                return Err(RecordingError::Mismatch {
+                    path,
+                    message: format!(
+                        "{} stage-log entries for {} frames",
+                        log.len(),
+                        frames.len()
+                    ),
+                });
+            }
+            Some(log)
+        }
+    };
+    Ok(Recording {
+        dir: dir.to_owned(),
+        spec,
+        calibration,
+        frames,
+        stage_log,
+    })
+}
+
+/// Reads a stage log; entries must be numbered 0, 1, 2, ... with times that do not go back.
+pub fn read_stage_log(path: &Path) -> Result<Vec<StageLogEntry>, RecordingError> {
+    if !path.is_file() {
+        return Err(RecordingError::Missing {
+            path: path.to_owned(),
+        });
+    }
+    let file = std::fs::File::open(path).map_err(|source| RecordingError::Io {
+        path: path.to_owned(),
+        source,
+    })?;
+    let format = |line: usize, message: String| RecordingError::Format {
+        path: path.to_owned(),
+        message: format!("line {line}: {message}"),
+    };
+    let mut out: Vec<StageLogEntry> = Vec::new();
+    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
+        let line = line.map_err(|source| RecordingError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        if i == 0 {
+            let ok =
+                serde_json::from_str::<Header>(&line).is_ok_and(|h| h.schema == STAGE_LOG_SCHEMA);
+            if !ok {
+                return Err(format(
+                    1,
+                    format!("expected a header with schema {STAGE_LOG_SCHEMA}"),
+                ));
+            }
+            continue;
+        }
+        let e: StageLogEntry =
+            serde_json::from_str(&line).map_err(|err| format(i + 1, err.to_string()))?;
+        if e.frame != out.len() {
+            return Err(format(
+                i + 1,
+                format!("frame {} where {} was expected", e.frame, out.len()),
+            ));
+        }
+        if out.last().is_some_and(|p| e.t_s < p.t_s) || !e.t_s.is_finite() {
+            return Err(format(i + 1, format!("time {} goes back", e.t_s)));
+        }
+        out.push(e);
+    }
+    Ok(out)
+}
+
+/// Writes a recording as a run goes: every analysed frame as a PNG plus its
+/// stage-log line. A [`FrameSink`] cannot fail, so the first error is kept
+/// and returned by [`RecordingWriter::finish`].
+pub struct RecordingWriter {
+    dir: PathBuf,
+    log: std::fs::File,
+    frames: usize,
+    error: Option<RecordingError>,
+}
+
+impl RecordingWriter {
+    /// Creates the folder (which must not hold a recording yet) and writes the
+    /// description, the calibration and, if given, the scene next to it. The
+    /// spec's `frames`, `calibration` and `stage_log` are set here.
+    pub fn create(
+        dir: &Path,
+        mut spec: RecordingSpec,
+        calibration: &AffineCalibration,
+        scene_toml: Option<&str>,
+    ) -> Result<Self, RecordingError> {
+        let io = |path: PathBuf| move |source| RecordingError::Io { path, source };
+        if dir.join(RECORDING_FILE).exists() {
+            return Err(RecordingError::Mismatch {
+                path: dir.to_owned(),
+                message: "already holds a recording: choose another folder".to_owned(),
+            });
+        }
+        std::fs::create_dir_all(dir.join("frames")).map_err(io(dir.join("frames")))?;
+        spec.schema = RECORDING_SCHEMA.to_owned();
+        spec.frames = "frames".to_owned();
+        spec.calibration = "calibration.toml".to_owned();
+        spec.stage_log = Some("stage.jsonl".to_owned());
+        let cal = dir.join("calibration.toml");
+        std::fs::write(&cal, calibration.to_toml(None)).map_err(io(cal.clone()))?;
+        if let Some(text) = scene_toml {
+            spec.scene = Some("scene.toml".to_owned());
+            let p = dir.join("scene.toml");
+            std::fs::write(&p, text).map_err(io(p.clone()))?;
+        }
+        let text = toml::to_string(&spec).map_err(|e| RecordingError::Format {
+            path: dir.join(RECORDING_FILE),
+            message: e.to_string(),
+        })?;
+        let spec_path = dir.join(RECORDING_FILE);
+        std::fs::write(&spec_path, text).map_err(io(spec_path.clone()))?;
+        let log_path = dir.join("stage.jsonl");
+        let mut log = std::fs::File::create(&log_path).map_err(io(log_path.clone()))?;
+        let header = serde_json::to_string(&Header {
+            schema: STAGE_LOG_SCHEMA.to_owned(),
+        })
+        .expect("header serialises");
+        writeln!(log, "{header}").map_err(io(log_path.clone()))?;
+        Ok(Self {
+            dir: dir.to_owned(),
+            log,
+            frames: 0,
+            error: None,
+        })
+    }
+
+    /// Adds one frame with the stages' state.
+    pub fn add(&mut self, frame: &Frame, entry: StageLogEntry) -> Result<(), RecordingError> {
+        let png = self
+            .dir
+            .join(format!("frames/frame_{:05}.png", self.frames));
+        save_png(frame, &png).map_err(|e| RecordingError::Format {
+            path: png.clone(),
+            message: e.to_string(),
+        })?;
+        let line = serde_json::to_string(&StageLogEntry {
+            frame: self.frames,
+            ..entry
+        })
+        .expect("stage log entry serialises");
+        let log_path = self.dir.join("stage.jsonl");
+        writeln!(self.log, "{line}")
+            .and_then(|()| self.log.flush())
+            .map_err(|source| RecordingError::Io {
+                path: log_path,
+                source,
+            })?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// The number of frames written, or the first error met.
+    pub fn finish(self) -> Result<usize, RecordingError> {
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(self.frames),
+        }
+    }
+}
+
+impl FrameSink for RecordingWriter {
+    fn frame(&mut self, view: &FrameView<'_>) {
+        if self.error.is_some() {
+            return;
+        }
+        let s = view.sighting;
+        let entry = StageLogEntry {
+            frame: self.frames,
+            t_s: s.t_s,
+            coarse_offset_um: [s.coarse_offset_m[0] * 1e6, s.coarse_offset_m[1] * 1e6],
+            stage_um: s.stage_m.map(|p| [p[0] * 1e6, p[1] * 1e6, p[2] * 1e6]),
+        };
+        if let Err(e) = self.add(&s.frame, entry) {
+            self.error = Some(e);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec() -> RecordingSpec {
+        RecordingSpec {
+            schema: String::new(),
+            source: "unit test".to_owned(),
+            frames: String::new(),
+            calibration: String::new(),
+            particle_radius_um: 5.0,
+            frame_interval_s: None,
+            stage_log: None,
+            sites_um: Some(vec![[10.0, 20.0], [20.5, 20.0]]),
+            pattern_text: None,
+            pattern: None,
+            field_um: Some([100.0, 80.0]),
+            scene: None,
+            detect_tip: true,
+        }
+    }
+
+    fn frame(v: f32) -> Frame {
+        Frame::new(16, 12, vec![v; 16 * 12], 8).unwrap()
+    }
+
+    #[test]
+    fn a_written_recording_reads_back_with_its_frames_log_and_calibration() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec_dir = dir.path().join("rec");
+        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6]);
+        let mut w =
+            RecordingWriter::create(&rec_dir, spec(), &cal, Some("name = \"x\"\n")).unwrap();
+        for k in 0..3 {
+            let entry = StageLogEntry {
+                frame: 99,
+                t_s: k as f64 * 0.5,
+                coarse_offset_um: [10.0, 0.0],
+                stage_um: Some([1.0, 2.0, 3.0]),
+            };
+            w.add(&frame(10.0 * k as f32), entry).unwrap();
+        }
+        assert_eq!(w.finish().unwrap(), 3);
+        let r = open_recording(&rec_dir).unwrap();
+        assert_eq!(r.frames.len(), 3);
+        assert_eq!(r.frames[2].at(3, 3), 20.0);
+        let log = r.stage_log.as_ref().unwrap();
+        assert_eq!(
+            log.iter().map(|e| e.frame).collect::<Vec<_>>(),
+            vec![0, 1, 2]
+        );
+        assert_eq!(r.time_s(2), 1.0);
+        let off = r.coarse_offset_m(1);
+        assert!((off[0] - 10e-6).abs() < 1e-18 && off[1] == 0.0);
+        assert!((r.calibration.m_per_px() - 0.25e-6).abs() < 1e-15);
+        assert_eq!(r.spec.sites_um, spec().sites_um);
+        assert_eq!(r.spec.scene.as_deref(), Some("scene.toml"));
+        assert!(matches!(
+            RecordingWriter::create(&rec_dir, spec(), &cal, None),
+            Err(RecordingError::Mismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn broken_recordings_are_refused_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec_dir = dir.path().join("rec");
+        assert!(matches!(
+            open_recording(&rec_dir),
+            Err(RecordingError::Missing { .. })
+        ));
+        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
+        let mut w = RecordingWriter::create(&rec_dir, spec(), &cal, None).unwrap();
+        w.add(
+            &frame(1.0),
+            StageLogEntry {
+                frame: 0,
+                t_s: 0.0,
+                coarse_offset_um: [0.0, 0.0],
+                stage_um: None,
+            },
+        )
+        .unwrap();
+        w.finish().unwrap();
+        // A stage log with an extra line no longer matches the frames.
+        let log = rec_dir.join("stage.jsonl");
+        let text = std::fs::read_to_string(&log).unwrap();
+        std::fs::write(&log, format!("{text}{{\"frame\":1,\"t_s\":1.0,\"coarse_offset_um\":[0.0,0.0],\"stage_um\":null}}\n")).unwrap();
+        assert!(matches!(
+            open_recording(&rec_dir),
+            Err(RecordingError::Mismatch { .. })
+        ));
+        std::fs::write(&log, text.replace("\"frame\":0", "\"frame\":4")).unwrap();
+        let e = open_recording(&rec_dir).unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
+        std::fs::write(&log, text).unwrap();
+        assert!(open_recording(&rec_dir).is_ok());
+        // A corrupt frame is named.
+        std::fs::write(rec_dir.join("frames/frame_00000.png"), b"not a png").unwrap();
+        let e = open_recording(&rec_dir).unwrap_err();
+        assert!(
+            matches!(e, RecordingError::Format { .. }) && e.to_string().contains("frames"),
+            "{e}"
+        );
+        // A corrupt description is named.
+        std::fs::write(rec_dir.join(RECORDING_FILE), "schema = 3").unwrap();
+        let e = open_recording(&rec_dir).unwrap_err();
+        assert!(e.to_string().contains(RECORDING_FILE), "{e}");
+    }
+}

@@ -1,0 +1,228 @@
+//! Setting up a run on the simulated rig: the scene, the world's layout (a
+//! file or a seeded random one), the pattern placed on it, the rig with any
+//! injected faults, and the executor's inputs. What `nanopush assemble` does
+//! before the loop starts, as a library call so tests can drive the loop
+//! in-process and watch the ground truth.
+
+use super::assemble::{AssemblyInputs, AssemblySettings};
+use super::events::RunSpec;
+use super::observe::Perception;
+use crate::model::{ModelError, Scene};
+use crate::plan::pattern::PatternError;
+use crate::plan::pattern::site_list::read_pattern;
+use crate::plan::pattern::transform::{Reachable, place_optimised};
+use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
+use crate::rig::RigError;
+use crate::rig::sim::build::build_sim_rig;
+use crate::rig::sim::rig::SimRig;
+use crate::vision::detect::DetectSettings;
+use crate::vision::tip::TipSettings;
+use std::path::{Path, PathBuf};
+
+/// Field of the simulated rig's random layouts, micrometres.
+pub const SIM_FIELD_UM: [f64; 2] = [120.0, 100.0];
+
+/// What to assemble, on which world.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SimRunRequest {
+    /// Text in the built-in font (or `pattern`).
+    pub text: Option<String>,
+    /// Pattern file (site list or bitmap).
+    pub pattern: Option<PathBuf>,
+    /// Scene TOML.
+    pub scene: PathBuf,
+    /// Layout file (default: a random layout from `seed`).
+    pub layout: Option<PathBuf>,
+    /// Seed of the random layout and the rig's noise.
+    pub seed: u64,
+    /// Particles in the random layout.
+    pub particles: usize,
+    /// Faults to inject.
+    pub faults: SimFaults,
+}
+
+/// Faults the simulated rig injects (tests).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SimFaults {
+    /// Frames the camera drops, counted from 0.
+    pub drop_frames: Vec<usize>,
+    /// The stage move, counted from 0, that stops halfway with a fault.
+    pub fail_at_move: Option<usize>,
+    /// (world particle id, frame) pairs the camera does not show.
+    pub hide: Vec<(usize, usize)>,
+}
+
+/// Why a simulated run could not be set up; nothing has been written yet.
+#[derive(Debug, thiserror::Error)]
+pub enum SimRunError {
+    /// The scene file.
+    #[error("scene {path}: {source}")]
+    Scene {
+        path: PathBuf,
+        #[source]
+        source: ModelError,
+    },
+    /// The layout file or the random layout.
+    #[error("layout: {0}")]
+    Layout(String),
+    /// Neither text nor pattern file.
+    #[error("give a text or a pattern file")]
+    NoPattern,
+    /// The pattern could not be read or placed.
+    #[error("pattern: {0}")]
+    Pattern(#[from] PatternError),
+    /// Pattern and scene do not fit each other.
+    #[error("the pattern does not fit the scene's particles (radius {radius_um:.2} um): {why}")]
+    Mismatch { radius_um: f64, why: String },
+    /// The simulated rig refused.
+    #[error("simulated rig: {0}")]
+    Rig(#[from] RigError),
+}
+
+/// A simulated run ready to start.
+pub struct SimRun {
+    /// The scene.
+    pub scene: Scene,
+    /// The world's layout.
+    pub layout: Layout,
+    /// Target sites.
+    pub sites: Vec<Site>,
+    /// The journal's first entry.
+    pub spec: RunSpec,
+    /// The simulated rig, faults injected.
+    pub rig: SimRig,
+}
+
+/// Loads, generates, places and builds everything a run needs.
+pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
+    let scene = Scene::load(&req.scene).map_err(|source| SimRunError::Scene {
+        path: req.scene.clone(),
+        source,
+    })?;
+    let layout = layout_for(req.layout.as_deref(), &scene, req.seed, req.particles)?;
+    let sites = sites_for(req, &scene, &layout)?;
+    let spec = RunSpec {
+        pattern: req
+            .text
+            .clone()
+            .or_else(|| req.pattern.as_ref().map(|p| p.display().to_string()))
+            .unwrap_or_default(),
+        scene: req.scene.display().to_string(),
+        layout: req.layout.as_ref().map(|p| p.display().to_string()),
+        seed: req.seed,
+        sites_um: sites
+            .iter()
+            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+            .collect(),
+        radius_um: scene.particle_radius_m * 1e6,
+    };
+    let mut rig = build_sim_rig(&scene, &layout, req.seed)?;
+    for &n in &req.faults.drop_frames {
+        rig.drop_frame(n);
+    }
+    if let Some(n) = req.faults.fail_at_move {
+        rig.stage.fail_at_move(n);
+    }
+    for &(id, frame) in &req.faults.hide {
+        rig.hide_particle_in_frame(id, frame);
+    }
+    Ok(SimRun {
+        scene,
+        layout,
+        sites,
+        spec,
+        rig,
+    })
+}
+
+/// The world's layout: the file, or a seeded uniform random layout of `n` particles.
+pub fn layout_for(
+    path: Option<&Path>,
+    scene: &Scene,
+    seed: u64,
+    n: usize,
+) -> Result<Layout, SimRunError> {
+    match path {
+        Some(p) => Layout::read(p).map_err(|e| SimRunError::Layout(e.to_string())),
+        None => synth_layout(&SynthParams {
+            n,
+            field_m: [SIM_FIELD_UM[0] * 1e-6, SIM_FIELD_UM[1] * 1e-6],
+            radius_m: scene.particle_radius_m,
+            min_gap_m: 1e-6,
+            polydisperse: false,
+            kind: LayoutKind::Uniform,
+            seed,
+        })
+        .map_err(|e| SimRunError::Layout(e.to_string())),
+    }
+}
+
+/// The pattern, checked against the scene's particles and placed on the layout.
+fn sites_for(
+    req: &SimRunRequest,
+    scene: &Scene,
+    layout: &Layout,
+) -> Result<Vec<Site>, SimRunError> {
+    let r = scene.particle_radius_m;
+    let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
+    let pattern = match (&req.text, &req.pattern) {
+        (Some(text), _) => Pattern::from_text(text, pitch)?,
+        (None, Some(path)) => read_pattern(path, pitch)?,
+        (None, None) => return Err(SimRunError::NoPattern),
+    };
+    let mismatch = |why: String| SimRunError::Mismatch {
+        radius_um: r * 1e6,
+        why,
+    };
+    pattern
+        .check_no_overlap(2.0 * r)
+        .map_err(|e| mismatch(e.to_string()))?;
+    if pattern.offsets_m.len() > layout.particles.len() {
+        return Err(mismatch(format!(
+            "{} sites but only {} particles",
+            pattern.offsets_m.len(),
+            layout.particles.len()
+        )));
+    }
+    let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    Ok(place_optimised(
+        &pattern,
+        &Reachable::for_field(layout.field_m, r),
+        r,
+        &centres,
+    )?)
+}
+
+/// The executor's inputs for a run on the simulated rig.
+pub fn inputs_for(
+    scene: &Scene,
+    sites: Vec<Site>,
+    rig: &SimRig,
+    field_m: [f64; 2],
+) -> AssemblyInputs {
+    use crate::rig::Rig;
+    let m_per_px = rig.calibration().m_per_px();
+    let settings = AssemblySettings {
+        field_m,
+        ..AssemblySettings::default()
+    };
+    AssemblyInputs {
+        scene: scene.clone(),
+        sites,
+        plan_config: PlanConfig {
+            push_speed_m_per_s: scene.push.speed_m_per_s,
+            travel_speed_m_per_s: settings.travel_speed_m_per_s,
+            ..PlanConfig::default()
+        },
+        perception: Perception {
+            detect: DetectSettings {
+                diameter_px: 2.0 * scene.particle_radius_m / m_per_px,
+                ..DetectSettings::default()
+            },
+            tip: TipSettings::default(),
+            max_grabs: 5,
+        },
+        settings,
+    }
+}

@@ -1,0 +1,220 @@
+//! What `assemble` leaves in its folder: the files are there, read back, and
+//! agree with each other; the final frame, checked by the vision detector
+//! alone against sites.json, shows the pattern; bad pattern input is refused
+//! before anything is written.
+
+use nanopush::exec::events::RunEvent;
+use nanopush::exec::journal::read_journal;
+use nanopush::exec::recording::open_recording;
+use nanopush::exec::report::AssemblyReport;
+use nanopush::vision::detect::{DetectSettings, detect_particles};
+use nanopush::vision::frame::Frame;
+use nanopush::vision::frame_input::{Channel, load_frame, load_frames};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+const RUN: [&str; 6] = ["--text", "L", "--seed", "6", "--particles", "20"];
+/// Particle diameter in the simulated camera's pixels (10 um at 0.25 um/px).
+const DIAMETER_PX: f64 = 40.0;
+/// A site shows its particle when a detection is this close (0.25 um).
+const MATCH_PX: f64 = 1.0;
+
+fn binary() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_nanopush"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    c
+}
+
+/// One run shared by the tests: (temp dir kept alive, output folder, recording folder).
+fn run() -> &'static (tempfile::TempDir, PathBuf, PathBuf) {
+    static RUN_DIR: OnceLock<(tempfile::TempDir, PathBuf, PathBuf)> = OnceLock::new();
+    RUN_DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("out");
+        let rec = dir.path().join("rec");
+        let o = binary()
+            .args(["assemble", "--out", out.to_str().unwrap()])
+            .args(["--record", rec.to_str().unwrap()])
+            .args(RUN)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (dir, out, rec)
+    })
+}
+
+#[derive(serde::Deserialize)]
+struct SitesFile {
+    schema: String,
+    sites: Vec<SiteRow>,
+}
+
+#[derive(serde::Deserialize)]
+struct SiteRow {
+    x_um: f64,
+    y_um: f64,
+    x_px: f64,
+    y_px: f64,
+}
+
+fn sites(out: &Path) -> SitesFile {
+    serde_json::from_str(&std::fs::read_to_string(out.join("sites.json")).unwrap()).unwrap()
+}
+
+/// Sites with a detected particle within MATCH_PX of their pixel position.
+fn sites_shown(frame: &Frame, sites: &SitesFile) -> usize {
+    let found = detect_particles(
+        frame,
+        &DetectSettings {
+            diameter_px: DIAMETER_PX,
+            ..DetectSettings::default()
+        },
+    )
+    .unwrap();
+    sites
+        .sites
+        .iter()
+        .filter(|s| {
+            found
+                .iter()
+                .any(|d| (d.x_px - s.x_px).hypot(d.y_px - s.y_px) <= MATCH_PX)
+        })
+        .count()
+}
+
+#[test]
+fn the_final_frame_checked_by_the_detector_shows_the_pattern() {
+    let (_, out, rec) = run();
+    let s = sites(out);
+    assert_eq!(s.schema, "nanopush.sites/1");
+    let last = load_frame(&out.join("final.png"), Channel::Luminance).unwrap();
+    assert_eq!(sites_shown(&last, &s), s.sites.len());
+    // The same check on the first recorded frame fails: the pattern was built by the run.
+    let first = load_frame(&rec.join("frames/frame_00000.png"), Channel::Luminance).unwrap();
+    assert!(
+        sites_shown(&first, &s) < s.sites.len() / 2,
+        "the first frame already shows {} of {} sites",
+        sites_shown(&first, &s),
+        s.sites.len()
+    );
+}
+
+#[test]
+fn files_read_back_and_agree() {
+    let (_, out, rec) = run();
+    let entries = read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        .unwrap()
+        .entries;
+    let RunEvent::Start(spec) = &entries[0].event else {
+        panic!("no run spec first");
+    };
+    // sites.json carries the journal's sites.
+    let s = sites(out);
+    assert_eq!(s.sites.len(), spec.sites_um.len());
+    for (row, want) in s.sites.iter().zip(&spec.sites_um) {
+        assert!((row.x_um - want[0]).abs() < 1e-9 && (row.y_um - want[1]).abs() < 1e-9);
+    }
+    // report.json round-trips and agrees with the journal.
+    let text = std::fs::read_to_string(out.join("report.json")).unwrap();
+    let report: AssemblyReport = serde_json::from_str(&text).unwrap();
+    assert_eq!(serde_json::to_string_pretty(&report).unwrap(), text);
+    let decisions = entries
+        .iter()
+        .filter(|e| matches!(e.event, RunEvent::Decision { .. }))
+        .count();
+    assert_eq!(report.pushes, decisions);
+    assert_eq!(report.filled, report.sites);
+    // The animation has one picture per analysed frame.
+    let observations = entries
+        .iter()
+        .filter(|e| matches!(e.event, RunEvent::Observation { .. }))
+        .count();
+    let video = load_frames(&out.join("run.mp4"), Channel::Luminance).unwrap();
+    assert_eq!(video.len(), observations);
+    // The recording reads back with one frame per observation, and the
+    // recorded first frame is the journal's first observation.
+    let recording = open_recording(rec).unwrap();
+    assert_eq!(recording.frames.len(), observations);
+    let first_obs_t = entries
+        .iter()
+        .find(|e| matches!(e.event, RunEvent::Observation { .. }))
+        .unwrap()
+        .t_s;
+    assert_eq!(recording.time_s(0), first_obs_t);
+    // Force plots: one chart per six pushes, SVG and PNG.
+    let charts = decisions.div_ceil(6);
+    for k in 1..=charts {
+        for ext in ["svg", "png"] {
+            assert!(out.join(format!("pushes-force-{k}.{ext}")).is_file());
+        }
+    }
+    assert!(
+        !out.join(format!("pushes-force-{}.svg", charts + 1))
+            .exists()
+    );
+}
+
+#[test]
+fn report_md_links_only_to_files_that_exist() {
+    let (_, out, _) = run();
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let links: Vec<&str> = md
+        .split("](")
+        .skip(1)
+        .filter_map(|rest| rest.split(')').next())
+        .collect();
+    for want in [
+        "final.png",
+        "run.mp4",
+        "pushes-force-1.png",
+        "journal.jsonl",
+        "sites.json",
+        "report.json",
+    ] {
+        assert!(links.contains(&want), "report.md does not link {want}");
+    }
+    for l in links {
+        assert!(out.join(l).is_file(), "report.md links to missing {l}");
+    }
+    assert!(md.contains("| 6 |"), "a row per site");
+}
+
+#[test]
+fn a_pattern_that_does_not_fit_the_scene_is_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("keep.txt"), "earlier work").unwrap();
+    // Sites 6 um apart cannot hold 10 um spheres.
+    let pattern = dir.path().join("tight.toml");
+    std::fs::write(
+        &pattern,
+        "sites = [ { x_um = 0.0, y_um = 0.0 }, { x_um = 6.0, y_um = 0.0 } ]\n",
+    )
+    .unwrap();
+    let o = binary()
+        .args(["assemble", "--pattern", pattern.to_str().unwrap()])
+        .args([
+            "--out",
+            out.to_str().unwrap(),
+            "--seed",
+            "6",
+            "--particles",
+            "20",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("does not fit the scene"), "{err}");
+    let names: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("keep.txt")]);
+    assert_eq!(
+        std::fs::read_to_string(out.join("keep.txt")).unwrap(),
+        "earlier work"
+    );
+}

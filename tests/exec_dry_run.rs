@@ -1,0 +1,274 @@
+//! `nanopush dry-run`: the recordings in fixtures/recordings replay frame by
+//! frame; on a fresh recording the dry-run commands exactly what the loop
+//! did; bad input is refused with a clear error and nothing is lost.
+
+use nanopush::exec::dry_run::{DryCommand, DryRunReport};
+use nanopush::exec::events::RunEvent;
+use nanopush::exec::journal::read_journal;
+use nanopush::vision::frame_input::{Channel, load_frames};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn nanopush(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(root())
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn dry_run(recording: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "dry-run",
+        "--json",
+        "--recording",
+        recording.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    nanopush(&args)
+}
+
+fn ok_report(o: &Output, out: &Path) -> DryRunReport {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let printed: DryRunReport = serde_json::from_slice(&o.stdout).unwrap();
+    let written: DryRunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("dry-run.json")).unwrap()).unwrap();
+    assert_eq!(printed, written);
+    printed
+}
+
+/// Every file under `dir` with its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(snapshot(&p));
+        } else {
+            out.insert(p.clone(), std::fs::read(&p).unwrap());
+        }
+    }
+    out
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        let target = to.join(p.file_name().unwrap());
+        if p.is_dir() {
+            copy_dir(&p, &target);
+        } else {
+            std::fs::copy(&p, &target).unwrap();
+        }
+    }
+}
+
+#[test]
+fn the_simulated_recording_replays_with_the_models_pushes() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = root().join("fixtures/recordings/sim-L-seed6");
+    let before = snapshot(&rec);
+    let r = ok_report(&dry_run(&rec, dir.path(), &[]), dir.path());
+    assert_eq!(r.frames.len(), 4);
+    assert_eq!(r.sites_um.len(), 7);
+    assert!(r.frames[0].tip_um.is_some());
+    assert_eq!(r.frames[0].particles.len(), 20);
+    for f in &r.frames {
+        let DryCommand::Push {
+            to_um,
+            contact_angle_deg,
+            duration_s,
+            ..
+        } = &f.command
+        else {
+            panic!("frame {}: {:?}", f.frame, f.command);
+        };
+        assert!(
+            r.sites_um
+                .iter()
+                .any(|s| (s[0] - to_um[0]).hypot(s[1] - to_um[1]) < 1e-9)
+        );
+        assert!(contact_angle_deg.is_some() && duration_s.is_some_and(|d| d > 0.0));
+    }
+    // The pushes made between frames show: sites fill up.
+    assert!(r.frames[3].filled > r.frames[0].filled);
+    let video = load_frames(&dir.path().join("dry-run.mp4"), Channel::Luminance).unwrap();
+    assert_eq!(video.len(), 4);
+    assert_eq!(snapshot(&rec), before, "the recording was changed");
+}
+
+#[test]
+fn the_real_recording_replays_with_five_particles_per_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = root().join("fixtures/recordings/real-brightfield");
+    let r = ok_report(&dry_run(&rec, dir.path(), &[]), dir.path());
+    assert_eq!(r.frames.len(), 3);
+    assert_eq!(r.sites_um.len(), 3);
+    for f in &r.frames {
+        assert_eq!(f.particles.len(), 5, "frame {}", f.frame);
+        assert!(f.tip_um.is_none());
+        assert!(
+            matches!(f.command, DryCommand::Push { .. }),
+            "frame {}: {:?}",
+            f.frame,
+            f.command
+        );
+    }
+}
+
+#[test]
+fn on_a_fresh_recording_the_dry_run_commands_what_the_loop_did() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, rec) = (dir.path().join("out"), dir.path().join("rec"));
+    let o = nanopush(&[
+        "assemble",
+        "--text",
+        "L",
+        "--seed",
+        "6",
+        "--particles",
+        "20",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let first = read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        .unwrap()
+        .entries
+        .into_iter()
+        .find_map(|e| match e.event {
+            RunEvent::Decision {
+                particle,
+                from_um,
+                to_um,
+                contact_angle_deg,
+                duration_s,
+                ..
+            } => Some((particle, from_um, to_um, contact_angle_deg, duration_s)),
+            _ => None,
+        })
+        .unwrap();
+    let r = ok_report(
+        &dry_run(&rec, &dir.path().join("dry"), &[]),
+        &dir.path().join("dry"),
+    );
+    let DryCommand::Push {
+        particle,
+        from_um,
+        to_um,
+        contact_angle_deg,
+        duration_s,
+        ..
+    } = r.frames[0].command.clone()
+    else {
+        panic!("{:?}", r.frames[0].command);
+    };
+    assert_eq!(particle, first.0);
+    for i in 0..2 {
+        assert!((from_um[i] - first.1[i]).abs() < 1e-9 && (to_um[i] - first.2[i]).abs() < 1e-9);
+    }
+    assert_eq!(contact_angle_deg, Some(first.3));
+    assert!((duration_s.unwrap() - first.4).abs() < 1e-9 * first.4);
+    assert_eq!(r.frames.last().unwrap().command, DryCommand::Done);
+}
+
+fn assert_refused(o: &Output, needle: &str) {
+    assert!(
+        !o.status.success(),
+        "expected a refusal mentioning {needle}"
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains(needle),
+        "stderr does not mention {needle}: {err}"
+    );
+}
+
+#[test]
+fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    // Missing.
+    assert_refused(
+        &dry_run(&dir.path().join("nope"), &out, &[]),
+        "recording.toml",
+    );
+    // Corrupt description, corrupt frame, stage log that does not match the frames.
+    let fixture = root().join("fixtures/recordings/sim-L-seed6");
+    type Damage<'a> = &'a dyn Fn(&Path);
+    let cases: [(&str, Damage, &str); 3] = [
+        (
+            "description",
+            &|r| std::fs::write(r.join("recording.toml"), "schema = [").unwrap(),
+            "recording.toml",
+        ),
+        (
+            "frame",
+            &|r| std::fs::write(r.join("frames/frame_00002.png"), b"\x89PNG broken").unwrap(),
+            "frames",
+        ),
+        (
+            "stage log",
+            &|r| {
+                let log = r.join("stage.jsonl");
+                let text = std::fs::read_to_string(&log).unwrap();
+                let cut: Vec<&str> = text.lines().take(3).collect();
+                std::fs::write(&log, cut.join("\n") + "\n").unwrap();
+            },
+            "2 stage-log entries for 4 frames",
+        ),
+    ];
+    for (name, damage, needle) in cases {
+        let rec = dir.path().join(name);
+        copy_dir(&fixture, &rec);
+        damage(&rec);
+        let before = snapshot(&rec);
+        assert_refused(&dry_run(&rec, &out, &[]), needle);
+        assert_eq!(snapshot(&rec), before, "{name}: the recording was changed");
+        assert!(!out.join("dry-run.json").exists(), "{name}");
+    }
+    // Pattern that the recording's particles cannot fill, scene of other particles.
+    let rec = dir.path().join("pattern");
+    copy_dir(&root().join("fixtures/recordings/real-brightfield"), &rec);
+    let spec = std::fs::read_to_string(rec.join("recording.toml")).unwrap();
+    std::fs::write(
+        rec.join("recording.toml"),
+        spec.replace("pattern = \"pattern.toml\"", "pattern_text = \"CMU\""),
+    )
+    .unwrap();
+    assert_refused(
+        &dry_run(&rec, &out, &[]),
+        "but the first frame shows 5 particles",
+    );
+    let small = dir.path().join("small.toml");
+    let paper = std::fs::read_to_string(root().join("calib/paper-ps-ito.toml")).unwrap();
+    std::fs::write(
+        &small,
+        paper.replace("radius_um = 5.0 ", "radius_um = 0.5 "),
+    )
+    .unwrap();
+    assert_refused(
+        &dry_run(
+            &root().join("fixtures/recordings/real-brightfield"),
+            &out,
+            &["--scene", small.to_str().unwrap()],
+        ),
+        "radius",
+    );
+    // An earlier dry-run is not overwritten.
+    let first = dir.path().join("first");
+    ok_report(&dry_run(&fixture, &first, &[]), &first);
+    let kept = std::fs::read(first.join("dry-run.json")).unwrap();
+    assert_refused(&dry_run(&fixture, &first, &[]), "exists");
+    assert_eq!(std::fs::read(first.join("dry-run.json")).unwrap(), kept);
+}

@@ -1,0 +1,193 @@
+//! The model's choice is real: the executor asks the pushing model for every
+//! push and does what it says. Two scenes differing only in rolling
+//! resistance run on the same layout; the journal's decisions must carry the
+//! model's numbers for each scene (recomputed here through the executor's
+//! decision function), and the stiffer scene must get longer pushes. A scene
+//! in which the model finds no safe contact angle must get no push at all.
+
+use nanopush::exec::assemble::{PushIntent, decide_push};
+use nanopush::exec::events::RunEvent;
+use nanopush::exec::journal::read_journal;
+use nanopush::model::Scene;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const RUN: [&str; 6] = ["--text", "L", "--seed", "6", "--particles", "20"];
+
+fn paper_text() -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"))
+        .unwrap()
+}
+
+/// The paper scene with lines replaced (each must exist).
+fn scene_file(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
+    let mut text = paper_text();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{from} is not in the paper scene");
+        text = text.replace(from, to);
+    }
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// One journalled decision with the radius the camera measured for its particle.
+#[derive(Debug, Clone)]
+struct Decision {
+    t_s: f64,
+    particle: usize,
+    from_um: [f64; 2],
+    to_um: [f64; 2],
+    radius_um: f64,
+    angle_deg: f64,
+    duration_s: f64,
+    onset_s: f64,
+    critical_force_un: f64,
+}
+
+/// Runs assemble on `scene` (the outcome does not matter here) and returns the journal's events.
+fn run(scene: &Path, out: &Path) -> Vec<(f64, RunEvent)> {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["assemble", "--json", "--scene", scene.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap()])
+        .args(RUN)
+        .output()
+        .unwrap();
+    read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        .unwrap()
+        .entries
+        .into_iter()
+        .map(|e| (e.t_s, e.event))
+        .collect()
+}
+
+fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
+    let mut radius: std::collections::HashMap<usize, f64> = Default::default();
+    let mut out = Vec::new();
+    for (t_s, e) in events {
+        match e {
+            RunEvent::Observation { particles, .. } => {
+                for p in particles {
+                    radius.insert(p.id, p.r_um);
+                }
+            }
+            RunEvent::Decision {
+                particle,
+                from_um,
+                to_um,
+                contact_angle_deg,
+                duration_s,
+                onset_s,
+                critical_force_un,
+                ..
+            } => out.push(Decision {
+                t_s: *t_s,
+                particle: *particle,
+                from_um: *from_um,
+                to_um: *to_um,
+                radius_um: radius[particle],
+                angle_deg: *contact_angle_deg,
+                duration_s: *duration_s,
+                onset_s: *onset_s,
+                critical_force_un: *critical_force_un,
+            }),
+            _ => {}
+        }
+    }
+    out
+}
+
+/// The executor's decision function, fed what the journal says it saw.
+fn model_says(scene: &Scene, d: &Decision) -> (f64, f64) {
+    let intent = PushIntent {
+        particle: d.particle,
+        from: [d.from_um[0] * 1e-6, d.from_um[1] * 1e-6],
+        to: [d.to_um[0] * 1e-6, d.to_um[1] * 1e-6],
+        radius_m: d.radius_um * 1e-6,
+    };
+    let a = decide_push(scene, &intent, d.t_s).unwrap();
+    (a.contact_angle_rad.to_degrees(), a.duration_s)
+}
+
+#[test]
+fn higher_rolling_resistance_gets_longer_pushes_with_the_models_angle() {
+    let dir = tempfile::tempdir().unwrap();
+    let low = scene_file(dir.path(), "low.toml", &[]);
+    let high = scene_file(
+        dir.path(),
+        "high.toml",
+        &[("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0")],
+    );
+    let lo = decisions(&run(&low, &dir.path().join("lo")));
+    let hi = decisions(&run(&high, &dir.path().join("hi")));
+    assert!(
+        lo.len() >= 3 && hi.len() >= 3,
+        "{} and {} decisions",
+        lo.len(),
+        hi.len()
+    );
+    for (scene_path, ds) in [(&low, &lo), (&high, &hi)] {
+        let scene = Scene::load(scene_path).unwrap();
+        for d in ds.iter() {
+            let (angle, duration) = model_says(&scene, d);
+            assert_eq!(d.angle_deg, angle, "{d:?}");
+            assert!(
+                (d.duration_s - duration).abs() <= 1e-6 * duration,
+                "journal {} s, model {duration} s",
+                d.duration_s
+            );
+        }
+    }
+    // The first three pushes are the same particles over the same distances in
+    // both runs (same layout, same plan); only the physics differs. Durations
+    // differ by far more than the nanometres the starts differ by.
+    for (a, b) in lo.iter().zip(&hi).take(3) {
+        assert_eq!((a.particle, a.to_um), (b.particle, b.to_um));
+        // Starts agree to camera noise (frames differ once the runs' times do).
+        let start_gap_um = (a.from_um[0] - b.from_um[0]).hypot(a.from_um[1] - b.from_um[1]);
+        assert!(start_gap_um < 0.05, "starts {start_gap_um} um apart");
+        assert!(
+            b.onset_s > a.onset_s,
+            "onset {} vs {}",
+            b.onset_s,
+            a.onset_s
+        );
+        assert!(
+            b.duration_s > a.duration_s,
+            "duration {} vs {}",
+            b.duration_s,
+            a.duration_s
+        );
+        assert!(b.critical_force_un > a.critical_force_un);
+    }
+}
+
+#[test]
+fn a_scene_without_a_safe_contact_angle_gets_no_push() {
+    let dir = tempfile::tempdir().unwrap();
+    // The tip may ride over, and rolling is so hard that it rides over at every angle.
+    let unsafe_scene = scene_file(
+        dir.path(),
+        "ride-over.toml",
+        &[
+            ("hold_contact_angle = true", "hold_contact_angle = false"),
+            ("shear_strength_mpa = 28.0", "shear_strength_mpa = 200.0"),
+            ("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0"),
+        ],
+    );
+    let events = run(&unsafe_scene, &dir.path().join("o"));
+    assert!(decisions(&events).is_empty());
+    let refusals = events
+        .iter()
+        .filter(|(_, e)| {
+            matches!(e, RunEvent::Check { result, .. } if result.contains("no safe contact angle"))
+        })
+        .count();
+    assert!(refusals >= 1);
+    let pushing_moves = events
+        .iter()
+        .filter(|(_, e)| matches!(e, RunEvent::Move { target_um, .. } if target_um[2] < 10.0))
+        .count();
+    assert_eq!(pushing_moves, 0, "the tip was lowered without a decision");
+}
