@@ -339,10 +339,7 @@ fn next_command(
             Vec::new(),
         );
     };
-    let radius_m = tracks
-        .iter()
-        .find(|t| t.id == particle as usize)
-        .map_or(5e-6, |t| t.last.radius_m);
+    // The planning radius, as the loop does (see `planning_particles`).
     let intent = PushIntent {
         particle: particle as usize,
         from: first.from,
