@@ -91,10 +91,17 @@ impl AxisState {
 }
 
 /// Where an axis that left `from` for `target` at `velocity` is after `dt_s`.
+/// Exactly `target` once reached (`from + (target - from)` need not be
+/// `target` in floating point, and an axis a rounding error short of its
+/// target would never be on target).
 fn travel(from: f64, target: f64, velocity: f64, dt_s: f64) -> f64 {
     let distance = target - from;
-    let travelled = (velocity * dt_s).min(distance.abs());
-    from + travelled.copysign(distance)
+    let travelled = velocity * dt_s;
+    if travelled >= distance.abs() {
+        target
+    } else {
+        from + travelled.copysign(distance)
+    }
 }
 
 /// How every axis moves from one instant on, until the next [`Motion`]: the
@@ -385,6 +392,7 @@ impl SimController {
             return Vec::new();
         };
         let args: Vec<&str> = words.collect();
+        tracing::debug!("sim-gcs: {line}");
         let outcome = self.dispatch(&name.to_ascii_uppercase(), &args, now);
         match outcome {
             Ok(reply) => reply,
@@ -582,6 +590,19 @@ mod tests {
         assert_eq!(err(&mut c), "10");
         assert_eq!(err(&mut c), "0", "ERR? clears the error");
         assert!(!c.any_moving(t0 + Duration::from_millis(100)));
+    }
+
+    #[test]
+    fn an_axis_arrives_exactly_on_target_whatever_the_rounding() {
+        let (mut c, t0) = sim();
+        c.handle_line("SVO 1 1", t0);
+        c.handle_line("MOV 1 98", t0);
+        let t1 = t0 + Duration::from_secs(1);
+        // 98 + (18.196826997 - 98) is 18.196826997000002 in f64.
+        c.handle_line("MOV 1 18.196826997", t1);
+        let t2 = t1 + Duration::from_secs(1);
+        assert_eq!(c.handle_line("ONT? 1", t2), vec!["1=1"]);
+        assert_eq!(c.handle_line("POS? 1", t2), vec!["1=18.196826997"]);
     }
 
     #[test]
