@@ -248,13 +248,14 @@ fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
     }
 }
 
-/// Where a particle can be pushed to without any stroke leaving the range:
-/// the tip approaches a radius plus clearance behind a particle and retreats
-/// a radius plus 3 um further back, so sites keep two radii and 3 um from
-/// the range's edges.
-fn reachable_sites(rig: &HardwareRig, radius_m: f64) -> Reachable {
+/// Where sites may lie: a radius and the clearance inside the nanostage's
+/// range, so that a particle on a site is whole inside it and the tip can
+/// reach around it. (Strokes still leave the range when a particle must be
+/// approached from beyond its edge; the executor then stops with the rig's
+/// out-of-range error, as this rig has no coarse stage to bring it closer.)
+fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reachable {
     let range = rig.range();
-    let margin = 2.0 * radius_m + 3e-6;
+    let margin = radius_m + clearance_m;
     Reachable {
         lo_m: Vector2::new(range[0].min_m + margin, range[1].min_m + margin),
         hi_m: Vector2::new(range[0].max_m - margin, range[1].max_m - margin),
@@ -275,8 +276,13 @@ fn sites_for(
         (None, None) => bail!("give --text or --pattern"),
     };
     let centres: Vec<_> = seen.iter().map(|p| Vector2::new(p.x_m, p.y_m)).collect();
-    place_optimised(&pattern, &reachable_sites(rig, r), r, &centres)
-        .context("placing the pattern among the particles of the first frame")
+    place_optimised(
+        &pattern,
+        &reachable_sites(rig, r, AssemblySettings::default().clearance_m),
+        r,
+        &centres,
+    )
+    .context("placing the pattern among the particles of the first frame")
 }
 
 /// Writes each target site in um and in the camera's pixels.

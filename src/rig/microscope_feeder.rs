@@ -40,7 +40,10 @@ pub struct FeederSettings {
     pub interval: Duration,
     /// Frames kept on disk; older ones are deleted.
     pub keep_frames: usize,
-    /// Seed of the camera noise (frame `n` uses a seed derived from it and `n`).
+    /// Seed of the camera noise. Frames of the same stage state (the same
+    /// number of motions applied) get the same noise, so that which frame a
+    /// reader happens to grab does not change what it sees: a rehearsal on
+    /// the simulated microscope repeats.
     pub seed: u64,
 }
 
@@ -271,10 +274,11 @@ fn feed(
                 now,
             )
         });
-        let view = {
+        let (view, state) = {
             let mut w = lock(world);
             w.advance(motions, now);
-            if moving {
+            let state = w.motions_applied() as u64;
+            let view = if moving {
                 None
             } else {
                 let tip = w.tip_m(&positions);
@@ -284,13 +288,14 @@ fn feed(
                         .view(&w.world.particles, tip, [0.0, 0.0])
                         .map_err(|e| FeederError::Render(e.to_string()))?,
                 )
-            }
+            };
+            (view, state)
         };
         let Some(view) = view else {
             std::thread::sleep(POLL);
             continue;
         };
-        let seed = settings.seed ^ n.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let seed = settings.seed ^ state.wrapping_mul(0x9E37_79B9_7F4A_7C15);
         let frame = render_frame(&view, &settings.camera.render, seed)
             .map_err(|e| FeederError::Render(e.to_string()))?;
         n += 1;

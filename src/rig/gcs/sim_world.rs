@@ -43,6 +43,7 @@ pub struct GcsSimWorld {
     start: Instant,
     pending: Option<Motion>,
     contacts: Vec<ContactEvent>,
+    applied: usize,
 }
 
 impl GcsSimWorld {
@@ -60,7 +61,13 @@ impl GcsSimWorld {
             start,
             pending: None,
             contacts: Vec::new(),
+            applied: 0,
         }
+    }
+
+    /// Motions applied so far: the same count means the same stage state.
+    pub fn motions_applied(&self) -> usize {
+        self.applied
     }
 
     /// Every contact so far (ground truth).
@@ -99,6 +106,7 @@ impl GcsSimWorld {
 
     /// Sweeps the tip along motion `m` for its first `lasted_s` wall seconds.
     fn apply(&mut self, m: &Motion, lasted_s: f64) {
+        self.applied += 1;
         if lasted_s <= 0.0 {
             return;
         }
