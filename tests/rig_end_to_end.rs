@@ -221,7 +221,12 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
     let child = b.assemble("run", &["--json"]);
     // A camera program that crashed mid-write: a truncated frame that sorts
     // after every other, so the `latest` pick meets it first.
-    std::thread::sleep(Duration::from_millis(300));
+    // Written once the run moves, so that the camera is open and takes it as new.
+    let started = Instant::now();
+    while !b.moving() {
+        assert!(started.elapsed() < Duration::from_secs(60), "never moved");
+        std::thread::sleep(Duration::from_millis(5));
+    }
     let png = truncated_png(b.dir.path());
     std::fs::write(b.frames.join("frame_99999999.png"), png).unwrap();
     let out = finish(child, RUN_LIMIT);
@@ -312,7 +317,12 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
         assert!(started.elapsed() < Duration::from_secs(60), "never moved");
         std::thread::sleep(Duration::from_millis(5));
     }
-    std::thread::sleep(Duration::from_millis(300));
+    // Written once the run moves, so that the camera is open and takes it as new.
+    let started = Instant::now();
+    while !b.moving() {
+        assert!(started.elapsed() < Duration::from_secs(60), "never moved");
+        std::thread::sleep(Duration::from_millis(5));
+    }
     let target = b
         .server
         .handle()
