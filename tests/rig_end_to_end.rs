@@ -69,12 +69,12 @@ fn bench(time_scale: f64) -> Bench {
     let addr = server.serve_tcp("127.0.0.1:0").unwrap();
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("frames");
-    let calibration = manifest().join("calib/rig-gcs-sim-folder-camera.toml");
+    let calibration = manifest().join("calib/camera-stage-sim-folder.toml");
     let text = std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
         .unwrap()
         .replace("127.0.0.1:50000", &addr.to_string())
         .replace(
-            "\"rig-gcs-sim-folder-camera.toml\"",
+            "\"camera-stage-sim-folder.toml\"",
             &format!("{:?}", calibration.display().to_string()),
         )
         .replace(
