@@ -71,6 +71,9 @@ pub struct Args {
     /// Fault injection (tests): `particle:frame` pairs the camera does not show.
     #[arg(long, hide = true, value_delimiter = ',')]
     pub hide: Vec<String>,
+    /// Hardware rig: --rig FILE, --dry-run, --yes-move-hardware.
+    #[command(flatten)]
+    pub hardware: super::assemble_rig::RigArgs,
 }
 
 const JOURNAL: &str = "journal.jsonl";
@@ -80,6 +83,9 @@ const SIM_STATE: &str = "sim-state.json";
 
 /// Runs the assembly and prints the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if args.hardware.rig.is_some() {
+        return super::assemble_rig::run(&args);
+    }
     let report = match &args.resume {
         Some(journal) => resume(&args, journal)?,
         None => start(&args)?,

@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod assemble;
+mod assemble_rig;
 mod calibrate;
 mod demo;
 mod detect;

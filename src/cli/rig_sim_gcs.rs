@@ -1,11 +1,19 @@
 //! `nanopush rig sim-gcs`: a simulated PI GCS 2.0 controller (3 axes,
 //! 100 x 100 x 15 um) on a TCP port and optionally a pseudo-terminal, for
 //! rehearsing without hardware and for checking clients such as PIPython.
+//! With `--microscope RIG_FILE` it also plays the microscope camera: a
+//! simulated world of particles that the controller's probe pushes, drawn
+//! into the rig file's watched folder (see `rig::microscope_feeder`).
 
-use crate::rig::gcs::{SimAxisConfig, SimConfig, SimServer, interrupt};
+use crate::model::Scene;
+use crate::plan::Layout;
+use crate::rig::gcs::{RigFile, SimAxisConfig, SimConfig, SimServer, interrupt};
+use crate::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
 use anyhow::Context;
 use std::io::Write;
+use std::path::PathBuf;
 use std::sync::atomic::Ordering;
+use std::time::Duration;
 
 /// Arguments of `nanopush rig sim-gcs`.
 #[derive(clap::Args, Debug)]
@@ -22,14 +30,50 @@ pub struct Args {
     /// Closed-loop velocity of every axis at start-up, micrometres per second.
     #[arg(long, default_value_t = 100.0)]
     pub velocity_um_s: f64,
+    /// Simulated seconds per wall-clock second (e.g. 20 to rehearse slow pushes quickly).
+    #[arg(long, default_value_t = 1.0)]
+    pub time_scale: f64,
+    /// Also play the microscope camera of this rig file: frames of a
+    /// simulated world, pushed by this controller's probe, written into the
+    /// rig file's watched folder.
+    #[arg(long, value_name = "RIG_FILE")]
+    pub microscope: Option<PathBuf>,
+    /// With --microscope: scene (particle size, pushing physics).
+    #[arg(
+        long,
+        default_value = "calib/paper-ps-ito.toml",
+        requires = "microscope"
+    )]
+    pub scene: PathBuf,
+    /// With --microscope: layout of the world (default: random, from --seed).
+    #[arg(long, requires = "microscope")]
+    pub layout: Option<PathBuf>,
+    /// With --microscope: seed of the random layout and of the camera noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// With --microscope: particles in the random layout.
+    #[arg(long, default_value_t = 30)]
+    pub particles: usize,
+    /// With --microscope: shortest time between frames, milliseconds.
+    #[arg(long, default_value_t = 50)]
+    pub frame_interval_ms: u64,
 }
+
+/// Clearance of random layouts from the edges of the travel, micrometres.
+const LAYOUT_MARGIN_UM: f64 = 10.0;
 
 /// Serves the simulator until Ctrl-C.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    super::assemble_rig::show_warnings();
     anyhow::ensure!(
         args.velocity_um_s.is_finite() && args.velocity_um_s > 0.0,
         "--velocity-um-s must be positive, got {}",
         args.velocity_um_s
+    );
+    anyhow::ensure!(
+        args.time_scale.is_finite() && args.time_scale > 0.0,
+        "--time-scale must be positive, got {}",
+        args.time_scale
     );
     let mut config = SimConfig::default();
     config
@@ -37,7 +81,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter_mut()
         .for_each(|a: &mut SimAxisConfig| a.velocity = args.velocity_um_s);
     let stop = interrupt::ctrlc_flag().context("installing the Ctrl-C handler")?;
-    let mut server = SimServer::new(config);
+    let mut server = SimServer::new(config.clone());
+    server
+        .handle()
+        .with(|c, now| c.set_time_scale(args.time_scale, now));
     let addr = server
         .serve_tcp(&format!("{}:{}", args.host, args.port))
         .with_context(|| format!("binding {}:{}", args.host, args.port))?;
@@ -47,9 +94,60 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let path = server.serve_pty().context("opening a pseudo-terminal")?;
         writeln!(out, "GCS simulator serving on pty {}", path.display())?;
     }
+    let feeder = match &args.microscope {
+        Some(rig_path) => {
+            let feeder = microscope(&args, &server, &config, rig_path)?;
+            writeln!(
+                out,
+                "simulated microscope writing frames for {}",
+                rig_path.display()
+            )?;
+            Some(feeder)
+        }
+        None => None,
+    };
     eprintln!("press Ctrl-C to stop");
     out.flush()?;
-    server.run_until(&stop);
+    while !stop.load(Ordering::SeqCst) && feeder.as_ref().is_none_or(|f| f.is_running()) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
     stop.store(false, Ordering::SeqCst);
+    if let Some(feeder) = feeder {
+        let frames = feeder.stop()?;
+        eprintln!("simulated microscope: {frames} frames written");
+    }
     Ok(())
+}
+
+fn microscope(
+    args: &Args,
+    server: &SimServer,
+    config: &SimConfig,
+    rig_path: &std::path::Path,
+) -> anyhow::Result<MicroscopeFeeder> {
+    let rig = RigFile::load(rig_path)?;
+    let scene =
+        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    let layout = match &args.layout {
+        Some(path) => Layout::read(path)?,
+        None => {
+            let travel =
+                |i: usize| (config.axes[i].max - config.axes[i].min) * rig.stage.unit_um * 1e-6;
+            layout_in_travel(
+                &scene,
+                args.particles,
+                [travel(0), travel(1)],
+                LAYOUT_MARGIN_UM * 1e-6,
+                args.seed,
+            )?
+        }
+    };
+    Ok(MicroscopeFeeder::for_rig_file(
+        server.handle(),
+        &rig,
+        &scene,
+        &layout,
+        args.seed,
+        Duration::from_millis(args.frame_interval_ms),
+    )?)
 }

@@ -283,7 +283,13 @@ pub struct HardwareRig {
     rig_file: RigFile,
     sent_log: Option<SentLog>,
     interrupt: Arc<AtomicBool>,
+    /// Rig time when the stage last came to rest (a move or halt returned).
+    settled_at_s: f64,
+    stale_frames: usize,
 }
+
+/// Longest a grab keeps discarding frames exposed before the stage settled.
+const STALE_FRAME_PATIENCE: std::time::Duration = std::time::Duration::from_secs(5);
 
 impl HardwareRig {
     /// Opens everything a rig file names: the calibration, the stage (behind
@@ -321,7 +327,19 @@ impl HardwareRig {
             rig_file: rig,
             sent_log,
             interrupt,
+            settled_at_s: f64::NEG_INFINITY,
+            stale_frames: 0,
         })
+    }
+
+    /// Frames discarded so far because they were exposed before the stage
+    /// had settled after its last move.
+    pub fn stale_frames(&self) -> usize {
+        self.stale_frames
+    }
+
+    fn settled(&mut self) {
+        self.settled_at_s = self.clock.now_s();
     }
 
     /// The rig file as loaded (paths resolved).
@@ -363,10 +381,14 @@ impl NanoStage for HardwareRig {
         self.stage.position()
     }
     fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
-        self.stage.move_to(target, speed_m_per_s)
+        let moved = self.stage.move_to(target, speed_m_per_s);
+        self.settled();
+        moved
     }
     fn halt(&mut self) -> Result<(), RigError> {
-        self.stage.halt()
+        let halted = self.stage.halt();
+        self.settled();
+        halted
     }
 }
 
@@ -386,7 +408,27 @@ impl CoarseStage for HardwareRig {
 }
 
 impl Camera for HardwareRig {
+    /// The next frame exposed after the stage last came to rest: a frame
+    /// from before (a camera program's backlog, or one exposed while the
+    /// stage was still moving) shows particles where they no longer are and
+    /// is discarded. After [`STALE_FRAME_PATIENCE`] of stale frames, `Ok(None)`.
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
-        self.camera.grab()
+        let started = std::time::Instant::now();
+        loop {
+            match self.camera.grab()? {
+                Some(f) if f.t_s < self.settled_at_s => {
+                    self.stale_frames += 1;
+                    tracing::debug!(
+                        "frame exposed at {:.3} s, before the stage settled at {:.3} s: discarded",
+                        f.t_s,
+                        self.settled_at_s
+                    );
+                    if started.elapsed() >= STALE_FRAME_PATIENCE {
+                        return Ok(None);
+                    }
+                }
+                other => return Ok(other),
+            }
+        }
     }
 }

@@ -13,6 +13,7 @@ pub mod camera_video;
 pub mod error;
 pub mod gcs;
 pub mod hardware;
+pub mod microscope_feeder;
 pub mod sim;
 pub mod stage;
 

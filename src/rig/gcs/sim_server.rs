@@ -116,11 +116,33 @@ impl SimServer {
         f(&lock(&self.shared.controller), Instant::now())
     }
 
+    /// A handle on the controller that other threads can keep: the simulated
+    /// microscope reads the motions through it.
+    pub fn handle(&self) -> SimHandle {
+        SimHandle {
+            shared: Arc::clone(&self.shared),
+        }
+    }
+
     /// Blocks until `stop` becomes true (for the `sim-gcs` command).
     pub fn run_until(&self, stop: &AtomicBool) {
         while !stop.load(Ordering::SeqCst) {
             std::thread::sleep(POLL);
         }
+    }
+}
+
+/// Shared access to a served controller (see [`SimServer::handle`]); it does
+/// not keep the server threads alive.
+#[derive(Clone)]
+pub struct SimHandle {
+    shared: Arc<Shared>,
+}
+
+impl SimHandle {
+    /// Runs `f` on the controller, at the current instant.
+    pub fn with<R>(&self, f: impl FnOnce(&mut SimController, Instant) -> R) -> R {
+        f(&mut lock(&self.shared.controller), Instant::now())
     }
 }
 

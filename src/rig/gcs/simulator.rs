@@ -64,14 +64,14 @@ struct AxisState {
     start_position: f64,
     start_time: Instant,
     target: f64,
+    /// Simulated seconds per wall-clock second.
+    time_scale: f64,
 }
 
 impl AxisState {
     fn position(&self, now: Instant) -> f64 {
-        let dt = now.saturating_duration_since(self.start_time).as_secs_f64();
-        let distance = self.target - self.start_position;
-        let travelled = (self.velocity * dt).min(distance.abs());
-        self.start_position + travelled.copysign(distance)
+        let dt = now.saturating_duration_since(self.start_time).as_secs_f64() * self.time_scale;
+        travel(self.start_position, self.target, self.velocity, dt)
     }
 
     fn moving(&self, now: Instant) -> bool {
@@ -87,6 +87,61 @@ impl AxisState {
     fn stop(&mut self, now: Instant) {
         let here = self.position(now);
         self.retarget(here, now);
+    }
+}
+
+/// Where an axis that left `from` for `target` at `velocity` is after `dt_s`.
+/// Exactly `target` once reached (`from + (target - from)` need not be
+/// `target` in floating point, and an axis a rounding error short of its
+/// target would never be on target).
+fn travel(from: f64, target: f64, velocity: f64, dt_s: f64) -> f64 {
+    let distance = target - from;
+    let travelled = velocity * dt_s;
+    if travelled >= distance.abs() {
+        target
+    } else {
+        from + travelled.copysign(distance)
+    }
+}
+
+/// How every axis moves from one instant on, until the next [`Motion`]: the
+/// record a simulated world needs to move a probe the way the controller
+/// moved its axes (see [`SimController::record_motions`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Motion {
+    /// When the axes started to move this way.
+    pub at: Instant,
+    /// Axis positions at `at`, controller units.
+    pub from: Vec<f64>,
+    /// Axis targets, controller units.
+    pub targets: Vec<f64>,
+    /// Axis velocities, controller units per simulated second.
+    pub velocities: Vec<f64>,
+    /// Simulated seconds per wall-clock second.
+    pub time_scale: f64,
+}
+
+impl Motion {
+    /// Axis positions `wall_s` wall-clock seconds after `at`.
+    pub fn positions_after(&self, wall_s: f64) -> Vec<f64> {
+        let dt = wall_s.max(0.0) * self.time_scale;
+        (0..self.from.len())
+            .map(|i| travel(self.from[i], self.targets[i], self.velocities[i], dt))
+            .collect()
+    }
+
+    /// Wall-clock seconds after `at` at which each axis is on target.
+    pub fn arrivals_s(&self) -> Vec<f64> {
+        (0..self.from.len())
+            .map(|i| {
+                let d = (self.targets[i] - self.from[i]).abs();
+                if d == 0.0 {
+                    0.0
+                } else {
+                    d / self.velocities[i] / self.time_scale
+                }
+            })
+            .collect()
     }
 }
 
@@ -132,6 +187,7 @@ pub struct SimController {
     config: SimConfig,
     axes: Vec<AxisState>,
     last_error: i32,
+    motions: Option<Vec<Motion>>,
 }
 
 /// Parsed `axis value` pairs, or the GCS error code that parsing set.
@@ -149,13 +205,63 @@ impl SimController {
                 start_position: a.initial_position,
                 start_time: now,
                 target: a.initial_position,
+                time_scale: 1.0,
             })
             .collect();
         Self {
             config,
             axes,
             last_error: 0,
+            motions: None,
         }
+    }
+
+    /// Runs simulated time `scale` times faster than the wall clock (1 by
+    /// default), so that slow pushes rehearse quickly; velocities stay in
+    /// units per simulated second. Motions under way are restarted from
+    /// where they are.
+    pub fn set_time_scale(&mut self, scale: f64, now: Instant) {
+        let scale = if scale.is_finite() && scale > 0.0 {
+            scale
+        } else {
+            1.0
+        };
+        for a in &mut self.axes {
+            let target = a.target;
+            a.retarget(target, now);
+            a.time_scale = scale;
+        }
+        self.note_motion(now);
+    }
+
+    /// Starts keeping a [`Motion`] for every change of motion (moves, halts,
+    /// velocity changes), beginning with the state at `now`, until taken
+    /// with [`SimController::take_motions`]. Off by default, so a long-running
+    /// simulator does not grow.
+    pub fn record_motions(&mut self, now: Instant) {
+        self.motions = Some(Vec::new());
+        self.note_motion(now);
+    }
+
+    /// The motions recorded since the last call, oldest first.
+    pub fn take_motions(&mut self) -> Vec<Motion> {
+        self.motions
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    fn note_motion(&mut self, now: Instant) {
+        let Some(log) = self.motions.as_mut() else {
+            return;
+        };
+        log.push(Motion {
+            at: now,
+            from: self.axes.iter().map(|a| a.position(now)).collect(),
+            targets: self.axes.iter().map(|a| a.target).collect(),
+            velocities: self.axes.iter().map(|a| a.velocity).collect(),
+            time_scale: self.axes.first().map_or(1.0, |a| a.time_scale),
+        });
     }
 
     /// The configuration it was built with.
@@ -245,6 +351,7 @@ impl SimController {
             a.stop(now);
         }
         self.last_error = 10;
+        self.note_motion(now);
     }
 
     /// Feeds raw bytes from a client: control bytes act at once, other bytes
@@ -285,6 +392,7 @@ impl SimController {
             return Vec::new();
         };
         let args: Vec<&str> = words.collect();
+        tracing::debug!("sim-gcs: {line}");
         let outcome = self.dispatch(&name.to_ascii_uppercase(), &args, now);
         match outcome {
             Ok(reply) => reply,
@@ -361,6 +469,7 @@ impl SimController {
                     }
                     axis.servo = on;
                 }
+                self.note_motion(now);
                 Ok(Vec::new())
             }
             "MOV" | "MVR" => {
@@ -384,6 +493,7 @@ impl SimController {
                 for (i, target) in targets {
                     self.axes[i].retarget(target, now);
                 }
+                self.note_motion(now);
                 Ok(Vec::new())
             }
             "VEL" => {
@@ -399,6 +509,7 @@ impl SimController {
                     self.axes[i].retarget(target, now);
                     self.axes[i].velocity = v;
                 }
+                self.note_motion(now);
                 Ok(Vec::new())
             }
             "HLT" => {
@@ -407,6 +518,7 @@ impl SimController {
                     self.axes[i].stop(now);
                 }
                 self.last_error = 10;
+                self.note_motion(now);
                 Ok(Vec::new())
             }
             "STP" => {
@@ -478,6 +590,19 @@ mod tests {
         assert_eq!(err(&mut c), "10");
         assert_eq!(err(&mut c), "0", "ERR? clears the error");
         assert!(!c.any_moving(t0 + Duration::from_millis(100)));
+    }
+
+    #[test]
+    fn an_axis_arrives_exactly_on_target_whatever_the_rounding() {
+        let (mut c, t0) = sim();
+        c.handle_line("SVO 1 1", t0);
+        c.handle_line("MOV 1 98", t0);
+        let t1 = t0 + Duration::from_secs(1);
+        // 98 + (18.196826997 - 98) is 18.196826997000002 in f64.
+        c.handle_line("MOV 1 18.196826997", t1);
+        let t2 = t1 + Duration::from_secs(1);
+        assert_eq!(c.handle_line("ONT? 1", t2), vec!["1=1"]);
+        assert_eq!(c.handle_line("POS? 1", t2), vec!["1=18.196826997"]);
     }
 
     #[test]

@@ -17,9 +17,11 @@ pub const SIM_UM_PER_PX: f64 = 0.25;
 /// Margin the simulated camera sees around the nanostage range, micrometres.
 pub const SIM_CAMERA_MARGIN_UM: f64 = 20.0;
 
-/// Builds the simulated rig: world from `layout`, physics from `scene`, noise from `seed`.
-pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig, RigError> {
-    let world = World {
+/// The simulated world of a layout: its particles (ground truth) and the
+/// scene's tip friction. Shared by the simulated rig and the simulated
+/// microscope that watches the GCS controller simulator.
+pub fn world_for(scene: &Scene, layout: &Layout) -> World {
+    World {
         particles: layout
             .particles
             .iter()
@@ -31,7 +33,12 @@ pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig
             })
             .collect(),
         tip_friction: scene.tip_friction_coefficient,
-    };
+    }
+}
+
+/// Builds the simulated rig: world from `layout`, physics from `scene`, noise from `seed`.
+pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig, RigError> {
+    let world = world_for(scene, layout);
     let config = SimStageConfig {
         drift_m_per_s: [scene.environment.drift_m_per_s, 0.0],
         ..SimStageConfig::default()

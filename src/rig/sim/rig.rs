@@ -9,6 +9,7 @@
 
 use super::stage::SimStage;
 use super::state::SimState;
+use super::world::SimParticle;
 use crate::calib::affine::AffineCalibration;
 use crate::render::microscope::{ParticleView, RenderSettings, SceneView, TipView, render_frame};
 use crate::rig::RigError;
@@ -126,34 +127,53 @@ impl SimRig {
 
     /// What the camera sees now, in pixels (ground truth for tests).
     pub fn scene_view(&self, frame: usize) -> Result<SceneView, RigError> {
-        let cal = &self.camera.calibration;
-        let offset = self.stage.coarse_offset();
+        let visible = self
+            .stage
+            .world
+            .particles
+            .iter()
+            .filter(|p| !self.hidden.contains(&(p.id, frame)));
+        self.camera.view(
+            visible,
+            self.stage.actual_on_sample(),
+            self.stage.coarse_offset(),
+        )
+    }
+}
+
+impl SimCameraConfig {
+    /// What this camera sees of `particles` with the tip at `tip_on_sample`
+    /// and the coarse stage at `coarse_offset` (all on the sample, metres),
+    /// in pixels, ready for [`render_frame`].
+    pub fn view<'p>(
+        &self,
+        particles: impl IntoIterator<Item = &'p SimParticle>,
+        tip_on_sample: StageXyz,
+        coarse_offset: [f64; 2],
+    ) -> Result<SceneView, RigError> {
+        let cal = &self.calibration;
         let to_px = |x: f64, y: f64| {
-            cal.stage_to_pixel(x - offset[0], y - offset[1])
+            cal.stage_to_pixel(x - coarse_offset[0], y - coarse_offset[1])
                 .map_err(|e| RigError::Io(format!("camera calibration: {e}")))
         };
-        let mut particles = Vec::new();
-        for p in &self.stage.world.particles {
-            if self.hidden.contains(&(p.id, frame)) {
-                continue;
-            }
+        let mut views = Vec::new();
+        for p in particles {
             let [x_px, y_px] = to_px(p.x_m, p.y_m)?;
-            particles.push(ParticleView {
+            views.push(ParticleView {
                 x_px,
                 y_px,
                 radius_px: p.radius_m / cal.m_per_px(),
             });
         }
-        let tip = self.stage.actual_on_sample();
-        let [apex_x_px, apex_y_px] = to_px(tip[0], tip[1])?;
+        let [apex_x_px, apex_y_px] = to_px(tip_on_sample[0], tip_on_sample[1])?;
         Ok(SceneView {
-            width_px: self.camera.width_px,
-            height_px: self.camera.height_px,
-            particles,
+            width_px: self.width_px,
+            height_px: self.height_px,
+            particles: views,
             tip: Some(TipView {
                 apex_x_px,
                 apex_y_px,
-                angle_rad: self.camera.tip_angle_rad,
+                angle_rad: self.tip_angle_rad,
             }),
         })
     }

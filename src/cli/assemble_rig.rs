@@ -1,0 +1,330 @@
+//! `nanopush assemble --rig FILE`: the same closed loop as on the simulated
+//! rig, on the hardware a rig file describes ([`HardwareRig`]).
+//!
+//! On hardware there is no layout to start from: the first frame is the
+//! layout. The pattern is placed where the particles the camera sees can fill
+//! it with the least pushing, inside the nanostage's range (the rig has no
+//! coarse stage, so every stroke must fit that range). Safety is the rig's:
+//! soft limits, step and speed checked before any byte is sent, the
+//! confirmation before the first move on a rig file with
+//! `real_hardware = true` (waived only by `--yes-move-hardware`), Ctrl-C
+//! halting the stage (`HLT`). `--dry-run` sends nothing: an in-process
+//! controller answers, the camera is still read, one push is made on paper
+//! and every byte that would have gone to the stage is written to
+//! `sent-bytes.log` in the output folder.
+//!
+//! The report's placement errors are what the camera measured (there is no
+//! ground truth on a rig), and its time is wall time.
+
+use super::assemble::Args;
+use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
+use crate::exec::events::{RunEvent, RunSpec};
+use crate::exec::journal::{JournalWriter, read_journal};
+use crate::exec::observe::Perception;
+use crate::exec::report::{
+    AssemblyReport, REPORT_SCHEMA, count_journal, error_figures_nm, lower_bound_s,
+};
+use crate::model::{Scene, simulate_push};
+use crate::plan::pattern::transform::{Reachable, place_optimised};
+use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
+use crate::rig::Rig;
+use crate::rig::gcs::SentLog;
+use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
+use crate::rig::stage::NanoStage;
+use crate::vision::detect::DetectSettings;
+use crate::vision::frame_input::save_png;
+use crate::vision::tip::TipSettings;
+use anyhow::{Context, bail};
+use nalgebra::Vector2;
+use std::path::{Path, PathBuf};
+
+/// The hardware-rig flags of `nanopush assemble`.
+#[derive(clap::Args, Debug, Default)]
+pub struct RigArgs {
+    /// Assemble on the rig this rig file describes (stage, camera,
+    /// calibration, safety limits) instead of the simulated rig.
+    #[arg(long, value_name = "FILE")]
+    pub rig: Option<PathBuf>,
+    /// With --rig: send nothing to the stage; log every byte that would be
+    /// sent (sent-bytes.log) while an in-process controller answers. Makes
+    /// one push on paper.
+    #[arg(long, requires = "rig")]
+    pub dry_run: bool,
+    /// With --rig: move real hardware without asking first (the rig file's
+    /// `real_hardware = true` otherwise asks for `yes` before the first move).
+    #[arg(long, requires = "rig")]
+    pub yes_move_hardware: bool,
+}
+
+const JOURNAL: &str = "journal.jsonl";
+const SENT_BYTES: &str = "sent-bytes.log";
+
+/// Runs the assembly on the hardware rig named by `args.hardware.rig`.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    show_warnings();
+    let hw = &args.hardware;
+    let Some(rig_path) = &hw.rig else {
+        bail!("assemble on a rig needs --rig FILE");
+    };
+    if args.resume.is_some() {
+        bail!("--resume is not supported with --rig yet: start a new run with another --out");
+    }
+    if args.layout.is_some() {
+        bail!("--layout is for the simulated rig: with --rig the camera shows the layout");
+    }
+    let scene =
+        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let journal_path = args.out.join(JOURNAL);
+    let journal = JournalWriter::create(&journal_path)
+        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
+    let mut rig = HardwareRig::open(
+        rig_path,
+        HardwareRigOptions {
+            dry_run: hw.dry_run,
+            waive_confirmation: hw.yes_move_hardware,
+            ..Default::default()
+        },
+    )
+    .with_context(|| format!("opening the rig {}", rig_path.display()))?;
+    let result = assemble(args, &scene, &mut rig, journal, &journal_path);
+    // Whatever happened, the stage is left still.
+    let _ = rig.halt();
+    if let Some(log) = rig.sent_log() {
+        let path = args.out.join(SENT_BYTES);
+        write_sent_log(log, &path)?;
+        println!("bytes that would have been sent: {}", path.display());
+    }
+    let report = result?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_summary(&report, rig_path, &args.out);
+    }
+    if rig
+        .interrupt_flag()
+        .load(std::sync::atomic::Ordering::SeqCst)
+    {
+        bail!("interrupted: the stage was halted");
+    }
+    if report.outcome != "done" && !hw.dry_run {
+        bail!("assembly did not finish: {}", report.outcome);
+    }
+    Ok(())
+}
+
+/// Rig warnings (skipped frame files, discarded frames, halts) go to
+/// stderr; `RUST_LOG` (e.g. `nanopush=debug`) shows more.
+pub(super) fn show_warnings() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(filter)
+        .try_init();
+}
+
+fn assemble(
+    args: &Args,
+    scene: &Scene,
+    rig: &mut HardwareRig,
+    journal: JournalWriter,
+    journal_path: &Path,
+) -> anyhow::Result<AssemblyReport> {
+    let r = scene.particle_radius_m;
+    let mut settings = AssemblySettings::default();
+    let range = rig.range();
+    settings.field_m = [range[0].max_m, range[1].max_m];
+    if args.hardware.dry_run {
+        settings.max_pushes = 1;
+    }
+    let perception = perception_for(scene, rig);
+    let calibration = *rig.calibration();
+    let first = perception
+        .sight(rig, &calibration, [0.0, 0.0])
+        .context("the first frame")?;
+    if first.particles.is_empty() {
+        bail!(
+            "no particles of radius {:.2} um in the first frame",
+            r * 1e6
+        );
+    }
+    let sites = sites_for(args, scene, rig, &first.particles)?;
+    let spec = RunSpec {
+        pattern: args
+            .text
+            .clone()
+            .or_else(|| args.pattern.as_ref().map(|p| p.display().to_string()))
+            .unwrap_or_default(),
+        scene: args.scene.display().to_string(),
+        layout: None,
+        seed: args.seed,
+        sites_um: sites
+            .iter()
+            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+            .collect(),
+        radius_um: r * 1e6,
+    };
+    let inputs = AssemblyInputs {
+        scene: scene.clone(),
+        sites,
+        plan_config: PlanConfig {
+            push_speed_m_per_s: scene.push.speed_m_per_s,
+            travel_speed_m_per_s: settings.travel_speed_m_per_s,
+            ..PlanConfig::default()
+        },
+        perception,
+        settings: settings.clone(),
+    };
+    let (end, sites, errors_m, last) = {
+        let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
+        let end = assembly.run();
+        let errors_m = assembly.site_errors_m();
+        (
+            end,
+            assembly.sites().to_vec(),
+            errors_m,
+            assembly.last_sighting.clone(),
+        )
+    };
+    let end = end?;
+    let entries = read_journal::<RunEvent>(journal_path)?.entries;
+    let sites_um: Vec<[f64; 2]> = sites
+        .iter()
+        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+        .collect();
+    let counts = count_journal(&entries, &sites_um, settings.placed_tolerance_m * 1e6);
+    let (rms_error_nm, max_error_nm) = error_figures_nm(&errors_m);
+    let report = AssemblyReport {
+        schema: REPORT_SCHEMA.to_owned(),
+        outcome: match &end {
+            RunEnd::Done => "done".to_owned(),
+            RunEnd::Stopped(why) => format!("stopped: {why}"),
+        },
+        sites: sites.len(),
+        filled: errors_m
+            .iter()
+            .filter(|e| **e <= settings.placed_tolerance_m)
+            .count(),
+        rms_error_nm,
+        max_error_nm,
+        error_source: "camera".to_owned(),
+        site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
+        pushes: counts.pushes,
+        repushes: counts.repushes,
+        lost_contacts_detected: counts.lost_contacts_detected,
+        lost_contacts_missed: None,
+        time_s: rig.now_s(),
+        lower_bound_s: lower_bound_s(
+            &counts,
+            scene.push.speed_m_per_s,
+            settings.travel_speed_m_per_s,
+        ),
+        active_effects: simulate_push(scene, &scene.push)
+            .map(|r| r.active_effects)
+            .unwrap_or_default(),
+    };
+    std::fs::write(
+        args.out.join("report.json"),
+        serde_json::to_string_pretty(&report)?,
+    )?;
+    if let Some(last) = &last {
+        save_png(&last.frame, &args.out.join("final.png"))?;
+    }
+    write_sites(&sites, rig, &args.out.join("sites.json"))?;
+    Ok(report)
+}
+
+/// Frame analysis for this rig's camera: the particles' size in its pixels.
+fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
+    Perception {
+        detect: DetectSettings {
+            diameter_px: 2.0 * scene.particle_radius_m / rig.calibration().m_per_px(),
+            ..DetectSettings::default()
+        },
+        tip: TipSettings::default(),
+        max_grabs: 5,
+    }
+}
+
+/// Where sites may lie: a radius and the clearance inside the nanostage's
+/// range, so that a particle on a site is whole inside it and the tip can
+/// reach around it. (Strokes still leave the range when a particle must be
+/// approached from beyond its edge; the executor then stops with the rig's
+/// out-of-range error, as this rig has no coarse stage to bring it closer.)
+fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reachable {
+    let range = rig.range();
+    let margin = radius_m + clearance_m;
+    Reachable {
+        lo_m: Vector2::new(range[0].min_m + margin, range[1].min_m + margin),
+        hi_m: Vector2::new(range[0].max_m - margin, range[1].max_m - margin),
+    }
+}
+
+fn sites_for(
+    args: &Args,
+    scene: &Scene,
+    rig: &HardwareRig,
+    seen: &[crate::exec::tracker::Observation],
+) -> anyhow::Result<Vec<Site>> {
+    let r = scene.particle_radius_m;
+    let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
+    let pattern = match (&args.text, &args.pattern) {
+        (Some(text), _) => Pattern::from_text(text, pitch)?,
+        (None, Some(path)) => crate::plan::pattern::site_list::read_pattern(path, pitch)?,
+        (None, None) => bail!("give --text or --pattern"),
+    };
+    let centres: Vec<_> = seen.iter().map(|p| Vector2::new(p.x_m, p.y_m)).collect();
+    place_optimised(
+        &pattern,
+        &reachable_sites(rig, r, AssemblySettings::default().clearance_m),
+        r,
+        &centres,
+    )
+    .context("placing the pattern among the particles of the first frame")
+}
+
+/// Writes each target site in um and in the camera's pixels.
+fn write_sites(sites: &[Site], rig: &HardwareRig, path: &Path) -> anyhow::Result<()> {
+    let cal = rig.calibration();
+    let mut rows = Vec::new();
+    for s in sites {
+        let [x_px, y_px] = cal.stage_to_pixel(s.centre_m.x, s.centre_m.y)?;
+        rows.push(serde_json::json!({
+            "id": s.id,
+            "x_um": s.centre_m.x * 1e6,
+            "y_um": s.centre_m.y * 1e6,
+            "x_px": x_px,
+            "y_px": y_px,
+        }));
+    }
+    let doc = serde_json::json!({"schema": "nanopush.sites/1", "sites": rows});
+    std::fs::write(path, serde_json::to_string_pretty(&doc)?)?;
+    Ok(())
+}
+
+/// One line per message, bytes outside printable ASCII escaped (`\n` ends each command).
+fn write_sent_log(log: &SentLog, path: &Path) -> anyhow::Result<()> {
+    let sent = log.lock().unwrap_or_else(|p| p.into_inner());
+    let text: String = sent
+        .iter()
+        .map(|bytes| format!("{}\n", bytes.escape_ascii()))
+        .collect();
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
+    println!("assembly on {}: {}", rig.display(), r.outcome);
+    println!("  sites filled     {}/{}", r.filled, r.sites);
+    println!(
+        "  placement error  rms {:.0} nm, max {:.0} nm (camera)",
+        r.rms_error_nm, r.max_error_nm
+    );
+    println!(
+        "  pushes           {} ({} re-pushes, {} lost contacts)",
+        r.pushes, r.repushes, r.lost_contacts_detected
+    );
+    println!("  wall time        {:.1} s", r.time_s);
+    println!("report: {}", out.join("report.json").display());
+}
