@@ -224,6 +224,8 @@ fn assemble(
         active_effects: simulate_push(scene, &scene.push)
             .map(|r| r.active_effects)
             .unwrap_or_default(),
+        // A hardware rig has no model inside to count.
+        effect_work: None,
     };
     std::fs::write(
         args.out.join("report.json"),
