@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{box_mean, max_filter};
+use super::filter::{box_mean_in_place, local_maxima};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
@@ -146,10 +146,17 @@ struct Bandpass {
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
-    let smooth = box_mean(frame.pixels(), w, h, 1);
+    // Three full-frame buffers in all: fresh 4 MB allocations cost page
+    // faults, which on a 1024x1024 frame took as long as the filtering.
+    let mut values = frame.pixels().to_vec();
+    let mut bg = frame.pixels().to_vec();
+    let mut scratch = vec![0.0f32; w * h];
+    box_mean_in_place(&mut values, &mut scratch, w, h, 1);
     let bg_r = diameter.ceil() as usize;
-    let bg = box_mean(frame.pixels(), w, h, bg_r);
-    let values: Vec<f32> = smooth.iter().zip(&bg).map(|(s, b)| s - b).collect();
+    box_mean_in_place(&mut bg, &mut scratch, w, h, bg_r);
+    for (v, b) in values.iter_mut().zip(&bg) {
+        *v -= b;
+    }
     let sigma = estimate_noise_sigma(frame);
     let big = ((2 * bg_r + 1) as f64).powi(2);
     // White noise through (3x3 mean - big mean): sum of squared kernel weights.
@@ -173,44 +180,27 @@ pub fn find_candidates(
 
 fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> Vec<Candidate> {
     let (w, h) = (frame.width(), frame.height());
-    // Rings need the whole ring in the energy window; spots a tighter one so
-    // that crowded neighbours stay separate maxima.
-    let frac = match model_for(settings) {
-        ProfileModel::Ring => 0.3,
-        ProfileModel::Spot => 0.3,
-    };
-    let r = (frac * settings.diameter_px).round().max(1.0) as usize;
-    let sq: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
-    let energy = box_mean(&sq, w, h, r);
+    // A window of 0.3 diameter keeps crowded neighbours separate maxima; a ring
+    // may give several (core and ring), which fit to one centre and are merged.
+    let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
+    // Energy: local mean of the squared band-pass (two scratch frames, reused).
+    let mut energy: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
+    let mut scratch = vec![0.0f32; w * h];
+    box_mean_in_place(&mut energy, &mut scratch, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
     let noise_e = bp.noise_var.max(1e-12);
     let e_sd = noise_e * (2.0 / n_eff).sqrt();
     let threshold = (noise_e + settings.threshold_sigma * e_sd) as f32;
     let sat = frame.max_count();
-    let all_saturated_or_flat = |x: usize, y: usize| frame.at(x, y) >= sat;
-    // A pixel can only be a local maximum where it equals the window max;
-    // the full window scan (with its tie rule) runs on those few pixels only.
-    let window_max = max_filter(&energy, w, h, r);
-    let mut out = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let e = energy[y * w + x];
-            if e <= threshold
-                || e < window_max[y * w + x]
-                || all_saturated_or_flat(x, y) && bp.values[y * w + x] == 0.0
-            {
-                continue;
-            }
-            if wins_ties(&energy, w, h, x, y, r) {
-                out.push(Candidate {
-                    x,
-                    y,
-                    snr: (e as f64 - noise_e) / e_sd,
-                });
-            }
-        }
-    }
-    out
+    local_maxima(&energy, w, h, r, threshold)
+        .into_iter()
+        .filter(|&i| !(frame.pixels()[i] >= sat && bp.values[i] == 0.0))
+        .map(|i| Candidate {
+            x: i % w,
+            y: i / w,
+            snr: (energy[i] as f64 - noise_e) / e_sd,
+        })
+        .collect()
 }
 
 /// Ring cores as candidates too: in a cluster of touching rings the energy's
@@ -226,36 +216,28 @@ fn add_core_candidates(
 ) {
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     let sd = bp.noise_var.max(1e-12).sqrt();
-    let threshold = settings.threshold_sigma * sd;
+    let threshold = (settings.threshold_sigma * sd) as f32;
     let signs: &[f32] = match settings.polarity {
         Some(Polarity::Bright) => &[1.0],
         Some(Polarity::Dark) => &[-1.0],
         None => &[1.0, -1.0],
     };
     let edge = r.min(w / 2).min(h / 2);
+    let inside = |x: usize, y: usize| x >= edge && y >= edge && x + edge < w && y + edge < h;
     let near2 = (0.25 * settings.diameter_px).powi(2);
     for &sign in signs {
         let v: Vec<f32> = bp.values.iter().map(|x| sign * x).collect();
-        let window_max = max_filter(&v, w, h, r);
-        for y in edge..h - edge {
-            for x in edge..w - edge {
-                let e = v[y * w + x];
-                if (e as f64) <= threshold
-                    || e < window_max[y * w + x]
-                    || !wins_ties(&v, w, h, x, y, r)
-                {
-                    continue;
-                }
-                let taken = out.iter().any(|c| {
-                    (c.x as f64 - x as f64).powi(2) + (c.y as f64 - y as f64).powi(2) < near2
+        for i in local_maxima(&v, w, h, r, threshold) {
+            let (x, y) = (i % w, i / w);
+            let taken = out
+                .iter()
+                .any(|c| (c.x as f64 - x as f64).powi(2) + (c.y as f64 - y as f64).powi(2) < near2);
+            if inside(x, y) && !taken {
+                out.push(Candidate {
+                    x,
+                    y,
+                    snr: v[i] as f64 / sd,
                 });
-                if !taken {
-                    out.push(Candidate {
-                        x,
-                        y,
-                        snr: e as f64 / sd,
-                    });
-                }
             }
         }
     }
@@ -278,29 +260,6 @@ fn neighbour_candidates(
             d >= near && d <= far
         })
         .collect()
-}
-
-/// True unless an equal value earlier in raster order shares the window
-/// (a plateau gives one candidate, its first pixel).
-fn wins_ties(energy: &[f32], w: usize, h: usize, x: usize, y: usize, r: usize) -> bool {
-    let e = energy[y * w + x];
-    let m = r as isize;
-    for dy in -m..=0 {
-        let yy = y as isize + dy;
-        if yy < 0 || yy >= h as isize {
-            continue;
-        }
-        for dx in -m..=m {
-            let xx = x as isize + dx;
-            if xx < 0 || xx >= w as isize || (dy == 0 && dx >= 0) {
-                continue;
-            }
-            if energy[yy as usize * w + xx as usize] == e {
-                return false;
-            }
-        }
-    }
-    true
 }
 
 fn check(frame: &Frame, settings: &DetectSettings) -> Result<(), DetectError> {

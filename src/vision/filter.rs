@@ -7,180 +7,141 @@
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
 pub fn box_mean(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let tmp = box_rows(src, w, h, r);
-    box_columns(&tmp, w, h, r)
-}
-
-fn box_rows(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut out = vec![0.0f32; w * h];
-    for y in 0..h {
-        let row = &src[y * w..(y + 1) * w];
-        let dst = &mut out[y * w..(y + 1) * w];
-        let mut acc: f64 = row[..(r + 1).min(w)].iter().map(|&v| v as f64).sum();
-        let mut n = (r + 1).min(w);
-        for (x, d) in dst.iter_mut().enumerate() {
-            *d = (acc / n as f64) as f32;
-            if x + r + 1 < w {
-                acc += row[x + r + 1] as f64;
-                n += 1;
-            }
-            if x >= r {
-                acc -= row[x - r] as f64;
-                n -= 1;
-            }
-        }
-    }
+    let mut out = src.to_vec();
+    let mut scratch = vec![0.0f32; w * h];
+    box_mean_in_place(&mut out, &mut scratch, w, h, r);
     out
 }
 
+/// [`box_mean`] replacing `image` by its box mean, with a caller-owned
+/// scratch frame of the same size (no allocation per call).
+pub fn box_mean_in_place(image: &mut [f32], scratch: &mut [f32], w: usize, h: usize, r: usize) {
+    box_rows(image, scratch, w, h, r);
+    box_columns(scratch, image, w, h, r);
+}
+
+/// 1 / (pixels in the window cut at the ends) for every position along a line.
+fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
+    (0..n)
+        .map(|i| 1.0 / ((i + r).min(n - 1) + 1 - i.saturating_sub(r)) as f64)
+        .collect()
+}
+
+/// Horizontal pass. A running sum along a row is one long dependency chain;
+/// instead the window sum is built from power-of-two partial sums (binary
+/// decomposition of 2r+1), each a whole-row element-wise add that
+/// vectorises. No running subtraction, so no drift in f32.
+fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+    out.fill(0.0);
+    let inv: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
+    let len = w + 2 * r;
+    let mut pow = vec![0.0f32; len];
+    let mut next = vec![0.0f32; len];
+    for y in 0..h {
+        // pow = the row with r zeros either side: window [x, x + 2r] of pow
+        // is the window [x - r, x + r] of the row, cut at the ends.
+        pow.fill(0.0);
+        pow[r..r + w].copy_from_slice(&src[y * w..(y + 1) * w]);
+        let dst = &mut out[y * w..(y + 1) * w];
+        let (mut rem, mut width, mut offset) = (2 * r + 1, 1usize, 0usize);
+        loop {
+            if rem & 1 == 1 {
+                for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
+                    *d += p;
+                }
+                offset += width;
+            }
+            rem >>= 1;
+            if rem == 0 {
+                break;
+            }
+            // next[i]: the sum of 2 * width elements from i.
+            for ((n, &a), &b) in next.iter_mut().zip(&pow).zip(&pow[width..]) {
+                *n = a + b;
+            }
+            std::mem::swap(&mut pow, &mut next);
+            width *= 2;
+        }
+        for (d, &k) in dst.iter_mut().zip(&inv) {
+            *d *= k;
+        }
+    }
+}
+
 /// Vertical pass with a running row of column sums (cache-friendly).
-fn box_columns(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut out = vec![0.0f32; w * h];
+fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
     let mut acc = vec![0.0f64; w];
-    let mut n = 0usize;
     for y in 0..(r + 1).min(h) {
         for (a, &v) in acc.iter_mut().zip(&src[y * w..(y + 1) * w]) {
             *a += v as f64;
         }
-        n += 1;
     }
+    let inv_rows = inverse_counts(h, r);
+    let row = |y: usize| &src[y * w..(y + 1) * w];
     for y in 0..h {
-        let inv = 1.0 / n as f64;
+        let inv = inv_rows[y];
         for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
             *d = (a * inv) as f32;
         }
-        if y + r + 1 < h {
-            let add = &src[(y + r + 1) * w..(y + r + 2) * w];
-            for (a, &v) in acc.iter_mut().zip(add) {
-                *a += v as f64;
+        match (y + r + 1 < h, y >= r) {
+            (true, true) => {
+                for ((a, &p), &m) in acc.iter_mut().zip(row(y + r + 1)).zip(row(y - r)) {
+                    *a += p as f64 - m as f64;
+                }
             }
-            n += 1;
+            (true, false) => {
+                for (a, &p) in acc.iter_mut().zip(row(y + r + 1)) {
+                    *a += p as f64;
+                }
+            }
+            (false, true) => {
+                for (a, &m) in acc.iter_mut().zip(row(y - r)) {
+                    *a -= m as f64;
+                }
+            }
+            (false, false) => {}
         }
-        if y >= r {
-            let sub = &src[(y - r) * w..(y - r + 1) * w];
-            for (a, &v) in acc.iter_mut().zip(sub) {
-                *a -= v as f64;
+    }
+}
+
+/// Pixels above `threshold` that equal the maximum of the (2r+1)^2 window
+/// around them (cut at the borders), in raster order; on a plateau only its
+/// first pixel in raster order counts. Row-major indices.
+///
+/// The 8 neighbours are checked first: on a smooth map almost every pixel
+/// above the threshold has a larger neighbour and is rejected there, so the
+/// full window is scanned only at the few true peaks.
+pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -> Vec<usize> {
+    let mut out = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let v = src[y * w + x];
+            if v > threshold
+                && wins_window(src, w, h, x, y, 1.min(r), v)
+                && (r <= 1 || wins_window(src, w, h, x, y, r, v))
+            {
+                out.push(y * w + x);
             }
-            n -= 1;
         }
     }
     out
 }
 
-/// Maximum over the (2r+1)^2 window around every pixel; the window is cut at
-/// the borders (pixels outside the frame do not exist, they are not zero).
-/// Local maxima of an image are where it equals its max filter.
-pub fn max_filter(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut rows = vec![0.0f32; w * h];
-    let mut scratch = RunningMax::new(w, r);
-    for y in 0..h {
-        scratch.run(&src[y * w..(y + 1) * w], &mut rows[y * w..(y + 1) * w]);
-    }
-    // Columns: the same recurrence with whole rows as the elements, so the
-    // inner loops run along memory and vectorise.
-    max_columns(&rows, w, h, r)
-}
-
-/// Per-row buffers for the van Herk / Gil-Werman running max.
-struct RunningMax {
-    k: usize,
-    r: usize,
-    prefix: Vec<f32>,
-    suffix: Vec<f32>,
-}
-
-impl RunningMax {
-    fn new(n: usize, r: usize) -> Self {
-        let padded = n + 2 * r;
-        Self {
-            k: 2 * r + 1,
-            r,
-            prefix: vec![f32::NEG_INFINITY; padded],
-            suffix: vec![f32::NEG_INFINITY; padded],
-        }
-    }
-
-    /// out[i] = max(src[i - r ..= i + r]) (cut at the ends).
-    fn run(&mut self, src: &[f32], out: &mut [f32]) {
-        let (k, r, n) = (self.k, self.r, src.len());
-        let padded = n + 2 * r;
-        let at = |i: usize| {
-            if i >= r && i - r < n {
-                src[i - r]
-            } else {
-                f32::NEG_INFINITY
+/// True when no pixel of the window around (x, y) exceeds `v`, and none equal
+/// to it comes earlier in raster order.
+#[inline]
+fn wins_window(src: &[f32], w: usize, h: usize, x: usize, y: usize, r: usize, v: f32) -> bool {
+    let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
+    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+        let row = &src[yy * w + x0..=yy * w + x1];
+        for (i, &u) in row.iter().enumerate() {
+            let earlier = yy < y || (yy == y && x0 + i < x);
+            if u > v || (u == v && earlier) {
+                return false;
             }
-        };
-        for i in 0..padded {
-            let v = at(i);
-            self.prefix[i] = if i % k == 0 {
-                v
-            } else {
-                self.prefix[i - 1].max(v)
-            };
-        }
-        for i in (0..padded).rev() {
-            let v = at(i);
-            self.suffix[i] = if i % k == k - 1 || i + 1 == padded {
-                v
-            } else {
-                self.suffix[i + 1].max(v)
-            };
-        }
-        // Window [i, i + k - 1] in padded indices is centred on src[i].
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = self.suffix[i].max(self.prefix[i + k - 1]);
         }
     }
-}
-
-fn max_columns(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let k = 2 * r + 1;
-    let padded = h + 2 * r;
-    let row = |i: usize| -> Option<&[f32]> {
-        (i >= r && i - r < h).then(|| &src[(i - r) * w..(i - r + 1) * w])
-    };
-    let mut prefix = vec![f32::NEG_INFINITY; padded * w];
-    let mut suffix = vec![f32::NEG_INFINITY; padded * w];
-    for i in 0..padded {
-        let (done, rest) = prefix.split_at_mut(i * w);
-        let dst = &mut rest[..w];
-        match (row(i), i % k == 0) {
-            (Some(s), true) => dst.copy_from_slice(s),
-            (None, true) => dst.fill(f32::NEG_INFINITY),
-            (Some(s), false) => {
-                let prev = &done[(i - 1) * w..];
-                for ((d, &p), &v) in dst.iter_mut().zip(prev).zip(s) {
-                    *d = p.max(v);
-                }
-            }
-            (None, false) => dst.copy_from_slice(&done[(i - 1) * w..]),
-        }
-    }
-    for i in (0..padded).rev() {
-        let (head, next) = suffix.split_at_mut((i + 1) * w);
-        let dst = &mut head[i * w..];
-        let restart = i % k == k - 1 || i + 1 == padded;
-        match (row(i), restart) {
-            (Some(s), true) => dst.copy_from_slice(s),
-            (None, true) => dst.fill(f32::NEG_INFINITY),
-            (Some(s), false) => {
-                for ((d, &p), &v) in dst.iter_mut().zip(&next[..w]).zip(s) {
-                    *d = p.max(v);
-                }
-            }
-            (None, false) => dst.copy_from_slice(&next[..w]),
-        }
-    }
-    let mut out = vec![0.0f32; w * h];
-    for y in 0..h {
-        let a = &suffix[y * w..(y + 1) * w];
-        let b = &prefix[(y + k - 1) * w..(y + k) * w];
-        for ((o, &p), &q) in out[y * w..(y + 1) * w].iter_mut().zip(a).zip(b) {
-            *o = p.max(q);
-        }
-    }
-    out
+    true
 }
 
 /// Normalised 1-D Gaussian kernel of width `sigma`, radius ceil(3 sigma).
@@ -249,23 +210,65 @@ mod tests {
     }
 
     #[test]
-    fn max_filter_equals_the_brute_force_window_max() {
-        let (w, h) = (23, 17);
-        // A deterministic, irregular image (no ties to hide errors).
+    fn box_mean_equals_the_brute_force_window_mean() {
+        let (w, h) = (37, 23);
         let src: Vec<f32> = (0..w * h)
             .map(|i| ((i * 7919) % 1009) as f32 - 500.0)
             .collect();
-        for r in [0usize, 1, 2, 5, 12] {
-            let fast = max_filter(&src, w, h, r);
+        for r in [0usize, 1, 2, 5, 17, 40] {
+            let fast = box_mean(&src, w, h, r);
             for y in 0..h {
                 for x in 0..w {
-                    let mut m = f32::NEG_INFINITY;
+                    let (mut sum, mut n) = (0.0f64, 0usize);
                     for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
                         for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                            m = m.max(src[yy * w + xx]);
+                            sum += src[yy * w + xx] as f64;
+                            n += 1;
                         }
                     }
-                    assert_eq!(fast[y * w + x], m, "r {r} at ({x}, {y})");
+                    let want = sum / n as f64;
+                    assert!(
+                        (fast[y * w + x] as f64 - want).abs() < 1e-4 * (1.0 + want.abs()),
+                        "r {r} at ({x}, {y}): {} vs {want}",
+                        fast[y * w + x]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn local_maxima_equal_the_brute_force_window_maxima() {
+        let (w, h) = (23, 17);
+        // An irregular image with a plateau (ties resolved in raster order).
+        let mut src: Vec<f32> = (0..w * h)
+            .map(|i| ((i * 7919) % 1009) as f32 - 500.0)
+            .collect();
+        for i in [5 * w + 5, 5 * w + 6, 6 * w + 5] {
+            src[i] = 600.0;
+        }
+        for r in [0usize, 1, 2, 5, 12] {
+            for threshold in [-1000.0f32, 100.0] {
+                let mut want = Vec::new();
+                for y in 0..h {
+                    for x in 0..w {
+                        let v = src[y * w + x];
+                        let mut best = true;
+                        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                                let u = src[yy * w + xx];
+                                let earlier = (yy, xx) < (y, x);
+                                best &= u < v || (u == v && !earlier);
+                            }
+                        }
+                        if v > threshold && best {
+                            want.push(y * w + x);
+                        }
+                    }
+                }
+                assert_eq!(local_maxima(&src, w, h, r, threshold), want, "r {r}");
+                if r >= 1 {
+                    assert!(want.contains(&(5 * w + 5)) && !want.contains(&(5 * w + 6)));
                 }
             }
         }

@@ -68,6 +68,9 @@ where
             jtr += *grad * (w * r);
             jtj.syger(w, grad, grad, 1.0);
         }
+        // syger fills the lower triangle only (enough for the Cholesky step);
+        // the covariance is an inverse of the whole matrix.
+        jtj.fill_upper_triangle_with_lower_triangle();
         (jtj, jtr, rss)
     };
     let mut p = init;
@@ -168,5 +171,41 @@ mod tests {
             levenberg_marquardt(&samples[..2], SVector::<f64, 2>::new(1.0, 0.1), 5, model),
             Err(FitError::TooFewSamples { .. })
         ));
+    }
+
+    #[test]
+    fn covariance_is_the_inverse_of_the_whole_normal_matrix() {
+        // y = a + b x with x far from 0: a and b are strongly correlated, so
+        // var(a) from the full inverse is far above 1 / (J^T J)_aa.
+        let samples: Vec<Sample> = (0..10)
+            .map(|i| {
+                let x = 100.0 + i as f64;
+                (
+                    x,
+                    0.0,
+                    2.0 + 0.5 * x + if i % 2 == 0 { 0.1 } else { -0.1 },
+                    1.0,
+                )
+            })
+            .collect();
+        let model = |x: f64, _y: f64, p: &SVector<f64, 2>, g: &mut SVector<f64, 2>| {
+            g[0] = 1.0;
+            g[1] = x;
+            p[0] + p[1] * x
+        };
+        let fit =
+            levenberg_marquardt(&samples, SVector::<f64, 2>::new(0.0, 0.0), 50, model).unwrap();
+        let n = samples.len() as f64;
+        let (sx, sxx) = samples
+            .iter()
+            .fold((0.0, 0.0), |(a, b), s| (a + s.0, b + s.0 * s.0));
+        // (X^T X)^-1 for a straight line: var(a) = sxx / (n sxx - sx^2) per unit variance.
+        let want = fit.residual_variance * sxx / (n * sxx - sx * sx);
+        assert!(
+            (fit.covariance[(0, 0)] / want - 1.0).abs() < 1e-6,
+            "{} vs {want}",
+            fit.covariance[(0, 0)]
+        );
+        assert!((fit.covariance[(0, 1)] - fit.covariance[(1, 0)]).abs() < 1e-9 * want);
     }
 }
