@@ -45,7 +45,9 @@ pub struct AssemblySettings {
     pub max_pushes: usize,
     /// Stage faults in a row after which the run stops (default 3).
     pub max_stage_faults: u32,
-    /// Speed of lifted travel and vertical moves (default 10 um/s).
+    /// Speed of lifted travel and vertical moves (default 50 um/s: the tip is
+    /// off the sample, piezo nanostages travel at mm/s, and the lower bound is
+    /// computed at the same speed).
     pub travel_speed_m_per_s: f64,
     /// Gap between tip and particle where the tip is lowered (default 1 um).
     pub clearance_m: f64,
@@ -63,7 +65,7 @@ impl Default for AssemblySettings {
             max_tries: 3,
             max_pushes: 400,
             max_stage_faults: 3,
-            travel_speed_m_per_s: 10e-6,
+            travel_speed_m_per_s: 50e-6,
             clearance_m: 1e-6,
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
