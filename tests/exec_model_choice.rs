@@ -64,17 +64,18 @@ fn run(scene: &Path, out: &Path) -> Vec<(f64, RunEvent)> {
 fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
     let mut out = Vec::new();
     for (t_s, e) in events {
-        match e {
-            RunEvent::Decision {
-                particle,
-                from_um,
-                to_um,
-                contact_angle_deg,
-                duration_s,
-                onset_s,
-                critical_force_un,
-                ..
-            } => out.push(Decision {
+        if let RunEvent::Decision {
+            particle,
+            from_um,
+            to_um,
+            contact_angle_deg,
+            duration_s,
+            onset_s,
+            critical_force_un,
+            ..
+        } = e
+        {
+            out.push(Decision {
                 t_s: *t_s,
                 particle: *particle,
                 from_um: *from_um,
@@ -83,8 +84,7 @@ fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
                 duration_s: *duration_s,
                 onset_s: *onset_s,
                 critical_force_un: *critical_force_un,
-            }),
-            _ => {}
+            });
         }
     }
     out
