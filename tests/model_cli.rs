@@ -226,7 +226,7 @@ fn study_writes_a_table_that_reads_back() {
 }
 
 #[test]
-fn demo_writes_the_paper_scene_plots() {
+fn demo_writes_the_paper_scene_plots_and_runs_the_assembly() {
     let dir = tempfile::tempdir().unwrap();
     let out = nanopush()
         .args(["demo", "--out"])
@@ -238,10 +238,15 @@ fn demo_writes_the_paper_scene_plots() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(dir.path().join("push-force.png").exists());
-    let s: PushSummary = serde_json::from_str(
-        &std::fs::read_to_string(dir.path().join("push-summary.json")).unwrap(),
-    )
-    .unwrap();
+    let push = dir.path().join("paper-push");
+    assert!(push.join("push-force.png").exists());
+    let s: PushSummary =
+        serde_json::from_str(&std::fs::read_to_string(push.join("push-summary.json")).unwrap())
+            .unwrap();
     assert_eq!(s.outcome, "rolling");
+    // The assembly ran on the simulated rig and left its report and journal.
+    let assembly = dir.path().join("assemble");
+    assert!(assembly.join("report.json").exists());
+    assert!(assembly.join("journal.jsonl").exists());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("assembly report:"));
 }
