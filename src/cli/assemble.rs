@@ -5,6 +5,7 @@
 //! resume), force plots of the pushes, and with `--record` a recording that
 //! `nanopush dry-run` replays.
 
+use crate::calib::affine::AffineCalibration;
 use crate::exec::animation::AnimationWriter;
 use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, write_report_md};
 use crate::exec::assemble::{
@@ -348,7 +349,12 @@ fn finish(
     if let Some(last) = &run.last {
         save_png(&last.frame, &out.join("final.png"))?;
     }
-    write_sites(&run.sites, rig, &out.join("sites.json"))?;
+    write_sites(
+        &run.sites,
+        rig.calibration(),
+        rig.stage.coarse_offset(),
+        &out.join("sites.json"),
+    )?;
     let pushes = journal_pushes(&entries);
     let plots = write_force_plots(&pushes, scene, out)
         .map_err(anyhow::Error::msg)
@@ -376,14 +382,20 @@ fn finish(
     Ok(report)
 }
 
-/// Writes each target site in um and in the final frame's pixels.
-fn write_sites(sites: &[Site], rig: &SimRig, path: &Path) -> anyhow::Result<()> {
-    let cal = rig.calibration();
-    let offset = rig.stage.coarse_offset();
+/// Writes each target site in um and in the camera's pixels. `coarse_offset_m`
+/// is where the coarse stage has moved the sample (zero on a rig without one).
+pub(super) fn write_sites(
+    sites: &[Site],
+    cal: &AffineCalibration,
+    coarse_offset_m: [f64; 2],
+    path: &Path,
+) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     for s in sites {
-        let [x_px, y_px] =
-            cal.stage_to_pixel(s.centre_m.x - offset[0], s.centre_m.y - offset[1])?;
+        let [x_px, y_px] = cal.stage_to_pixel(
+            s.centre_m.x - coarse_offset_m[0],
+            s.centre_m.y - coarse_offset_m[1],
+        )?;
         rows.push(serde_json::json!({
             "id": s.id,
             "x_um": s.centre_m.x * 1e6,

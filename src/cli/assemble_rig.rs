@@ -16,7 +16,7 @@
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
-use super::assemble::Args;
+use super::assemble::{Args, write_sites};
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
@@ -234,7 +234,13 @@ fn assemble(
     if let Some(last) = &last {
         save_png(&last.frame, &args.out.join("final.png"))?;
     }
-    write_sites(&sites, rig, &args.out.join("sites.json"))?;
+    // No coarse stage on these rigs: the sample does not move under the camera.
+    write_sites(
+        &sites,
+        rig.calibration(),
+        [0.0, 0.0],
+        &args.out.join("sites.json"),
+    )?;
     Ok(report)
 }
 
@@ -285,25 +291,6 @@ fn sites_for(
         &centres,
     )
     .context("placing the pattern among the particles of the first frame")
-}
-
-/// Writes each target site in um and in the camera's pixels.
-fn write_sites(sites: &[Site], rig: &HardwareRig, path: &Path) -> anyhow::Result<()> {
-    let cal = rig.calibration();
-    let mut rows = Vec::new();
-    for s in sites {
-        let [x_px, y_px] = cal.stage_to_pixel(s.centre_m.x, s.centre_m.y)?;
-        rows.push(serde_json::json!({
-            "id": s.id,
-            "x_um": s.centre_m.x * 1e6,
-            "y_um": s.centre_m.y * 1e6,
-            "x_px": x_px,
-            "y_px": y_px,
-        }));
-    }
-    let doc = serde_json::json!({"schema": "nanopush.sites/1", "sites": rows});
-    std::fs::write(path, serde_json::to_string_pretty(&doc)?)?;
-    Ok(())
 }
 
 /// One line per message, bytes outside printable ASCII escaped (`\n` ends each command).
