@@ -15,13 +15,11 @@ use crate::exec::events::RunEvent;
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
-use crate::exec::report::{
-    AssemblyReport, REPORT_SCHEMA, count_journal, error_figures_nm, lower_bound_s,
-};
+use crate::exec::report::{AssemblyReport, RunFacts, count_journal};
 use crate::exec::sim_run::{
     SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, prepare_sim_run,
 };
-use crate::model::{Scene, simulate_push};
+use crate::model::Scene;
 use crate::plan::Site;
 use crate::rig::Rig;
 use crate::rig::sim::build::build_sim_rig;
@@ -281,13 +279,6 @@ fn finish(
     journal_path: &Path,
 ) -> anyhow::Result<AssemblyReport> {
     let entries = read_journal::<RunEvent>(journal_path)?.entries;
-    let sites_um: Vec<[f64; 2]> = run
-        .sites
-        .iter()
-        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-        .collect();
-    let settings = AssemblySettings::default();
-    let counts = count_journal(&entries, &sites_um, settings.placed_tolerance_m * 1e6);
     let truth = &rig.stage.world.particles;
     let errors_m: Vec<f64> = run
         .sites
@@ -299,7 +290,6 @@ fn finish(
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let (rms_error_nm, max_error_nm) = error_figures_nm(&errors_m);
     let contacts = rig.stage.contacts();
     let missed = run
         .records
@@ -311,37 +301,16 @@ fn finish(
                     .any(|c| c.t_s >= r.t_start_s && c.t_s <= r.t_end_s && c.event.lost_contact())
         })
         .count();
-    let effects = simulate_push(scene, &scene.push)
-        .map(|r| r.active_effects)
-        .unwrap_or_default();
-    let report = AssemblyReport {
-        schema: REPORT_SCHEMA.to_owned(),
-        outcome: match &run.end {
-            RunEnd::Done => "done".to_owned(),
-            RunEnd::Stopped(why) => format!("stopped: {why}"),
-        },
-        sites: run.sites.len(),
-        filled: errors_m
-            .iter()
-            .filter(|e| **e <= settings.placed_tolerance_m)
-            .count(),
-        rms_error_nm,
-        max_error_nm,
-        error_source: "ground-truth".to_owned(),
-        site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
-        pushes: counts.pushes,
-        repushes: counts.repushes,
-        lost_contacts_detected: counts.lost_contacts_detected,
+    let facts = RunFacts {
+        end: &run.end,
+        sites: &run.sites,
+        site_errors_m: &errors_m,
+        error_source: "ground-truth",
         lost_contacts_missed: Some(missed),
         time_s: rig.now_s(),
-        lower_bound_s: lower_bound_s(
-            &counts,
-            scene.push.speed_m_per_s,
-            settings.travel_speed_m_per_s,
-        ),
-        active_effects: effects,
         effect_work: Some(rig.stage.effect_work()),
     };
+    let report = AssemblyReport::from_run(facts, &entries, scene, &AssemblySettings::default());
     std::fs::write(
         out.join("report.json"),
         serde_json::to_string_pretty(&report)?,
@@ -377,6 +346,11 @@ fn finish(
         sites: "sites.json".to_owned(),
         report_json: "report.json".to_owned(),
     };
+    let sites_um: Vec<[f64; 2]> = run
+        .sites
+        .iter()
+        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+        .collect();
     write_report_md(&out.join("report.md"), &report, &pushes, &sites_um, &files)
         .context("writing report.md")?;
     Ok(report)

@@ -17,14 +17,12 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, write_sites};
-use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
+use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::Perception;
-use crate::exec::report::{
-    AssemblyReport, REPORT_SCHEMA, count_journal, error_figures_nm, lower_bound_s,
-};
-use crate::model::{Scene, simulate_push};
+use crate::exec::report::{AssemblyReport, RunFacts};
+use crate::model::Scene;
 use crate::plan::pattern::transform::{Reachable, place_optimised};
 use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
@@ -190,43 +188,18 @@ fn assemble(
     };
     let end = end?;
     let entries = read_journal::<RunEvent>(journal_path)?.entries;
-    let sites_um: Vec<[f64; 2]> = sites
-        .iter()
-        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-        .collect();
-    let counts = count_journal(&entries, &sites_um, settings.placed_tolerance_m * 1e6);
-    let (rms_error_nm, max_error_nm) = error_figures_nm(&errors_m);
-    let report = AssemblyReport {
-        schema: REPORT_SCHEMA.to_owned(),
-        outcome: match &end {
-            RunEnd::Done => "done".to_owned(),
-            RunEnd::Stopped(why) => format!("stopped: {why}"),
-        },
-        sites: sites.len(),
-        filled: errors_m
-            .iter()
-            .filter(|e| **e <= settings.placed_tolerance_m)
-            .count(),
-        rms_error_nm,
-        max_error_nm,
-        error_source: "camera".to_owned(),
-        site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
-        pushes: counts.pushes,
-        repushes: counts.repushes,
-        lost_contacts_detected: counts.lost_contacts_detected,
+    let facts = RunFacts {
+        end: &end,
+        sites: &sites,
+        site_errors_m: &errors_m,
+        error_source: "camera",
+        // Nobody knows the lost contacts a real rig's loop missed.
         lost_contacts_missed: None,
         time_s: rig.now_s(),
-        lower_bound_s: lower_bound_s(
-            &counts,
-            scene.push.speed_m_per_s,
-            settings.travel_speed_m_per_s,
-        ),
-        active_effects: simulate_push(scene, &scene.push)
-            .map(|r| r.active_effects)
-            .unwrap_or_default(),
         // A hardware rig has no model inside to count.
         effect_work: None,
     };
+    let report = AssemblyReport::from_run(facts, &entries, scene, &settings);
     std::fs::write(
         args.out.join("report.json"),
         serde_json::to_string_pretty(&report)?,

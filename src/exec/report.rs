@@ -7,9 +7,12 @@
 //! starts (the model's predicted onset), at the push speed; plus the tip
 //! travel lower bound at the travel speed.
 
+use super::assemble::{AssemblySettings, RunEnd};
 use super::events::RunEvent;
 use super::journal::Entry;
 use crate::model::effects::ActiveEffect;
+use crate::model::{Scene, simulate_push};
+use crate::plan::Site;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -54,6 +57,75 @@ pub struct AssemblyReport {
     /// an effect the scene turns off never appears. Null on a real rig.
     #[serde(default)]
     pub effect_work: Option<BTreeMap<String, u64>>,
+}
+
+/// What a finished run tells the report besides its journal; the parts that
+/// differ between the simulated rig (ground truth) and a hardware rig (camera).
+#[derive(Debug, Clone)]
+pub struct RunFacts<'a> {
+    /// How the loop ended.
+    pub end: &'a RunEnd,
+    /// Target sites.
+    pub sites: &'a [Site],
+    /// Placement error of every site, metres.
+    pub site_errors_m: &'a [f64],
+    /// Where the errors come from: "ground-truth" or "camera".
+    pub error_source: &'a str,
+    /// Lost contacts the loop missed, where somebody knows.
+    pub lost_contacts_missed: Option<usize>,
+    /// Rig time at the end, seconds.
+    pub time_s: f64,
+    /// Effect work counted by a simulated rig.
+    pub effect_work: Option<BTreeMap<String, u64>>,
+}
+
+impl AssemblyReport {
+    /// The report of a run: counts from its journal, errors and the rest from `facts`.
+    pub fn from_run(
+        facts: RunFacts<'_>,
+        entries: &[Entry<RunEvent>],
+        scene: &Scene,
+        settings: &AssemblySettings,
+    ) -> Self {
+        let sites_um: Vec<[f64; 2]> = facts
+            .sites
+            .iter()
+            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+            .collect();
+        let counts = count_journal(entries, &sites_um, settings.placed_tolerance_m * 1e6);
+        let errors_m = facts.site_errors_m;
+        let (rms_error_nm, max_error_nm) = error_figures_nm(errors_m);
+        AssemblyReport {
+            schema: REPORT_SCHEMA.to_owned(),
+            outcome: match facts.end {
+                RunEnd::Done => "done".to_owned(),
+                RunEnd::Stopped(why) => format!("stopped: {why}"),
+            },
+            sites: facts.sites.len(),
+            filled: errors_m
+                .iter()
+                .filter(|e| **e <= settings.placed_tolerance_m)
+                .count(),
+            rms_error_nm,
+            max_error_nm,
+            error_source: facts.error_source.to_owned(),
+            site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
+            pushes: counts.pushes,
+            repushes: counts.repushes,
+            lost_contacts_detected: counts.lost_contacts_detected,
+            lost_contacts_missed: facts.lost_contacts_missed,
+            time_s: facts.time_s,
+            lower_bound_s: lower_bound_s(
+                &counts,
+                scene.push.speed_m_per_s,
+                settings.travel_speed_m_per_s,
+            ),
+            active_effects: simulate_push(scene, &scene.push)
+                .map(|r| r.active_effects)
+                .unwrap_or_default(),
+            effect_work: facts.effect_work,
+        }
+    }
 }
 
 /// Counts read off a journal.
