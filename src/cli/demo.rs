@@ -5,10 +5,9 @@
 //! and writes its plots, the model's reference case.
 
 use super::assemble;
+use super::simulate::simulate_scene;
 use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
-use crate::model::push_sim::{SolverSettings, simulate_push_series};
-use crate::model::summary::PushSummary;
 use anyhow::Context;
 use clap::Parser;
 use std::path::{Path, PathBuf};
@@ -81,16 +80,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn paper_push(scene_path: &Path, out: &Path) -> anyhow::Result<()> {
     let scene =
         Scene::load(scene_path).with_context(|| format!("scene {}", scene_path.display()))?;
-    let p = scene.push;
-    let (r, rows) = simulate_push_series(&scene, &p, &SolverSettings::default(), 601)
-        .context("simulation failed")?;
-    let summary = PushSummary::from_result(
-        &scene.name,
-        p.contact_angle_rad.to_degrees(),
-        p.speed_m_per_s * 1e6,
-        p.duration_s,
-        &r,
-    );
+    let (summary, rows) = simulate_scene(&scene)?;
     print!("{}", summary.to_text());
     write_push_outputs(out, &scene.name, &rows).map_err(anyhow::Error::msg)?;
     let json = out.join("push-summary.json");

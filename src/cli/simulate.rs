@@ -3,7 +3,7 @@
 
 use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
-use crate::model::push_sim::{SolverSettings, simulate_push_series};
+use crate::model::push_sim::{SeriesRow, SolverSettings, simulate_push_series};
 use crate::model::summary::PushSummary;
 use anyhow::Context;
 use std::path::PathBuf;
@@ -62,11 +62,10 @@ pub fn scene_with_overrides(args: &Args) -> anyhow::Result<Scene> {
     Ok(scene)
 }
 
-/// Runs the simulation and prints or writes the result.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    let scene = scene_with_overrides(&args)?;
+/// The scene's own push, summarised, with its time series (601 rows) for plots.
+pub(super) fn simulate_scene(scene: &Scene) -> anyhow::Result<(PushSummary, Vec<SeriesRow>)> {
     let p = scene.push;
-    let (result, rows) = simulate_push_series(&scene, &p, &SolverSettings::default(), 601)
+    let (result, rows) = simulate_push_series(scene, &p, &SolverSettings::default(), 601)
         .context("simulation failed")?;
     let summary = PushSummary::from_result(
         &scene.name,
@@ -75,6 +74,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         p.duration_s,
         &result,
     );
+    Ok((summary, rows))
+}
+
+/// Runs the simulation and prints or writes the result.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let scene = scene_with_overrides(&args)?;
+    let (summary, rows) = simulate_scene(&scene)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
