@@ -21,6 +21,7 @@ use crate::exec::sim_run::{
 };
 use crate::model::Scene;
 use crate::plan::Site;
+use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
@@ -346,13 +347,14 @@ fn finish(
         sites: "sites.json".to_owned(),
         report_json: "report.json".to_owned(),
     };
-    let sites_um: Vec<[f64; 2]> = run
-        .sites
-        .iter()
-        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-        .collect();
-    write_report_md(&out.join("report.md"), &report, &pushes, &sites_um, &files)
-        .context("writing report.md")?;
+    write_report_md(
+        &out.join("report.md"),
+        &report,
+        &pushes,
+        &sites_um(&run.sites),
+        &files,
+    )
+    .context("writing report.md")?;
     Ok(report)
 }
 

@@ -23,6 +23,7 @@ use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::Perception;
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
+use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::{Reachable, place_optimised};
 use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
@@ -158,10 +159,7 @@ fn assemble(
         scene: args.scene.display().to_string(),
         layout: None,
         seed: args.seed,
-        sites_um: sites
-            .iter()
-            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-            .collect(),
+        sites_um: sites_um(&sites),
         radius_um: r * 1e6,
     };
     let inputs = AssemblyInputs {

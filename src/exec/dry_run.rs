@@ -12,6 +12,7 @@ use super::recording::Recording;
 use super::tracker::Tracker;
 use crate::model::Scene;
 use crate::plan::pattern::site_list::read_pattern;
+use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::{Reachable, place_optimised};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
@@ -227,11 +228,7 @@ pub fn dry_run(
     Ok(DryRunReport {
         schema: DRY_RUN_SCHEMA.to_owned(),
         recording: recording.dir.display().to_string(),
-        sites_um: sites
-            .unwrap_or_default()
-            .iter()
-            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-            .collect(),
+        sites_um: sites_um(&sites.unwrap_or_default()),
         frames,
     })
 }

@@ -13,6 +13,7 @@ use super::journal::Entry;
 use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
+use crate::plan::pattern::sites_um;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -87,12 +88,11 @@ impl AssemblyReport {
         scene: &Scene,
         settings: &AssemblySettings,
     ) -> Self {
-        let sites_um: Vec<[f64; 2]> = facts
-            .sites
-            .iter()
-            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-            .collect();
-        let counts = count_journal(entries, &sites_um, settings.placed_tolerance_m * 1e6);
+        let counts = count_journal(
+            entries,
+            &sites_um(facts.sites),
+            settings.placed_tolerance_m * 1e6,
+        );
         let errors_m = facts.site_errors_m;
         let (rms_error_nm, max_error_nm) = error_figures_nm(errors_m);
         AssemblyReport {

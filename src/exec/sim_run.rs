@@ -10,6 +10,7 @@ use super::observe::Perception;
 use crate::model::{ModelError, Scene};
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::site_list::read_pattern;
+use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::{Reachable, place_optimised};
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
@@ -111,10 +112,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         scene: req.scene.display().to_string(),
         layout: req.layout.as_ref().map(|p| p.display().to_string()),
         seed: req.seed,
-        sites_um: sites
-            .iter()
-            .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
-            .collect(),
+        sites_um: sites_um(&sites),
         radius_um: scene.particle_radius_m * 1e6,
     };
     let mut rig = build_sim_rig(&scene, &layout, req.seed)?;

@@ -20,6 +20,14 @@ pub struct Site {
     pub centre_m: Vector2<f64>,
 }
 
+/// Site centres in micrometres, as files and the journal write them.
+pub fn sites_um(sites: &[Site]) -> Vec<[f64; 2]> {
+    sites
+        .iter()
+        .map(|s| [s.centre_m.x * 1e6, s.centre_m.y * 1e6])
+        .collect()
+}
+
 /// A pattern before placement: site offsets in metres around the origin.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Pattern {
