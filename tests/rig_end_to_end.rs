@@ -194,7 +194,6 @@ fn sites_m(out_dir: &Path) -> Vec<[f64; 2]> {
 }
 
 #[test]
-#[ignore = "not met on main: the reference run on the simulated rig (L, seed-4 layout of 20) stops on a planner refusal (blocked by an unassigned particle with no free buffer spot); it completed 7/7 (13 nm rms on the GCS rig) on the rig3 branch before the planner and vision merges"]
 fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simulated_rig() {
     // The simulated rig on the same layout: the reference.
     let reference_dir = tempfile::tempdir().unwrap();

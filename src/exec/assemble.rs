@@ -24,7 +24,8 @@ use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
 use crate::plan::layout::{Layout, Particle};
 use crate::plan::pattern::Site;
-use crate::plan::{PlanConfig, Step, plan_assembly};
+use crate::plan::rebase::{rebase_plan, without_first_push};
+use crate::plan::{Plan, PlanConfig, Step, plan_assembly, verify_plan};
 use crate::rig::stage::StageXyz;
 use crate::rig::{Rig, RigError};
 use nalgebra::Vector2;
@@ -55,6 +56,10 @@ pub struct AssemblySettings {
     pub track_gate_m: f64,
     /// Width of the field the particles lie in, metres (the planner's layout field).
     pub field_m: [f64; 2],
+    /// The plan in hand is kept while no particle it pushes is farther than
+    /// this from where it expects it (default 0.5 um, and the kept steps must
+    /// still verify collision-free); beyond, the loop plans afresh.
+    pub keep_plan_shift_m: f64,
 }
 
 impl Default for AssemblySettings {
@@ -69,6 +74,7 @@ impl Default for AssemblySettings {
             clearance_m: 1e-6,
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
+            keep_plan_shift_m: 0.5e-6,
         }
     }
 }
@@ -185,6 +191,8 @@ pub struct Assembly<'a> {
     /// The last analysed frame.
     pub last_sighting: Option<Sighting>,
     plan: Vec<PlannedPush>,
+    /// The steps of the current plan not yet made.
+    plan_in_hand: Option<Plan>,
     park_before_first_look: bool,
     tip_hint_m: Option<[f64; 2]>,
     sink: Option<&'a mut dyn FrameSink>,
@@ -263,6 +271,7 @@ impl<'a> Assembly<'a> {
             records: Vec::new(),
             last_sighting: None,
             plan: Vec::new(),
+            plan_in_hand: None,
             park_before_first_look: false,
             tip_hint_m: None,
             sink: None,
@@ -332,13 +341,16 @@ impl<'a> Assembly<'a> {
                 }
                 self.check(&intent)?;
             }
-            if self
-                .site_errors_m()
-                .iter()
-                .all(|e| *e <= self.settings.placed_tolerance_m)
-            {
-                self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
-                return Ok(RunEnd::Done);
+            if self.all_sites_filled() {
+                // Confirm on a frame with the probe parked clear of the work
+                // area: the last frame may hide particles under it, and the
+                // run's final image should show the whole pattern.
+                self.park_at_start()?;
+                self.observe(&[], None)?;
+                if self.all_sites_filled() {
+                    self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
+                    return Ok(RunEnd::Done);
+                }
             }
             if self.pushes_done >= self.settings.max_pushes {
                 return self.stop(format!(
@@ -388,6 +400,12 @@ impl<'a> Assembly<'a> {
         }
     }
 
+    fn all_sites_filled(&self) -> bool {
+        self.site_errors_m()
+            .iter()
+            .all(|e| *e <= self.settings.placed_tolerance_m)
+    }
+
     fn stop(&mut self, reason: String) -> Result<RunEnd, ExecError> {
         self.journal.append(
             self.rig.now_s(),
@@ -435,16 +453,38 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
+    /// True when the last frame showed this particle (a track outside the
+    /// view or under the probe keeps its old place and is not seen).
     fn seen_now(&self, particle: usize) -> bool {
-        self.tracker
-            .track(particle)
-            .is_some_and(|t| t.missed_frames == 0)
+        self.tracker.track(particle).is_some_and(|t| {
+            t.missed_frames == 0
+                && self
+                    .last_sighting
+                    .as_ref()
+                    .is_some_and(|s| s.shows(t.last.x_m, t.last.y_m))
+        })
     }
 
-    /// Lifts the tip and moves it to the corner of the nanostage's range farthest from `point`.
+    /// Lifts the tip, brings `point` into the camera's view if it is not, and
+    /// moves the tip to the corner of the nanostage's range farthest from it.
     fn park_away_from(&mut self, point: [f64; 2]) -> Result<(), ExecError> {
+        let as_exec = |e: PushError| match e {
+            PushError::Rig(r) => ExecError::Rig(r),
+            PushError::Journal(j) => ExecError::Journal(j),
+            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+        };
         let range = self.rig.range();
         let here = self.rig.position()?;
+        let top = range[2].max_m;
+        let speed = self.settings.travel_speed_m_per_s;
+        self.move_on_sample_raw([here[0], here[1], top], speed)
+            .map_err(as_exec)?;
+        if let Some(view) = self.view_local()
+            && let Some(offset) = offset_fitting(self.coarse_offset, &[(point, view)])
+            && offset != self.coarse_offset
+        {
+            self.move_coarse_lifted(offset).map_err(as_exec)?;
+        }
         let local = [
             point[0] - self.coarse_offset[0],
             point[1] - self.coarse_offset[1],
@@ -456,16 +496,8 @@ impl<'a> Assembly<'a> {
                 range[i].max_m
             }
         };
-        let top = range[2].max_m;
-        let speed = self.settings.travel_speed_m_per_s;
-        let moved = self
-            .move_on_sample_raw([here[0], here[1], top], speed)
-            .and_then(|()| self.move_on_sample_raw([far(0), far(1), top], speed));
-        moved.map_err(|e| match e {
-            PushError::Rig(r) => ExecError::Rig(r),
-            PushError::Journal(j) => ExecError::Journal(j),
-            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
-        })
+        self.move_on_sample_raw([far(0), far(1), top], speed)
+            .map_err(as_exec)
     }
 
     /// Lifts the tip and moves it where a new run starts: the nanostage's
@@ -513,6 +545,9 @@ impl<'a> Assembly<'a> {
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
         }
+        if result == "placed" {
+            self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
+        }
         self.journal.append(
             self.rig.now_s(),
             &RunEvent::Check {
@@ -535,44 +570,59 @@ impl<'a> Assembly<'a> {
         if *tries >= self.settings.max_tries && !self.given_up.contains(&particle) {
             let tries = *tries;
             self.given_up.push(particle);
+            // The plan in hand still moves it: plan afresh around it.
+            self.plan_in_hand = None;
             self.journal
                 .append(self.rig.now_s(), &RunEvent::GiveUp { particle, tries })?;
         }
         Ok(())
     }
 
-    /// Plans from the current tracks and returns the plan's first push, or
-    /// why there is none.
+    /// The next push: from the plan in hand if, moved onto the particles as
+    /// seen now, it still verifies; otherwise from a fresh plan. Returns why
+    /// there is none when the planner refuses.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
-        let particles = planning_particles(self.tracker.tracks(), self.scene.particle_radius_m);
         let layout = Layout {
             field_m: self.settings.field_m,
-            particles,
+            particles: planning_particles(self.tracker.tracks(), self.scene.particle_radius_m),
         };
         let mut config = self.plan_config.clone();
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
         config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
-        config.tip_start_m = self
-            .tip_hint_m
-            .take()
-            .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
-            .map(|t| Vector2::new(t[0], t[1]));
-        let plan = match plan_assembly(&layout, &self.sites, &config) {
-            Ok(plan) => plan,
-            Err(e) => return Ok(Err(format!("planner: {e}"))),
+        let repushed = self.repush_next.map(|id| id as u32);
+        let kept = self.plan_in_hand.take().map(|p| {
+            let p = rebase_plan(&p, &layout, self.settings.keep_plan_shift_m, repushed)
+                .map_err(|e| e.to_string())?;
+            let report = verify_plan(&p, &layout, &config);
+            if report.ok {
+                Ok(p)
+            } else {
+                Err(format!("it no longer verifies: {}", report.summary()))
+            }
+        });
+        let plan = match kept {
+            Some(Ok(plan)) => plan,
+            dropped => {
+                config.tip_start_m = self
+                    .tip_hint_m
+                    .take()
+                    .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
+                    .map(|t| Vector2::new(t[0], t[1]));
+                let because = dropped.and_then(Result::err);
+                match plan_assembly(&layout, &self.sites, &config) {
+                    Ok(plan) => {
+                        self.journal_plan(&plan, because)?;
+                        plan
+                    }
+                    Err(e) => {
+                        let kept = because
+                            .map(|b| format!(" (the plan in hand was dropped: {b})"))
+                            .unwrap_or_default();
+                        return Ok(Err(format!("planner: {e}{kept}")));
+                    }
+                }
+            }
         };
-        let s = &plan.summary;
-        self.journal.append(
-            self.rig.now_s(),
-            &RunEvent::Plan {
-                pushes: s.pushes,
-                push_distance_um: s.push_distance_m * 1e6,
-                tip_travel_um: s.tip_travel_m * 1e6,
-                lb_push_um: s.lb_push_m * 1e6,
-                lb_tip_um: s.lb_tip_m * 1e6,
-                planning_ms: s.planning_time_s * 1e3,
-            },
-        )?;
         self.plan = plan
             .steps
             .iter()
@@ -593,6 +643,8 @@ impl<'a> Assembly<'a> {
             } => Some((*particle as usize, *from_m, *to_m)),
             _ => None,
         });
+        // Its first push leaves the plan when the camera shows it placed (`check`).
+        self.plan_in_hand = Some(plan);
         Ok(first
             .ok_or_else(|| "the plan has no push left".to_owned())
             .map(|(particle, from, to)| {
@@ -605,6 +657,27 @@ impl<'a> Assembly<'a> {
                     radius_m,
                 }
             }))
+    }
+
+    fn journal_plan(
+        &mut self,
+        plan: &Plan,
+        replaced_because: Option<String>,
+    ) -> Result<(), ExecError> {
+        let s = &plan.summary;
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Plan {
+                pushes: s.pushes,
+                push_distance_um: s.push_distance_m * 1e6,
+                tip_travel_um: s.tip_travel_m * 1e6,
+                lb_push_um: s.lb_push_m * 1e6,
+                lb_tip_um: s.lb_tip_m * 1e6,
+                planning_ms: s.planning_time_s * 1e3,
+                replaced_because,
+            },
+        )?;
+        Ok(())
     }
 
     /// Asks the model, lays out the stroke, moves the stage.
@@ -627,7 +700,7 @@ impl<'a> Assembly<'a> {
         })
         .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
         let retreat = retreat_point(&stroke, intent.radius_m);
-        self.fit_window(&stroke, retreat)?;
+        self.fit_window(&stroke, retreat, intent)?;
         let t_start_s = self.rig.now_s();
         let travel = self.settings.travel_speed_m_per_s;
         let here = self.rig.position()?;
@@ -673,44 +746,51 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
-    /// Moves the coarse stage when the stroke does not fit the nanostage's range.
-    fn fit_window(&mut self, stroke: &Stroke, retreat: StageXyz) -> Result<(), PushError> {
+    /// Moves the coarse stage when the stroke does not fit the nanostage's
+    /// range or the camera would not see the particle before and after.
+    fn fit_window(
+        &mut self,
+        stroke: &Stroke,
+        retreat: StageXyz,
+        intent: &PushIntent,
+    ) -> Result<(), PushError> {
         let range = self.rig.range();
-        let points = [
+        let reach = [0, 1].map(|i| [range[i].min_m, range[i].max_m]);
+        let mut needs: Vec<([f64; 2], [[f64; 2]; 2])> = [
             stroke.above,
             stroke.approach,
             stroke.end,
             stroke.lift,
             retreat,
-        ];
-        let fits = |offset: [f64; 2]| {
-            points.iter().all(|p| {
-                (0..2).all(|i| {
-                    let v = p[i] - offset[i];
-                    v >= range[i].min_m && v <= range[i].max_m
-                })
-            })
-        };
-        if fits(self.coarse_offset) {
-            return Ok(());
+        ]
+        .iter()
+        .map(|p| ([p[0], p[1]], reach))
+        .collect();
+        if let Some(view) = self.view_local() {
+            needs.extend([intent.from, intent.to].map(|p| (p, view)));
         }
-        // The smallest coarse move that brings every point into range: per axis,
-        // the current offset clamped into the interval of offsets that fit.
-        let mut offset = self.coarse_offset;
-        for i in 0..2 {
-            let lo = points.iter().map(|p| p[i]).fold(f64::INFINITY, f64::min);
-            let hi = points
-                .iter()
-                .map(|p| p[i])
-                .fold(f64::NEG_INFINITY, f64::max);
-            let (need_lo, need_hi) = (hi - range[i].max_m, lo - range[i].min_m);
-            if need_lo > need_hi {
-                return Err(PushError::Refused(
-                    "the stroke is longer than the nanostage's range".to_owned(),
-                ));
-            }
-            offset[i] = offset[i].clamp(need_lo, need_hi);
+        match offset_fitting(self.coarse_offset, &needs) {
+            Some(offset) if offset == self.coarse_offset => Ok(()),
+            Some(offset) => self.move_coarse_lifted(offset),
+            None => Err(PushError::Refused(
+                "the stroke and the particle's path do not fit the nanostage's range and the camera's view"
+                    .to_owned(),
+            )),
         }
+    }
+
+    /// The part of the nanostage's frame the camera shows whole particles in
+    /// (from the last frame), or None before the first frame.
+    fn view_local(&self) -> Option<[[f64; 2]; 2]> {
+        let s = self.last_sighting.as_ref()?;
+        let [lo, hi] = s.view_m;
+        let o = s.coarse_offset_m;
+        Some([[lo[0] - o[0], hi[0] - o[0]], [lo[1] - o[1], hi[1] - o[1]]])
+    }
+
+    /// Lifts the tip and moves the coarse stage to `offset`.
+    fn move_coarse_lifted(&mut self, offset: [f64; 2]) -> Result<(), PushError> {
+        let range = self.rig.range();
         let here = self.rig.position()?;
         self.move_on_sample_raw(
             [here[0], here[1], range[2].max_m],
@@ -795,6 +875,29 @@ pub fn decide_push(
         &scene_for_push(scene, intent.radius_m, run_time_s),
         distance,
     )
+}
+
+/// The coarse offset nearest `current` that puts every point inside its
+/// bounds (points on the sample, bounds in the nanostage's frame, per axis
+/// [min, max]); None when no offset does.
+fn offset_fitting(current: [f64; 2], needs: &[([f64; 2], [[f64; 2]; 2])]) -> Option<[f64; 2]> {
+    let mut offset = current;
+    for (i, o) in offset.iter_mut().enumerate() {
+        // point - offset in [min, max]  <=>  offset in [point - max, point - min]
+        let lo = needs
+            .iter()
+            .map(|(p, b)| p[i] - b[i][1])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let hi = needs
+            .iter()
+            .map(|(p, b)| p[i] - b[i][0])
+            .fold(f64::INFINITY, f64::min);
+        if lo > hi {
+            return None;
+        }
+        *o = o.clamp(lo, hi);
+    }
+    Some(offset)
 }
 
 /// Where the tip waits after a push: back along the push line, a radius and

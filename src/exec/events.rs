@@ -67,6 +67,10 @@ pub enum RunEvent {
         lb_tip_um: f64,
         /// Wall time spent planning, milliseconds.
         planning_ms: f64,
+        /// Why the plan in hand was not kept (absent on the first plan and in
+        /// journals written before this field).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        replaced_because: Option<String>,
     },
     /// The model's choice for the next push.
     Decision {

@@ -8,10 +8,14 @@ use crate::rig::RigError;
 use crate::rig::camera::Camera;
 use crate::vision::detect::{DetectSettings, detect_particles};
 use crate::vision::frame::Frame;
-use crate::vision::tip::{TipSettings, detect_tip};
+use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
 const RADIUS_TOLERANCE: f64 = 0.3;
+
+/// Gap between a particle's ring and the probe's outline below which the ring
+/// counts as cut by the probe, pixels (the outline's blur).
+const PROBE_SHADOW_MARGIN_PX: f64 = 3.0;
 
 /// A frame's worth of observations.
 #[derive(Debug, Clone)]
@@ -33,13 +37,32 @@ pub struct Sighting {
     pub coarse_offset_m: [f64; 2],
     /// Commanded nanostage position when the frame was taken, if the caller knows it.
     pub stage_m: Option<[f64; 3]>,
+    /// The probe as found in the frame (pixels), with the frame's calibration:
+    /// particles closer to its outline than `probe_shadow_px` are hidden.
+    pub probe: Option<(TipDetection, AffineCalibration)>,
+    /// A particle centre this close to the probe's outline is (partly) under
+    /// it, pixels: its ring is cut and its fitted centre is biased.
+    pub probe_shadow_px: f64,
 }
 
 impl Sighting {
-    /// True when a particle centred here would be seen whole in this frame.
+    /// True when a particle centred here would be seen whole in this frame:
+    /// inside the view and clear of the probe.
     pub fn shows(&self, x_m: f64, y_m: f64) -> bool {
         let [lo, hi] = self.view_m;
-        x_m >= lo[0] && x_m <= hi[0] && y_m >= lo[1] && y_m <= hi[1]
+        let in_view = x_m >= lo[0] && x_m <= hi[0] && y_m >= lo[1] && y_m <= hi[1];
+        in_view && !self.under_probe(x_m, y_m)
+    }
+
+    /// True when a particle centred here touches the probe's outline in the frame.
+    pub fn under_probe(&self, x_m: f64, y_m: f64) -> bool {
+        let Some((tip, calibration)) = &self.probe else {
+            return false;
+        };
+        let local = [x_m - self.coarse_offset_m[0], y_m - self.coarse_offset_m[1]];
+        calibration
+            .stage_to_pixel(local[0], local[1])
+            .is_ok_and(|[x, y]| tip.signed_distance(x, y) < self.probe_shadow_px)
     }
 }
 
@@ -95,9 +118,16 @@ impl Perception {
         // The size hint is the particles' known size: a detection far from it is
         // not one of them (the probe's outline, debris), and must not reach the planner.
         let expected_r_px = self.detect.diameter_px / 2.0;
+        let probe = detect_tip(&timed.frame, &self.tip);
+        let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
+        // A ring touching the probe is cut by it: its centre is not measured.
+        let probe_shadow_px = expected_r_px + PROBE_SHADOW_MARGIN_PX;
+        let clear_of_probe =
+            |x: f64, y: f64| probe.is_none_or(|t| t.signed_distance(x, y) >= probe_shadow_px);
         let particles = detections
             .iter()
             .filter(|d| !d.edge_clipped)
+            .filter(|d| clear_of_probe(d.x_px, d.y_px))
             .filter(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
             .map(|d| {
                 let [x_m, y_m] = on_sample(d.x_px, d.y_px);
@@ -108,7 +138,6 @@ impl Perception {
                 }
             })
             .collect();
-        let tip_m = detect_tip(&timed.frame, &self.tip).map(|t| on_sample(t.x_px, t.y_px));
         let margin = self.detect.diameter_px;
         let (w, h) = (timed.frame.width() as f64, timed.frame.height() as f64);
         let corners = [
@@ -133,6 +162,8 @@ impl Perception {
             view_m: [lo, hi],
             coarse_offset_m,
             stage_m: None,
+            probe: probe.map(|t| (t, *calibration)),
+            probe_shadow_px,
         })
     }
 }

@@ -269,6 +269,7 @@ mod tests {
                     lb_push_um: 10.0,
                     lb_tip_um: 5.0,
                     planning_ms: 1.0,
+                    replaced_because: None,
                 },
             ),
             entry(2, 0.2, decision(false)),

@@ -7,8 +7,9 @@
 //! blockages), minimising tip travel; [`windows`] groups pushes into
 //! nanostage windows with coarse-stage moves; [`bounds`] gives LB_push and
 //! LB_tip; [`verify`] replays a plan independently; [`plan_file`] is the
-//! `nanopush.plan/1` JSON format. The executor re-plans after every push
-//! through [`plan_assembly`].
+//! `nanopush.plan/1` JSON format. After every push the executor keeps the
+//! rest of its plan if, moved onto the seen particles by [`rebase`], it
+//! still verifies; otherwise it plans afresh through [`plan_assembly`].
 
 pub mod assignment;
 pub mod bounds;
@@ -21,6 +22,7 @@ pub mod pattern;
 pub mod peel;
 pub mod plan_file;
 pub mod pushes;
+pub mod rebase;
 pub mod route;
 pub mod synth_layout;
 pub mod verify;

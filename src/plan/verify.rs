@@ -54,6 +54,43 @@ pub struct VerifyReport {
     pub ok: bool,
 }
 
+impl VerifyReport {
+    /// One line on what is wrong (or "ok").
+    pub fn summary(&self) -> String {
+        if self.ok {
+            return "ok".to_owned();
+        }
+        let mut parts = Vec::new();
+        if let Some(c) = self.collisions.first() {
+            parts.push(format!(
+                "{} collisions (first: step {}, particle {} {} hits particle {} by {:.2} um)",
+                self.collisions.len(),
+                c.step,
+                c.particle,
+                c.by,
+                c.other,
+                c.depth_um
+            ));
+        }
+        if !self.bad_starts.is_empty() {
+            parts.push(format!(
+                "{} pushes start away from their particle",
+                self.bad_starts.len()
+            ));
+        }
+        if !self.unreachable.is_empty() {
+            parts.push(format!(
+                "{} pushes leave the nanostage window",
+                self.unreachable.len()
+            ));
+        }
+        if !self.unfilled_sites.is_empty() {
+            parts.push(format!("sites {:?} left unfilled", self.unfilled_sites));
+        }
+        parts.join("; ")
+    }
+}
+
 fn seg_dist(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     let ab = b - a;
     let l2 = ab.norm_squared();
