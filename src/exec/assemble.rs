@@ -699,7 +699,10 @@ impl<'a> Assembly<'a> {
             safe_z_m: safe_z,
         })
         .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
-        let retreat = retreat_point(&stroke, intent.radius_m);
+        let retreat = match self.probe_axis() {
+            Some(axis) => retreat_clear_of_probe(&stroke, intent, axis),
+            None => retreat_point(&stroke, intent.radius_m),
+        };
         self.fit_window(&stroke, retreat, intent)?;
         let t_start_s = self.rig.now_s();
         let travel = self.settings.travel_speed_m_per_s;
@@ -777,6 +780,14 @@ impl<'a> Assembly<'a> {
                     .to_owned(),
             )),
         }
+    }
+
+    /// Unit direction from the cantilever body to the apex on the sample, from
+    /// the last frame that found the probe.
+    fn probe_axis(&self) -> Option<[f64; 2]> {
+        let (tip, calibration) = self.last_sighting.as_ref()?.probe.as_ref()?;
+        let v = calibration.linear * Vector2::new(tip.angle_rad.cos(), tip.angle_rad.sin());
+        (v.norm() > 0.0).then(|| [v.x / v.norm(), v.y / v.norm()])
     }
 
     /// The part of the nanostage's frame the camera shows whole particles in
@@ -913,6 +924,20 @@ fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
     [
         stroke.lift[0] - d[0] / len * back,
         stroke.lift[1] - d[1] / len * back,
+        stroke.lift[2],
+    ]
+}
+
+/// Where the tip waits after a push when the probe's direction is known: a
+/// radius and a few micrometres from the particle's target, on the side the
+/// cantilever comes from. The probe's body then lies away from the particle
+/// whatever the push direction, so the next frame shows it and no re-look
+/// (a lifted trip to the nanostage's far corner and back) is needed.
+fn retreat_clear_of_probe(stroke: &Stroke, intent: &PushIntent, axis: [f64; 2]) -> StageXyz {
+    let back = intent.radius_m + RETREAT_EXTRA_M;
+    [
+        intent.to[0] - axis[0] * back,
+        intent.to[1] - axis[1] * back,
         stroke.lift[2],
     ]
 }
