@@ -48,6 +48,36 @@ fn simulate_json_has_the_required_fields_and_reads_back() {
 }
 
 #[test]
+fn the_default_scene_is_built_in_outside_the_project_folder() {
+    let elsewhere = tempfile::tempdir().unwrap();
+    let run = |dir: &Path| {
+        let out = Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .current_dir(dir)
+            .args(["simulate", "--scene", "calib/paper-ps-ito.toml", "--json"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out.stdout
+    };
+    assert_eq!(
+        run(elsewhere.path()),
+        run(Path::new(env!("CARGO_MANIFEST_DIR")))
+    );
+    // Any other missing scene is still an error naming it.
+    let out = Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(elsewhere.path())
+        .args(["simulate", "--scene", "calib/other.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("calib/other.toml"));
+}
+
+#[test]
 fn simulate_stuck_reports_null_onset() {
     let out = nanopush()
         .args([

@@ -277,9 +277,19 @@ fn reduced_modulus(a: &(f64, f64), b: &(f64, f64)) -> f64 {
     1.0 / ((1.0 - a.1 * a.1) / a.0 + (1.0 - b.1 * b.1) / b.0)
 }
 
+/// The commands' default scene, relative to the project folder.
+pub const DEFAULT_SCENE_PATH: &str = "calib/paper-ps-ito.toml";
+
+/// The default scene as built in, for commands run outside the project folder.
+const DEFAULT_SCENE_TOML: &str = include_str!("../../calib/paper-ps-ito.toml");
+
 impl Scene {
-    /// Reads and validates a scene file.
+    /// Reads and validates a scene file. The default scene's path falls back to
+    /// the built-in copy when it is not there (a command run from another folder).
     pub fn load(path: &Path) -> Result<Scene, ModelError> {
+        if path == Path::new(DEFAULT_SCENE_PATH) && !path.exists() {
+            return Scene::from_toml_str(DEFAULT_SCENE_TOML);
+        }
         let text = std::fs::read_to_string(path).map_err(|e| {
             ModelError::scene(path.display().to_string(), format!("cannot read: {e}"))
         })?;
