@@ -65,7 +65,7 @@ pub struct RunRow {
     pub seed: u64,
     /// The run's report, when it produced one.
     pub figures: Option<RunFigures>,
-    /// Why there is no report (the error the run printed).
+    /// Why the run stopped short or has no report (the error it printed).
     pub error: Option<String>,
     /// Wall time of the child process, s.
     pub wall_s: f64,
@@ -153,10 +153,10 @@ fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
     let wall_s = t0.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&output.stdout);
     let parsed = parse_figures(&stdout);
-    let error = match (&parsed, output.status.success()) {
-        (Some(_), _) => None,
-        (None, _) => Some(last_line(&String::from_utf8_lossy(&output.stderr))),
-    };
+    // A run that stopped short still prints its figures; its exit status and
+    // last stderr line say why it stopped.
+    let error = (!output.status.success())
+        .then(|| last_line(&String::from_utf8_lossy(&output.stderr)));
     Ok(RunRow {
         seed,
         figures: parsed,
