@@ -155,8 +155,8 @@ fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
     let parsed = parse_figures(&stdout);
     // A run that stopped short still prints its figures; its exit status and
     // last stderr line say why it stopped.
-    let error = (!output.status.success())
-        .then(|| last_line(&String::from_utf8_lossy(&output.stderr)));
+    let error =
+        (!output.status.success()).then(|| last_line(&String::from_utf8_lossy(&output.stderr)));
     Ok(RunRow {
         seed,
         figures: parsed,
