@@ -169,9 +169,11 @@ fn on_a_fresh_recording_the_dry_run_commands_what_the_loop_did() {
         contact_angle_deg,
         duration_s,
         ..
-    } = r.frames[0].command.clone()
+        // Frame 0 is the loop's first look; it plans from frame 1, taken with
+        // the probe parked clear of the particles.
+    } = r.frames[1].command.clone()
     else {
-        panic!("{:?}", r.frames[0].command);
+        panic!("{:?}", r.frames[1].command);
     };
     assert_eq!(particle, first.0);
     for i in 0..2 {

@@ -293,7 +293,7 @@ fn to_markdown(s: &StudySummary) -> String {
     for r in &s.rows {
         match &r.figures {
             Some(f) => out.push_str(&format!(
-                "| {} | {}/{} | {:.0} | {:.0} | {} | {} | {} | {} | {:.0} | {:.0} | {:.1} | |\n",
+                "| {} | {}/{} | {:.0} | {:.0} | {} | {} | {} | {} | {:.0} | {:.0} | {:.1} | {} |\n",
                 r.seed,
                 f.filled,
                 f.sites,
@@ -305,7 +305,8 @@ fn to_markdown(s: &StudySummary) -> String {
                 f.lost_contacts_missed,
                 f.time_s,
                 f.lower_bound_s,
-                r.wall_s
+                r.wall_s,
+                r.error.as_deref().unwrap_or("").replace('|', "/")
             )),
             None => out.push_str(&format!(
                 "| {} | - | - | - | - | - | - | - | - | - | {:.1} | {} |\n",
@@ -398,5 +399,10 @@ mod tests {
         let md = to_markdown(&s);
         assert!(md.contains("| 1 | 3/3 |"));
         assert!(md.contains("planner refused"));
+        // A run that stopped short has figures and says why it stopped.
+        let mut short = row(3, Some(figures(3, 50.0, 0, 150.0)));
+        short.error = Some("stopped: walled in | edge".to_string());
+        let md = to_markdown(&summarise("L", vec![short]));
+        assert!(md.contains("| stopped: walled in / edge |"), "{md}");
     }
 }

@@ -24,7 +24,6 @@ use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
 use crate::plan::layout::{Layout, Particle};
 use crate::plan::pattern::Site;
-use crate::plan::pushes::approach_point;
 use crate::plan::rebase::{rebase_plan, without_first_push};
 use crate::plan::{Plan, PlanConfig, Step, plan_assembly, verify_plan};
 use crate::rig::stage::StageXyz;
@@ -183,10 +182,6 @@ pub struct Assembly<'a> {
     failures: HashMap<usize, u32>,
     given_up: Vec<usize>,
     repush_next: Option<usize>,
-    /// The last push that lost contact (its `from` is where the particle was).
-    lost: Option<PushIntent>,
-    /// The push under way returns a particle to where it was, outside the plan.
-    undoing: bool,
     stage_faults: u32,
     coarse_offset: [f64; 2],
     pushes_done: usize,
@@ -269,8 +264,6 @@ impl<'a> Assembly<'a> {
             failures: HashMap::new(),
             given_up: Vec::new(),
             repush_next: None,
-            lost: None,
-            undoing: false,
             stage_faults: 0,
             coarse_offset,
             pushes_done,
@@ -571,7 +564,7 @@ impl<'a> Assembly<'a> {
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
         }
-        if result == "placed" && !std::mem::take(&mut self.undoing) {
+        if result == "placed" {
             self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
         }
         self.journal.append(
@@ -586,7 +579,6 @@ impl<'a> Assembly<'a> {
         if lost {
             self.fail(intent.particle)?;
             self.repush_next = Some(intent.particle);
-            self.lost = Some(*intent);
         }
         Ok(())
     }
@@ -609,7 +601,6 @@ impl<'a> Assembly<'a> {
     /// seen now, it still verifies; otherwise from a fresh plan. Returns why
     /// there is none when the planner refuses.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
-        self.undoing = false;
         let layout = Layout {
             field_m: self.settings.field_m,
             particles: planning_particles(self.tracker.tracks(), self.scene.particle_radius_m),
@@ -618,9 +609,8 @@ impl<'a> Assembly<'a> {
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
         config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
         let repushed = self.repush_next.map(|id| id as u32);
-        let in_hand = self.plan_in_hand.take();
-        let kept = in_hand.as_ref().map(|p| {
-            let p = rebase_plan(p, &layout, self.settings.keep_plan_shift_m, repushed)
+        let kept = self.plan_in_hand.take().map(|p| {
+            let p = rebase_plan(&p, &layout, self.settings.keep_plan_shift_m, repushed)
                 .map_err(|e| e.to_string())?;
             let report = verify_plan(&p, &layout, &config);
             if report.ok {
@@ -644,13 +634,6 @@ impl<'a> Assembly<'a> {
                         plan
                     }
                     Err(e) => {
-                        if let Some(undo) = self.undo_lost_push(&layout, &config) {
-                            // Back where the plan in hand expects it, that plan
-                            // applies again.
-                            self.plan_in_hand = in_hand;
-                            self.undoing = true;
-                            return Ok(Ok(undo));
-                        }
                         let kept = because
                             .map(|b| format!(" (the plan in hand was dropped: {b})"))
                             .unwrap_or_default();
@@ -693,39 +676,6 @@ impl<'a> Assembly<'a> {
                     radius_m,
                 }
             }))
-    }
-
-    /// After a lost contact that neither the plan in hand nor a fresh plan
-    /// can go on from: a straight push of the particle back to where it was
-    /// before that push, if the replay finds it collision-free. The spot it
-    /// left is free, and from there the plan in hand applies again.
-    fn undo_lost_push(&self, layout: &Layout, config: &PlanConfig) -> Option<PushIntent> {
-        let lost = self.lost.filter(|l| self.repush_next == Some(l.particle))?;
-        let id = lost.particle as u32;
-        let radius_m = layout.particles.iter().find(|p| p.id == id)?.radius_m;
-        let now = layout.particles.iter().find(|p| p.id == id)?.centre_m;
-        let back = Vector2::new(lost.from[0], lost.from[1]);
-        if (back - now).norm() <= self.settings.placed_tolerance_m {
-            return None;
-        }
-        let undo = Plan {
-            sites: Vec::new(),
-            assignment: Vec::new(),
-            steps: vec![Step::Push {
-                particle: id,
-                from_m: now,
-                to_m: back,
-                approach_m: approach_point(now, back, radius_m, config),
-                contact_angle_rad: config.contact_angle_rad,
-            }],
-            summary: Default::default(),
-        };
-        verify_plan(&undo, layout, config).ok.then_some(PushIntent {
-            particle: lost.particle,
-            from: [now.x, now.y],
-            to: lost.from,
-            radius_m: self.scene.particle_radius_m,
-        })
     }
 
     fn journal_plan(
