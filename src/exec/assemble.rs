@@ -193,6 +193,8 @@ pub struct Assembly<'a> {
     plan: Vec<PlannedPush>,
     /// The steps of the current plan not yet made.
     plan_in_hand: Option<Plan>,
+    /// True once a plan was made in this process.
+    planned: bool,
     park_before_first_look: bool,
     tip_hint_m: Option<[f64; 2]>,
     sink: Option<&'a mut dyn FrameSink>,
@@ -272,6 +274,7 @@ impl<'a> Assembly<'a> {
             last_sighting: None,
             plan: Vec::new(),
             plan_in_hand: None,
+            planned: false,
             park_before_first_look: false,
             tip_hint_m: None,
             sink: None,
@@ -597,13 +600,26 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
+    /// The tracks the planner is told about. The first plan takes every track
+    /// (the run's first looks find every particle); after it a new track must
+    /// be seen twice: a one-frame false detection between particles had
+    /// become an obstacle that blocked the plan in hand and every fresh plan.
+    fn confirmed_tracks(&self) -> Vec<super::tracker::Track> {
+        self.tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.hits >= 2 || !self.planned)
+            .cloned()
+            .collect()
+    }
+
     /// The next push: from the plan in hand if, moved onto the particles as
     /// seen now, it still verifies; otherwise from a fresh plan. Returns why
     /// there is none when the planner refuses.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
         let layout = Layout {
             field_m: self.settings.field_m,
-            particles: planning_particles(self.tracker.tracks(), self.scene.particle_radius_m),
+            particles: planning_particles(&self.confirmed_tracks(), self.scene.particle_radius_m),
         };
         let mut config = self.plan_config.clone();
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
@@ -664,6 +680,7 @@ impl<'a> Assembly<'a> {
         });
         // Its first push leaves the plan when the camera shows it placed (`check`).
         self.plan_in_hand = Some(plan);
+        self.planned = true;
         Ok(first
             .ok_or_else(|| "the plan has no push left".to_owned())
             .map(|(particle, from, to)| {

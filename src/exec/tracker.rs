@@ -30,6 +30,9 @@ pub struct Track {
     pub last: Observation,
     /// Frames in a row in which the track was not matched.
     pub missed_frames: u32,
+    /// Frames in which the track was matched, its first included (a track
+    /// seen once may be a false detection).
+    pub hits: u32,
 }
 
 /// What one update did.
@@ -158,6 +161,7 @@ impl Tracker {
             let t = &mut self.tracks[ti];
             if *taken {
                 t.missed_frames = 0;
+                t.hits += 1;
             } else if in_view(t.last.x_m, t.last.y_m) {
                 t.missed_frames += 1;
                 update.missed.push(t.id);
@@ -176,6 +180,7 @@ impl Tracker {
                         id,
                         last: *o,
                         missed_frames: 0,
+                        hits: 1,
                     });
                     update.created.push(id);
                     id
