@@ -207,6 +207,21 @@ mod tests {
     }
 
     #[test]
+    fn hits_count_the_frames_a_track_was_seen_in() {
+        let mut t = Tracker::new(4e-6);
+        t.update(&[obs(10.0, 10.0)], &[], &ALL);
+        t.update(&[obs(10.0, 10.0), obs(40.0, 40.0)], &[], &ALL);
+        t.update(&[obs(10.0, 10.0)], &[], &ALL);
+        let hits: Vec<(usize, u32, u32)> = t
+            .tracks()
+            .iter()
+            .map(|k| (k.id, k.hits, k.missed_frames))
+            .collect();
+        // The second particle was seen once (a possible false detection) and then missed.
+        assert_eq!(hits, vec![(0, 3, 0), (1, 1, 1)]);
+    }
+
+    #[test]
     fn first_frame_creates_one_track_per_observation() {
         let mut t = Tracker::new(4e-6);
         let u = t.update(&[obs(0.0, 0.0), obs(20.0, 0.0)], &[], &ALL);
