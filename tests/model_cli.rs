@@ -47,32 +47,31 @@ fn simulate_json_has_the_required_fields_and_reads_back() {
     assert!(s.active_effects.iter().all(|e| !e.reason.is_empty()));
 }
 
+/// `nanopush simulate --scene SCENE --json` run from `dir`.
+fn simulate_in(dir: &Path, scene: &str) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(dir)
+        .args(["simulate", "--scene", scene, "--json"])
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn the_default_scene_is_built_in_outside_the_project_folder() {
     let elsewhere = tempfile::tempdir().unwrap();
-    let run = |dir: &Path| {
-        let out = Command::new(env!("CARGO_BIN_EXE_nanopush"))
-            .current_dir(dir)
-            .args(["simulate", "--scene", "calib/paper-ps-ito.toml", "--json"])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        out.stdout
-    };
-    assert_eq!(
-        run(elsewhere.path()),
-        run(Path::new(env!("CARGO_MANIFEST_DIR")))
+    let project = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (outside, inside) = (
+        simulate_in(elsewhere.path(), "calib/paper-ps-ito.toml"),
+        simulate_in(project, "calib/paper-ps-ito.toml"),
     );
+    assert!(
+        outside.status.success(),
+        "{}",
+        String::from_utf8_lossy(&outside.stderr)
+    );
+    assert_eq!(outside.stdout, inside.stdout);
     // Any other missing scene is still an error naming it.
-    let out = Command::new(env!("CARGO_BIN_EXE_nanopush"))
-        .current_dir(elsewhere.path())
-        .args(["simulate", "--scene", "calib/other.toml"])
-        .output()
-        .unwrap();
+    let out = simulate_in(elsewhere.path(), "calib/other.toml");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("calib/other.toml"));
 }

@@ -154,22 +154,31 @@ mod tests {
         (start, plan, config)
     }
 
+    /// The plan's first push step.
+    fn first_push(plan: &Plan) -> Step {
+        plan.steps
+            .iter()
+            .find(|s| matches!(s, Step::Push { .. }))
+            .cloned()
+            .expect("a push")
+    }
+
     /// The layout after the plan's first push, as the camera would see it:
     /// the pushed particle `miss_um` short of its target.
     fn after_first_push(start: &Layout, plan: &Plan, miss_um: f64) -> Layout {
-        let Some(Step::Push {
+        let Step::Push {
             particle,
             from_m,
             to_m,
             ..
-        }) = plan.steps.iter().find(|s| matches!(s, Step::Push { .. }))
+        } = first_push(plan)
         else {
-            panic!("no push")
+            unreachable!()
         };
         let dir = (to_m - from_m).normalize();
         let mut now = start.clone();
         for p in &mut now.particles {
-            if p.id == *particle {
+            if p.id == particle {
                 p.centre_m = to_m - dir * miss_um * 1e-6;
             }
         }
@@ -205,18 +214,14 @@ mod tests {
     #[test]
     fn a_particle_moved_beyond_the_limit_is_refused_and_one_within_it_is_followed() {
         let (start, plan, _) = two_push_plan();
-        let Some(Step::Push {
+        let Step::Push {
             particle,
             from_m,
             approach_m,
             ..
-        }) = plan
-            .steps
-            .iter()
-            .find(|s| matches!(s, Step::Push { .. }))
-            .cloned()
+        } = first_push(&plan)
         else {
-            panic!("no push")
+            unreachable!()
         };
         let mut nudged = start.clone();
         for p in &mut nudged.particles {
@@ -229,13 +234,13 @@ mod tests {
             Err(RebaseRefusal::Moved { particle: q, .. }) if q == particle
         ));
         let moved = rebase_plan(&plan, &nudged, 0.5e-6, None).unwrap();
-        let Some(Step::Push {
+        let Step::Push {
             from_m: f2,
             approach_m: a2,
             ..
-        }) = moved.steps.iter().find(|s| matches!(s, Step::Push { .. }))
+        } = first_push(&moved)
         else {
-            panic!("no push")
+            unreachable!()
         };
         assert!(((f2 - from_m).x - 0.3e-6).abs() < 1e-12);
         // The tip lands as far behind the particle as before.
@@ -246,24 +251,19 @@ mod tests {
     fn a_push_that_fell_short_is_pushed_again_from_where_the_particle_stopped() {
         let (start, plan, config) = two_push_plan();
         let now = after_first_push(&start, &plan, 3.0);
-        let Some(Step::Push { particle, to_m, .. }) = plan
-            .steps
-            .iter()
-            .find(|s| matches!(s, Step::Push { .. }))
-            .cloned()
-        else {
-            panic!("no push")
+        let Step::Push { particle, to_m, .. } = first_push(&plan) else {
+            unreachable!()
         };
         assert!(matches!(
             rebase_plan(&plan, &now, 0.5e-6, None),
             Err(RebaseRefusal::Moved { .. })
         ));
         let again = rebase_plan(&plan, &now, 0.5e-6, Some(particle)).unwrap();
-        let Some(Step::Push {
+        let Step::Push {
             from_m, approach_m, ..
-        }) = again.steps.iter().find(|s| matches!(s, Step::Push { .. }))
+        } = first_push(&again)
         else {
-            panic!("no push")
+            unreachable!()
         };
         assert!(
             (from_m
