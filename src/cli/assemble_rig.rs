@@ -151,11 +151,7 @@ fn assemble(
     }
     let sites = sites_for(args, scene, rig, &first.particles)?;
     let spec = RunSpec {
-        pattern: args
-            .text
-            .clone()
-            .or_else(|| args.pattern.as_ref().map(|p| p.display().to_string()))
-            .unwrap_or_default(),
+        pattern: RunSpec::pattern_label(args.text.as_deref(), args.pattern.as_deref()),
         scene: args.scene.display().to_string(),
         layout: None,
         seed: args.seed,

@@ -478,22 +478,17 @@ impl<'a> Assembly<'a> {
     /// Lifts the tip, brings `point` into the camera's view if it is not, and
     /// moves the tip to the corner of the nanostage's range farthest from it.
     fn park_away_from(&mut self, point: [f64; 2]) -> Result<(), ExecError> {
-        let as_exec = |e: PushError| match e {
-            PushError::Rig(r) => ExecError::Rig(r),
-            PushError::Journal(j) => ExecError::Journal(j),
-            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
-        };
         let range = self.rig.range();
         let here = self.rig.position()?;
         let top = range[2].max_m;
         let speed = self.settings.travel_speed_m_per_s;
         self.move_on_sample_raw([here[0], here[1], top], speed)
-            .map_err(as_exec)?;
+            .map_err(ExecError::from)?;
         if let Some(view) = self.view_local()
             && let Some(offset) = offset_fitting(self.coarse_offset, &[(point, view)])
             && offset != self.coarse_offset
         {
-            self.move_coarse_lifted(offset).map_err(as_exec)?;
+            self.move_coarse_lifted(offset).map_err(ExecError::from)?;
         }
         let local = [
             point[0] - self.coarse_offset[0],
@@ -507,7 +502,7 @@ impl<'a> Assembly<'a> {
             }
         };
         self.move_on_sample_raw([far(0), far(1), top], speed)
-            .map_err(as_exec)
+            .map_err(ExecError::from)
     }
 
     /// Lifts the tip and moves it where a run starts and ends: the corner of
@@ -532,11 +527,7 @@ impl<'a> Assembly<'a> {
         };
         self.move_on_sample_raw([here[0], here[1], top], speed)
             .and_then(|()| self.move_on_sample_raw([corner[0], corner[1], top], speed))
-            .map_err(|e| match e {
-                PushError::Rig(r) => ExecError::Rig(r),
-                PushError::Journal(j) => ExecError::Journal(j),
-                PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
-            })
+            .map_err(ExecError::from)
     }
 
     /// Was the last push a success? Journals the check and counts failures.
@@ -890,11 +881,7 @@ impl<'a> Assembly<'a> {
             self.settings.travel_speed_m_per_s,
         ) {
             let _ = self.rig.halt();
-            return Err(match e {
-                PushError::Rig(r) => ExecError::Rig(r),
-                PushError::Journal(j) => ExecError::Journal(j),
-                PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
-            });
+            return Err(e.into());
         }
         Ok(())
     }
@@ -1030,4 +1017,15 @@ enum PushError {
     /// The model or the geometry refused this push; the particle counts a failure.
     #[error("{0}")]
     Refused(String),
+}
+
+/// Outside a push (parking, lifting after a fault) a refused move is a stage fault.
+impl From<PushError> for ExecError {
+    fn from(e: PushError) -> Self {
+        match e {
+            PushError::Rig(r) => ExecError::Rig(r),
+            PushError::Journal(j) => ExecError::Journal(j),
+            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+        }
+    }
 }

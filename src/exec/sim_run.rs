@@ -104,11 +104,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
     let layout = layout_for(req.layout.as_deref(), &scene, req.seed, req.particles)?;
     let sites = sites_for(req, &scene, &layout)?;
     let spec = RunSpec {
-        pattern: req
-            .text
-            .clone()
-            .or_else(|| req.pattern.as_ref().map(|p| p.display().to_string()))
-            .unwrap_or_default(),
+        pattern: RunSpec::pattern_label(req.text.as_deref(), req.pattern.as_deref()),
         scene: req.scene.display().to_string(),
         layout: req.layout.as_ref().map(|p| p.display().to_string()),
         seed: req.seed,
