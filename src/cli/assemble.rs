@@ -458,12 +458,7 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
         ),
         None => println!("  lost contacts    {} detected", r.lost_contacts_detected),
     }
-    println!(
-        "  time             {:.0} s (lower bound {:.0} s, ratio {:.2})",
-        r.time_s,
-        r.lower_bound_s,
-        r.time_s / r.lower_bound_s.max(1e-9)
-    );
+    println!("  time             {}", r.time_summary());
     for e in &r.active_effects {
         println!("  effect           {}: {}", e.name, e.reason);
     }

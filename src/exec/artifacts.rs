@@ -181,15 +181,7 @@ pub fn write_report_md(
                     .map_or("unknown".to_owned(), |m| m.to_string())
             ),
         ),
-        (
-            "time",
-            format!(
-                "{:.0} s (lower bound {:.0} s, ratio {:.2})",
-                report.time_s,
-                report.lower_bound_s,
-                report.time_s / report.lower_bound_s.max(1e-9)
-            ),
-        ),
+        ("time", report.time_summary()),
     ];
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");

@@ -50,7 +50,9 @@ pub struct AssemblySettings {
     /// off the sample, piezo nanostages travel at mm/s, and the lower bound is
     /// computed at the same speed).
     pub travel_speed_m_per_s: f64,
-    /// Gap between tip and particle where the tip is lowered (default 1 um).
+    /// Gap between tip and particle where the tip is lowered (default 0.5 um:
+    /// 25x the particle detection error and 2.5x the placed tolerance; the
+    /// tip covers it at pushing speed, so every 0.1 um costs 0.1 s a push).
     pub clearance_m: f64,
     /// Farthest a particle may be from its predicted place and keep its identity (default 4 um).
     pub track_gate_m: f64,
@@ -71,7 +73,7 @@ impl Default for AssemblySettings {
             max_pushes: 400,
             max_stage_faults: 3,
             travel_speed_m_per_s: 50e-6,
-            clearance_m: 1e-6,
+            clearance_m: 0.5e-6,
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
@@ -193,8 +195,9 @@ pub struct Assembly<'a> {
     plan: Vec<PlannedPush>,
     /// The steps of the current plan not yet made.
     plan_in_hand: Option<Plan>,
-    /// True once a plan was made in this process.
-    planned: bool,
+    /// Track ids issued when this process made its first plan (None before):
+    /// those tracks were all planned with, so they stay confirmed.
+    first_plan_ids: Option<usize>,
     park_before_first_look: bool,
     tip_hint_m: Option<[f64; 2]>,
     sink: Option<&'a mut dyn FrameSink>,
@@ -274,7 +277,7 @@ impl<'a> Assembly<'a> {
             last_sighting: None,
             plan: Vec::new(),
             plan_in_hand: None,
-            planned: false,
+            first_plan_ids: None,
             park_before_first_look: false,
             tip_hint_m: None,
             sink: None,
@@ -592,14 +595,17 @@ impl<'a> Assembly<'a> {
     }
 
     /// The tracks the planner is told about. The first plan takes every track
-    /// (the run's first looks find every particle); after it a new track must
-    /// be seen twice: a one-frame false detection between particles had
-    /// become an obstacle that blocked the plan in hand and every fresh plan.
+    /// (the run's first looks find every particle) and they stay; a track new
+    /// after it must be seen twice: a one-frame false detection between
+    /// particles had become an obstacle that blocked the plan in hand and
+    /// every fresh plan. (A first-plan track seen once, then out of view, had
+    /// vanished from the next plan, which pushed a particle through it.)
     fn confirmed_tracks(&self) -> Vec<super::tracker::Track> {
+        let first = self.first_plan_ids.unwrap_or(usize::MAX);
         self.tracker
             .tracks()
             .iter()
-            .filter(|t| t.hits >= 2 || !self.planned)
+            .filter(|t| t.hits >= 2 || t.id < first)
             .cloned()
             .collect()
     }
@@ -671,7 +677,7 @@ impl<'a> Assembly<'a> {
         });
         // Its first push leaves the plan when the camera shows it placed (`check`).
         self.plan_in_hand = Some(plan);
-        self.planned = true;
+        self.first_plan_ids.get_or_insert(self.tracker.ids_issued());
         Ok(first
             .ok_or_else(|| "the plan has no push left".to_owned())
             .map(|(particle, from, to)| {

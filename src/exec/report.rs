@@ -81,6 +81,21 @@ pub struct RunFacts<'a> {
 }
 
 impl AssemblyReport {
+    /// "346 s (lower bound 238 s, ratio 1.45)"; no ratio when no plan gave a
+    /// lower bound (the run stopped before its first push).
+    pub fn time_summary(&self) -> String {
+        if self.lower_bound_s > 0.0 {
+            format!(
+                "{:.0} s (lower bound {:.0} s, ratio {:.2})",
+                self.time_s,
+                self.lower_bound_s,
+                self.time_s / self.lower_bound_s
+            )
+        } else {
+            format!("{:.0} s (no lower bound: no push was planned)", self.time_s)
+        }
+    }
+
     /// The report of a run: counts from its journal, errors and the rest from `facts`.
     pub fn from_run(
         facts: RunFacts<'_>,
@@ -306,5 +321,30 @@ mod tests {
         assert!((rms - (12.5f64).sqrt()).abs() < 1e-9);
         assert_eq!(max, 4.0);
         assert_eq!(error_figures_nm(&[]), (0.0, 0.0));
+    }
+
+    #[test]
+    fn time_summary_gives_no_ratio_without_a_lower_bound() {
+        let mut r = AssemblyReport {
+            schema: REPORT_SCHEMA.to_owned(),
+            outcome: "done".into(),
+            sites: 1,
+            filled: 1,
+            rms_error_nm: 0.0,
+            max_error_nm: 0.0,
+            error_source: "ground-truth".into(),
+            site_errors_nm: vec![0.0],
+            pushes: 1,
+            repushes: 0,
+            lost_contacts_detected: 0,
+            lost_contacts_missed: Some(0),
+            time_s: 30.0,
+            lower_bound_s: 20.0,
+            active_effects: Vec::new(),
+            effect_work: None,
+        };
+        assert_eq!(r.time_summary(), "30 s (lower bound 20 s, ratio 1.50)");
+        r.lower_bound_s = 0.0;
+        assert!(!r.time_summary().contains("ratio"), "{}", r.time_summary());
     }
 }

@@ -98,6 +98,11 @@ impl Tracker {
         &self.tracks
     }
 
+    /// How many track ids were handed out so far (ids are 0, 1, 2, ...).
+    pub fn ids_issued(&self) -> usize {
+        self.next_id
+    }
+
     /// The track with this id, if any.
     pub fn track(&self, id: usize) -> Option<&Track> {
         self.tracks.iter().find(|t| t.id == id)
@@ -219,6 +224,7 @@ mod tests {
             .collect();
         // The second particle was seen once (a possible false detection) and then missed.
         assert_eq!(hits, vec![(0, 3, 0), (1, 1, 1)]);
+        assert_eq!(t.ids_issued(), 2);
     }
 
     #[test]

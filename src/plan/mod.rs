@@ -234,9 +234,8 @@ pub fn plan_assembly(
         }
         .into());
     }
-    let assigned = assign_with_fixed(layout, sites, config)?;
+    let (assigned, ordered) = assign_and_order(layout, sites, config)?;
     let lb_push = assigned.lb_push_m;
-    let ordered = order::order_moves(layout, sites, &assigned.pairs, &assigned.on_site, config)?;
     let pairs = &ordered.pairs;
     let mut steps = ordered.steps;
     let start = config.tip_start_m.or_else(|| {
@@ -270,6 +269,44 @@ pub fn plan_assembly(
     })
 }
 
+/// Most re-assignments after a refused order.
+const MAX_REASSIGNMENTS: usize = 8;
+
+/// Assigns, then orders; when the order is refused, the stuck moves'
+/// particle-site pairs are forbidden and the assignment is solved again, so
+/// that a site whose nearest particle is walled in or blocked goes to
+/// another one. The refusal of the last try is returned.
+fn assign_and_order(
+    layout: &Layout,
+    sites: &[Site],
+    config: &PlanConfig,
+) -> Result<(Assigned, order::Ordered), PlanError> {
+    let mut forbidden: Vec<(usize, usize)> = Vec::new();
+    let mut tries = 0;
+    loop {
+        let assigned = assign_with_fixed(layout, sites, config, &forbidden)?;
+        let refusal =
+            match order::order_moves(layout, sites, &assigned.pairs, &assigned.on_site, config) {
+                Ok(ordered) => return Ok((assigned, ordered)),
+                Err(refusal) => refusal,
+            };
+        let before = forbidden.len();
+        for pair in refusal.stuck_pairs.iter().copied() {
+            if !forbidden.contains(&pair) {
+                forbidden.push(pair);
+            }
+        }
+        tries += 1;
+        if forbidden.len() == before || tries > MAX_REASSIGNMENTS {
+            return Err(refusal.into());
+        }
+    }
+}
+
+/// Cost that keeps a forbidden particle-site pair out of the assignment
+/// whenever any other assignment exists, metres (far beyond any field).
+const FORBIDDEN_PAIR_COST_M: f64 = 1.0;
+
 /// The assignment the planner executes, and its lower bound.
 struct Assigned {
     /// (particle index, site index) pairs.
@@ -287,10 +324,13 @@ const PARKING_AWARE_MAX_PAIRS: usize = 250_000;
 /// Assignment with particles already on a site kept there. For exact
 /// methods on small instances, unassigned particles that cover a site pay
 /// the push that clears them ([`assignment::with_parking`]).
+/// `forbidden` (particle index, site index) pairs are avoided when possible
+/// (dense method, small instances only).
 fn assign_with_fixed(
     layout: &Layout,
     sites: &[Site],
     config: &PlanConfig,
+    forbidden: &[(usize, usize)],
 ) -> Result<Assigned, PlanError> {
     let grid = grid::Grid::new(
         layout.particles.iter().map(|p| p.centre_m),
@@ -339,7 +379,27 @@ fn assign_with_fixed(
     } else {
         Vec::new()
     };
-    let chosen = if park.iter().any(|&c| c > 0.0) {
+    let banned: Vec<(usize, usize)> = forbidden
+        .iter()
+        .filter_map(|&(p, s)| {
+            let k = free_sites.iter().position(|&f| f == s)?;
+            let j = free_particles.iter().position(|&f| f == p)?;
+            Some((j, k))
+        })
+        .collect();
+    let small = site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS;
+    let chosen = if small && !banned.is_empty() {
+        let shift = park.iter().copied().fold(0.0, f64::max);
+        assignment::dense_jv::solve(&site_pts, &part_pts, |k, j| {
+            let park_j = park.get(j).copied().unwrap_or(0.0);
+            let ban = if banned.contains(&(j, k)) {
+                FORBIDDEN_PAIR_COST_M
+            } else {
+                0.0
+            };
+            (site_pts[k] - part_pts[j]).norm() - park_j + shift + ban
+        })
+    } else if park.iter().any(|&c| c > 0.0) {
         assignment::with_parking::solve(&site_pts, &part_pts, &park)
     } else {
         plain.site_to_particle.clone()

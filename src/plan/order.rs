@@ -23,6 +23,23 @@ use super::route::{Reach, find_route};
 use super::{PlanConfig, PlanError, Step};
 use nalgebra::Vector2;
 
+/// Why no order was found, and which (particle index, site index) moves
+/// were stuck: the caller may assign those sites to other particles and try
+/// again.
+#[derive(Debug, Clone)]
+pub struct Refusal {
+    /// What blocked what, for the user.
+    pub reason: String,
+    /// The stuck moves as (particle index, site index).
+    pub stuck_pairs: Vec<(usize, usize)>,
+}
+
+impl From<Refusal> for PlanError {
+    fn from(r: Refusal) -> Self {
+        PlanError::Blocked(r.reason)
+    }
+}
+
 /// Ordered push steps and how many of them are buffer/detour pushes.
 #[derive(Debug, Clone)]
 pub struct Ordered {
@@ -86,7 +103,7 @@ pub fn order_moves(
     pairs: &[(usize, usize)],
     on_site: &[usize],
     config: &PlanConfig,
-) -> Result<Ordered, PlanError> {
+) -> Result<Ordered, Refusal> {
     let mut role: Vec<Role> = layout
         .particles
         .iter()
@@ -176,7 +193,7 @@ impl Scheduler<'_> {
     /// Peels the sites; when it is stuck because particles cover each
     /// other's sites (a cycle), pushes one of them to the nearest spot where
     /// it covers no site but its own, and peels again.
-    fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, PlanError> {
+    fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, Refusal> {
         let mut breaks = 0;
         loop {
             let starts: Vec<Vector2<f64>> = self
@@ -215,7 +232,7 @@ impl Scheduler<'_> {
                     }
                 });
             if !cleared {
-                return Err(PlanError::Blocked(walled.to_string()));
+                return Err(self.refusal(walled.to_string(), &walled.stuck));
             }
             breaks += 1;
         }
@@ -320,7 +337,18 @@ impl Scheduler<'_> {
         }
     }
 
-    fn run(&mut self) -> Result<(), PlanError> {
+    /// A refusal naming the stuck moves.
+    fn refusal(&self, reason: String, stuck: &[usize]) -> Refusal {
+        Refusal {
+            reason,
+            stuck_pairs: stuck
+                .iter()
+                .map(|&k| (self.moves[k].particle, self.moves[k].site_index))
+                .collect(),
+        }
+    }
+
+    fn run(&mut self) -> Result<(), Refusal> {
         let total = self.moves.len();
         let mut repairs = 0usize;
         let max_repairs = 4 * total + 20;
@@ -333,9 +361,7 @@ impl Scheduler<'_> {
             if ready.is_empty() {
                 if self.moves.iter().any(|m| m.pending) {
                     // Cannot happen: the lowest pending rank waits for nobody.
-                    return Err(PlanError::Blocked(
-                        "every remaining move waits for another".into(),
-                    ));
+                    return Err(self.refusal("every remaining move waits for another".into(), &[]));
                 }
                 return Ok(());
             }
@@ -356,15 +382,17 @@ impl Scheduler<'_> {
                 continue;
             }
             repairs += 1;
+            let stuck: Vec<usize> = blocked.iter().map(|&(k, _)| k).collect();
             if repairs > max_repairs {
                 let remaining = self.moves.iter().filter(|m| m.pending).count();
-                return Err(PlanError::Blocked(format!(
+                let reason = format!(
                     "{remaining} of {total} moves still blocked after {max_repairs} buffer moves and detours; {}",
                     self.blocked_reason(&blocked)
-                )));
+                );
+                return Err(self.refusal(reason, &stuck));
             }
             if !self.repair(&blocked) {
-                return Err(PlanError::Blocked(self.blocked_reason(&blocked)));
+                return Err(self.refusal(self.blocked_reason(&blocked), &stuck));
             }
         }
     }

@@ -49,6 +49,10 @@ pub fn tip_end(from: Vector2<f64>, to: Vector2<f64>, approach: Vector2<f64>) -> 
     approach + (to - from)
 }
 
+/// How much closer than at the start a push may bring a particle it starts
+/// within the clearance of, um (f32 rounding of the local shapes).
+const APPROACH_TOLERANCE_UM: f32 = 1e-4;
+
 /// The region a push sweeps: particle capsule and tip capsule, local to `origin`
 /// (f32 parry shapes in micrometres relative to the push start keep precision).
 #[derive(Debug, Clone)]
@@ -91,11 +95,17 @@ impl Corridor {
     }
 
     /// True if a disc at `centre_m` of `radius_m` comes closer than `clearance_m` to the corridor.
+    ///
+    /// A disc the pushed particle already sits within the clearance of (two
+    /// particles left touching by earlier pushes) is hit only when the push
+    /// brings them closer still: moving apart, or sideways away, is free.
     pub fn hits(&self, centre_m: Vector2<f64>, radius_m: f64, clearance_m: f64) -> bool {
         let p = local(self.origin, centre_m);
         let reach = ((radius_m + clearance_m) * 1e6) as f32;
-        self.particle.distance_to_local_point(p, true) < reach
-            || self.tip.distance_to_local_point(p, true) < reach
+        let along = self.particle.distance_to_local_point(p, true);
+        let at_start = p.length() - self.particle.radius;
+        let particle_hits = along < reach && along < at_start - APPROACH_TOLERANCE_UM;
+        particle_hits || self.tip.distance_to_local_point(p, true) < reach
     }
 }
 
@@ -173,6 +183,17 @@ mod tests {
         // Behind the particle: only the tip corridor reaches there.
         assert!(c.hits(Vector2::new(-7e-6 - 5.5e-6, 0.0), 5e-6, 0.1e-6));
         assert!(!c.hits(Vector2::new(-7e-6 - 6.5e-6, 0.0), 5e-6, 0.1e-6));
+        // Touching at the start (gap 0.04 um < clearance): moving away is free
+        // where the tip fits in, moving closer is not.
+        let behind_left: Vector2<f64> = Vector2::new(-7.1e-6, -7.1e-6);
+        assert!((behind_left.norm() - 10.04e-6).abs() < 0.01e-6);
+        assert!(!c.hits(behind_left, 5e-6, 0.1e-6));
+        let straight_behind = Vector2::new(-10.04e-6, 0.0);
+        assert!(c.hits(straight_behind, 5e-6, 0.1e-6), "the tip lands in it");
+        let sideways = Corridor::new(Vector2::zeros(), Vector2::new(50e-6, 0.0), 5e-6, &cfg);
+        assert!(!sideways.hits(Vector2::new(0.0, 10.04e-6), 5e-6, 0.1e-6));
+        let closer = Corridor::new(Vector2::zeros(), Vector2::new(0.0, 50e-6), 5e-6, &cfg);
+        assert!(closer.hits(Vector2::new(3e-6, 10.04e-6), 5e-6, 0.1e-6));
         let parts = split_long(Vector2::zeros(), Vector2::new(250e-6, 0.0), 90e-6);
         assert_eq!(parts.len(), 3);
         assert!((parts[2].1.x - 250e-6).abs() < 1e-15);
