@@ -11,7 +11,8 @@ use crate::model::{ModelError, Scene};
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
-use crate::plan::pattern::transform::{Reachable, place_optimised};
+use crate::plan::pattern::transform::Reachable;
+use crate::plan::placement::place_by_plan;
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
 use crate::rig::RigError;
@@ -179,13 +180,22 @@ fn sites_for(
             layout.particles.len()
         )));
     }
-    let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-    Ok(place_optimised(
+    Ok(place_by_plan(
         &pattern,
         &Reachable::for_field(layout.field_m, r),
-        r,
-        &centres,
+        layout,
+        &plan_config_for(scene, &AssemblySettings::default()),
     )?)
+}
+
+/// The planner's settings for a run: the scene's pushing speed, the
+/// executor's travel speed, defaults otherwise.
+fn plan_config_for(scene: &Scene, settings: &AssemblySettings) -> PlanConfig {
+    PlanConfig {
+        push_speed_m_per_s: scene.push.speed_m_per_s,
+        travel_speed_m_per_s: settings.travel_speed_m_per_s,
+        ..PlanConfig::default()
+    }
 }
 
 /// The executor's inputs for a run on the simulated rig.
@@ -204,11 +214,7 @@ pub fn inputs_for(
     AssemblyInputs {
         scene: scene.clone(),
         sites,
-        plan_config: PlanConfig {
-            push_speed_m_per_s: scene.push.speed_m_per_s,
-            travel_speed_m_per_s: settings.travel_speed_m_per_s,
-            ..PlanConfig::default()
-        },
+        plan_config: plan_config_for(scene, &settings),
         perception: Perception {
             detect: DetectSettings {
                 diameter_px: 2.0 * scene.particle_radius_m / m_per_px,

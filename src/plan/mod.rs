@@ -20,6 +20,7 @@ pub mod order;
 pub mod parking;
 pub mod pattern;
 pub mod peel;
+pub mod placement;
 pub mod plan_file;
 pub mod pushes;
 pub mod rebase;
@@ -298,7 +299,11 @@ fn assign_and_order(
         }
         tries += 1;
         if forbidden.len() == before || tries > MAX_REASSIGNMENTS {
-            return Err(refusal.into());
+            let retried = match tries - 1 {
+                0 => String::new(),
+                n => format!(" (after {n} re-assignments of the stuck sites)"),
+            };
+            return Err(PlanError::Blocked(format!("{}{retried}", refusal.reason)));
         }
     }
 }

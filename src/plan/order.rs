@@ -20,7 +20,7 @@ use super::pattern::Site;
 use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
 use super::route::{Reach, find_route};
-use super::{PlanConfig, PlanError, Step};
+use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 
 /// Why no order was found, and which (particle index, site index) moves
@@ -32,12 +32,6 @@ pub struct Refusal {
     pub reason: String,
     /// The stuck moves as (particle index, site index).
     pub stuck_pairs: Vec<(usize, usize)>,
-}
-
-impl From<Refusal> for PlanError {
-    fn from(r: Refusal) -> Self {
-        PlanError::Blocked(r.reason)
-    }
 }
 
 /// Ordered push steps and how many of them are buffer/detour pushes.

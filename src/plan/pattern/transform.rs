@@ -60,7 +60,8 @@ fn centre_range(
     Ok((cmin, cmax.sup(&cmin)))
 }
 
-fn sites_at(pattern: &Pattern, centre: Vector2<f64>) -> Vec<Site> {
+/// The pattern's sites with its origin at `centre` (no area check).
+pub fn sites_at(pattern: &Pattern, centre: Vector2<f64>) -> Vec<Site> {
     pattern
         .offsets_m
         .iter()
@@ -101,10 +102,38 @@ pub fn place_optimised(
     radius_m: f64,
     particles: &[Vector2<f64>],
 ) -> Result<Vec<Site>, PatternError> {
+    let candidates = candidate_centres(pattern, area, radius_m, particles, 4)?;
+    if candidates.len() == 1 || pattern.offsets_m.len() > 2000 {
+        return Ok(sites_at(pattern, candidates[0]));
+    }
+    let exact = |c: Vector2<f64>| {
+        let sites: Vec<Vector2<f64>> = pattern.offsets_m.iter().map(|o| c + o).collect();
+        assign(&sites, particles, AssignmentMethod::Exact)
+            .map(|a| a.cost_m)
+            .unwrap_or(f64::INFINITY)
+    };
+    let best = candidates
+        .iter()
+        .map(|&c| (exact(c), c))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(candidates[0], |x| x.1);
+    Ok(sites_at(pattern, best))
+}
+
+/// The `count` most promising pattern centres inside `area`, best first: a
+/// 17 x 17 grid of centres scored by the sum of nearest-particle distances
+/// (a lower bound of the assignment). One centre (the middle) when there are
+/// fewer particles than sites: the assignment refuses later with the counts.
+pub fn candidate_centres(
+    pattern: &Pattern,
+    area: &Reachable,
+    radius_m: f64,
+    particles: &[Vector2<f64>],
+    count: usize,
+) -> Result<Vec<Vector2<f64>>, PatternError> {
     let (cmin, cmax) = centre_range(pattern, area, radius_m)?;
     if particles.len() < pattern.offsets_m.len() {
-        // Assignment will refuse later with the counts; place at the centre.
-        return Ok(sites_at(pattern, (cmin + cmax) / 2.0));
+        return Ok(vec![(cmin + cmax) / 2.0]);
     }
     const STEPS: usize = 16;
     let span = cmax - cmin;
@@ -131,23 +160,7 @@ pub fn place_optimised(
         }
     }
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    if pattern.offsets_m.len() > 2000 {
-        return Ok(sites_at(pattern, scored[0].1));
-    }
-    let exact = |c: Vector2<f64>| {
-        let sites: Vec<Vector2<f64>> = pattern.offsets_m.iter().map(|o| c + o).collect();
-        assign(&sites, particles, AssignmentMethod::Exact)
-            .map(|a| a.cost_m)
-            .unwrap_or(f64::INFINITY)
-    };
-    let best = scored
-        .iter()
-        .take(4)
-        .map(|&(_, c)| (exact(c), c))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|x| x.1)
-        .unwrap_or((cmin + cmax) / 2.0);
-    Ok(sites_at(pattern, best))
+    Ok(scored.into_iter().take(count.max(1)).map(|x| x.1).collect())
 }
 
 #[cfg(test)]
