@@ -17,7 +17,7 @@ use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
 use crate::exec::report::{AssemblyReport, RunFacts, count_journal};
 use crate::exec::sim_run::{
-    SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, prepare_sim_run,
+    SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, missed_lost_contacts, prepare_sim_run,
 };
 use crate::model::Scene;
 use crate::plan::Site;
@@ -291,17 +291,7 @@ fn finish(
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let contacts = rig.stage.contacts();
-    let missed = run
-        .records
-        .iter()
-        .filter(|r| {
-            !r.lost_contact_detected
-                && contacts
-                    .iter()
-                    .any(|c| c.t_s >= r.t_start_s && c.t_s <= r.t_end_s && c.event.lost_contact())
-        })
-        .count();
+    let missed = missed_lost_contacts(&run.records, rig.stage.contacts(), scene.particle_radius_m);
     let facts = RunFacts {
         end: &run.end,
         sites: &run.sites,

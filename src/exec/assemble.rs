@@ -113,6 +113,8 @@ pub struct PushRecord {
     pub t_end_s: f64,
     /// True when the camera showed the contact was lost.
     pub lost_contact_detected: bool,
+    /// Where the pushed particle was seen before the push, metres.
+    pub from_m: [f64; 2],
 }
 
 /// Everything the loop knows when a frame has been analysed: what the
@@ -753,6 +755,7 @@ impl<'a> Assembly<'a> {
             t_start_s,
             t_end_s: self.rig.now_s(),
             lost_contact_detected: false,
+            from_m: intent.from,
         });
         Ok(())
     }

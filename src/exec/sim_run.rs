@@ -4,7 +4,7 @@
 //! before the loop starts, as a library call so tests can drive the loop
 //! in-process and watch the ground truth.
 
-use super::assemble::{AssemblyInputs, AssemblySettings};
+use super::assemble::{AssemblyInputs, AssemblySettings, PushRecord};
 use super::events::RunSpec;
 use super::observe::Perception;
 use crate::model::{ModelError, Scene};
@@ -18,6 +18,7 @@ use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
 use crate::rig::RigError;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
+use crate::rig::sim::stage::TimedContact;
 use crate::vision::detect::DetectSettings;
 use crate::vision::tip::TipSettings;
 use std::path::{Path, PathBuf};
@@ -224,5 +225,74 @@ pub fn inputs_for(
             max_grabs: 5,
         },
         settings,
+    }
+}
+
+/// Pushes whose particle the simulated rig let go (tip brushed over it, it
+/// turned around the tip, or it stopped against another) while the camera
+/// check called the push fine. A contact counts for a push when it happened
+/// during the push and the touched particle stood within a radius of where
+/// the push expected it: a neighbour the tip grazed on its way is not the
+/// pushed particle losing contact.
+pub fn missed_lost_contacts(
+    records: &[PushRecord],
+    contacts: &[TimedContact],
+    radius_m: f64,
+) -> usize {
+    records
+        .iter()
+        .filter(|r| {
+            !r.lost_contact_detected
+                && contacts.iter().any(|c| {
+                    let at = c.event.at_m;
+                    c.t_s >= r.t_start_s
+                        && c.t_s <= r.t_end_s
+                        && c.event.lost_contact()
+                        && (at[0] - r.from_m[0]).hypot(at[1] - r.from_m[1]) < radius_m
+                })
+        })
+        .count()
+}
+
+#[cfg(test)]
+mod missed_tests {
+    use super::*;
+    use crate::rig::sim::world::{ContactEvent, ContactOutcome};
+
+    fn contact(t_s: f64, at_m: [f64; 2], outcome: ContactOutcome) -> TimedContact {
+        TimedContact {
+            t_s,
+            event: ContactEvent {
+                particle: 0,
+                at_m,
+                moved_m: 0.0,
+                outcome,
+            },
+        }
+    }
+
+    #[test]
+    fn only_the_pushed_particle_losing_contact_unseen_is_missed() {
+        let record = |detected| PushRecord {
+            t_start_s: 10.0,
+            t_end_s: 20.0,
+            lost_contact_detected: detected,
+            from_m: [50e-6, 50e-6],
+        };
+        let r = 5e-6;
+        let pushed_lost = contact(15.0, [50.2e-6, 50e-6], ContactOutcome::LeftBehind);
+        let neighbour_grazed = contact(15.0, [60.5e-6, 50e-6], ContactOutcome::LeftBehind);
+        let pushed_carried = contact(15.0, [50e-6, 50e-6], ContactOutcome::Carried);
+        let too_late = contact(25.0, [50e-6, 50e-6], ContactOutcome::TurnedAroundTip);
+        assert_eq!(missed_lost_contacts(&[record(false)], &[pushed_lost], r), 1);
+        assert_eq!(missed_lost_contacts(&[record(true)], &[pushed_lost], r), 0);
+        assert_eq!(
+            missed_lost_contacts(
+                &[record(false)],
+                &[neighbour_grazed, pushed_carried, too_late],
+                r
+            ),
+            0
+        );
     }
 }

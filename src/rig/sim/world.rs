@@ -88,6 +88,9 @@ pub enum ContactOutcome {
 pub struct ContactEvent {
     /// Which particle was touched.
     pub particle: usize,
+    /// Where its centre was when the tip touched it, metres (tells the
+    /// particle a push aimed at from one the tip met on the way).
+    pub at_m: [f64; 2],
     /// How far it moved, metres.
     pub moved_m: f64,
     /// How the contact ended.
@@ -148,12 +151,14 @@ impl World {
             let event = match physics.respond(&query) {
                 ContactResponse::Stays => ContactEvent {
                     particle: p.id,
+                    at_m: [p.x_m, p.y_m],
                     moved_m: 0.0,
                     outcome: ContactOutcome::LeftBehind,
                 },
                 ContactResponse::Moves { onset_travel_m } if onset_travel_m >= travel => {
                     ContactEvent {
                         particle: p.id,
+                        at_m: [p.x_m, p.y_m],
                         moved_m: 0.0,
                         outcome: ContactOutcome::Carried,
                     }
@@ -255,6 +260,7 @@ impl World {
         let p = self.particles[index];
         ContactEvent {
             particle: p.id,
+            at_m: [p0.x_m, p0.y_m],
             moved_m: dist([p.x_m, p.y_m], [p0.x_m, p0.y_m]),
             outcome,
         }
