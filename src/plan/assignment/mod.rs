@@ -2,7 +2,11 @@
 //!
 //! Methods (see `nanopush study plan` for what each costs):
 //! - [`sparse_ssp`]: exact shortest augmenting paths that look at a site's
-//!   particles lazily, nearest first; the default, fast at any N.
+//!   particles lazily, nearest first; what `Exact` runs on small instances
+//!   (up to [`EXACT_SPARSE_MAX_PAIRS`] site-particle pairs).
+//! - [`auction`]: the large-N fast path, an epsilon-scaling forward/reverse
+//!   auction on integer costs (distances rounded to diag / 1e9), exact for
+//!   the rounded costs; what `Exact` runs above the threshold.
 //! - [`dense_jv`]: the textbook dense shortest-augmenting-path method
 //!   (Jonker-Volgenant / Crouse, what scipy runs); the reference for tests.
 //! - [`greedy`]: nearest free particle, site by site; a baseline.
@@ -14,6 +18,8 @@
 //! Written by hand: no maintained Rust crate solves rectangular real-valued
 //! assignment sparsely; the LP goes through clarabel.
 
+pub mod auction;
+pub(crate) mod buckets;
 pub mod dense_jv;
 pub mod greedy;
 pub mod lp;
@@ -28,8 +34,11 @@ use nalgebra::Vector2;
 )]
 #[serde(rename_all = "kebab-case")]
 pub enum AssignmentMethod {
-    /// Exact, sparse shortest augmenting paths (default).
+    /// Exact (default): sparse shortest augmenting paths on small instances,
+    /// the epsilon-scaling auction above [`EXACT_SPARSE_MAX_PAIRS`] pairs.
     Exact,
+    /// Epsilon-scaling auction at any size (exact for distances rounded to diag / 1e9).
+    Auction,
     /// Exact, dense Jonker-Volgenant style; O(n^2 m), reference only.
     Dense,
     /// Greedy nearest particle; fast, not optimal.
@@ -61,6 +70,14 @@ pub enum AssignmentError {
     /// Side constraints leave some site with no admissible particle set.
     #[error("no assignment satisfies the constraints ({0})")]
     Infeasible(String),
+    /// A coordinate is NaN or infinite.
+    #[error("{what} {index} has a non-finite coordinate")]
+    NotFinite {
+        /// "site" or "particle".
+        what: &'static str,
+        /// Index of the point.
+        index: usize,
+    },
     /// The LP solver did not converge.
     #[error("LP solver failed: {0}")]
     Solver(String),
@@ -79,6 +96,10 @@ pub fn assignment_cost(sites: &[Vector2<f64>], particles: &[Vector2<f64>], s2p: 
         .sum()
 }
 
+/// Largest sites x particles instance `Exact` solves with [`sparse_ssp`]; above
+/// it the auction is faster (measured in `nanopush study plan`).
+pub const EXACT_SPARSE_MAX_PAIRS: usize = 20_000;
+
 /// Assigns particles to sites with `method`, minimising total distance.
 pub fn assign(
     sites: &[Vector2<f64>],
@@ -91,8 +112,19 @@ pub fn assign(
             particles: particles.len(),
         });
     }
+    for (what, points) in [("site", sites), ("particle", particles)] {
+        if let Some(index) = points
+            .iter()
+            .position(|p| !(p.x.is_finite() && p.y.is_finite()))
+        {
+            return Err(AssignmentError::NotFinite { what, index });
+        }
+    }
     let s2p = match method {
-        AssignmentMethod::Exact => sparse_ssp::solve(sites, particles),
+        AssignmentMethod::Exact if sites.len() * particles.len() <= EXACT_SPARSE_MAX_PAIRS => {
+            sparse_ssp::solve(sites, particles)
+        }
+        AssignmentMethod::Exact | AssignmentMethod::Auction => auction::solve(sites, particles),
         AssignmentMethod::Dense => {
             dense_jv::solve(sites, particles, |s, p| dist(&sites[s], &particles[p]))
         }
