@@ -27,7 +27,7 @@
 //! the runner-up is skipped. Written by hand: no Rust crate solves sparse or
 //! geometric rectangular assignment.
 
-use super::buckets::{Buckets, dist_to_box};
+use super::buckets::{Buckets, dist_to_box, dist2_to_box};
 use nalgebra::Vector2;
 use std::collections::VecDeque;
 
@@ -58,6 +58,19 @@ struct Costs {
 }
 
 impl Costs {
+    /// True when every distance `>= sqrt(d2)` costs at least `r`: a cheap
+    /// test (no square root, no rounding) that is never true wrongly. With
+    /// `of(d) = floor(d / res + 0.5) k`, `d >= (r / k + 0.5) res` gives
+    /// `of(d) >= r`; the factor `1 + 1e-9` covers floating-point error.
+    #[inline]
+    fn costs_at_least(self, d2: f64, r: i64) -> bool {
+        if r <= 0 {
+            return true;
+        }
+        let d_r = (r as f64 / self.k as f64 + 0.5) / self.inv_res * (1.0 + 1e-9);
+        d2 >= d_r * d_r
+    }
+
     #[inline]
     fn of(self, d: f64) -> i64 {
         // d >= 0: adding 0.5 and truncating rounds half up, without a libm call.
@@ -230,8 +243,11 @@ impl Auction {
             }
             let b = b as usize;
             for cell in self.parts.block_start[b]..self.parts.block_start[b + 1] {
-                if c.of(dist_to_box(&self.parts.cell_box[cell], x, y)) + self.cell_min_price[cell]
-                    >= w2
+                if w2 != i64::MAX
+                    && c.costs_at_least(
+                        dist2_to_box(&self.parts.cell_box[cell], x, y),
+                        w2 - self.cell_min_price[cell],
+                    )
                 {
                     continue;
                 }
@@ -292,8 +308,11 @@ impl Auction {
             }
             let b = b as usize;
             for cell in self.sites.block_start[b]..self.sites.block_start[b + 1] {
-                if self.cell_max_value[cell] - c.of(dist_to_box(&self.sites.cell_box[cell], x, y))
-                    <= b2
+                if b2 != i64::MIN
+                    && c.costs_at_least(
+                        dist2_to_box(&self.sites.cell_box[cell], x, y),
+                        self.cell_max_value[cell] - b2,
+                    )
                 {
                     continue;
                 }

@@ -137,9 +137,15 @@ impl Buckets {
 /// (each step is monotone), so it is a safe lower bound.
 #[inline]
 pub(crate) fn dist_to_box(b: &[f64; 4], x: f64, y: f64) -> f64 {
+    dist2_to_box(b, x, y).sqrt()
+}
+
+/// Squared [`dist_to_box`].
+#[inline]
+pub(crate) fn dist2_to_box(b: &[f64; 4], x: f64, y: f64) -> f64 {
     let dx = (b[0] - x).max(0.0).max(x - b[2]);
     let dy = (b[1] - y).max(0.0).max(y - b[3]);
-    (dx * dx + dy * dy).sqrt()
+    dx * dx + dy * dy
 }
 
 #[cfg(test)]

@@ -22,11 +22,14 @@ pub mod auction;
 pub(crate) mod buckets;
 pub mod dense_jv;
 pub mod greedy;
+pub mod instance;
 pub mod lp;
 pub mod sparse_ssp;
 pub mod with_parking;
 
 use nalgebra::Vector2;
+
+pub use instance::{block_instance, instance_json, read_instance_json};
 
 /// Which assignment method to run.
 #[derive(
@@ -136,45 +139,6 @@ pub fn assign(
         site_to_particle: s2p,
         cost_m,
     })
-}
-
-/// The benchmark instance: a compact square block of `n` sites at pitch 11 um
-/// (10 um particles, 1 um gap) centred in a square field where 2n particles
-/// (uniform, seeded, gaps >= 1 um) cover 10 % of the area. Metres.
-pub fn block_instance(n: usize, seed: u64) -> (Vec<Vector2<f64>>, crate::plan::Layout) {
-    use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-    let r = 5e-6;
-    let m = 2 * n;
-    let side = (m as f64 * std::f64::consts::PI * r * r / 0.10).sqrt();
-    let cols = (n as f64).sqrt().ceil() as usize;
-    let pitch = 11e-6;
-    let half = (cols as f64 - 1.0) * pitch / 2.0;
-    let c = side / 2.0;
-    let sites = (0..n)
-        .map(|i| {
-            Vector2::new(
-                c - half + (i % cols) as f64 * pitch,
-                c - half + (i / cols) as f64 * pitch,
-            )
-        })
-        .collect();
-    let p = SynthParams {
-        n: m,
-        field_m: [side, side],
-        radius_m: r,
-        min_gap_m: 1e-6,
-        polydisperse: false,
-        kind: LayoutKind::Uniform,
-        seed,
-    };
-    let layout = synth_layout(&p).expect("10 % coverage is always placeable");
-    (sites, layout)
-}
-
-/// Writes an instance as JSON (`{"sites": [[x_um, y_um]...], "particles": [...]}`) for the scipy peer script.
-pub fn instance_json(sites: &[Vector2<f64>], parts: &[Vector2<f64>]) -> String {
-    let um = |v: &[Vector2<f64>]| v.iter().map(|p| [p.x * 1e6, p.y * 1e6]).collect::<Vec<_>>();
-    serde_json::json!({"schema": "nanopush.assignment-instance/1", "sites": um(sites), "particles": um(parts)}).to_string()
 }
 
 #[cfg(test)]
