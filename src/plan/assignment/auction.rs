@@ -98,7 +98,7 @@ pub fn solve_with_stats(
     let lo = all().fold(sites[0], |a, p| a.inf(p));
     let hi = all().fold(sites[0], |a, p| a.sup(p));
     let diag = (hi - lo).norm();
-    if !(diag > 0.0) {
+    if diag.is_nan() || diag <= 0.0 {
         // Every point coincides: every assignment costs nothing.
         return ((0..n).collect(), AuctionStats::default());
     }

@@ -67,10 +67,11 @@ pub enum InstanceError {
     },
 }
 
+/// Sites and particles of an instance, metres.
+pub type Instance = (Vec<Vector2<f64>>, Vec<Vector2<f64>>);
+
 /// Reads what [`instance_json`] writes: (sites, particles) in metres.
-pub fn read_instance_json(
-    text: &str,
-) -> Result<(Vec<Vector2<f64>>, Vec<Vector2<f64>>), InstanceError> {
+pub fn read_instance_json(text: &str) -> Result<Instance, InstanceError> {
     #[derive(serde::Deserialize)]
     struct File {
         schema: String,
