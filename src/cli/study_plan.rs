@@ -22,11 +22,11 @@ use std::time::Instant;
 pub enum StudyMethod {
     /// Nearest free particle, pairs in order of distance.
     Greedy,
-    /// Exact sparse shortest augmenting paths (`Exact` below 20,000 pairs).
+    /// Exact sparse shortest augmenting paths (`Exact` up to 5,000 pairs).
     Sparse,
     /// Exact dense Jonker-Volgenant (scipy's algorithm).
     Dense,
-    /// The large-N fast path: epsilon-scaling auction (`Exact` above 20,000 pairs).
+    /// The large-N fast path: epsilon-scaling auction (`Exact` above 5,000 pairs).
     Auction,
     /// Linear program through clarabel.
     Lp,

@@ -101,7 +101,7 @@ pub fn assignment_cost(sites: &[Vector2<f64>], particles: &[Vector2<f64>], s2p: 
 
 /// Largest sites x particles instance `Exact` solves with [`sparse_ssp`]; above
 /// it the auction is faster (measured in `nanopush study plan`).
-pub const EXACT_SPARSE_MAX_PAIRS: usize = 20_000;
+pub const EXACT_SPARSE_MAX_PAIRS: usize = 5_000;
 
 /// Assigns particles to sites with `method`, minimising total distance.
 pub fn assign(
