@@ -88,3 +88,56 @@ fn bad_input_is_a_typed_error() {
         })
     );
 }
+
+#[test]
+fn study_plan_reports_every_method_and_dumps_instances_that_read_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args([
+            "study",
+            "plan",
+            "--sizes",
+            "20,70",
+            "--methods",
+            "greedy,auction,dense,lp",
+        ])
+        .arg("--json")
+        .arg("--dump-dir")
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(rows.len(), 8);
+    for r in &rows {
+        assert_eq!(r["schema"], "nanopush.study-plan/1");
+        let (n, method) = (r["n"].as_u64().unwrap(), r["method"].as_str().unwrap());
+        if method == "lp" && n == 70 {
+            assert!(r["ratio"].is_null() && r["note"].as_str().unwrap().contains("skipped"));
+            continue;
+        }
+        let ratio = r["ratio"].as_f64().unwrap();
+        match method {
+            "greedy" => assert!(ratio >= 1.0, "{r}"),
+            _ => assert!((ratio - 1.0).abs() < 1e-9, "{r}"),
+        }
+    }
+    let text = std::fs::read_to_string(dir.path().join("block_n70.json")).unwrap();
+    let (sites, parts) = nanopush::plan::assignment::read_instance_json(&text).unwrap();
+    assert_eq!((sites.len(), parts.len()), (70, 140));
+
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args(["study", "plan", "--sizes", "0"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--sizes must be positive"));
+}
