@@ -89,25 +89,12 @@ pub fn solve_with_stats(
     sites: &[Vector2<f64>],
     particles: &[Vector2<f64>],
 ) -> (Vec<usize>, AuctionStats) {
-    let (n, m) = (sites.len(), particles.len());
-    assert!(n <= m, "auction::solve needs sites <= particles");
-    if n == 0 {
-        return (Vec::new(), AuctionStats::default());
-    }
-    let all = || sites.iter().chain(particles.iter());
-    let lo = all().fold(sites[0], |a, p| a.inf(p));
-    let hi = all().fold(sites[0], |a, p| a.sup(p));
-    let diag = (hi - lo).norm();
-    if diag.is_nan() || diag <= 0.0 {
-        // Every point coincides: every assignment costs nothing.
+    let n = sites.len();
+    let Some(mut a) = Auction::for_instance(sites, particles) else {
+        // No site, or every point coincides: every assignment costs nothing.
         return ((0..n).collect(), AuctionStats::default());
-    }
-    let costs = Costs {
-        inv_res: RESOLUTION_STEPS / diag,
-        k: n as i64 + 1,
     };
-    let mut a = Auction::new(sites, particles, costs);
-    let mut eps = (costs.of(diag) / 4).max(1);
+    let mut eps = a.first_epsilon();
     loop {
         a.phase(eps);
         if eps == 1 {
@@ -120,6 +107,41 @@ pub fn solve_with_stats(
         out[a.sites.slot_to_point[t]] = a.parts.slot_to_point[a.assigned[t] as usize];
     }
     (out, a.stats)
+}
+
+/// A lower bound on the optimal total distance (metres) within about
+/// `rel_gap` of it, cheaper than the optimum: the auction stops at the first
+/// phase whose epsilon-slackness bounds the gap (n * epsilon <= rel_gap *
+/// cost) and returns the dual bound of its prices, `sum over sites of
+/// min_j (cost + price_j) - sum of the n largest prices`, which no
+/// assignment can beat whatever the prices (weak duality), minus the
+/// rounding of the costs. Used for LB_tip, where a bound is what is asked.
+pub fn lower_bound_m(sites: &[Vector2<f64>], particles: &[Vector2<f64>], rel_gap: f64) -> f64 {
+    let n = sites.len();
+    let Some(mut a) = Auction::for_instance(sites, particles) else {
+        return 0.0;
+    };
+    let mut eps = a.first_epsilon();
+    loop {
+        a.phase(eps);
+        let primal: i128 = (0..n)
+            .map(|t| a.cost(t, a.assigned[t] as usize) as i128)
+            .sum();
+        if eps == 1 || (n as f64) * (eps as f64) <= rel_gap * primal as f64 {
+            break;
+        }
+        eps = (eps / EPSILON_FACTOR).max(1);
+    }
+    let mut best: i128 = 0;
+    for t in 0..n {
+        best += a.best_two_particles(t).0 as i128;
+    }
+    let mut prices = a.price.clone();
+    prices.sort_unstable_by(|x, y| y.cmp(x));
+    let dual = best - prices[..n].iter().map(|&p| p as i128).sum::<i128>();
+    // cost = round(d / res) k, so d >= (cost / k - 0.5) res for every pair.
+    let res = 1.0 / a.costs.inv_res;
+    (dual as f64 / a.costs.k as f64 * res - 0.5 * n as f64 * res).max(0.0)
 }
 
 /// Auction state; sites and particles are indexed by their bucket slots.
@@ -141,6 +163,33 @@ struct Auction {
 }
 
 impl Auction {
+    /// The auction for an instance (sites <= particles, all finite); None when
+    /// there is nothing to optimise (no site, or every point coincides).
+    fn for_instance(sites: &[Vector2<f64>], particles: &[Vector2<f64>]) -> Option<Self> {
+        let (n, m) = (sites.len(), particles.len());
+        assert!(n <= m, "the auction needs sites <= particles");
+        if n == 0 {
+            return None;
+        }
+        let all = || sites.iter().chain(particles.iter());
+        let lo = all().fold(sites[0], |a, p| a.inf(p));
+        let hi = all().fold(sites[0], |a, p| a.sup(p));
+        let diag = (hi - lo).norm();
+        if diag.is_nan() || diag <= 0.0 {
+            return None;
+        }
+        let costs = Costs {
+            inv_res: RESOLUTION_STEPS / diag,
+            k: n as i64 + 1,
+        };
+        Some(Auction::new(sites, particles, costs))
+    }
+
+    /// Epsilon of the first phase: a quarter of the largest possible cost.
+    fn first_epsilon(&self) -> i64 {
+        (self.costs.of(RESOLUTION_STEPS / self.costs.inv_res) / 4).max(1)
+    }
+
     fn new(sites: &[Vector2<f64>], particles: &[Vector2<f64>], costs: Costs) -> Self {
         let sites = Buckets::new(sites, POINTS_PER_CELL);
         let parts = Buckets::new(particles, POINTS_PER_CELL);
@@ -369,6 +418,7 @@ impl Auction {
 mod tests {
     use super::super::test_support::random_points;
     use super::super::{assignment_cost, block_instance, dense_jv, dist};
+    use super::lower_bound_m;
     use super::*;
 
     fn check_against_dense(sites: &[Vector2<f64>], parts: &[Vector2<f64>], what: &str) {
@@ -407,6 +457,38 @@ mod tests {
             let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
             check_against_dense(&sites, &parts, &format!("block seed {seed}"));
         }
+    }
+
+    #[test]
+    fn the_early_lower_bound_is_below_the_optimum_and_close_to_it() {
+        for seed in 0..4 {
+            let (sites, layout) = block_instance(120, seed);
+            let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+            let b = dense_jv::solve(&sites, &parts, |s, p| dist(&sites[s], &parts[p]));
+            let opt = assignment_cost(&sites, &parts, &b);
+            for rel_gap in [1e-2, 1e-3, 0.0] {
+                let lb = lower_bound_m(&sites, &parts, rel_gap);
+                assert!(
+                    lb <= opt * (1.0 + 1e-12),
+                    "seed {seed} gap {rel_gap}: lb {lb} > opt {opt}"
+                );
+                // Rounding: n * diag / 1e9 = 120 * 1.4 mm / 1e9, 2e-8 of this optimum.
+                assert!(
+                    lb >= opt * (1.0 - 2.0 * rel_gap - 1e-7),
+                    "seed {seed} gap {rel_gap}: lb {lb} far below opt {opt}"
+                );
+            }
+        }
+        // Square, random: the bound also holds when every particle is used.
+        let sites = random_points(40, 50.0, 8);
+        let parts = random_points(40, 50.0, 9);
+        let b = dense_jv::solve(&sites, &parts, |s, p| dist(&sites[s], &parts[p]));
+        let opt = assignment_cost(&sites, &parts, &b);
+        let lb = lower_bound_m(&sites, &parts, 1e-3);
+        assert!(
+            lb <= opt * (1.0 + 1e-12) && lb >= opt * 0.997,
+            "lb {lb} opt {opt}"
+        );
     }
 
     #[test]
