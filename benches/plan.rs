@@ -1,13 +1,15 @@
-//! Planner benchmarks: CMU planning on 40-60 particle layouts, and exact
-//! assignment on compact blocks of N sites with 2N particles at 10 % coverage.
-//! Run: `cargo bench --bench plan` (short warm-up and measurement times).
+//! Planner benchmarks: CMU planning on 40-60 particle layouts; assignment
+//! (exact = the auction at this size, and greedy) and the full plan on a
+//! compact block of N = 1000 sites with 2N particles at 10 % coverage.
+//! Run: `cargo bench --bench plan -- assign_block` (short warm-up and
+//! measurement times); `-- plan_block` for the full plan (slow).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nanopush::plan::assignment::block_instance;
 use nanopush::plan::assignment::{AssignmentMethod, assign};
 use nanopush::plan::pattern::transform::{Reachable, place_optimised};
 use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use nanopush::plan::{Pattern, PlanConfig, plan_assembly};
+use nanopush::plan::{Pattern, PlanConfig, Site, plan_assembly};
 use std::time::Duration;
 
 fn cmu(c: &mut Criterion) {
@@ -50,19 +52,42 @@ fn cmu(c: &mut Criterion) {
 fn blocks(c: &mut Criterion) {
     let mut g = c.benchmark_group("assign_block");
     g.sample_size(10);
-    for n in [1_000usize, 5_000] {
-        let (sites, layout) = block_instance(n, 7);
-        let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-        g.bench_function(format!("exact_n{n}"), |b| {
-            b.iter(|| assign(&sites, &parts, AssignmentMethod::Exact).unwrap())
-        });
+    let (sites, layout) = block_instance(1_000, 7);
+    let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    // `Exact` runs the auction at this size (1000 x 2000 pairs).
+    for (name, method) in [
+        ("exact_auction_n1000", AssignmentMethod::Exact),
+        ("greedy_n1000", AssignmentMethod::Greedy),
+    ] {
+        g.bench_function(name, |b| b.iter(|| assign(&sites, &parts, method).unwrap()));
     }
+    g.finish();
+}
+
+fn full_plan(c: &mut Criterion) {
+    // Slow while the order stage dominates (see docs/plan.md): run alone with
+    // `cargo bench --bench plan -- plan_block`.
+    let mut g = c.benchmark_group("plan_block");
+    g.sample_size(10);
+    let (sites, layout) = block_instance(1_000, 7);
+    let sites: Vec<Site> = sites
+        .iter()
+        .enumerate()
+        .map(|(i, c)| Site {
+            id: i as u32,
+            centre_m: *c,
+        })
+        .collect();
+    let config = PlanConfig::default();
+    g.bench_function("full_n1000", |b| {
+        b.iter(|| std::hint::black_box(plan_assembly(&layout, &sites, &config)))
+    });
     g.finish();
 }
 
 criterion_group! {
     name = benches;
     config = Criterion::default().warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
-    targets = cmu, blocks
+    targets = cmu, blocks, full_plan
 }
 criterion_main!(benches);

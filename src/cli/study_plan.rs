@@ -1,14 +1,62 @@
 //! `nanopush study plan`: what accuracy costs in time. For each N, a compact
-//! block of N sites with 2N particles at 10 % coverage; greedy, exact sparse,
-//! dense (N <= 2000) and LP (N <= 60) assignments with their cost ratio to the
-//! exact optimum and their time; then the full plan (assignment + order)
-//! with its push ratio to LB_push, or the planner's refusal.
+//! block of N sites with 2N particles at 10 % coverage; greedy, the exact
+//! sparse shortest-augmenting-path method, the dense reference (scipy's
+//! algorithm), the large-N auction and the LP, each with its cost ratio to
+//! the best exact cost found and its time; methods too slow for a size are
+//! listed as skipped with the limit. With `--full`, the whole plan
+//! (assignment + order + bounds) with its push ratio to LB_push and where
+//! its time went, or the planner's refusal.
 
-use crate::plan::assignment::{AssignmentMethod, assign, block_instance, instance_json};
+use crate::plan::assignment::{
+    AssignmentError, assignment_cost, auction, block_instance, dense_jv, dist, greedy,
+    instance_json, lp, sparse_ssp,
+};
 use crate::plan::pattern::Site;
-use crate::plan::{PlanConfig, plan_assembly};
+use crate::plan::{PlanConfig, bounds, order, plan_assembly, pushes};
+use nalgebra::Vector2;
 use std::path::PathBuf;
 use std::time::Instant;
+
+/// A method the study times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum StudyMethod {
+    /// Nearest free particle, pairs in order of distance.
+    Greedy,
+    /// Exact sparse shortest augmenting paths (`Exact` up to 5,000 pairs).
+    Sparse,
+    /// Exact dense Jonker-Volgenant (scipy's algorithm).
+    Dense,
+    /// The large-N fast path: epsilon-scaling auction (`Exact` above 5,000 pairs).
+    Auction,
+    /// Linear program through clarabel.
+    Lp,
+}
+
+impl StudyMethod {
+    /// Largest N the study runs the method at (above it: skipped, said so).
+    fn max_n(self) -> usize {
+        match self {
+            StudyMethod::Greedy | StudyMethod::Auction => usize::MAX,
+            StudyMethod::Sparse => 1_000,
+            StudyMethod::Dense => 2_000,
+            StudyMethod::Lp => 60,
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            StudyMethod::Greedy => "greedy",
+            StudyMethod::Sparse => "sparse",
+            StudyMethod::Dense => "dense",
+            StudyMethod::Auction => "auction",
+            StudyMethod::Lp => "lp",
+        }
+    }
+
+    fn is_exact(self) -> bool {
+        self != StudyMethod::Greedy
+    }
+}
 
 /// Arguments of `nanopush study plan`.
 #[derive(clap::Args, Debug)]
@@ -23,7 +71,18 @@ pub struct Args {
     /// Seed of the particle layouts.
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
-    /// Also plan fully (assignment + order) for each N.
+    /// Methods to time (comma-separated).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "greedy,sparse,dense,auction,lp",
+        value_delimiter = ','
+    )]
+    pub methods: Vec<StudyMethod>,
+    /// Run every chosen method at every size, ignoring the affordability limits.
+    #[arg(long)]
+    pub no_limits: bool,
+    /// Also plan fully (assignment + order + bounds) for each N.
     #[arg(long)]
     pub full: bool,
     /// Write each instance as JSON here (for scripts/peers/scipy_lsa.py).
@@ -34,11 +93,46 @@ pub struct Args {
     pub json: bool,
 }
 
+/// One timed method on one instance.
+struct Row {
+    method: StudyMethod,
+    cost_m: Option<f64>,
+    time_ms: f64,
+    note: String,
+}
+
+fn run_method(
+    method: StudyMethod,
+    sites: &[Vector2<f64>],
+    parts: &[Vector2<f64>],
+) -> Result<(Vec<usize>, String), AssignmentError> {
+    Ok(match method {
+        StudyMethod::Greedy => (greedy::solve(sites, parts), String::new()),
+        StudyMethod::Sparse => (sparse_ssp::solve(sites, parts), String::new()),
+        StudyMethod::Dense => (
+            dense_jv::solve(sites, parts, |s, p| dist(&sites[s], &parts[p])),
+            String::new(),
+        ),
+        StudyMethod::Auction => {
+            let (a, st) = auction::solve_with_stats(sites, parts);
+            let note = format!(
+                "{} phases, {} bids, {} reverse steps",
+                st.phases, st.bids, st.reverse_steps
+            );
+            (a, note)
+        }
+        StudyMethod::Lp => (
+            lp::solve(sites, parts, &lp::SideConstraints::default())?,
+            String::new(),
+        ),
+    })
+}
+
 /// Runs the study and prints one row per (N, method).
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !args.json {
         println!(
-            "{:>6} {:>8} {:>12} {:>10} {:>12}",
+            "{:>6} {:>9} {:>12} {:>12} {:>11}  note",
             "N", "method", "cost_um", "ratio", "time_ms"
         );
     }
@@ -48,72 +142,122 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
         if let Some(dir) = &args.dump_dir {
             std::fs::create_dir_all(dir)?;
-            std::fs::write(
-                dir.join(format!("block_n{n}.json")),
-                instance_json(&sites, &parts),
-            )?;
+            let path = dir.join(format!("block_n{n}.json"));
+            std::fs::write(&path, instance_json(&sites, &parts))
+                .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;
         }
-        let mut exact_cost = None;
-        for method in [
-            AssignmentMethod::Exact,
-            AssignmentMethod::Greedy,
-            AssignmentMethod::Dense,
-            AssignmentMethod::Lp,
-        ] {
-            if (method == AssignmentMethod::Dense && n > 2000)
-                || (method == AssignmentMethod::Lp && n > 60)
-            {
+        let mut rows = Vec::new();
+        for &method in &args.methods {
+            if n > method.max_n() && !args.no_limits {
+                rows.push(Row {
+                    method,
+                    cost_m: None,
+                    time_ms: f64::NAN,
+                    note: format!("skipped: unaffordable above N = {}", method.max_n()),
+                });
                 continue;
             }
             let t = Instant::now();
-            let a = assign(&sites, &parts, method)?;
-            let ms = t.elapsed().as_secs_f64() * 1e3;
-            let base = *exact_cost.get_or_insert(a.cost_m);
-            let ratio = a.cost_m / base;
-            let name = format!("{method:?}").to_lowercase();
+            let (s2p, note) = run_method(method, &sites, &parts)?;
+            let time_ms = t.elapsed().as_secs_f64() * 1e3;
+            rows.push(Row {
+                method,
+                cost_m: Some(assignment_cost(&sites, &parts, &s2p)),
+                time_ms,
+                note,
+            });
+        }
+        let best = rows
+            .iter()
+            .filter(|r| r.method.is_exact())
+            .filter_map(|r| r.cost_m)
+            .fold(f64::INFINITY, f64::min);
+        for r in &rows {
+            let ratio = r.cost_m.map(|c| c / best).filter(|x| x.is_finite());
             if args.json {
                 println!(
                     "{}",
-                    serde_json::json!({"schema": "nanopush.study-plan/1", "n": n, "method": name, "cost_um": a.cost_m * 1e6, "ratio": ratio, "time_ms": ms})
+                    serde_json::json!({"schema": "nanopush.study-plan/1", "n": n, "method": r.method.name(),
+                        "cost_um": r.cost_m.map(|c| c * 1e6), "ratio": ratio,
+                        "time_ms": r.cost_m.map(|_| r.time_ms), "note": r.note})
                 );
             } else {
                 println!(
-                    "{n:>6} {name:>8} {:>12.1} {ratio:>10.6} {ms:>12.2}",
-                    a.cost_m * 1e6
+                    "{n:>6} {:>9} {:>12} {:>12} {:>11}  {}",
+                    r.method.name(),
+                    r.cost_m.map_or("-".into(), |c| format!("{:.1}", c * 1e6)),
+                    ratio.map_or("-".into(), |x| format!("{x:.9}")),
+                    r.cost_m.map_or("-".into(), |_| format!("{:.1}", r.time_ms)),
+                    r.note
                 );
             }
         }
         if args.full {
-            let site_list: Vec<Site> = sites
-                .iter()
-                .enumerate()
-                .map(|(i, c)| Site {
-                    id: i as u32,
-                    centre_m: *c,
-                })
-                .collect();
-            let t = Instant::now();
-            let outcome = plan_assembly(&layout, &site_list, &PlanConfig::default());
-            let ms = t.elapsed().as_secs_f64() * 1e3;
-            let (ratio, note) = match &outcome {
-                Ok(p) => (
-                    p.summary.push_distance_m / p.summary.lb_push_m,
-                    "planned".to_string(),
-                ),
-                Err(e) => (f64::NAN, format!("refused: {e}")),
-            };
-            if args.json {
-                println!(
-                    "{}",
-                    serde_json::json!({"schema": "nanopush.study-plan/1", "n": n, "method": "full-plan", "push_ratio": if ratio.is_finite() { Some(ratio) } else { None }, "time_ms": ms, "outcome": note})
-                );
-            } else {
-                println!(
-                    "{n:>6} {:>8} {:>12} {ratio:>10.4} {ms:>12.2}  {note}",
-                    "fullplan", ""
-                );
-            }
+            full_plan(n, &sites, &layout, args.json);
         }
     }
     Ok(())
+}
+
+/// Plans the instance fully and prints the push ratio and where the time went:
+/// the planner's own total, and the stages re-run one by one (assignment,
+/// order, LB_tip) from the public stage functions.
+fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, json: bool) {
+    let site_list: Vec<Site> = sites
+        .iter()
+        .enumerate()
+        .map(|(i, c)| Site {
+            id: i as u32,
+            centre_m: *c,
+        })
+        .collect();
+    let config = PlanConfig::default();
+    let t = Instant::now();
+    let outcome = plan_assembly(layout, &site_list, &config);
+    let total_ms = t.elapsed().as_secs_f64() * 1e3;
+    let (ratio, note) = match &outcome {
+        Ok(p) => (
+            Some(p.summary.push_distance_m / p.summary.lb_push_m),
+            format!("planned, {} pushes", p.summary.pushes),
+        ),
+        Err(e) => (None, format!("refused: {e}")),
+    };
+    // The stages on their own (the block has no particle on a site).
+    let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let t = Instant::now();
+    let assigned = crate::plan::assignment::assign(sites, &parts, config.method);
+    let assign_ms = t.elapsed().as_secs_f64() * 1e3;
+    let (mut order_ms, mut lb_tip_ms) = (f64::NAN, f64::NAN);
+    if let Ok(a) = &assigned {
+        let pairs: Vec<(usize, usize)> = a
+            .site_to_particle
+            .iter()
+            .enumerate()
+            .map(|(s, &p)| (p, s))
+            .collect();
+        let t = Instant::now();
+        let ordered = order::order_moves(layout, &site_list, &pairs, &[], &config);
+        order_ms = t.elapsed().as_secs_f64() * 1e3;
+        if let Ok(o) = ordered {
+            let steps = pushes::with_tip_travel(o.steps, None, &config);
+            let t = Instant::now();
+            let _ = bounds::lb_tip(&steps, None, &config);
+            lb_tip_ms = t.elapsed().as_secs_f64() * 1e3;
+        }
+    }
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({"schema": "nanopush.study-plan/1", "n": n, "method": "full-plan",
+                "push_ratio": ratio, "time_ms": total_ms, "assign_ms": assign_ms,
+                "order_ms": order_ms, "lb_tip_ms": lb_tip_ms, "note": note})
+        );
+    } else {
+        println!(
+            "{n:>6} {:>9} {:>12} {:>12} {total_ms:>11.1}  {note}; stages alone: assignment {assign_ms:.1} ms, order {order_ms:.1} ms, LB_tip {lb_tip_ms:.1} ms",
+            "full-plan",
+            "",
+            ratio.map_or("-".into(), |x| format!("{x:.6}")),
+        );
+    }
 }

@@ -18,7 +18,8 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// Builds a grid with square cells of `cell_m` (clamped so the grid stays small).
+    /// Builds a grid with square cells of `cell_m` (clamped so the grid stays
+    /// small; 0 or non-finite: sized for about two points per cell).
     pub fn new(points: impl IntoIterator<Item = Vector2<f64>>, cell_m: f64) -> Self {
         let points: Vec<Vector2<f64>> = points.into_iter().collect();
         let (mut lo, mut hi) = (Vector2::new(0.0, 0.0), Vector2::new(0.0, 0.0));
@@ -36,7 +37,14 @@ impl Grid {
         let cell_m = if cell_m.is_finite() && cell_m > 0.0 {
             cell_m.max(min_cell)
         } else {
-            span
+            // Unspecified: about two points per cell over the bounding box.
+            let (w, h) = (
+                (hi.x - lo.x).max(span * 1e-3),
+                (hi.y - lo.y).max(span * 1e-3),
+            );
+            (2.0 * w * h / points.len().max(1) as f64)
+                .sqrt()
+                .max(min_cell)
         };
         let nx = (((hi.x - lo.x) / cell_m) as usize + 1).max(1);
         let ny = (((hi.y - lo.y) / cell_m) as usize + 1).max(1);

@@ -377,7 +377,10 @@ fn assign_with_fixed(
     let plain = assignment::assign(&site_pts, &part_pts, config.method)?;
     let exact_method = matches!(
         config.method,
-        AssignmentMethod::Exact | AssignmentMethod::Dense | AssignmentMethod::Lp
+        AssignmentMethod::Exact
+            | AssignmentMethod::Auction
+            | AssignmentMethod::Dense
+            | AssignmentMethod::Lp
     );
     let park = if exact_method && site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS {
         park_costs(layout, &site_pts, &free_particles, config)

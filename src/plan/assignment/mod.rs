@@ -2,7 +2,11 @@
 //!
 //! Methods (see `nanopush study plan` for what each costs):
 //! - [`sparse_ssp`]: exact shortest augmenting paths that look at a site's
-//!   particles lazily, nearest first; the default, fast at any N.
+//!   particles lazily, nearest first; what `Exact` runs on small instances
+//!   (up to [`EXACT_SPARSE_MAX_PAIRS`] site-particle pairs).
+//! - [`auction`]: the large-N fast path, an epsilon-scaling forward/reverse
+//!   auction on integer costs (distances rounded to diag / 1e9), exact for
+//!   the rounded costs; what `Exact` runs above the threshold.
 //! - [`dense_jv`]: the textbook dense shortest-augmenting-path method
 //!   (Jonker-Volgenant / Crouse, what scipy runs); the reference for tests.
 //! - [`greedy`]: nearest free particle, site by site; a baseline.
@@ -14,13 +18,18 @@
 //! Written by hand: no maintained Rust crate solves rectangular real-valued
 //! assignment sparsely; the LP goes through clarabel.
 
+pub mod auction;
+pub(crate) mod buckets;
 pub mod dense_jv;
 pub mod greedy;
+pub mod instance;
 pub mod lp;
 pub mod sparse_ssp;
 pub mod with_parking;
 
 use nalgebra::Vector2;
+
+pub use instance::{block_instance, instance_json, read_instance_json};
 
 /// Which assignment method to run.
 #[derive(
@@ -28,8 +37,11 @@ use nalgebra::Vector2;
 )]
 #[serde(rename_all = "kebab-case")]
 pub enum AssignmentMethod {
-    /// Exact, sparse shortest augmenting paths (default).
+    /// Exact (default): sparse shortest augmenting paths on small instances,
+    /// the epsilon-scaling auction above [`EXACT_SPARSE_MAX_PAIRS`] pairs.
     Exact,
+    /// Epsilon-scaling auction at any size (exact for distances rounded to diag / 1e9).
+    Auction,
     /// Exact, dense Jonker-Volgenant style; O(n^2 m), reference only.
     Dense,
     /// Greedy nearest particle; fast, not optimal.
@@ -61,6 +73,14 @@ pub enum AssignmentError {
     /// Side constraints leave some site with no admissible particle set.
     #[error("no assignment satisfies the constraints ({0})")]
     Infeasible(String),
+    /// A coordinate is NaN or infinite.
+    #[error("{what} {index} has a non-finite coordinate")]
+    NotFinite {
+        /// "site" or "particle".
+        what: &'static str,
+        /// Index of the point.
+        index: usize,
+    },
     /// The LP solver did not converge.
     #[error("LP solver failed: {0}")]
     Solver(String),
@@ -79,6 +99,10 @@ pub fn assignment_cost(sites: &[Vector2<f64>], particles: &[Vector2<f64>], s2p: 
         .sum()
 }
 
+/// Largest sites x particles instance `Exact` solves with [`sparse_ssp`]; above
+/// it the auction is faster (measured in `nanopush study plan`).
+pub const EXACT_SPARSE_MAX_PAIRS: usize = 5_000;
+
 /// Assigns particles to sites with `method`, minimising total distance.
 pub fn assign(
     sites: &[Vector2<f64>],
@@ -91,8 +115,19 @@ pub fn assign(
             particles: particles.len(),
         });
     }
+    for (what, points) in [("site", sites), ("particle", particles)] {
+        if let Some(index) = points
+            .iter()
+            .position(|p| !(p.x.is_finite() && p.y.is_finite()))
+        {
+            return Err(AssignmentError::NotFinite { what, index });
+        }
+    }
     let s2p = match method {
-        AssignmentMethod::Exact => sparse_ssp::solve(sites, particles),
+        AssignmentMethod::Exact if sites.len() * particles.len() <= EXACT_SPARSE_MAX_PAIRS => {
+            sparse_ssp::solve(sites, particles)
+        }
+        AssignmentMethod::Exact | AssignmentMethod::Auction => auction::solve(sites, particles),
         AssignmentMethod::Dense => {
             dense_jv::solve(sites, particles, |s, p| dist(&sites[s], &particles[p]))
         }
@@ -104,45 +139,6 @@ pub fn assign(
         site_to_particle: s2p,
         cost_m,
     })
-}
-
-/// The benchmark instance: a compact square block of `n` sites at pitch 11 um
-/// (10 um particles, 1 um gap) centred in a square field where 2n particles
-/// (uniform, seeded, gaps >= 1 um) cover 10 % of the area. Metres.
-pub fn block_instance(n: usize, seed: u64) -> (Vec<Vector2<f64>>, crate::plan::Layout) {
-    use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-    let r = 5e-6;
-    let m = 2 * n;
-    let side = (m as f64 * std::f64::consts::PI * r * r / 0.10).sqrt();
-    let cols = (n as f64).sqrt().ceil() as usize;
-    let pitch = 11e-6;
-    let half = (cols as f64 - 1.0) * pitch / 2.0;
-    let c = side / 2.0;
-    let sites = (0..n)
-        .map(|i| {
-            Vector2::new(
-                c - half + (i % cols) as f64 * pitch,
-                c - half + (i / cols) as f64 * pitch,
-            )
-        })
-        .collect();
-    let p = SynthParams {
-        n: m,
-        field_m: [side, side],
-        radius_m: r,
-        min_gap_m: 1e-6,
-        polydisperse: false,
-        kind: LayoutKind::Uniform,
-        seed,
-    };
-    let layout = synth_layout(&p).expect("10 % coverage is always placeable");
-    (sites, layout)
-}
-
-/// Writes an instance as JSON (`{"sites": [[x_um, y_um]...], "particles": [...]}`) for the scipy peer script.
-pub fn instance_json(sites: &[Vector2<f64>], parts: &[Vector2<f64>]) -> String {
-    let um = |v: &[Vector2<f64>]| v.iter().map(|p| [p.x * 1e6, p.y * 1e6]).collect::<Vec<_>>();
-    serde_json::json!({"schema": "nanopush.assignment-instance/1", "sites": um(sites), "particles": um(parts)}).to_string()
 }
 
 #[cfg(test)]
