@@ -110,12 +110,6 @@ where
             params: N,
         });
     }
-    NFIT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let mut normal = |p: &SVector<f64, N>| {
-        NEVAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        NPIX.fetch_add(n_samples, std::sync::atomic::Ordering::Relaxed);
-        normal(p)
-    };
     let mut p = init;
     let mut at_p = normal(&p);
     if !at_p.rss.is_finite() {
