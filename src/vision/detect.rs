@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{box_mean_in_place, local_maxima};
+use super::filter::{box_mean_in_place, local_extrema, local_maxima};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
@@ -226,8 +226,7 @@ fn add_core_candidates(
     let inside = |x: usize, y: usize| x >= edge && y >= edge && x + edge < w && y + edge < h;
     let near2 = (0.25 * settings.diameter_px).powi(2);
     for &sign in signs {
-        let v: Vec<f32> = bp.values.iter().map(|x| sign * x).collect();
-        for i in local_maxima(&v, w, h, r, threshold) {
+        for i in local_extrema(&bp.values, w, h, r, threshold, sign) {
             let (x, y) = (i % w, i / w);
             let taken = out
                 .iter()
@@ -236,7 +235,7 @@ fn add_core_candidates(
                 out.push(Candidate {
                     x,
                     y,
-                    snr: v[i] as f64 / sd,
+                    snr: (sign * bp.values[i]) as f64 / sd,
                 });
             }
         }

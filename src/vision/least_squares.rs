@@ -79,13 +79,17 @@ where
         jtj.fill_upper_triangle_with_lower_triangle();
         NormalEquations { jtj, jtr, rss }
     };
-    levenberg_marquardt_with(samples.len(), init, max_iterations, normal)
+    levenberg_marquardt_with(samples.len(), init, max_iterations, &[], normal)
 }
 
 /// A Gauss-Newton step whose predicted rss decrease is below this fraction of
 /// the residual variance moves the parameters by about sqrt(this) = 0.03 of
 /// their standard errors in all: converged.
 const CONVERGED_DECREASE: f64 = 1e-3;
+
+/// An accepted step that moves every watched parameter by less than this
+/// fraction of its standard error ends the fit.
+const WATCHED_STEP: f64 = 0.02;
 
 /// [`levenberg_marquardt`] for a problem of `n_samples` observations given by
 /// its normal equations: `normal(p)` evaluates them at `p` (a batch evaluation
@@ -94,11 +98,17 @@ const CONVERGED_DECREASE: f64 = 1e-3;
 /// Stops when the step predicted by the linearised model would lower the rss
 /// by less than [`CONVERGED_DECREASE`] residual variances (that step is taken
 /// without a further evaluation), when an accepted step lowers the rss by a
-/// relative 1e-8, or when no trial step lowers it.
+/// relative 1e-8, when an accepted step moves every `watched` parameter (the
+/// ones the caller reports; none when empty) by less than
+/// [`WATCHED_STEP`] of its standard error, or when no trial step lowers the rss.
+/// The watched rule ends fits whose nuisance parameters crawl along a flat
+/// valley (a wide core trading off against the background) for dozens of
+/// iterations while the centre no longer moves.
 pub fn levenberg_marquardt_with<const N: usize, F>(
     n_samples: usize,
     init: SVector<f64, N>,
     max_iterations: usize,
+    watched: &[usize],
     mut normal: F,
 ) -> Result<FitOutcome<N>, FitError>
 where
@@ -146,8 +156,15 @@ where
                 // A relative decrease of 1e-8 moves a parameter by ~1e-4 of its
                 // standard error: converged, and stopping here saves the rounds
                 // of rejected trials that would otherwise end the fit.
-                let small = step.norm() < 1e-7 * (1.0 + p.norm())
+                let mut small = step.norm() < 1e-7 * (1.0 + p.norm())
                     || at_p.rss - at_trial.rss < 1e-8 * at_p.rss;
+                if !small && !watched.is_empty() {
+                    small = at_p.jtj.try_inverse().is_some_and(|inv| {
+                        watched.iter().all(|&i| {
+                            i < N && step[i].powi(2) < WATCHED_STEP.powi(2) * variance * inv[(i, i)]
+                        })
+                    });
+                }
                 p = trial;
                 at_p = at_trial;
                 lambda = (lambda * 0.2).max(1e-9);
