@@ -108,19 +108,41 @@ fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
 /// around them (cut at the borders), in raster order; on a plateau only its
 /// first pixel in raster order counts. Row-major indices.
 ///
-/// The 8 neighbours are checked first: on a smooth map almost every pixel
-/// above the threshold has a larger neighbour and is rejected there, so the
-/// full window is scanned only at the few true peaks.
+/// The left and right neighbours are checked first, then the 8 neighbours:
+/// on a smooth map almost every pixel above the threshold has a larger
+/// neighbour and is rejected there, so the full window is scanned only at the
+/// few true peaks.
 pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -> Vec<usize> {
+    local_extrema(src, w, h, r, threshold, 1.0)
+}
+
+/// [`local_maxima`] of `sign * src` (sign -1: local minima below -threshold),
+/// without a negated copy of the frame.
+pub fn local_extrema(
+    src: &[f32],
+    w: usize,
+    h: usize,
+    r: usize,
+    threshold: f32,
+    sign: f32,
+) -> Vec<usize> {
     let mut out = Vec::new();
+    let at = |i: usize| sign * src[i];
     for y in 0..h {
+        let row = y * w;
         for x in 0..w {
-            let v = src[y * w + x];
-            if v > threshold
-                && wins_window(src, w, h, x, y, 1.min(r), v)
-                && (r <= 1 || wins_window(src, w, h, x, y, r, v))
+            let v = at(row + x);
+            if v <= threshold {
+                continue;
+            }
+            // Raster-order tie rule: an equal pixel to the left wins.
+            if r >= 1 && ((x > 0 && at(row + x - 1) >= v) || (x + 1 < w && at(row + x + 1) > v)) {
+                continue;
+            }
+            if wins_window(&at, w, h, x, y, 1.min(r), v)
+                && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
             {
-                out.push(y * w + x);
+                out.push(row + x);
             }
         }
     }
@@ -130,12 +152,20 @@ pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -
 /// True when no pixel of the window around (x, y) exceeds `v`, and none equal
 /// to it comes earlier in raster order.
 #[inline]
-fn wins_window(src: &[f32], w: usize, h: usize, x: usize, y: usize, r: usize, v: f32) -> bool {
+fn wins_window(
+    at: &impl Fn(usize) -> f32,
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+    r: usize,
+    v: f32,
+) -> bool {
     let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
     for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-        let row = &src[yy * w + x0..=yy * w + x1];
-        for (i, &u) in row.iter().enumerate() {
-            let earlier = yy < y || (yy == y && x0 + i < x);
+        for xx in x0..=x1 {
+            let u = at(yy * w + xx);
+            let earlier = yy < y || (yy == y && xx < x);
             if u > v || (u == v && earlier) {
                 return false;
             }
@@ -267,6 +297,12 @@ mod tests {
                     }
                 }
                 assert_eq!(local_maxima(&src, w, h, r, threshold), want, "r {r}");
+                let negated: Vec<f32> = src.iter().map(|v| -v).collect();
+                assert_eq!(
+                    local_extrema(&negated, w, h, r, threshold, -1.0),
+                    want,
+                    "r {r}"
+                );
                 if r >= 1 {
                     assert!(want.contains(&(5 * w + 5)) && !want.contains(&(5 * w + 6)));
                 }

@@ -39,6 +39,18 @@ pub struct FitOutcome<const N: usize> {
     pub iterations: usize,
 }
 
+/// The normal equations of a weighted least-squares problem at one point:
+/// J^T W J, J^T W r and the weighted residual sum of squares.
+#[derive(Debug, Clone)]
+pub struct NormalEquations<const N: usize> {
+    /// J^T W J (whole symmetric matrix).
+    pub jtj: SMatrix<f64, N, N>,
+    /// J^T W r, r = value - model.
+    pub jtr: SVector<f64, N>,
+    /// sum w r^2.
+    pub rss: f64,
+}
+
 /// Minimises sum w (value - model)^2 from `init`. `model(x, y, p, grad)` returns
 /// the model value and writes d model / d p into `grad`.
 pub fn levenberg_marquardt<const N: usize, F>(
@@ -50,32 +62,67 @@ pub fn levenberg_marquardt<const N: usize, F>(
 where
     F: Fn(f64, f64, &SVector<f64, N>, &mut SVector<f64, N>) -> f64,
 {
-    if samples.len() <= N {
-        return Err(FitError::TooFewSamples {
-            got: samples.len(),
-            params: N,
-        });
-    }
     let mut grad = SVector::<f64, N>::zeros();
-    let normal = |p: &SVector<f64, N>, grad: &mut SVector<f64, N>| {
+    let normal = |p: &SVector<f64, N>| {
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
         let mut rss = 0.0;
         for &(x, y, v, w) in samples {
-            let m = model(x, y, p, grad);
+            let m = model(x, y, p, &mut grad);
             let r = v - m;
             rss += w * r * r;
-            jtr += *grad * (w * r);
-            jtj.syger(w, grad, grad, 1.0);
+            jtr += grad * (w * r);
+            jtj.syger(w, &grad, &grad, 1.0);
         }
         // syger fills the lower triangle only (enough for the Cholesky step);
         // the covariance is an inverse of the whole matrix.
         jtj.fill_upper_triangle_with_lower_triangle();
-        (jtj, jtr, rss)
+        NormalEquations { jtj, jtr, rss }
     };
+    levenberg_marquardt_with(samples.len(), init, max_iterations, &[], normal)
+}
+
+/// A Gauss-Newton step whose predicted rss decrease is below this fraction of
+/// the residual variance moves the parameters by about sqrt(this) = 0.03 of
+/// their standard errors in all: converged.
+const CONVERGED_DECREASE: f64 = 1e-3;
+
+/// An accepted step that moves every watched parameter by less than this
+/// fraction of its standard error ends the fit.
+const WATCHED_STEP: f64 = 0.02;
+
+/// [`levenberg_marquardt`] for a problem of `n_samples` observations given by
+/// its normal equations: `normal(p)` evaluates them at `p` (a batch evaluation
+/// over the whole window, see `pixel_window`).
+///
+/// Stops when the step predicted by the linearised model would lower the rss
+/// by less than [`CONVERGED_DECREASE`] residual variances (that step is taken
+/// without a further evaluation), when an accepted step lowers the rss by a
+/// relative 1e-8, when an accepted step moves every `watched` parameter (the
+/// ones the caller reports; none when empty) by less than
+/// [`WATCHED_STEP`] of its standard error, or when no trial step lowers the rss.
+/// The watched rule ends fits whose nuisance parameters crawl along a flat
+/// valley (a wide core trading off against the background) for dozens of
+/// iterations while the centre no longer moves.
+pub fn levenberg_marquardt_with<const N: usize, F>(
+    n_samples: usize,
+    init: SVector<f64, N>,
+    max_iterations: usize,
+    watched: &[usize],
+    mut normal: F,
+) -> Result<FitOutcome<N>, FitError>
+where
+    F: FnMut(&SVector<f64, N>) -> NormalEquations<N>,
+{
+    if n_samples <= N {
+        return Err(FitError::TooFewSamples {
+            got: n_samples,
+            params: N,
+        });
+    }
     let mut p = init;
-    let (mut jtj, mut jtr, mut rss) = normal(&p, &mut grad);
-    if !rss.is_finite() {
+    let mut at_p = normal(&p);
+    if !at_p.rss.is_finite() {
         return Err(FitError::NotFinite);
     }
     let mut lambda = 1e-3;
@@ -83,32 +130,57 @@ where
     for _ in 0..max_iterations {
         iterations += 1;
         let mut improved = false;
-        for _ in 0..8 {
-            let mut a = jtj;
+        let variance = at_p.rss / (n_samples - N) as f64;
+        for trial_no in 0..8 {
+            let mut a = at_p.jtj;
             for i in 0..N {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
+                a[(i, i)] += lambda * at_p.jtj[(i, i)].max(1e-12);
             }
-            let Some(step) = a.cholesky().map(|c| c.solve(&jtr)) else {
+            let Some(step) = a.cholesky().map(|c| c.solve(&at_p.jtr)) else {
                 lambda *= 10.0;
                 continue;
             };
             let trial = p + step;
-            let (tjtj, tjtr, trss) = normal(&trial, &mut grad);
-            if trss.is_finite() && trss < rss {
+            // Predicted decrease of the linearised model, 2 s.Jr - s.JJ s; only
+            // meaningful while the step is close to Gauss-Newton's.
+            let predicted = 2.0 * step.dot(&at_p.jtr) - step.dot(&(at_p.jtj * step));
+            if trial_no == 0
+                && lambda <= 1e-2
+                && predicted.abs() < CONVERGED_DECREASE * variance
+                && trial.iter().all(|v| v.is_finite())
+            {
+                return finish(n_samples, trial, at_p.jtj, at_p.rss, iterations);
+            }
+            let at_trial = normal(&trial);
+            if at_trial.rss.is_finite() && at_trial.rss < at_p.rss {
                 // A relative decrease of 1e-8 moves a parameter by ~1e-4 of its
                 // standard error: converged, and stopping here saves the rounds
                 // of rejected trials that would otherwise end the fit.
-                let small = step.norm() < 1e-7 * (1.0 + p.norm()) || rss - trss < 1e-8 * rss;
+                let mut small = step.norm() < 1e-7 * (1.0 + p.norm())
+                    || at_p.rss - at_trial.rss < 1e-8 * at_p.rss;
+                if !small && !watched.is_empty() {
+                    small = at_p.jtj.try_inverse().is_some_and(|inv| {
+                        watched.iter().all(|&i| {
+                            i < N && step[i].powi(2) < WATCHED_STEP.powi(2) * variance * inv[(i, i)]
+                        })
+                    });
+                }
                 p = trial;
-                jtj = tjtj;
-                jtr = tjtr;
-                rss = trss;
+                at_p = at_trial;
                 lambda = (lambda * 0.2).max(1e-9);
                 improved = true;
                 if small {
-                    return finish(samples.len(), p, jtj, rss, iterations);
+                    return finish(n_samples, p, at_p.jtj, at_p.rss, iterations);
                 }
                 break;
+            }
+            // A Gauss-Newton step this small that does not lower the rss is
+            // below the evaluation's rounding (f32 batch models): converged.
+            if trial_no == 0
+                && lambda <= 1e-2
+                && predicted.abs() < 10.0 * CONVERGED_DECREASE * variance
+            {
+                return finish(n_samples, p, at_p.jtj, at_p.rss, iterations);
             }
             lambda *= 10.0;
         }
@@ -116,7 +188,7 @@ where
             break;
         }
     }
-    finish(samples.len(), p, jtj, rss, iterations)
+    finish(n_samples, p, at_p.jtj, at_p.rss, iterations)
 }
 
 fn finish<const N: usize>(
