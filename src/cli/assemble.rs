@@ -291,7 +291,12 @@ fn finish(
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let missed = missed_lost_contacts(&run.records, rig.stage.contacts(), scene.particle_radius_m);
+    let missed = missed_lost_contacts(
+        &run.records,
+        rig.stage.contacts(),
+        scene.particle_radius_m,
+        AssemblySettings::default().placed_tolerance_m,
+    );
     let facts = RunFacts {
         end: &run.end,
         sites: &run.sites,

@@ -115,6 +115,8 @@ pub struct PushRecord {
     pub lost_contact_detected: bool,
     /// Where the pushed particle was seen before the push, metres.
     pub from_m: [f64; 2],
+    /// Where the push aimed it, metres.
+    pub to_m: [f64; 2],
 }
 
 /// Everything the loop knows when a frame has been analysed: what the
@@ -756,6 +758,7 @@ impl<'a> Assembly<'a> {
             t_end_s: self.rig.now_s(),
             lost_contact_detected: false,
             from_m: intent.from,
+            to_m: intent.to,
         });
         Ok(())
     }

@@ -230,26 +230,33 @@ pub fn inputs_for(
 
 /// Pushes whose particle the simulated rig let go (tip brushed over it, it
 /// turned around the tip, or it stopped against another) while the camera
-/// check called the push fine. A contact counts for a push when it happened
-/// during the push and the touched particle stood within a radius of where
-/// the push expected it: a neighbour the tip grazed on its way is not the
-/// pushed particle losing contact.
+/// check called the push fine. The push's contact is the first one during the
+/// push with a particle within a radius of where the push expected it: a
+/// neighbour the tip grazed is not the pushed particle, and a later touch of
+/// the placed particle is not the push losing it. A particle already within
+/// `placed_tolerance_m` of the push's target when touched (a push repeated
+/// because the check did not see the first one land) lost nothing.
 pub fn missed_lost_contacts(
     records: &[PushRecord],
     contacts: &[TimedContact],
     radius_m: f64,
+    placed_tolerance_m: f64,
 ) -> usize {
+    let dist = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
     records
         .iter()
         .filter(|r| {
             !r.lost_contact_detected
-                && contacts.iter().any(|c| {
-                    let at = c.event.at_m;
-                    c.t_s >= r.t_start_s
-                        && c.t_s <= r.t_end_s
-                        && c.event.lost_contact()
-                        && (at[0] - r.from_m[0]).hypot(at[1] - r.from_m[1]) < radius_m
-                })
+                && contacts
+                    .iter()
+                    .find(|c| {
+                        c.t_s >= r.t_start_s
+                            && c.t_s <= r.t_end_s
+                            && dist(c.event.at_m, r.from_m) < radius_m
+                    })
+                    .is_some_and(|c| {
+                        c.event.lost_contact() && dist(c.event.at_m, r.to_m) > placed_tolerance_m
+                    })
         })
         .count()
 }
@@ -278,20 +285,45 @@ mod missed_tests {
             t_end_s: 20.0,
             lost_contact_detected: detected,
             from_m: [50e-6, 50e-6],
+            to_m: [53e-6, 50e-6],
         };
-        let r = 5e-6;
+        let (r, tol) = (5e-6, 0.2e-6);
         let pushed_lost = contact(15.0, [50.2e-6, 50e-6], ContactOutcome::LeftBehind);
         let neighbour_grazed = contact(15.0, [60.5e-6, 50e-6], ContactOutcome::LeftBehind);
         let pushed_carried = contact(15.0, [50e-6, 50e-6], ContactOutcome::Carried);
         let too_late = contact(25.0, [50e-6, 50e-6], ContactOutcome::TurnedAroundTip);
-        assert_eq!(missed_lost_contacts(&[record(false)], &[pushed_lost], r), 1);
-        assert_eq!(missed_lost_contacts(&[record(true)], &[pushed_lost], r), 0);
+        assert_eq!(
+            missed_lost_contacts(&[record(false)], &[pushed_lost], r, tol),
+            1
+        );
+        assert_eq!(
+            missed_lost_contacts(&[record(true)], &[pushed_lost], r, tol),
+            0
+        );
         assert_eq!(
             missed_lost_contacts(
                 &[record(false)],
                 &[neighbour_grazed, pushed_carried, too_late],
-                r
+                r,
+                tol
             ),
+            0
+        );
+        // Carried, then touched again where it was left: the push did not lose it.
+        let touched_after = contact(19.0, [53e-6, 50e-6], ContactOutcome::LeftBehind);
+        assert_eq!(
+            missed_lost_contacts(&[record(false)], &[pushed_carried, touched_after], r, tol),
+            0
+        );
+        // Pushed again while already on its target (the check had not seen it
+        // land): the tip stops against it without moving it, nothing is lost.
+        let already_there = contact(15.0, [53.1e-6, 50e-6], ContactOutcome::LeftBehind);
+        let repeated = PushRecord {
+            from_m: [53.1e-6, 50e-6],
+            ..record(false)
+        };
+        assert_eq!(
+            missed_lost_contacts(&[repeated], &[already_there], r, tol),
             0
         );
     }
