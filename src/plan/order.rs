@@ -70,6 +70,20 @@ struct Move {
     wait: usize,
     /// Moves this one's route crosses (they wait for it).
     releases: Vec<usize>,
+    /// The last blocker found, with what the test saw; still valid while
+    /// none of it changed (a blocked move is re-tested every step otherwise,
+    /// which made ordering cubic in the number of moves).
+    blocked: Option<BlockedBy>,
+}
+
+/// A blocker found for a move: the blocker, and the particle positions and
+/// route the corridor test used.
+#[derive(Debug, Clone, PartialEq)]
+struct BlockedBy {
+    blocker: usize,
+    blocker_at: Vector2<f64>,
+    particle_at: Vector2<f64>,
+    route: Vec<Vector2<f64>>,
 }
 
 struct Scheduler<'a> {
@@ -128,6 +142,7 @@ pub fn order_moves(
                 pending: true,
                 wait: 0,
                 releases: Vec::new(),
+                blocked: None,
             });
         }
     }
@@ -209,7 +224,7 @@ impl Scheduler<'_> {
                         .any(|&s| s != k);
                     let spot = covers_other
                         .then(|| {
-                            self.buffer_spots(p, &[]).into_iter().find(|s| {
+                            self.buffer_spots(p, &[]).find(|s| {
                                 self.obstacles
                                     .covered_by(*s, self.radius(p))
                                     .iter()
@@ -285,6 +300,30 @@ impl Scheduler<'_> {
             approach_point(from, to, self.radius(p), self.config),
             self.config,
         )
+    }
+
+    /// [`Self::first_blocker`], reusing the last answer while the blocker,
+    /// the move's particle and its route are where they were: a blocker that
+    /// has not moved still blocks.
+    fn cached_blocker(&mut self, k: usize) -> Option<usize> {
+        let m = &self.moves[k];
+        if let Some(b) = &m.blocked
+            && self.occ.pos[b.blocker] == b.blocker_at
+            && self.occ.pos[m.particle] == b.particle_at
+            && b.route == m.route
+        {
+            return Some(b.blocker);
+        }
+        let found = self.first_blocker(k);
+        let m = &self.moves[k];
+        let blocked = found.map(|q| BlockedBy {
+            blocker: q,
+            blocker_at: self.occ.pos[q],
+            particle_at: self.occ.pos[m.particle],
+            route: m.route.clone(),
+        });
+        self.moves[k].blocked = blocked;
+        found
     }
 
     /// First particle that a leg of move k's route hits now.
@@ -363,7 +402,7 @@ impl Scheduler<'_> {
             let mut blocked = Vec::new();
             let mut chosen = None;
             for &(_, k) in &ready {
-                match self.first_blocker(k) {
+                match self.cached_blocker(k) {
                     None => {
                         chosen = Some(k);
                         break;
@@ -509,7 +548,8 @@ impl Scheduler<'_> {
 
     /// Pushes idle particle q to a buffer spot clear of `avoid`; true on success.
     fn buffer_idle(&mut self, q: usize, avoid: &[Corridor]) -> bool {
-        match self.buffer_spots(q, avoid).into_iter().next() {
+        let spot = self.buffer_spots(q, avoid).next();
+        match spot {
             Some(spot) => {
                 self.push(q, spot, true);
                 true
@@ -522,7 +562,8 @@ impl Scheduler<'_> {
     /// `avoid` from which m still has a route; true on success.
     fn buffer_pending(&mut self, m: usize, avoid: &[Corridor]) -> bool {
         let q = self.moves[m].particle;
-        for spot in self.buffer_spots(q, avoid).into_iter().take(24) {
+        let spots: Vec<Vector2<f64>> = self.buffer_spots(q, avoid).take(24).collect();
+        for spot in spots {
             if let Some(route) = self.route_for(m, q, spot, false) {
                 self.push(q, spot, true);
                 self.moves[m].route = route;
@@ -535,11 +576,16 @@ impl Scheduler<'_> {
 
     /// Free spots near particle q, reachable now in one push and clear of
     /// `avoid`: off every site first, nearest first; then spots on sites.
-    fn buffer_spots(&self, q: usize, avoid: &[Corridor]) -> Vec<Vector2<f64>> {
+    /// Lazy: callers take the first few, and each spot costs a corridor test.
+    fn buffer_spots<'s>(
+        &'s self,
+        q: usize,
+        avoid: &'s [Corridor],
+    ) -> impl Iterator<Item = Vector2<f64>> + 's {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
-        let usable = |spot: &Vector2<f64>| {
+        let usable = move |spot: &Vector2<f64>| {
             self.reach.contains(*spot)
                 && self.occ.disc_free(*spot, r, q, cl)
                 && avoid.iter().all(|c| !c.hits(*spot, r, cl))
@@ -548,14 +594,15 @@ impl Scheduler<'_> {
                     .first_hit(&self.corridor(q, from, *spot), q, cl)
                     .is_none()
         };
-        let (mut off, mut on): (Vec<Vector2<f64>>, Vec<Vector2<f64>>) = self
+        let off = self
             .ring(from, r)
             .into_iter()
-            .partition(|s| self.off_sites(*s, r));
-        off.retain(usable);
-        on.retain(usable);
-        off.extend(on);
-        off
+            .filter(move |s| self.off_sites(*s, r));
+        let on = self
+            .ring(from, r)
+            .into_iter()
+            .filter(move |s| !self.off_sites(*s, r));
+        off.chain(on).filter(usable)
     }
 
     /// Pushes every idle particle that covers a site to a spot off the sites
@@ -581,7 +628,6 @@ impl Scheduler<'_> {
             covering.retain(|&q| {
                 let spot = self
                     .buffer_spots(q, &[])
-                    .into_iter()
                     .find(|s| self.off_sites(*s, self.radius(q)));
                 match spot {
                     Some(spot) => {
@@ -640,7 +686,8 @@ impl Scheduler<'_> {
             for &h in &hits {
                 let mut keep_clear = avoid.to_vec();
                 keep_clear.push(way.clone());
-                match self.buffer_spots(h, &keep_clear).into_iter().next() {
+                let spot = self.buffer_spots(h, &keep_clear).next();
+                match spot {
                     Some(t) => {
                         self.push(h, t, true);
                         moved = true;
