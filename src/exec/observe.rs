@@ -6,7 +6,7 @@ use super::tracker::Observation;
 use crate::calib::affine::AffineCalibration;
 use crate::rig::RigError;
 use crate::rig::camera::Camera;
-use crate::vision::detect::{DetectSettings, detect_particles};
+use crate::vision::detect::{DetectSettings, detect_particles_excluding};
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
@@ -113,8 +113,6 @@ impl Perception {
             let [x, y] = calibration.pixel_to_stage_m(x_px, y_px);
             [x + coarse_offset_m[0], y + coarse_offset_m[1]]
         };
-        let detections = detect_particles(&timed.frame, &self.detect)
-            .map_err(|e| ObserveError::Detect(e.to_string()))?;
         // The size hint is the particles' known size: a detection far from it is
         // not one of them (the probe's outline, debris), and must not reach the planner.
         let expected_r_px = self.detect.diameter_px / 2.0;
@@ -124,6 +122,11 @@ impl Perception {
         let probe_shadow_px = expected_r_px + PROBE_SHADOW_MARGIN_PX;
         let clear_of_probe =
             |x: f64, y: f64| probe.is_none_or(|t| t.signed_distance(x, y) >= probe_shadow_px);
+        // Candidates in the probe's shadow are not fitted at all (its edges
+        // give many, and fitting them took two thirds of the frame's time).
+        let detections =
+            detect_particles_excluding(&timed.frame, &self.detect, &|x, y| !clear_of_probe(x, y))
+                .map_err(|e| ObserveError::Detect(e.to_string()))?;
         let particles = detections
             .iter()
             .filter(|d| !d.edge_clipped)
