@@ -7,9 +7,10 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nanopush::plan::assignment::block_instance;
 use nanopush::plan::assignment::{AssignmentMethod, assign};
+use nanopush::plan::pattern::numbered_sites;
 use nanopush::plan::pattern::transform::{Reachable, place_optimised};
 use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use nanopush::plan::{Pattern, PlanConfig, Site, plan_assembly};
+use nanopush::plan::{Pattern, PlanConfig, plan_assembly};
 use std::time::Duration;
 
 fn cmu(c: &mut Criterion) {
@@ -70,14 +71,7 @@ fn full_plan(c: &mut Criterion) {
     let mut g = c.benchmark_group("plan_block");
     g.sample_size(10);
     let (sites, layout) = block_instance(1_000, 7);
-    let sites: Vec<Site> = sites
-        .iter()
-        .enumerate()
-        .map(|(i, c)| Site {
-            id: i as u32,
-            centre_m: *c,
-        })
-        .collect();
+    let sites = numbered_sites(sites.iter().copied());
     let config = PlanConfig::default();
     g.bench_function("full_n1000", |b| {
         b.iter(|| std::hint::black_box(plan_assembly(&layout, &sites, &config)))

@@ -11,7 +11,7 @@ use crate::plan::assignment::{
     AssignmentError, assignment_cost, auction, block_instance, dense_jv, dist, greedy,
     instance_json, lp, sparse_ssp,
 };
-use crate::plan::pattern::Site;
+use crate::plan::pattern::numbered_sites;
 use crate::plan::{PlanConfig, bounds, order, plan_assembly, pushes};
 use nalgebra::Vector2;
 use std::path::PathBuf;
@@ -203,14 +203,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// the planner's own total, and the stages re-run one by one (assignment,
 /// order, LB_tip) from the public stage functions.
 fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, json: bool) {
-    let site_list: Vec<Site> = sites
-        .iter()
-        .enumerate()
-        .map(|(i, c)| Site {
-            id: i as u32,
-            centre_m: *c,
-        })
-        .collect();
+    let site_list = numbered_sites(sites.iter().copied());
     let config = PlanConfig::default();
     let t = Instant::now();
     let outcome = plan_assembly(layout, &site_list, &config);

@@ -308,10 +308,6 @@ fn assign_and_order(
     }
 }
 
-/// Cost that keeps a forbidden particle-site pair out of the assignment
-/// whenever any other assignment exists, metres (far beyond any field).
-const FORBIDDEN_PAIR_COST_M: f64 = 1.0;
-
 /// The assignment the planner executes, and its lower bound.
 struct Assigned {
     /// (particle index, site index) pairs.
@@ -396,19 +392,8 @@ fn assign_with_fixed(
         })
         .collect();
     let small = site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS;
-    let chosen = if small && !banned.is_empty() {
-        let shift = park.iter().copied().fold(0.0, f64::max);
-        assignment::dense_jv::solve(&site_pts, &part_pts, |k, j| {
-            let park_j = park.get(j).copied().unwrap_or(0.0);
-            let ban = if banned.contains(&(j, k)) {
-                FORBIDDEN_PAIR_COST_M
-            } else {
-                0.0
-            };
-            (site_pts[k] - part_pts[j]).norm() - park_j + shift + ban
-        })
-    } else if park.iter().any(|&c| c > 0.0) {
-        assignment::with_parking::solve(&site_pts, &part_pts, &park)
+    let chosen = if small && (!banned.is_empty() || park.iter().any(|&c| c > 0.0)) {
+        assignment::with_parking::solve(&site_pts, &part_pts, &park, &banned)
     } else {
         plain.site_to_particle.clone()
     };

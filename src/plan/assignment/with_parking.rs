@@ -7,20 +7,34 @@
 //! sum d(site, particle) + sum park_cost(unassigned particle), which is the
 //! plain assignment with cost d(s, p) - park_cost(p) (shifted to stay
 //! non-negative). Solved with the dense method: the planner only calls this
-//! for the small instances where a site is covered (re-planning per push).
+//! for the small instances where a site is covered (re-planning per push),
+//! or where a refused order banned some particle-site pairs.
 
 use super::{dense_jv, dist};
 use nalgebra::Vector2;
 
-/// Site -> particle indices minimising push distance plus parking pushes.
+/// Cost that keeps a banned pair out of the assignment whenever any other
+/// assignment exists, metres (far beyond any field).
+const BANNED_PAIR_COST_M: f64 = 1.0;
+
+/// Site -> particle indices minimising push distance plus parking pushes;
+/// `park_cost_m` may be empty (no parking cost), `banned` (particle, site)
+/// pairs are taken only when nothing else fills the sites.
 pub fn solve(
     sites: &[Vector2<f64>],
     particles: &[Vector2<f64>],
     park_cost_m: &[f64],
+    banned: &[(usize, usize)],
 ) -> Vec<usize> {
+    let park = |p: usize| park_cost_m.get(p).copied().unwrap_or(0.0);
     let shift = park_cost_m.iter().copied().fold(0.0, f64::max);
     dense_jv::solve(sites, particles, |s, p| {
-        dist(&sites[s], &particles[p]) - park_cost_m[p] + shift
+        let ban = if banned.contains(&(p, s)) {
+            BANNED_PAIR_COST_M
+        } else {
+            0.0
+        };
+        dist(&sites[s], &particles[p]) - park(p) + shift + ban
     })
 }
 
@@ -35,9 +49,14 @@ mod tests {
         // so taking A (4) and leaving B (0) is cheaper in total (4 < 1 + 6).
         let sites = [Vector2::new(0.0, 0.0)];
         let parts = [Vector2::new(4.0, 0.0), Vector2::new(0.0, 1.0)];
-        assert_eq!(solve(&sites, &parts, &[0.0, 0.0]), vec![1]);
-        assert_eq!(solve(&sites, &parts, &[6.0, 0.0]), vec![0]);
+        assert_eq!(solve(&sites, &parts, &[0.0, 0.0], &[]), vec![1]);
+        assert_eq!(solve(&sites, &parts, &[6.0, 0.0], &[]), vec![0]);
         // Parking cheaper than the difference: plain choice again.
-        assert_eq!(solve(&sites, &parts, &[2.0, 0.0]), vec![1]);
+        assert_eq!(solve(&sites, &parts, &[2.0, 0.0], &[]), vec![1]);
+        // The nearer particle banned from the site: the other one takes it
+        // (micrometre distances, as the planner gives them).
+        let um = [Vector2::new(4e-6, 0.0), Vector2::new(0.0, 1e-6)];
+        assert_eq!(solve(&sites, &um, &[], &[]), vec![1]);
+        assert_eq!(solve(&sites, &um, &[], &[(1, 0)]), vec![0]);
     }
 }

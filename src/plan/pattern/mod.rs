@@ -20,6 +20,18 @@ pub struct Site {
     pub centre_m: Vector2<f64>,
 }
 
+/// Sites at `centres_m`, numbered from 0 in that order.
+pub fn numbered_sites(centres_m: impl IntoIterator<Item = Vector2<f64>>) -> Vec<Site> {
+    centres_m
+        .into_iter()
+        .enumerate()
+        .map(|(i, centre_m)| Site {
+            id: i as u32,
+            centre_m,
+        })
+        .collect()
+}
+
 /// Site centres in micrometres, as files and the journal write them.
 pub fn sites_um(sites: &[Site]) -> Vec<[f64; 2]> {
     sites

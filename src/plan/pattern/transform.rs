@@ -2,7 +2,7 @@
 //! either at a given centre or where the optimal assignment's total push
 //! distance is smallest.
 
-use super::{Pattern, PatternError, Site, bbox};
+use super::{Pattern, PatternError, Site, bbox, numbered_sites};
 use crate::plan::assignment::{AssignmentMethod, assign};
 use crate::plan::grid::Grid;
 use nalgebra::{Rotation2, Vector2};
@@ -62,15 +62,7 @@ fn centre_range(
 
 /// The pattern's sites with its origin at `centre` (no area check).
 pub fn sites_at(pattern: &Pattern, centre: Vector2<f64>) -> Vec<Site> {
-    pattern
-        .offsets_m
-        .iter()
-        .enumerate()
-        .map(|(i, o)| Site {
-            id: i as u32,
-            centre_m: centre + o,
-        })
-        .collect()
+    numbered_sites(pattern.offsets_m.iter().map(|o| centre + o))
 }
 
 /// Places the pattern centred at `centre_m`; fails if any site leaves `area`.
