@@ -100,6 +100,30 @@ impl Grid {
         }
     }
 
+    /// Calls `f` on every point index in the cells within `reach_m` of the
+    /// segment a-b (a superset of the points within `reach_m`: `f` makes the
+    /// exact test) until `f` returns false; false when it stopped early.
+    pub fn for_each_near_segment(
+        &self,
+        a: Vector2<f64>,
+        b: Vector2<f64>,
+        reach_m: f64,
+        mut f: impl FnMut(usize) -> bool,
+    ) -> bool {
+        if self.points.is_empty() {
+            return true;
+        }
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        for_each_cell_near_segment(self.origin, self.cell_m, a, b, reach_m, |cx, cy| {
+            if cx < 0 || cy < 0 || cx >= nx || cy >= ny {
+                return true;
+            }
+            self.cells[cy as usize * self.nx + cx as usize]
+                .iter()
+                .all(|&i| f(i))
+        })
+    }
+
     /// The `k` nearest points to `centre`, sorted by distance (fewer if the grid has fewer).
     pub fn nearest(&self, centre: Vector2<f64>, k: usize) -> Vec<(f64, usize)> {
         let k = k.min(self.points.len());
@@ -133,6 +157,55 @@ impl Grid {
     }
 }
 
+/// Calls `f(cx, cy)` on the cells (of side `cell_m` from `origin`) that
+/// come within `reach_m` of the segment a-b, column by column, until `f`
+/// returns false; false when it stopped early. A long segment's bounding
+/// square holds many cells far from it; this visits about three per column.
+pub fn for_each_cell_near_segment(
+    origin: Vector2<f64>,
+    cell_m: f64,
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    reach_m: f64,
+    mut f: impl FnMut(i64, i64) -> bool,
+) -> bool {
+    if !(reach_m.is_finite() && a.iter().chain(b.iter()).all(|v| v.is_finite())) {
+        return true;
+    }
+    // Widened a little: callers' exact tests run in f32 micrometres.
+    let reach_m = reach_m + cell_m * 1e-3;
+    let cell = |v: f64, o: f64| ((v - o) / cell_m).floor() as i64;
+    let d = b - a;
+    let x0 = cell(a.x.min(b.x) - reach_m, origin.x);
+    let x1 = cell(a.x.max(b.x) + reach_m, origin.x);
+    for cx in x0..=x1 {
+        // The part of the segment whose points lie within reach of this
+        // column's slab; the cells it touches, widened by the reach.
+        let (lo, hi) = (
+            origin.x + cx as f64 * cell_m - reach_m,
+            origin.x + (cx + 1) as f64 * cell_m + reach_m,
+        );
+        let (t0, t1) = if d.x.abs() > 0.0 {
+            let (ta, tb) = ((lo - a.x) / d.x, (hi - a.x) / d.x);
+            (ta.min(tb).max(0.0), ta.max(tb).min(1.0))
+        } else {
+            (0.0, 1.0)
+        };
+        if t0 > t1 {
+            continue;
+        }
+        let (ya, yb) = (a.y + d.y * t0, a.y + d.y * t1);
+        let y0 = cell(ya.min(yb) - reach_m, origin.y);
+        let y1 = cell(ya.max(yb) + reach_m, origin.y);
+        for cy in y0..=y1 {
+            if !f(cx, cy) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,5 +229,68 @@ mod tests {
             grid.within(q, 8.0).len(),
             brute.iter().filter(|b| b.0 <= 8.0).count()
         );
+    }
+
+    /// Distance from p to the segment a-b.
+    fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+        let ab = b - a;
+        let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-300)).clamp(0.0, 1.0);
+        (p - (a + ab * t)).norm()
+    }
+
+    #[test]
+    fn segment_query_finds_every_point_within_reach() {
+        let pts: Vec<Vector2<f64>> = (0..400)
+            .map(|i| Vector2::new(((i * 37) % 101) as f64, ((i * 53) % 97) as f64))
+            .collect();
+        let grid = Grid::new(pts.clone(), 4.0);
+        let segments = [
+            (Vector2::new(3.0, 5.0), Vector2::new(90.0, 71.0), 6.0),
+            (Vector2::new(50.0, 2.0), Vector2::new(50.0, 95.0), 3.0),
+            (Vector2::new(80.0, 40.0), Vector2::new(10.0, 41.0), 2.5),
+            (Vector2::new(-20.0, -20.0), Vector2::new(20.0, 20.0), 9.0),
+            (Vector2::new(40.0, 40.0), Vector2::new(40.0, 40.0), 7.0),
+        ];
+        for (a, b, reach) in segments {
+            let mut seen = Vec::new();
+            assert!(grid.for_each_near_segment(a, b, reach, |i| {
+                seen.push(i);
+                true
+            }));
+            let within: Vec<usize> = (0..pts.len())
+                .filter(|&i| segment_distance(pts[i], a, b) <= reach)
+                .collect();
+            assert!(!within.is_empty());
+            for i in &within {
+                assert!(
+                    seen.contains(i),
+                    "point {i} within {reach} of {a:?}-{b:?} not visited"
+                );
+            }
+            // It stays near the segment: far fewer points than the bounding square holds.
+            let square = (0..pts.len())
+                .filter(|&i| {
+                    let p = pts[i];
+                    p.x >= a.x.min(b.x) - reach
+                        && p.x <= a.x.max(b.x) + reach
+                        && p.y >= a.y.min(b.y) - reach
+                        && p.y <= a.y.max(b.y) + reach
+                })
+                .count();
+            if (b - a).x.abs() > 60.0 && (b - a).y.abs() > 60.0 {
+                assert!(
+                    seen.len() * 2 < square,
+                    "{} visited of {square}",
+                    seen.len()
+                );
+            }
+            // Stopping early stops.
+            let mut calls = 0;
+            assert!(!grid.for_each_near_segment(a, b, reach, |_| {
+                calls += 1;
+                false
+            }));
+            assert_eq!(calls, 1);
+        }
     }
 }

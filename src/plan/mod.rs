@@ -13,6 +13,7 @@
 
 pub mod assignment;
 pub mod bounds;
+pub mod failed_routes;
 pub mod grid;
 pub mod layout;
 pub mod occupancy;

@@ -4,14 +4,11 @@
 //! Written by hand: a dynamic bucket grid of a few dozen moving discs is
 //! smaller than wiring a spatial-index crate for it.
 
+use super::grid::for_each_cell_near_segment;
 use super::layout::Layout;
 use super::pushes::Corridor;
 use nalgebra::Vector2;
 use std::collections::HashMap;
-
-/// Margin on skipping a cell, metres: the exact corridor test runs in f32
-/// micrometres, this keeps the skip conservative.
-const CELL_SKIP_SLACK_M: f64 = 1e-8;
 
 /// Particle positions that change as pushes are executed, bucketed for queries.
 pub struct Occupancy {
@@ -75,35 +72,21 @@ impl Occupancy {
         }
     }
     /// Calls f on the particles of the cells a corridor may reach (those
-    /// within `clearance` plus the largest radius of its swept discs) until f
-    /// returns false. A long push's bounding square holds many cells far
-    /// from its path: they are skipped from their centres.
+    /// within `clearance` plus the largest radius of its spine) until f
+    /// returns false.
     fn for_each_near_corridor(
         &self,
         c: &Corridor,
         clearance: f64,
         mut f: impl FnMut(usize) -> bool,
     ) {
-        let reach = self.max_radius_m + clearance;
-        let r = c.bound_radius_m + reach;
-        let (x0, y0) = self.key(c.bound_centre_m - Vector2::new(r, r));
-        let (x1, y1) = self.key(c.bound_centre_m + Vector2::new(r, r));
-        let half_diagonal = self.cell_m * std::f64::consts::FRAC_1_SQRT_2;
-        for x in x0..=x1 {
-            for y in y0..=y1 {
-                let centre = Vector2::new(x as f64 + 0.5, y as f64 + 0.5) * self.cell_m;
-                if c.edge_distance_m(centre) >= reach + half_diagonal + CELL_SKIP_SLACK_M {
-                    continue;
-                }
-                if let Some(v) = self.cells.get(&(x, y)) {
-                    for &i in v {
-                        if !f(i) {
-                            return;
-                        }
-                    }
-                }
-            }
-        }
+        let (a, b, r) = c.spine_m;
+        let reach = r + self.max_radius_m + clearance;
+        for_each_cell_near_segment(Vector2::zeros(), self.cell_m, a, b, reach, |x, y| {
+            self.cells
+                .get(&(x, y))
+                .is_none_or(|v| v.iter().all(|&i| f(i)))
+        });
     }
     /// First particle other than `except` that the corridor hits.
     pub fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {

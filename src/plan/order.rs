@@ -13,15 +13,17 @@
 //! Repairs are bounded; beyond them, or when none applies, the planner
 //! refuses and names the blocked move and its blocker.
 
+use super::failed_routes::FailedRoutes;
 use super::grid::Grid;
 use super::layout::Layout;
 use super::occupancy::Occupancy;
 use super::pattern::Site;
 use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
-use super::route::{Reach, find_route};
+use super::route::{Reach, find_route, search_extent_m};
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
+use std::cell::RefCell;
 
 /// Why no order was found, and which (particle index, site index) moves
 /// were stuck: the caller may assign those sites to other particles and try
@@ -101,6 +103,8 @@ struct Scheduler<'a> {
     steps: Vec<Step>,
     buffer_pushes: usize,
     tip: Option<Vector2<f64>>,
+    /// Route searches that found nothing, until a change where they looked.
+    failed_routes: RefCell<FailedRoutes>,
 }
 
 /// Orders the moves `pairs` (particle index, site index) into collision-free
@@ -174,6 +178,7 @@ pub fn order_moves(
         steps: Vec::new(),
         buffer_pushes: 0,
         tip: config.tip_start_m,
+        failed_routes: Default::default(),
     };
     sch.clear_sites();
     let order = sch.peel_with_clearing(&radii)?;
@@ -338,6 +343,10 @@ impl Scheduler<'_> {
     fn push(&mut self, p: usize, to: Vector2<f64>, buffer: bool) {
         let from = self.occ.pos[p];
         let r = self.radius(p);
+        let reach = Vector2::repeat(r + self.config.clearance_m);
+        self.failed_routes
+            .get_mut()
+            .forget_near(from.inf(&to) - reach, from.sup(&to) + reach);
         for (a, b) in split_long(from, to, max_push_len(r, self.config)) {
             let approach = approach_point(a, b, r, self.config);
             self.steps.push(Step::Push {
@@ -364,6 +373,11 @@ impl Scheduler<'_> {
             self.push(p, b, i < last);
         }
         self.moves[k].pending = false;
+        let site = self.obstacles.site(k);
+        let reach = Vector2::repeat(self.occ.max_radius_m + self.config.clearance_m);
+        self.failed_routes
+            .get_mut()
+            .forget_near(site - reach, site + reach);
         self.role[p] = Role::Placed;
         for b in std::mem::take(&mut self.moves[k].releases) {
             self.moves[b].wait -= 1;
@@ -432,9 +446,13 @@ impl Scheduler<'_> {
 
     /// Tries one repair for the blocked ready moves; true on success.
     fn repair(&mut self, blocked: &[(usize, usize)]) -> bool {
-        for &(k, q) in blocked {
-            if self.swap_with(k, q) {
-                return true;
+        // Straight swaps first: one corridor test each, where a detour
+        // search that finds nothing costs over a thousand.
+        for detours in [false, true] {
+            for &(k, q) in blocked {
+                if self.swap_with(k, q, detours) {
+                    return true;
+                }
             }
         }
         for &(k, q) in blocked {
@@ -464,13 +482,16 @@ impl Scheduler<'_> {
 
     /// Route for move k's site with `particle` starting at `from`, missing
     /// the sites filled before it (by rank) or already filled, and, when
-    /// `dynamic`, every other particle where it is now.
+    /// `dynamic`, every other particle where it is now; straight only
+    /// unless `detours`. A detour search that found nothing is remembered
+    /// until something changes where it looked.
     fn route_for(
         &self,
         k: usize,
         particle: usize,
         from: Vector2<f64>,
         dynamic: bool,
+        detours: bool,
     ) -> Option<Vec<Vector2<f64>>> {
         let rank = self.moves[k].rank;
         let r = self.radius(particle);
@@ -483,21 +504,39 @@ impl Scheduler<'_> {
                     .first_hit(c, particle, self.config.clearance_m)
                     .is_none())
         };
-        find_route(
-            from,
-            self.obstacles.site(k),
-            r,
-            self.config,
-            self.reach,
-            &free,
-        )
+        let to = self.obstacles.site(k);
+        if !detours {
+            return free(&Corridor::new(from, to, r, self.config)).then(|| vec![to]);
+        }
+        let key = (k, particle, from.x.to_bits(), from.y.to_bits(), dynamic);
+        if self.failed_routes.borrow().known(&key) {
+            return None;
+        }
+        let res = find_route(from, to, r, self.config, self.reach, &free);
+        if res.is_none() {
+            // Every corridor the search tested lies within its extent of
+            // the two ends; what it could hit, within a particle and the
+            // clearances more.
+            let margin = Vector2::repeat(
+                search_extent_m(r, self.config)
+                    + self.occ.max_radius_m
+                    + self.config.clearance_m
+                    + self.config.on_site_tolerance_m,
+            );
+            self.failed_routes.borrow_mut().remember(
+                key,
+                from.inf(&to) - margin,
+                from.sup(&to) + margin,
+            );
+        }
+        res
     }
 
     /// Reroutes move k around the particles where they are now (and the
     /// sites filled before it); true when its route changed.
     fn reroute(&mut self, k: usize) -> bool {
         let p = self.moves[k].particle;
-        match self.route_for(k, p, self.occ.pos[p], true) {
+        match self.route_for(k, p, self.occ.pos[p], true, true) {
             Some(route) if route != self.moves[k].route => {
                 self.moves[k].route = route;
                 self.compute_conflicts(k);
@@ -510,12 +549,13 @@ impl Scheduler<'_> {
     /// Hands move k to particle q, which is in the way of k's particle:
     /// an idle q takes over (k's particle becomes idle), a pending q trades
     /// sites with it; true when q has a route free of every particle now
-    /// (so the swap makes progress) and the other changed move has a route.
-    fn swap_with(&mut self, k: usize, q: usize) -> bool {
+    /// (so the swap makes progress) and the other changed move has a route
+    /// (straight only, unless `detours`).
+    fn swap_with(&mut self, k: usize, q: usize, detours: bool) -> bool {
         let p = self.moves[k].particle;
         match self.role[q] {
             Role::Idle => {
-                let Some(route) = self.route_for(k, q, self.occ.pos[q], true) else {
+                let Some(route) = self.route_for(k, q, self.occ.pos[q], true, detours) else {
                     return false;
                 };
                 self.moves[k].particle = q;
@@ -526,10 +566,10 @@ impl Scheduler<'_> {
                 true
             }
             Role::Pending(m) => {
-                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], true) else {
+                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], true, detours) else {
                     return false;
                 };
-                let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false) else {
+                let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false, detours) else {
                     return false;
                 };
                 self.moves[k].particle = q;
@@ -564,7 +604,7 @@ impl Scheduler<'_> {
         let q = self.moves[m].particle;
         let spots: Vec<Vector2<f64>> = self.buffer_spots(q, avoid).take(24).collect();
         for spot in spots {
-            if let Some(route) = self.route_for(m, q, spot, false) {
+            if let Some(route) = self.route_for(m, q, spot, false, true) {
                 self.push(q, spot, true);
                 self.moves[m].route = route;
                 self.compute_conflicts(m);

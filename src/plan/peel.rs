@@ -72,13 +72,14 @@ impl SiteObstacles {
     /// Sites the corridor hits (every site, whatever its rank).
     pub fn sites_hit(&self, c: &Corridor) -> Vec<usize> {
         let mut out = Vec::new();
-        let reach = c.bound_radius_m + self.max_radius_m + self.site_clearance_m;
-        self.site_grid
-            .for_each_within(c.bound_centre_m, reach, |s| {
-                if c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m) {
-                    out.push(s);
-                }
-            });
+        let (a, b, r) = c.spine_m;
+        let reach = r + self.max_radius_m + self.site_clearance_m;
+        self.site_grid.for_each_near_segment(a, b, reach, |s| {
+            if c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m) {
+                out.push(s);
+            }
+            true
+        });
         out
     }
 
@@ -100,27 +101,13 @@ impl SiteObstacles {
     /// True when the corridor misses every fixed particle and every site
     /// for which `filled(site)` holds.
     pub fn misses(&self, c: &Corridor, filled: impl Fn(usize) -> bool) -> bool {
-        let reach = c.bound_radius_m + self.max_radius_m + self.site_clearance_m;
-        let mut free = true;
-        self.site_grid
-            .for_each_within(c.bound_centre_m, reach, |s| {
-                if free
-                    && filled(s)
-                    && c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m)
-                {
-                    free = false;
-                }
-            });
-        if !free {
-            return false;
-        }
-        self.fixed_grid
-            .for_each_within(c.bound_centre_m, reach, |f| {
-                if free && c.hits(self.fixed[f].0, self.fixed[f].1, self.fixed_clearance_m) {
-                    free = false;
-                }
-            });
-        free
+        let (a, b, r) = c.spine_m;
+        let reach = r + self.max_radius_m + self.site_clearance_m;
+        self.site_grid.for_each_near_segment(a, b, reach, |s| {
+            !(filled(s) && c.hits(self.site_pts[s], self.site_radius[s], self.site_clearance_m))
+        }) && self.fixed_grid.for_each_near_segment(a, b, reach, |f| {
+            !c.hits(self.fixed[f].0, self.fixed[f].1, self.fixed_clearance_m)
+        })
     }
 }
 

@@ -60,13 +60,10 @@ pub struct Corridor {
     origin: Vector2<f64>,
     particle: Capsule,
     tip: Capsule,
-    /// Centre and radius of a disc containing the whole corridor, metres.
-    pub bound_centre_m: Vector2<f64>,
-    /// Radius of the bounding disc, metres.
-    pub bound_radius_m: f64,
-    /// Particle centre path and tip path (metres) with their radii, for
-    /// cheap distance bounds before the exact test.
-    axes: [(Vector2<f64>, Vector2<f64>, f64); 2],
+    /// A capsule containing the whole corridor (particle and tip paths are
+    /// collinear): segment ends and radius, metres. Spatial queries visit
+    /// only the cells near it.
+    pub spine_m: (Vector2<f64>, Vector2<f64>, f64),
 }
 
 fn local(origin: Vector2<f64>, p: Vector2<f64>) -> Vector {
@@ -86,35 +83,17 @@ impl Corridor {
             local(from, end),
             (config.tip_radius_m * 1e6) as f32,
         );
-        let bound_centre_m = (land + to) / 2.0;
-        let bound_radius_m = (to - land).norm() / 2.0 + radius_m;
+        // The spine runs from the landing point to the particle's end; its
+        // radius also covers the tip's end and the start (off the spine only
+        // when a zero-length push has no direction).
+        let off_spine = segment_distance(end, land, to).max(segment_distance(from, land, to));
+        let spine_m = (land, to, radius_m.max(config.tip_radius_m) + off_spine);
         Corridor {
             origin: from,
             particle,
             tip,
-            bound_centre_m,
-            bound_radius_m,
-            axes: [(from, to, radius_m), (land, end, config.tip_radius_m)],
+            spine_m,
         }
-    }
-
-    /// Distance from `p` to the nearer of the swept particle and tip discs'
-    /// edges, metres (negative inside). It changes by at most as much as `p`
-    /// moves, so a whole grid cell can be skipped from its centre.
-    pub fn edge_distance_m(&self, p: Vector2<f64>) -> f64 {
-        self.axes
-            .iter()
-            .map(|&(a, b, r)| {
-                let ab = b - a;
-                let l2 = ab.norm_squared();
-                let t = if l2 > 0.0 {
-                    ((p - a).dot(&ab) / l2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (p - (a + ab * t)).norm() - r
-            })
-            .fold(f64::INFINITY, f64::min)
     }
 
     /// True if a disc at `centre_m` of `radius_m` comes closer than `clearance_m` to the corridor.
@@ -130,6 +109,18 @@ impl Corridor {
         let particle_hits = along < reach && along < at_start - APPROACH_TOLERANCE_UM;
         particle_hits || self.tip.distance_to_local_point(p, true) < reach
     }
+}
+
+/// Distance from `p` to the segment a-b, metres.
+fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+    let ab = b - a;
+    let l2 = ab.norm_squared();
+    let t = if l2 > 0.0 {
+        ((p - a).dot(&ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p - (a + ab * t)).norm()
 }
 
 /// Splits a long move into collinear pushes no longer than `max_len_m`.
@@ -217,10 +208,12 @@ mod tests {
         assert!(!sideways.hits(Vector2::new(0.0, 10.04e-6), 5e-6, 0.1e-6));
         let closer = Corridor::new(Vector2::zeros(), Vector2::new(0.0, 50e-6), 5e-6, &cfg);
         assert!(closer.hits(Vector2::new(3e-6, 10.04e-6), 5e-6, 0.1e-6));
-        // Edge distance: 10 um beside the particle path is 5 um from its disc;
-        // behind the particle, the tip path (landing at -7 um) is nearer.
-        assert!((c.edge_distance_m(Vector2::new(25e-6, 10e-6)) - 5e-6).abs() < 1e-12);
-        assert!((c.edge_distance_m(Vector2::new(-10e-6, 0.0)) - 2e-6).abs() < 1e-12);
+        // The spine holds the corridor: from the landing point (7 um behind
+        // the start) to the end, as wide as the particle.
+        let (a, b, r) = c.spine_m;
+        assert!((a - Vector2::new(-7e-6, 0.0)).norm() < 1e-12);
+        assert!((b - Vector2::new(50e-6, 0.0)).norm() < 1e-12);
+        assert!((r - 5e-6).abs() < 1e-12);
         let parts = split_long(Vector2::zeros(), Vector2::new(250e-6, 0.0), 90e-6);
         assert_eq!(parts.len(), 3);
         assert!((parts[2].1.x - 250e-6).abs() < 1e-15);

@@ -54,30 +54,51 @@ pub fn find_route(
     if leg_free(from, to) {
         return Some(vec![to]);
     }
-    // Points on rays from `to` whose last leg into `to` is free, and points on
-    // rays from `from` whose first leg is free. Along a ray the corridor only
-    // grows, so each ray stops at its first blocked step.
-    let last_ok = free_ray_points(to, radius_m, reach, |w| leg_free(w, to));
-    let first_ok = free_ray_points(from, radius_m, reach, |w| leg_free(from, w));
+    // Waypoints on rays from both ends. A waypoint on a ray from `to` needs a
+    // free last leg into `to`, one on a ray from `from` a free first leg: its
+    // ray leg. Along a ray the corridor only grows, so a ray is closed beyond
+    // its first blocked step. Ray legs are tested lazily, shortest route
+    // first: most searches end after a few tests, not after all 1,024.
+    let mut last_rays = Rays::new(to, radius_m, reach);
+    let mut first_rays = Rays::new(from, radius_m, reach);
     let len = |w: &Vector2<f64>| (w - from).norm() + (to - w).norm();
-    // One waypoint: a free last leg needing a free first leg, or the reverse.
-    let mut one: Vec<(f64, Vector2<f64>, bool)> = last_ok
-        .iter()
-        .map(|w| (len(w), *w, true))
-        .chain(first_ok.iter().map(|w| (len(w), *w, false)))
+    let mut one: Vec<(f64, bool, usize)> = last_rays
+        .points()
+        .map(|(i, w)| (len(&w), true, i))
+        .chain(first_rays.points().map(|(i, w)| (len(&w), false, i)))
         .collect();
     one.sort_by(|a, b| a.0.total_cmp(&b.0));
-    for &(_, w, last_is_free) in one.iter().take(MAX_ONE_WAYPOINT_TESTS) {
-        let other_free = if last_is_free {
-            leg_free(from, w)
+    let mut tests = 0;
+    for &(_, on_last_ray, i) in &one {
+        if tests == MAX_ONE_WAYPOINT_TESTS {
+            break;
+        }
+        let ray_leg_free = if on_last_ray {
+            last_rays.open(i, |w| leg_free(w, to))
         } else {
-            leg_free(w, to)
+            first_rays.open(i, |w| leg_free(from, w))
+        };
+        if !ray_leg_free {
+            continue;
+        }
+        tests += 1;
+        let other_free = if on_last_ray {
+            leg_free(from, last_rays.point(i))
+        } else {
+            leg_free(first_rays.point(i), to)
         };
         if other_free {
+            let w = if on_last_ray {
+                last_rays.point(i)
+            } else {
+                first_rays.point(i)
+            };
             return Some(vec![w, to]);
         }
     }
     // Two waypoints: free first leg to w1, free last leg from w2, test the middle.
+    let first_ok = first_rays.open_points(|w| leg_free(from, w));
+    let last_ok = last_rays.open_points(|w| leg_free(w, to));
     let mut two: Vec<(f64, usize, usize)> = Vec::with_capacity(first_ok.len() * last_ok.len());
     for (i, w1) in first_ok.iter().enumerate() {
         for (j, w2) in last_ok.iter().enumerate() {
@@ -99,27 +120,88 @@ pub fn find_route(
         .map(|(_, i, j)| vec![first_ok[i], last_ok[j], to])
 }
 
-/// Points along rays from `centre` (inside `reach`) for which `ok` holds,
-/// each ray walked outwards until `ok` first fails.
-fn free_ray_points(
+/// How far from either end of a route the corridors its search tests can
+/// reach, metres: the last ray step, a particle radius, and the tip landing
+/// behind it.
+pub fn search_extent_m(radius_m: f64, config: &PlanConfig) -> f64 {
+    (STEPS as f64 + 1.0) * radius_m + config.tip_radius_m + config.standoff_m
+}
+
+/// Points on rays cast from one end of a route (inside `reach`), with the
+/// outcome of each ray leg's test remembered: a ray is closed from its
+/// first blocked step outwards.
+struct Rays {
     centre: Vector2<f64>,
     step_m: f64,
-    reach: Reach,
-    ok: impl Fn(Vector2<f64>) -> bool,
-) -> Vec<Vector2<f64>> {
-    let mut out = Vec::new();
-    for a in 0..DIRECTIONS {
-        let ang = std::f64::consts::TAU * a as f64 / DIRECTIONS as f64;
-        let dir = Vector2::new(ang.cos(), ang.sin());
-        for k in 1..=STEPS {
-            let w = centre + dir * (step_m * k as f64);
-            if !reach.contains(w) || !ok(w) {
-                break;
+    /// Per ray and step (index `ray * STEPS + step - 1`): tested free or blocked.
+    tested: Vec<Option<bool>>,
+    /// Per ray: the first step known blocked (or out of reach).
+    closed_from: [usize; DIRECTIONS],
+}
+
+impl Rays {
+    fn new(centre: Vector2<f64>, step_m: f64, reach: Reach) -> Self {
+        let mut rays = Rays {
+            centre,
+            step_m,
+            tested: vec![None; DIRECTIONS * STEPS],
+            closed_from: [STEPS + 1; DIRECTIONS],
+        };
+        for a in 0..DIRECTIONS {
+            if let Some(k) = (1..=STEPS).find(|&k| !reach.contains(rays.at(a, k))) {
+                rays.closed_from[a] = k;
             }
-            out.push(w);
         }
+        rays
     }
-    out
+
+    fn at(&self, ray: usize, step: usize) -> Vector2<f64> {
+        let ang = std::f64::consts::TAU * ray as f64 / DIRECTIONS as f64;
+        self.centre + Vector2::new(ang.cos(), ang.sin()) * (self.step_m * step as f64)
+    }
+
+    /// The point of index `i` (`ray * STEPS + step - 1`).
+    fn point(&self, i: usize) -> Vector2<f64> {
+        self.at(i / STEPS, i % STEPS + 1)
+    }
+
+    /// Every point inside the reach, with its index.
+    fn points(&self) -> impl Iterator<Item = (usize, Vector2<f64>)> + '_ {
+        (0..DIRECTIONS).flat_map(move |a| {
+            (1..self.closed_from[a]).map(move |k| (a * STEPS + k - 1, self.at(a, k)))
+        })
+    }
+
+    /// True when point i's ray leg is free (`leg_free`, tested once) and its
+    /// ray is not closed before it.
+    fn open(&mut self, i: usize, leg_free: impl Fn(Vector2<f64>) -> bool) -> bool {
+        let (ray, step) = (i / STEPS, i % STEPS + 1);
+        if step >= self.closed_from[ray] {
+            return false;
+        }
+        let w = self.at(ray, step);
+        let free = *self.tested[i].get_or_insert_with(|| leg_free(w));
+        if !free {
+            self.closed_from[ray] = step;
+        }
+        free
+    }
+
+    /// The points whose ray legs are free, each ray walked outwards until
+    /// its first blocked step.
+    fn open_points(&mut self, leg_free: impl Fn(Vector2<f64>) -> bool) -> Vec<Vector2<f64>> {
+        let mut out = Vec::new();
+        for a in 0..DIRECTIONS {
+            for k in 1..=STEPS {
+                let i = a * STEPS + k - 1;
+                if !self.open(i, &leg_free) {
+                    break;
+                }
+                out.push(self.at(a, k));
+            }
+        }
+        out
+    }
 }
 
 /// Total length of the route from `from` through `points`.
