@@ -361,3 +361,22 @@ fn the_coarse_stage_moves_by_its_sign_and_unit_only_with_the_tip_retracted() {
     assert_eq!(coarse_mm(&coarse), before);
     rig.halt().unwrap();
 }
+
+#[test]
+fn ctrl_c_during_a_coarse_move_halts_the_coarse_simulator() {
+    let (b, coarse) = coarse_bench();
+    let mut rig = open(&b);
+    NanoStage::move_to(&mut rig, [50.0 * UM, 50.0 * UM, 15.0 * UM], 200.0 * UM).unwrap();
+    let flag = Arc::clone(&b.interrupt);
+    let raiser = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(150));
+        flag.store(true, Ordering::SeqCst);
+    });
+    // 900 um at the 2 mm/s top speed: 0.45 s, interrupted after about 0.15 s.
+    let err = CoarseStage::move_coarse(&mut rig, [0.0, 900.0 * UM]).unwrap_err();
+    raiser.join().unwrap();
+    assert!(err.to_string().contains("interrupted"), "{err}");
+    assert!(!coarse.inspect(|c, now| c.any_moving(now)), "still moving");
+    let y = coarse_mm(&coarse)[1];
+    assert!(y > 12.5 && y < 13.4, "halted mid-way, at {y} mm");
+}
