@@ -143,3 +143,15 @@ fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
     drop(sim);
     drop(reader);
 }
+
+#[test]
+fn sim_gcs_asks_for_the_coarse_port_a_coarse_rig_file_needs() {
+    let out = nanopush()
+        .args(["rig", "sim-gcs", "--port", "0", "--microscope"])
+        .arg("calib/rig-gcs-sim-coarse-folder.toml")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("--coarse-port"), "{stderr}");
+}

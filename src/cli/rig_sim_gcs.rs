@@ -152,6 +152,11 @@ fn microscope(
     rig_path: &std::path::Path,
 ) -> anyhow::Result<MicroscopeFeeder> {
     let rig = RigFile::load(rig_path)?;
+    anyhow::ensure!(
+        rig.coarse.is_none() || coarse.is_some(),
+        "{} has a [coarse] section: give --coarse-port (its port) so that a simulated coarse stage moves the world",
+        rig_path.display()
+    );
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
     let layout = match &args.layout {
