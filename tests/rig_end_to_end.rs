@@ -2,10 +2,14 @@
 //! GCS controller simulator over loopback TCP, the camera is a watched
 //! folder that the simulated microscope fills with frames of a simulated
 //! world, which the controller's probe pushes with the pushing model. The run
-//! must finish as the simulated-rig run on the same layout does; a dry run
-//! must move nothing; Ctrl-C and a controller that starts talking garbage
-//! must leave the stage still.
+//! must finish as the simulated-rig run on the same layout does: L on a rig
+//! without a coarse stage, and CMU (wider than the nanostage's reach) on a
+//! rig whose coarse stage is a second GCS controller simulator moving the
+//! world; a dry run must move nothing; Ctrl-C and a controller that starts
+//! talking garbage must leave the stage still.
 
+use nanopush::calib::affine::AffineCalibration;
+use nanopush::exec::sim_run::layout_for;
 use nanopush::model::Scene;
 use nanopush::plan::Layout;
 use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
@@ -50,42 +54,48 @@ fn layout() -> Layout {
     .unwrap()
 }
 
-/// The controller simulator, the simulated microscope, and a copy of
-/// calib/rig-gcs-sim-folder.toml pointing at both.
+/// The controller simulator(s), the simulated microscope, and a copy of
+/// a calib/ rig file pointing at them.
 struct Bench {
-    // Field order is drop order: the feeder stops before the server.
+    // Field order is drop order: the feeder stops before the servers.
     feeder: MicroscopeFeeder,
     server: SimServer,
+    coarse: Option<SimServer>,
     dir: tempfile::TempDir,
     rig_path: PathBuf,
     frames: PathBuf,
+    text: &'static str,
+    seed: u64,
 }
 
-fn bench(time_scale: f64) -> Bench {
-    let mut server = SimServer::new(SimConfig::default());
+/// A served simulator at `time_scale`.
+fn serve(config: SimConfig, time_scale: f64) -> (SimServer, String) {
+    let mut server = SimServer::new(config);
     server
         .handle()
         .with(|c, now| c.set_time_scale(time_scale, now));
     let addr = server.serve_tcp("127.0.0.1:0").unwrap();
+    (server, addr.to_string())
+}
+
+/// The rig of calib/rig-gcs-sim-folder.toml (no coarse stage), world of
+/// [`layout`], assembling [`TEXT`].
+fn bench(time_scale: f64) -> Bench {
+    let (server, addr) = serve(SimConfig::default(), time_scale);
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("frames");
-    let calibration = manifest().join("calib/camera-stage-sim-folder.toml");
-    let text = std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
-        .unwrap()
-        .replace("127.0.0.1:50000", &addr.to_string())
-        .replace(
-            "\"camera-stage-sim-folder.toml\"",
-            &format!("{:?}", calibration.display().to_string()),
-        )
-        .replace(
-            "\"../out/rig-gcs-sim-folder/frames\"",
-            &format!("{:?}", frames.display().to_string()),
-        );
+    let text = rig_text(
+        "rig-gcs-sim-folder.toml",
+        "camera-stage-sim-folder.toml",
+        &frames,
+    )
+    .replace("127.0.0.1:50000", &addr);
     let rig_path = dir.path().join("rig.toml");
     std::fs::write(&rig_path, text).unwrap();
     let rig = RigFile::load(&rig_path).unwrap();
     let feeder = MicroscopeFeeder::for_rig_file(
         server.handle(),
+        None,
         &rig,
         &scene(),
         &layout(),
@@ -96,15 +106,98 @@ fn bench(time_scale: f64) -> Bench {
     Bench {
         feeder,
         server,
+        coarse: None,
         dir,
         rig_path,
         frames,
+        text: TEXT,
+        seed: SEED,
+    }
+}
+
+/// A calib/ rig file with its calibration and frame folder made absolute.
+fn rig_text(rig: &str, calibration: &str, frames: &Path) -> String {
+    let folder = rig.trim_end_matches(".toml");
+    std::fs::read_to_string(manifest().join("calib").join(rig))
+        .unwrap()
+        .replace(
+            &format!("\"{calibration}\""),
+            &format!(
+                "{:?}",
+                manifest()
+                    .join("calib")
+                    .join(calibration)
+                    .display()
+                    .to_string()
+            ),
+        )
+        .replace(
+            &format!("\"../out/{folder}/frames\""),
+            &format!("{:?}", frames.display().to_string()),
+        )
+}
+
+/// The pattern, layout seed and particle count of the coarse-stage run: what
+/// `nanopush assemble --text CMU --seed 2` does on the simulated rig.
+const COARSE_TEXT: &str = "CMU";
+const COARSE_SEED: u64 = 2;
+const COARSE_PARTICLES: usize = 50;
+
+/// The rig of calib/rig-gcs-sim-coarse-folder.toml: nanostage and coarse
+/// stage simulators, the world of the simulated rig's layout for
+/// [`COARSE_SEED`] (120 x 100 um, the nanostage's range centred on it).
+fn coarse_bench(time_scale: f64) -> Bench {
+    let (server, addr) = serve(SimConfig::default(), time_scale);
+    let (coarse, coarse_addr) = serve(SimConfig::coarse(), time_scale);
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let text = rig_text(
+        "rig-gcs-sim-coarse-folder.toml",
+        "camera-stage-sim-coarse.toml",
+        &frames,
+    )
+    .replace("127.0.0.1:50000", &addr)
+    .replace("127.0.0.1:50001", &coarse_addr);
+    let rig_path = dir.path().join("rig.toml");
+    std::fs::write(&rig_path, text).unwrap();
+    let rig = RigFile::load(&rig_path).unwrap();
+    let scene = scene();
+    let layout = layout_for(None, &scene, COARSE_SEED, COARSE_PARTICLES).unwrap();
+    let feeder = MicroscopeFeeder::for_rig_file(
+        server.handle(),
+        Some(coarse.handle()),
+        &rig,
+        &scene,
+        &layout,
+        COARSE_SEED,
+        Duration::from_millis(40),
+    )
+    .unwrap();
+    Bench {
+        feeder,
+        server,
+        coarse: Some(coarse),
+        dir,
+        rig_path,
+        frames,
+        text: COARSE_TEXT,
+        seed: COARSE_SEED,
     }
 }
 
 impl Bench {
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
+            || self
+                .coarse
+                .as_ref()
+                .is_some_and(|k| k.inspect(|c, now| c.any_moving(now)))
+    }
+
+    /// The coarse controller's axis positions, controller units (mm).
+    fn coarse_units(&self) -> Vec<f64> {
+        let k = self.coarse.as_ref().expect("a coarse bench");
+        k.inspect(|c, now| (0..2).map(|i| c.position(i, now).unwrap()).collect())
     }
 
     fn positions_um(&self) -> [f64; 3] {
@@ -116,7 +209,13 @@ impl Bench {
         nanopush()
             .args(["assemble", "--rig"])
             .arg(&self.rig_path)
-            .args(["--text", TEXT, "--seed", &SEED.to_string(), "--out"])
+            .args([
+                "--text",
+                self.text,
+                "--seed",
+                &self.seed.to_string(),
+                "--out",
+            ])
             .arg(self.dir.path().join(out))
             .args(extra)
             .stdout(Stdio::piped())
@@ -175,6 +274,44 @@ fn truncated_png(scratch: &Path) -> Vec<u8> {
     bytes
 }
 
+/// Site centres of a run as the camera saw them at the end, pixels.
+fn sites_px(out_dir: &Path) -> Vec<[f64; 2]> {
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("sites.json")).unwrap())
+            .unwrap();
+    doc["sites"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| [s["x_px"].as_f64().unwrap(), s["y_px"].as_f64().unwrap()])
+        .collect()
+}
+
+/// The simulated rig's run of `args` (the reference), as its JSON report.
+fn reference_run(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let reference = nanopush()
+        .args(["assemble", "--json"])
+        .args(args)
+        .arg("--out")
+        .arg(dir.join("run"))
+        .output()
+        .unwrap();
+    assert!(
+        reference.status.success(),
+        "{}",
+        failed(reference.status, &reference)
+    );
+    let reference = json(&reference);
+    assert_eq!(reference["outcome"], "done");
+    reference
+}
+
+/// Root mean square and largest of `errors`.
+fn rms_max(errors: &[f64]) -> (f64, f64) {
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    (rms, errors.iter().copied().fold(0.0, f64::max))
+}
+
 /// Site centres of a run, metres.
 fn sites_m(out_dir: &Path) -> Vec<[f64; 2]> {
     let doc: serde_json::Value =
@@ -199,22 +336,11 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
     let reference_dir = tempfile::tempdir().unwrap();
     let layout_path = reference_dir.path().join("layout.json");
     layout().write(&layout_path).unwrap();
-    let reference = nanopush()
-        .args([
-            "assemble", "--text", TEXT, "--json", "--seed", "1", "--layout",
-        ])
-        .arg(&layout_path)
-        .arg("--out")
-        .arg(reference_dir.path().join("run"))
-        .output()
-        .unwrap();
-    assert!(
-        reference.status.success(),
-        "{}",
-        failed(reference.status, &reference)
+    let layout_arg = layout_path.display().to_string();
+    let reference = reference_run(
+        reference_dir.path(),
+        &["--text", TEXT, "--seed", "1", "--layout", &layout_arg],
     );
-    let reference = json(&reference);
-    assert_eq!(reference["outcome"], "done");
 
     // A time scale of 50: a 10 um push at 1 um/s takes 0.2 s.
     let b = bench(50.0);
@@ -254,8 +380,7 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let rms = (errors_nm.iter().map(|e| e * e).sum::<f64>() / errors_nm.len() as f64).sqrt();
-    let max = errors_nm.iter().copied().fold(0.0, f64::max);
+    let (rms, max) = rms_max(&errors_nm);
     eprintln!(
         "GCS rig: {} sites, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes, {:.1} s wall; \
          simulated rig: rms {:.0} nm, max {:.0} nm, {} pushes",
@@ -360,4 +485,114 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     assert!(!out.status.success(), "{}", failed(out.status, &out));
     std::thread::sleep(Duration::from_millis(100));
     assert!(!b.moving(), "the stage was left moving");
+}
+
+#[test]
+fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
+    let seed = COARSE_SEED.to_string();
+    let particles = COARSE_PARTICLES.to_string();
+    let reference_dir = tempfile::tempdir().unwrap();
+    let reference = reference_run(
+        reference_dir.path(),
+        &[
+            "--text",
+            COARSE_TEXT,
+            "--seed",
+            &seed,
+            "--particles",
+            &particles,
+        ],
+    );
+
+    // A time scale of 100: a 10 um push at 1 um/s takes 0.1 s.
+    let b = coarse_bench(100.0);
+    let start_units = b.coarse_units();
+    let started = Instant::now();
+    let out = finish(b.assemble("run", &["--json"]), RUN_LIMIT);
+    let wall_s = started.elapsed().as_secs_f64();
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let report = json(&out);
+    assert_eq!(report["outcome"], "done", "{report}");
+    assert_eq!(report["filled"], report["sites"], "{report}");
+    assert_eq!(report["sites"], reference["sites"]);
+    assert_eq!(report["error_source"], "camera");
+    assert!(b.feeder.is_running(), "the simulated microscope failed");
+    assert!(!b.moving(), "a stage was left moving");
+
+    // The coarse stage was used: the journal holds coarse moves and the
+    // coarse controller is no longer where it started.
+    let run_dir = b.dir.path().join("run");
+    let journal = std::fs::read_to_string(run_dir.join("journal.jsonl")).unwrap();
+    let coarse_moves = journal
+        .lines()
+        .filter(|l| l.contains("\"kind\":\"coarse_move\""))
+        .count();
+    assert!(coarse_moves > 0, "no coarse move in the journal");
+    let end_units = b.coarse_units();
+    assert_ne!(end_units, start_units, "the coarse controller never moved");
+
+    // Ground truth: the sites as the camera saw them at the end (pixels)
+    // are where the world's particles must be, on the sample as the
+    // simulated microscope has it (camera map plus its coarse offset).
+    let calibration =
+        AffineCalibration::load(&manifest().join("calib/camera-stage-sim-coarse.toml")).unwrap();
+    let world = b.feeder.world();
+    let offset = world.coarse_offset_m(&end_units);
+    let errors_nm: Vec<f64> = sites_px(&run_dir)
+        .iter()
+        .map(|px| {
+            let [x, y] = calibration.pixel_to_stage_m(px[0], px[1]);
+            let site = [x + offset[0], y + offset[1]];
+            world
+                .world
+                .particles
+                .iter()
+                .map(|p| (p.x_m - site[0]).hypot(p.y_m - site[1]) * 1e9)
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let (rms, max) = rms_max(&errors_nm);
+    eprintln!(
+        "GCS rig with coarse stage: {} sites, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes, \
+         {coarse_moves} coarse moves, {wall_s:.1} s wall; simulated rig: rms {:.0} nm, max {:.0} nm, {} pushes",
+        errors_nm.len(),
+        report["pushes"],
+        reference["rms_error_nm"].as_f64().unwrap(),
+        reference["max_error_nm"].as_f64().unwrap(),
+        reference["pushes"],
+    );
+    // Every site holds a particle within the executor's 0.2 um tolerance,
+    // as on the simulated rig.
+    assert!(
+        errors_nm.iter().all(|e| *e <= 200.0),
+        "true placement errors {errors_nm:?} nm"
+    );
+    assert!(rms < 200.0, "rms {rms} nm");
+    assert!(
+        world.contacts().iter().any(|c| c.moved_m > 1.0 * UM),
+        "the probe pushed nothing"
+    );
+}
+
+#[test]
+fn a_dry_run_with_a_coarse_stage_moves_neither_stage_and_logs_both() {
+    let b = coarse_bench(50.0);
+    let (nano, coarse) = (b.positions_um(), b.coarse_units());
+    let out = finish(b.assemble("dry", &["--dry-run"]), RUN_LIMIT);
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    assert_eq!(b.positions_um(), nano, "the nanostage moved in a dry run");
+    assert_eq!(
+        b.coarse_units(),
+        coarse,
+        "the coarse stage moved in a dry run"
+    );
+    let log = std::fs::read_to_string(b.dir.path().join("dry/coarse-sent-bytes.log")).unwrap();
+    assert!(log.lines().any(|l| l == "POS? 1 2\\n"), "{log}");
+    assert!(
+        std::fs::read_to_string(b.dir.path().join("dry/sent-bytes.log"))
+            .unwrap()
+            .lines()
+            .any(|l| l.starts_with("MOV 1 ")),
+        "no nanostage move logged"
+    );
 }

@@ -88,3 +88,70 @@ fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("connecting"));
 }
+
+#[test]
+fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
+    let mut child = nanopush()
+        .args(["rig", "sim-gcs", "--port", "0", "--coarse-port", "0"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let sim = Sim(child);
+    let mut reader = BufReader::new(stdout);
+    let mut port = |what: &str| -> u16 {
+        let mut line = String::new();
+        reader.read_line(&mut line).unwrap();
+        assert!(line.contains(what), "{line}");
+        line.trim().rsplit(':').next().unwrap().parse().unwrap()
+    };
+    let (nano, coarse) = (port("GCS simulator"), port("coarse-stage simulator"));
+
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    let text = std::fs::read_to_string("calib/rig-gcs-sim-coarse-folder.toml")
+        .unwrap()
+        .replace("127.0.0.1:50000", &format!("127.0.0.1:{nano}"))
+        .replace("127.0.0.1:50001", &format!("127.0.0.1:{coarse}"))
+        .replace(
+            "\"camera-stage-sim-coarse.toml\"",
+            &format!(
+                "{:?}",
+                std::fs::canonicalize("calib/camera-stage-sim-coarse.toml")
+                    .unwrap()
+                    .display()
+                    .to_string()
+            ),
+        );
+    std::fs::write(&rig, text).unwrap();
+    let out = nanopush()
+        .args(["rig", "probe", "--rig"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (stage, coarse_part) = text.split_once("coarse stage:").expect("a coarse section");
+    assert!(stage.contains("axes:           1 2 3"), "{text}");
+    assert!(coarse_part.contains("C-884"), "{text}");
+    assert!(coarse_part.contains("axes:           1 2\n"), "{text}");
+    assert!(coarse_part.contains("12.5"), "{text}");
+    drop(sim);
+    drop(reader);
+}
+
+#[test]
+fn sim_gcs_asks_for_the_coarse_port_a_coarse_rig_file_needs() {
+    let out = nanopush()
+        .args(["rig", "sim-gcs", "--port", "0", "--microscope"])
+        .arg("calib/rig-gcs-sim-coarse-folder.toml")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("--coarse-port"), "{stderr}");
+}

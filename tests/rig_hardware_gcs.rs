@@ -289,3 +289,94 @@ fn open_names_what_is_wrong() {
         "{err}"
     );
 }
+
+/// The XYZ bench plus a coarse-stage controller simulator (25 mm axes in
+/// mm, at 12.5 mm) in the rig file's `[coarse]` section; x carries the
+/// sample (sign -1), y the nanostage (sign +1).
+fn coarse_bench() -> (Bench, SimServer) {
+    let b = bench(None);
+    let mut coarse = SimServer::new(SimConfig::coarse());
+    let addr = coarse.serve_tcp("127.0.0.1:0").unwrap();
+    let mut text = std::fs::read_to_string(&b.rig_path).unwrap();
+    text.push_str(&format!(
+        "\n[coarse]\nsign = [-1, 1]\n\n[coarse.stage]\ndriver = \"gcs\"\nlink = \"tcp\"\n\
+         address = \"{addr}\"\naxes = [\"1\", \"2\"]\nunit_um = 1000.0\nreal_hardware = false\n\n\
+         [coarse.safety]\nsoft_min_um = [1000.0, 1000.0]\nsoft_max_um = [24000.0, 24000.0]\n\
+         max_step_um = 1000.0\ntop_speed_um_s = 2000.0\n"
+    ));
+    std::fs::write(&b.rig_path, text).unwrap();
+    (b, coarse)
+}
+
+/// Coarse simulator axis positions, mm.
+fn coarse_mm(sim: &SimServer) -> [f64; 2] {
+    sim.inspect(|c, now| [0, 1].map(|i| c.position(i, now).unwrap()))
+}
+
+#[test]
+fn the_coarse_stage_moves_by_its_sign_and_unit_only_with_the_tip_retracted() {
+    let (b, coarse) = coarse_bench();
+    let mut rig = open(&b);
+    assert!(rig.has_coarse());
+    assert_eq!(CoarseStage::coarse_position(&mut rig).unwrap(), [0.0, 0.0]);
+
+    // The tip starts mid-travel (z = 7.5 um): a coarse move would drag it.
+    let err = CoarseStage::move_coarse(&mut rig, [10.0 * UM, -20.0 * UM]).unwrap_err();
+    assert!(err.to_string().contains("not retracted"), "{err}");
+    assert_eq!(coarse_mm(&coarse), [12.5, 12.5]);
+
+    NanoStage::move_to(&mut rig, [50.0 * UM, 50.0 * UM, 15.0 * UM], 200.0 * UM).unwrap();
+    CoarseStage::move_coarse(&mut rig, [10.0 * UM, -20.0 * UM]).unwrap();
+    // x carries the sample: the nanostage's origin +10 um on it is the
+    // axis at -10 um; y carries the nanostage: -20 um is -20 um.
+    let at = coarse_mm(&coarse);
+    assert!(
+        (at[0] - 12.49).abs() < 1e-9 && (at[1] - 12.48).abs() < 1e-9,
+        "{at:?}"
+    );
+    let offset = CoarseStage::coarse_position(&mut rig).unwrap();
+    assert!(
+        (offset[0] - 10.0 * UM).abs() < 1e-12 && (offset[1] + 20.0 * UM).abs() < 1e-12,
+        "{offset:?}"
+    );
+
+    // A new sample frame moves no axis; later moves are in it.
+    rig.reframe_sample([0.0, 0.0]).unwrap();
+    assert_eq!(coarse_mm(&coarse), at);
+    let offset = CoarseStage::coarse_position(&mut rig).unwrap();
+    assert!(offset.iter().all(|o| o.abs() < 1e-12), "{offset:?}");
+    CoarseStage::move_coarse(&mut rig, [5.0 * UM, 0.0]).unwrap();
+    assert!((coarse_mm(&coarse)[0] - 12.485).abs() < 1e-9);
+
+    // Too long a step and a target beyond the soft limits are refused
+    // before anything moves.
+    let before = coarse_mm(&coarse);
+    let err = CoarseStage::move_coarse(&mut rig, [0.0, 2000.0 * UM]).unwrap_err();
+    assert!(matches!(err, RigError::StepTooLarge { .. }), "{err}");
+    let err = CoarseStage::move_coarse(&mut rig, [12_000.0 * UM, 0.0]).unwrap_err();
+    assert!(
+        matches!(err, RigError::OutOfRange { axis: 'x', .. }),
+        "{err}"
+    );
+    assert_eq!(coarse_mm(&coarse), before);
+    rig.halt().unwrap();
+}
+
+#[test]
+fn ctrl_c_during_a_coarse_move_halts_the_coarse_simulator() {
+    let (b, coarse) = coarse_bench();
+    let mut rig = open(&b);
+    NanoStage::move_to(&mut rig, [50.0 * UM, 50.0 * UM, 15.0 * UM], 200.0 * UM).unwrap();
+    let flag = Arc::clone(&b.interrupt);
+    let raiser = std::thread::spawn(move || {
+        std::thread::sleep(Duration::from_millis(150));
+        flag.store(true, Ordering::SeqCst);
+    });
+    // 900 um at the 2 mm/s top speed: 0.45 s, interrupted after about 0.15 s.
+    let err = CoarseStage::move_coarse(&mut rig, [0.0, 900.0 * UM]).unwrap_err();
+    raiser.join().unwrap();
+    assert!(err.to_string().contains("interrupted"), "{err}");
+    assert!(!coarse.inspect(|c, now| c.any_moving(now)), "still moving");
+    let y = coarse_mm(&coarse)[1];
+    assert!(y > 12.5 && y < 13.4, "halted mid-way, at {y} mm");
+}

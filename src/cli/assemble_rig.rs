@@ -3,8 +3,13 @@
 //!
 //! On hardware there is no layout to start from: the first frame is the
 //! layout. The pattern is placed where the particles the camera sees can fill
-//! it with the least pushing, inside the nanostage's range (the rig has no
-//! coarse stage, so every stroke must fit that range). Safety is the rig's:
+//! it with the least pushing. On a rig without a coarse stage the planner's
+//! field is the nanostage's range and every stroke must fit it. On a rig with
+//! one (the rig file's `[coarse]` section), the field is what the first frame
+//! shows (grown by a particle radius, so every particle seen lies inside),
+//! the run's sample frame has its origin at the field's corner, and the
+//! executor moves the coarse stage whenever a stroke leaves the nanostage's
+//! range. Safety is the rig's:
 //! soft limits, step and speed checked before any byte is sent, the
 //! confirmation before the first move on a rig file with
 //! `real_hardware = true` (waived only by `--yes-move-hardware`), Ctrl-C
@@ -20,7 +25,7 @@ use super::assemble::{Args, write_sites};
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
-use crate::exec::observe::Perception;
+use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
@@ -29,7 +34,7 @@ use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
-use crate::rig::stage::NanoStage;
+use crate::rig::stage::{CoarseStage, NanoStage};
 use crate::vision::detect::DetectSettings;
 use crate::vision::frame_input::save_png;
 use crate::vision::tip::TipSettings;
@@ -57,6 +62,7 @@ pub struct RigArgs {
 
 const JOURNAL: &str = "journal.jsonl";
 const SENT_BYTES: &str = "sent-bytes.log";
+const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
 
 /// Runs the assembly on the hardware rig named by `args.hardware.rig`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
@@ -94,6 +100,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         let path = args.out.join(SENT_BYTES);
         write_sent_log(log, &path)?;
         println!("bytes that would have been sent: {}", path.display());
+    }
+    if let Some(log) = rig.coarse_sent_log() {
+        let path = args.out.join(COARSE_SENT_BYTES);
+        write_sent_log(log, &path)?;
+        println!(
+            "bytes that would have been sent to the coarse stage: {}",
+            path.display()
+        );
     }
     let report = result?;
     if args.json {
@@ -133,15 +147,18 @@ fn assemble(
 ) -> anyhow::Result<AssemblyReport> {
     let r = scene.particle_radius_m;
     let mut settings = AssemblySettings::default();
-    let range = rig.range();
-    settings.field_m = [range[0].max_m, range[1].max_m];
     if args.hardware.dry_run {
         settings.max_pushes = 1;
     }
     let perception = perception_for(scene, rig);
     let calibration = *rig.calibration();
-    let first = perception
-        .sight(rig, &calibration, [0.0, 0.0])
+    let offset = if rig.has_coarse() {
+        rig.coarse_position().context("reading the coarse stage")?
+    } else {
+        [0.0, 0.0]
+    };
+    let mut first = perception
+        .sight(rig, &calibration, offset)
         .context("the first frame")?;
     if first.particles.is_empty() {
         bail!(
@@ -149,7 +166,19 @@ fn assemble(
             r * 1e6
         );
     }
-    let sites = sites_for(args, scene, rig, &first.particles)?;
+    let reachable = if rig.has_coarse() {
+        let corner = field_on_first_frame(rig, &mut first, &mut settings, r)?;
+        let margin = r + settings.clearance_m;
+        Reachable {
+            lo_m: Vector2::new(margin, margin),
+            hi_m: Vector2::new(corner[0] - margin, corner[1] - margin),
+        }
+    } else {
+        let range = rig.range();
+        settings.field_m = [range[0].max_m, range[1].max_m];
+        reachable_sites(rig, r, settings.clearance_m)
+    };
+    let sites = sites_for(args, scene, &reachable, &first.particles)?;
     let spec = RunSpec {
         pattern: RunSpec::pattern_label(args.text.as_deref(), args.pattern.as_deref()),
         scene: args.scene.display().to_string(),
@@ -201,11 +230,17 @@ fn assemble(
     if let Some(last) = &last {
         save_png(&last.frame, &args.out.join("final.png"))?;
     }
-    // No coarse stage on these rigs: the sample does not move under the camera.
+    // Pixels as the camera sees the sites now (the coarse stage may have
+    // moved the sample under it).
+    let offset = if rig.has_coarse() {
+        rig.coarse_position()?
+    } else {
+        [0.0, 0.0]
+    };
     write_sites(
         &sites,
         rig.calibration(),
-        [0.0, 0.0],
+        offset,
         &args.out.join("sites.json"),
     )?;
     Ok(report)
@@ -223,11 +258,42 @@ fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
     }
 }
 
-/// Where sites may lie: a radius and the clearance inside the nanostage's
-/// range, so that a particle on a site is whole inside it and the tip can
-/// reach around it. (Strokes still leave the range when a particle must be
-/// approached from beyond its edge; the executor then stops with the rig's
-/// out-of-range error, as this rig has no coarse stage to bring it closer.)
+/// The run's field on a rig with a coarse stage: what the first frame shows
+/// whole particles in, grown by a particle radius on every side so that
+/// every particle seen lies inside; the sample frame is moved so that the
+/// field's lower-left corner is its origin (the planner's field starts at
+/// 0), and the first frame's particles with it. Returns the field's size.
+fn field_on_first_frame(
+    rig: &mut HardwareRig,
+    first: &mut Sighting,
+    settings: &mut AssemblySettings,
+    radius_m: f64,
+) -> anyhow::Result<[f64; 2]> {
+    let [lo, hi] = first.view_m;
+    let corner = [lo[0] - radius_m, lo[1] - radius_m];
+    let offset = [
+        first.coarse_offset_m[0] - corner[0],
+        first.coarse_offset_m[1] - corner[1],
+    ];
+    rig.reframe_sample(offset)
+        .context("setting the run's sample frame on the coarse stage")?;
+    for p in &mut first.particles {
+        p.x_m -= corner[0];
+        p.y_m -= corner[1];
+    }
+    settings.field_m = [
+        hi[0] - lo[0] + 2.0 * radius_m,
+        hi[1] - lo[1] + 2.0 * radius_m,
+    ];
+    Ok(settings.field_m)
+}
+
+/// Where sites may lie on a rig without a coarse stage: a radius and the
+/// clearance inside the nanostage's range, so that a particle on a site is
+/// whole inside it and the tip can reach around it. (Strokes still leave the
+/// range when a particle must be approached from beyond its edge; the
+/// executor then stops with the rig's out-of-range error, as such a rig has
+/// no coarse stage to bring it closer.)
 fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reachable {
     let range = rig.range();
     let margin = radius_m + clearance_m;
@@ -240,7 +306,7 @@ fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reacha
 fn sites_for(
     args: &Args,
     scene: &Scene,
-    rig: &HardwareRig,
+    reachable: &Reachable,
     seen: &[crate::exec::tracker::Observation],
 ) -> anyhow::Result<Vec<Site>> {
     let r = scene.particle_radius_m;
@@ -251,13 +317,8 @@ fn sites_for(
         (None, None) => bail!("give --text or --pattern"),
     };
     let centres: Vec<_> = seen.iter().map(|p| Vector2::new(p.x_m, p.y_m)).collect();
-    place_optimised(
-        &pattern,
-        &reachable_sites(rig, r, AssemblySettings::default().clearance_m),
-        r,
-        &centres,
-    )
-    .context("placing the pattern among the particles of the first frame")
+    place_optimised(&pattern, reachable, r, &centres)
+        .context("placing the pattern among the particles of the first frame")
 }
 
 /// One line per message, bytes outside printable ASCII escaped (`\n` ends each command).

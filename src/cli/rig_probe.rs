@@ -2,6 +2,8 @@
 //! controller: identity, syntax version, axes, travel ranges, positions,
 //! targets, servo and on-target state, velocities and the pending error.
 //! It sends queries only (and `ERR?`, which clears the error it reports).
+//! A rig file with a `[coarse]` section gets the same look at the coarse
+//! stage's controller.
 
 use crate::rig::gcs::{self, GcsController, RigFile};
 use anyhow::Context;
@@ -21,12 +23,26 @@ pub struct Args {
 /// Connects, queries and prints; never moves anything.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let rig = RigFile::load(&args.rig)?;
-    let (mut ctrl, log) = gcs::connect(&rig, args.dry_run)
+    let (ctrl, log) = gcs::connect(&rig, args.dry_run)
         .with_context(|| format!("connecting to the stage of {}", args.rig.display()))?;
-    let report = probe(&mut ctrl).with_context(|| format!("probing {}", ctrl.endpoint()))?;
+    show("stage", ctrl, log)?;
+    if let Some(coarse) = &rig.coarse {
+        let (ctrl, log) = gcs::connect_coarse(coarse, args.dry_run)
+            .with_context(|| format!("connecting to the coarse stage of {}", args.rig.display()))?;
+        println!();
+        show("coarse stage", ctrl, log)?;
+    }
+    Ok(())
+}
+
+/// Probes one controller and prints the report (and, in a dry run, the bytes).
+fn show(what: &str, mut ctrl: GcsController, log: Option<gcs::SentLog>) -> anyhow::Result<()> {
+    let report =
+        probe(&mut ctrl).with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
+    println!("{what}:");
     print!("{report}");
     if let Some(log) = log {
-        println!("dry run: bytes that would have been sent:");
+        println!("dry run: bytes that would have been sent to the {what}:");
         for bytes in log
             .lock()
             .map_err(|_| anyhow::anyhow!("dry-run log poisoned"))?

@@ -4,7 +4,12 @@
 //! With `--microscope RIG_FILE` it also plays the microscope camera: a
 //! simulated world of particles that the controller's probe pushes, drawn
 //! into the rig file's watched folder (see `rig::microscope_feeder`).
+//! With `--coarse-port P` a second simulated controller plays a coarse XY
+//! stage (2 axes, 25 x 25 mm, in millimetres) on port P; the simulated
+//! microscope then moves its world with it as the rig file's `[coarse]`
+//! section says.
 
+use crate::exec::sim_run::layout_for;
 use crate::model::Scene;
 use crate::plan::Layout;
 use crate::rig::gcs::{RigFile, SimAxisConfig, SimConfig, SimServer, interrupt};
@@ -27,6 +32,10 @@ pub struct Args {
     /// Also serve on a pseudo-terminal (stands in for a serial port) and print its path.
     #[arg(long)]
     pub pty: bool,
+    /// Also simulate a coarse XY stage controller (2 axes, 25 x 25 mm, in
+    /// mm, at the same time scale) on this TCP port (0 picks a free one).
+    #[arg(long)]
+    pub coarse_port: Option<u16>,
     /// Closed-loop velocity of every axis at start-up, micrometres per second.
     #[arg(long, default_value_t = 100.0)]
     pub velocity_um_s: f64,
@@ -45,7 +54,9 @@ pub struct Args {
         requires = "microscope"
     )]
     pub scene: PathBuf,
-    /// With --microscope: layout of the world (default: random, from --seed).
+    /// With --microscope: layout of the world (default: random, from --seed:
+    /// in the nanostage's travel, or with --coarse-port the simulated rig's
+    /// 120 x 100 um field).
     #[arg(long, requires = "microscope")]
     pub layout: Option<PathBuf>,
     /// With --microscope: seed of the random layout and of the camera noise.
@@ -94,9 +105,23 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let path = server.serve_pty().context("opening a pseudo-terminal")?;
         writeln!(out, "GCS simulator serving on pty {}", path.display())?;
     }
+    let coarse = match args.coarse_port {
+        Some(port) => {
+            let mut coarse = SimServer::new(SimConfig::coarse());
+            coarse
+                .handle()
+                .with(|c, now| c.set_time_scale(args.time_scale, now));
+            let addr = coarse
+                .serve_tcp(&format!("{}:{port}", args.host))
+                .with_context(|| format!("binding {}:{port} for the coarse stage", args.host))?;
+            writeln!(out, "GCS coarse-stage simulator listening on tcp {addr}")?;
+            Some(coarse)
+        }
+        None => None,
+    };
     let feeder = match &args.microscope {
         Some(rig_path) => {
-            let feeder = microscope(&args, &server, &config, rig_path)?;
+            let feeder = microscope(&args, &server, coarse.as_ref(), &config, rig_path)?;
             writeln!(
                 out,
                 "simulated microscope writing frames for {}",
@@ -122,14 +147,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn microscope(
     args: &Args,
     server: &SimServer,
+    coarse: Option<&SimServer>,
     config: &SimConfig,
     rig_path: &std::path::Path,
 ) -> anyhow::Result<MicroscopeFeeder> {
     let rig = RigFile::load(rig_path)?;
+    anyhow::ensure!(
+        rig.coarse.is_none() || coarse.is_some(),
+        "{} has a [coarse] section: give --coarse-port (its port) so that a simulated coarse stage moves the world",
+        rig_path.display()
+    );
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
     let layout = match &args.layout {
         Some(path) => Layout::read(path)?,
+        None if coarse.is_some() => layout_for(None, &scene, args.seed, args.particles)?,
         None => {
             let travel =
                 |i: usize| (config.axes[i].max - config.axes[i].min) * rig.stage.unit_um * 1e-6;
@@ -144,6 +176,7 @@ fn microscope(
     };
     Ok(MicroscopeFeeder::for_rig_file(
         server.handle(),
+        coarse.map(SimServer::handle),
         &rig,
         &scene,
         &layout,

@@ -4,10 +4,10 @@
 //! simulated rig.
 //!
 //! [`GcsNanoStage`] maps stage axes x, y[, z] to the rig file's controller
-//! axes, speaks metres, and makes every move a straight line: each axis gets
-//! the share of the speed that its part of the displacement asks for (GCS
-//! `VEL` is per axis, so one common velocity would bend a diagonal move). A
-//! two-axis stage does not drive z: its z range is the single point 0.
+//! axes, speaks metres, and makes every move a straight line
+//! ([`GcsLineStage`]). A two-axis stage does not drive z: its z range is the
+//! single point 0. The coarse stage, when the rig file has a `[coarse]`
+//! section, is a [`GcsCoarseStage`] on its own controller.
 //!
 //! Safety is the GCS stage's (soft limits, largest step, top speed checked
 //! before any byte is sent; confirmation before the first move on real
@@ -19,22 +19,19 @@ use super::camera_clock::WallClock;
 use super::camera_error::CameraError;
 use super::camera_open::{BoxedCamera, open_camera};
 use super::error::RigError;
-use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SafetyViolation, SentLog};
+use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog};
+use super::gcs_coarse_stage::GcsCoarseStage;
+use super::gcs_line_stage::{GcsLineStage, snap_into_range};
 use super::stage::{AxisRange, CoarseStage, NanoStage, StageXyz, check_in_range};
 use crate::calib::affine::{AffineCalibration, CalibError};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 /// A GCS stage as the executor's nanostage.
 pub struct GcsNanoStage {
-    stage: GcsStage,
-    endpoint: String,
+    line: GcsLineStage,
     range: [AxisRange; 3],
-    servo_on: bool,
-    interrupt: Arc<AtomicBool>,
-    /// Last velocity set per axis, controller units per second.
-    velocity_units: Vec<Option<f64>>,
 }
 
 impl GcsNanoStage {
@@ -42,169 +39,29 @@ impl GcsNanoStage {
     /// rig file's soft limits narrowed to the controller's travel (`TMN?`/`TMX?`).
     /// `interrupt` is the stage's Ctrl-C flag: while it is up, moves are
     /// refused before anything (not even `VEL`) is sent.
-    pub fn new(mut stage: GcsStage, interrupt: Arc<AtomicBool>) -> Result<Self, GcsError> {
-        let settings = stage.settings().clone();
-        let n = settings.axes.len();
+    pub fn new(stage: GcsStage, interrupt: Arc<AtomicBool>) -> Result<Self, GcsError> {
+        let n = stage.settings().axes.len();
         if !(2..=3).contains(&n) {
             return Err(GcsError::InvalidArgument(format!(
                 "a nanostage needs 2 (x, y) or 3 (x, y, z) axes, the rig file names {n}"
             )));
         }
-        let axes: Vec<&str> = settings.axes.iter().map(String::as_str).collect();
-        let tmn = stage.controller().travel_min(&axes)?;
-        let tmx = stage.controller().travel_max(&axes)?;
+        let line = GcsLineStage::new(stage, interrupt, &['x', 'y', 'z'][..n])?;
         let mut range = [AxisRange {
             min_m: 0.0,
             max_m: 0.0,
         }; 3];
-        for i in 0..n {
-            let soft = settings.limits.soft_limits[i];
-            range[i] = AxisRange {
-                min_m: soft.min_m.max(tmn[i] * settings.unit_m),
-                max_m: soft.max_m.min(tmx[i] * settings.unit_m),
-            };
-            if range[i].min_m > range[i].max_m {
-                return Err(GcsError::InvalidArgument(format!(
-                    "axis {}: soft limits {:.3}..{:.3} um lie outside the controller's travel {:.3}..{:.3} um",
-                    settings.axes[i],
-                    soft.min_m * 1e6,
-                    soft.max_m * 1e6,
-                    tmn[i] * settings.unit_m * 1e6,
-                    tmx[i] * settings.unit_m * 1e6
-                )));
-            }
-        }
-        Ok(Self {
-            endpoint: stage.controller().endpoint(),
-            stage,
-            range,
-            servo_on: false,
-            interrupt,
-            velocity_units: vec![None; n],
-        })
+        range[..n].copy_from_slice(line.range());
+        Ok(Self { line, range })
     }
 
     /// The GCS stage underneath (for queries the trait does not cover).
     pub fn gcs(&mut self) -> &mut GcsStage {
-        &mut self.stage
+        self.line.gcs()
     }
 
     fn axes(&self) -> usize {
-        self.velocity_units.len()
-    }
-
-    /// Per-axis velocities (controller units) that make the move from
-    /// `from` to `to` a straight line at `speed_m_per_s`; axes that do not
-    /// move keep their velocity (`VEL 0` is refused by controllers).
-    fn set_line_velocities(
-        &mut self,
-        from: &[f64],
-        to: &[f64],
-        speed_m_per_s: f64,
-    ) -> Result<(), GcsError> {
-        let length: f64 = from
-            .iter()
-            .zip(to)
-            .map(|(a, b)| (b - a).powi(2))
-            .sum::<f64>()
-            .sqrt();
-        if length == 0.0 {
-            return Ok(());
-        }
-        let unit_m = self.stage.settings().unit_m;
-        let axes = self.stage.settings().axes.clone();
-        let mut pairs = Vec::new();
-        for (i, axis) in axes.iter().enumerate() {
-            let share = (to[i] - from[i]).abs() / length;
-            if share < 1e-9 {
-                continue;
-            }
-            // Rounded like positions, so that equal speeds are not re-sent.
-            let units = (speed_m_per_s * share / unit_m * 1e9).round() / 1e9;
-            if units > 0.0 && self.velocity_units[i] != Some(units) {
-                pairs.push((axis.as_str(), units, i));
-            }
-        }
-        if pairs.is_empty() {
-            return Ok(());
-        }
-        let wire: Vec<(&str, f64)> = pairs.iter().map(|&(a, u, _)| (a, u)).collect();
-        self.stage.controller().set_velocity(&wire)?;
-        for (_, units, i) in pairs {
-            self.velocity_units[i] = Some(units);
-        }
-        Ok(())
-    }
-
-    fn move_checked(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), GcsError> {
-        let n = self.axes();
-        if self.interrupt.load(Ordering::SeqCst) {
-            // The stage halted when the flag was seen; make sure, then refuse.
-            let _ = self.stage.halt();
-            return Err(GcsError::Interrupted);
-        }
-        self.stage
-            .settings()
-            .limits
-            .check_speed(speed_m_per_s)
-            .map_err(GcsError::Safety)?;
-        if !self.servo_on {
-            self.stage.enable_servo()?;
-            self.servo_on = true;
-        }
-        let from = self.stage.position_m()?;
-        // Limits and step are checked again by the stage before MOV; checking
-        // here first keeps a refused move from touching VEL.
-        let limits = &self.stage.settings().limits;
-        limits.check_target(&self.stage.settings().axes, &target[..n])?;
-        limits.check_step(&from, &target[..n])?;
-        self.set_line_velocities(&from, &target[..n], speed_m_per_s)?;
-        self.stage.move_to_m(&target[..n])
-    }
-
-    /// Maps a driver error to the executor's error, naming axes x, y, z.
-    fn rig_error(&self, e: GcsError) -> RigError {
-        let axis_name = |id: &str| {
-            self.stage
-                .settings()
-                .axes
-                .iter()
-                .position(|a| a == id)
-                .map_or('?', |i| ['x', 'y', 'z'][i])
-        };
-        match e {
-            GcsError::Safety(SafetyViolation::OutsideSoftLimits {
-                axis,
-                target_m,
-                min_m,
-                max_m,
-            }) => RigError::OutOfRange {
-                axis: axis_name(&axis),
-                target_um: target_m * 1e6,
-                min_um: min_m * 1e6,
-                max_um: max_m * 1e6,
-            },
-            GcsError::Safety(SafetyViolation::StepTooLarge { step_m, max_step_m }) => {
-                RigError::StepTooLarge {
-                    step_um: step_m * 1e6,
-                    max_um: max_step_m * 1e6,
-                }
-            }
-            GcsError::Safety(SafetyViolation::SpeedNotAllowed {
-                speed_m_per_s,
-                max_speed_m_per_s,
-            }) => RigError::BadSpeed {
-                speed_um_s: speed_m_per_s * 1e6,
-                max_um_s: max_speed_m_per_s * 1e6,
-            },
-            GcsError::Timeout {
-                command, timeout, ..
-            } => RigError::Timeout {
-                device: format!("stage {} (`{command}`)", self.endpoint),
-                timeout_ms: timeout.as_millis() as u64,
-            },
-            other => RigError::StageFault(other.to_string()),
-        }
+        self.line.range().len()
     }
 }
 
@@ -214,18 +71,21 @@ impl NanoStage for GcsNanoStage {
     }
 
     fn position(&mut self) -> Result<StageXyz, RigError> {
-        let p = self.stage.position_m().map_err(|e| self.rig_error(e))?;
+        let p = self.line.position_m()?;
         Ok([p[0], p[1], p.get(2).copied().unwrap_or(0.0)])
     }
 
+    /// Targets within a picometre outside the range are snapped onto it
+    /// ([`snap_into_range`]).
     fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
+        let target: StageXyz = std::array::from_fn(|i| snap_into_range(target[i], &self.range[i]));
         check_in_range(target, &self.range)?;
-        self.move_checked(target, speed_m_per_s)
-            .map_err(|e| self.rig_error(e))
+        let n = self.axes();
+        self.line.move_to_m(&target[..n], speed_m_per_s)
     }
 
     fn halt(&mut self) -> Result<(), RigError> {
-        self.stage.halt().map_err(|e| self.rig_error(e))
+        self.line.halt()
     }
 }
 
@@ -244,7 +104,8 @@ pub struct HardwareRigOptions {
     pub interrupt: Option<Arc<AtomicBool>>,
     /// A camera to use instead of the rig file's (required for `kind = "simulated"`).
     pub camera: Option<BoxedCamera>,
-    /// A coarse stage; without one, coarse moves fail with [`RigError::NoCoarseStage`].
+    /// A coarse stage to use instead of the rig file's `[coarse]` section;
+    /// with neither, coarse moves fail with [`RigError::NoCoarseStage`].
     pub coarse: Option<Box<dyn CoarseStage + Send>>,
 }
 
@@ -265,6 +126,9 @@ pub enum HardwareRigError {
     /// The stage could not be reached or set up.
     #[error("stage: {0}")]
     Stage(#[from] GcsError),
+    /// The coarse stage could not be reached or set up.
+    #[error("coarse stage: {0}")]
+    Coarse(GcsError),
     /// The camera could not be opened.
     #[error(transparent)]
     Camera(#[from] CameraError),
@@ -277,6 +141,10 @@ pub enum HardwareRigError {
 pub struct HardwareRig {
     stage: GcsNanoStage,
     coarse: Option<Box<dyn CoarseStage + Send>>,
+    /// Subtracted from the coarse stage's offsets: moves the sample frame's
+    /// origin (see [`HardwareRig::reframe_sample`]).
+    coarse_shift_m: [f64; 2],
+    coarse_sent_log: Option<SentLog>,
     camera: BoxedCamera,
     calibration: AffineCalibration,
     clock: WallClock,
@@ -287,6 +155,10 @@ pub struct HardwareRig {
     settled_at_s: f64,
     stale_frames: usize,
 }
+
+/// Lowest the tip may be below the top of its z travel for a coarse move:
+/// the coarse stage would drag a lowered tip through the sample.
+const RETRACTED_TOLERANCE_M: f64 = 0.1e-6;
 
 /// Longest a grab keeps discarding frames exposed before the stage settled.
 const STALE_FRAME_PATIENCE: std::time::Duration = std::time::Duration::from_secs(5);
@@ -318,9 +190,31 @@ impl HardwareRig {
             opts.waive_confirmation,
             Arc::clone(&interrupt),
         )?;
+        let stage = GcsNanoStage::new(stage, Arc::clone(&interrupt))?;
+        let (coarse, coarse_sent_log) = match (opts.coarse, &rig.coarse) {
+            (Some(given), _) => (Some(given), None),
+            (None, Some(section)) => {
+                let (coarse, log) = gcs::open_coarse_stage(
+                    section,
+                    opts.dry_run,
+                    opts.waive_confirmation,
+                    Arc::clone(&interrupt),
+                )
+                .and_then(|(s, log)| {
+                    let c = GcsCoarseStage::new(s, Arc::clone(&interrupt), section.sign_factors())?;
+                    Ok((c, log))
+                })
+                .map_err(HardwareRigError::Coarse)?;
+                let boxed: Box<dyn CoarseStage + Send> = Box::new(coarse);
+                (Some(boxed), log)
+            }
+            (None, None) => (None, None),
+        };
         Ok(Self {
-            stage: GcsNanoStage::new(stage, Arc::clone(&interrupt))?,
-            coarse: opts.coarse,
+            stage,
+            coarse,
+            coarse_shift_m: [0.0, 0.0],
+            coarse_sent_log,
             camera,
             calibration,
             clock,
@@ -350,6 +244,29 @@ impl HardwareRig {
     /// In a dry run, every byte that would have gone to the stage.
     pub fn sent_log(&self) -> Option<&SentLog> {
         self.sent_log.as_ref()
+    }
+
+    /// In a dry run, every byte that would have gone to the coarse stage's controller.
+    pub fn coarse_sent_log(&self) -> Option<&SentLog> {
+        self.coarse_sent_log.as_ref()
+    }
+
+    /// True when the rig has a coarse stage.
+    pub fn has_coarse(&self) -> bool {
+        self.coarse.is_some()
+    }
+
+    /// Moves the sample frame (not the stage): from now on the coarse stage,
+    /// where it stands, reads `offset_m`. A run chooses its own frame this
+    /// way (the planner's field starts at the origin); the sample frame a
+    /// rig opens with is the nanostage's (offset zero).
+    pub fn reframe_sample(&mut self, offset_m: [f64; 2]) -> Result<(), RigError> {
+        let Some(c) = &mut self.coarse else {
+            return Err(RigError::NoCoarseStage);
+        };
+        let raw = c.coarse_position()?;
+        self.coarse_shift_m = [raw[0] - offset_m[0], raw[1] - offset_m[1]];
+        Ok(())
     }
 
     /// The nanostage (for GCS queries beyond the trait).
@@ -385,24 +302,56 @@ impl NanoStage for HardwareRig {
         self.settled();
         moved
     }
+    /// Halts the nanostage and the coarse stage.
     fn halt(&mut self) -> Result<(), RigError> {
         let halted = self.stage.halt();
+        let coarse = self.halt_coarse();
         self.settled();
-        halted
+        halted.and(coarse)
     }
 }
 
 impl CoarseStage for HardwareRig {
     fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
+        let shift = self.coarse_shift_m;
         match &mut self.coarse {
-            Some(c) => c.coarse_position(),
+            Some(c) => c
+                .coarse_position()
+                .map(|p| [p[0] - shift[0], p[1] - shift[1]]),
             None => Err(RigError::NoCoarseStage),
         }
     }
+
+    /// Refused before anything moves unless the tip is retracted (the
+    /// nanostage at the top of its z travel): the coarse stage would drag a
+    /// lowered tip through the sample. Frames exposed before the move ended
+    /// are stale afterwards.
     fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
-        match &mut self.coarse {
-            Some(c) => c.move_coarse(target),
+        if self.coarse.is_none() {
+            return Err(RigError::NoCoarseStage);
+        }
+        let top = self.stage.range()[2].max_m;
+        let z = self.stage.position()?[2];
+        if z < top - RETRACTED_TOLERANCE_M {
+            return Err(RigError::StageFault(format!(
+                "coarse move refused: the tip is not retracted (z = {:.3} um, top of travel {:.3} um)",
+                z * 1e6,
+                top * 1e6
+            )));
+        }
+        let shift = self.coarse_shift_m;
+        let moved = match &mut self.coarse {
+            Some(c) => c.move_coarse([target[0] + shift[0], target[1] + shift[1]]),
             None => Err(RigError::NoCoarseStage),
+        };
+        self.settled();
+        moved
+    }
+
+    fn halt_coarse(&mut self) -> Result<(), RigError> {
+        match &mut self.coarse {
+            Some(c) => c.halt_coarse(),
+            None => Ok(()),
         }
     }
 }

@@ -11,10 +11,15 @@
 //! time (the folder camera's frame time, so a frame exposed before a move
 //! ended is recognisably older than the move), and renamed into place; only
 //! the newest `keep_frames` are kept on disk.
+//!
+//! With a second simulated controller as the coarse stage, the sample (the
+//! world) moves under the probe and the camera by the coarse offset, as on
+//! the simulated rig: frames show the world shifted by it, and are exposed
+//! only with both controllers at rest.
 
 use super::camera_source::CameraSource;
-use super::gcs::{GcsSimWorld, RigFile, SimHandle, TipAxes};
-use super::sim::build::world_for;
+use super::gcs::{CoarseAxes, GcsSimWorld, RigFile, SimHandle, TipAxes};
+use super::sim::build::{centring_offset, world_for};
 use super::sim::model_physics::ModelPhysics;
 use super::sim::rig::SimCameraConfig;
 use crate::calib::affine::AffineCalibration;
@@ -81,16 +86,36 @@ pub struct MicroscopeFeeder {
 }
 
 impl MicroscopeFeeder {
-    /// Starts recording the controller's motions and writing frames.
-    pub fn start(controller: SimHandle, world: GcsSimWorld, settings: FeederSettings) -> Self {
+    /// Starts recording the controllers' motions (the nanostage's, and the
+    /// coarse stage's if there is one) and writing frames.
+    pub fn start(
+        controller: SimHandle,
+        coarse: Option<SimHandle>,
+        world: GcsSimWorld,
+        settings: FeederSettings,
+    ) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         let world = Arc::new(Mutex::new(world));
         let frames = Arc::new(AtomicUsize::new(0));
-        controller.with(|c, now| c.record_motions(now));
+        with_both(&controller, coarse.as_ref(), |c, k, now| {
+            c.record_motions(now);
+            if let Some(k) = k {
+                k.record_motions(now);
+            }
+        });
         let thread = {
             let (stop, world, frames) =
                 (Arc::clone(&stop), Arc::clone(&world), Arc::clone(&frames));
-            std::thread::spawn(move || feed(&controller, &world, &settings, &stop, &frames))
+            std::thread::spawn(move || {
+                feed(
+                    &controller,
+                    coarse.as_ref(),
+                    &world,
+                    &settings,
+                    &stop,
+                    &frames,
+                )
+            })
         };
         Self {
             stop,
@@ -105,8 +130,15 @@ impl MicroscopeFeeder {
     /// frame size that shows the controller's whole x-y travel; the world of
     /// `layout` with the physics of `scene`, pushed by the controller's axes
     /// the rig file names (x, y, z: all three are needed).
+    ///
+    /// With `coarse` (the controller playing the rig file's `[coarse]`
+    /// stage), the coarse stage moves the world as the rig file's `sign`
+    /// says, and the world starts where the simulated rig puts it: the
+    /// nanostage's range centred on the layout's field
+    /// ([`centring_offset`]).
     pub fn for_rig_file(
         controller: SimHandle,
+        coarse: Option<SimHandle>,
         rig: &RigFile,
         scene: &Scene,
         layout: &Layout,
@@ -153,7 +185,7 @@ impl MicroscopeFeeder {
             tip_angle_rad: 60f64.to_radians(),
             frame_time_s: interval.as_secs_f64(),
         };
-        let world = GcsSimWorld::new(
+        let mut world = GcsSimWorld::new(
             world_for(scene, layout),
             Box::new(ModelPhysics::new(scene.clone())),
             TipAxes {
@@ -162,8 +194,18 @@ impl MicroscopeFeeder {
             },
             Instant::now(),
         );
+        if let Some(handle) = &coarse {
+            let travel = |a: &super::gcs::SimAxisConfig| (a.max - a.min) * unit_m;
+            let range_m = [travel(&config.axes[x]), travel(&config.axes[y])];
+            world = world.with_coarse(coarse_axes(
+                handle,
+                rig,
+                centring_offset(layout.field_m, range_m),
+            )?);
+        }
         Ok(Self::start(
             controller,
+            coarse,
             world,
             FeederSettings {
                 folder: folder.clone(),
@@ -213,6 +255,68 @@ impl Drop for MicroscopeFeeder {
     }
 }
 
+/// The coarse controller's axes as the rig file's `[coarse]` section names
+/// them, with the zero that puts the nanostage's origin at `offset_m` on the
+/// sample where the coarse controller stands now.
+fn coarse_axes(
+    handle: &SimHandle,
+    rig: &RigFile,
+    offset_m: [f64; 2],
+) -> Result<CoarseAxes, FeederError> {
+    let Some(section) = &rig.coarse else {
+        return Err(FeederError::Setup(
+            "a coarse controller was given but the rig file has no [coarse] section".to_owned(),
+        ));
+    };
+    let (config, positions) = handle.with(|c, now| {
+        let n = c.config().axes.len();
+        (
+            c.config().clone(),
+            (0..n)
+                .filter_map(|i| c.position(i, now))
+                .collect::<Vec<f64>>(),
+        )
+    });
+    let index = |name: &String| {
+        config
+            .axes
+            .iter()
+            .position(|a| &a.name == name)
+            .ok_or_else(|| {
+                FeederError::Setup(format!("the coarse controller has no axis {name:?}"))
+            })
+    };
+    let [x, y] = match section.stage.axes.as_slice() {
+        [x, y] => [index(x)?, index(y)?],
+        other => {
+            return Err(FeederError::Setup(format!(
+                "the coarse stage needs 2 axes, the rig file names {}",
+                other.len()
+            )));
+        }
+    };
+    let axes = CoarseAxes {
+        xy: [x, y],
+        unit_m: section.stage.unit_um * 1e-6,
+        sign: section.sign_factors(),
+        zero_m: [0.0, 0.0],
+    };
+    Ok(axes.with_offset_at(&positions, offset_m))
+}
+
+/// Runs `f` on the nanostage controller and, if there is one, the coarse
+/// controller, both held at once so that one instant holds for both.
+fn with_both<R>(
+    nano: &SimHandle,
+    coarse: Option<&SimHandle>,
+    f: impl FnOnce(&mut super::gcs::SimController, Option<&mut super::gcs::SimController>, Instant) -> R,
+) -> R {
+    nano.with(|c, now| match coarse {
+        Some(k) => k.with(|k, _| f(c, Some(k), now)),
+        None => f(c, None, now),
+    })
+}
+
 /// Frame size, pixels, that shows the whole x-y travel of the controller
 /// through `calibration`, with the margin that lies between pixel 0 and the
 /// travel's nearest corner repeated on the far side.
@@ -254,6 +358,7 @@ fn lock(world: &Mutex<GcsSimWorld>) -> MutexGuard<'_, GcsSimWorld> {
 
 fn feed(
     controller: &SimHandle,
+    coarse: Option<&SimHandle>,
     world: &Mutex<GcsSimWorld>,
     settings: &FeederSettings,
     stop: &AtomicBool,
@@ -263,29 +368,40 @@ fn feed(
     let mut n: u64 = 0;
     while !stop.load(Ordering::SeqCst) {
         let started = Instant::now();
-        let (motions, positions, moving, exposed, now) = controller.with(|c, now| {
-            let axes = c.config().axes.len();
-            let positions: Vec<f64> = (0..axes).filter_map(|i| c.position(i, now)).collect();
-            (
-                c.take_motions(),
-                positions,
-                c.any_moving(now),
-                SystemTime::now(),
-                now,
-            )
-        });
+        let (nano, coarse_now, moving, exposed, now) =
+            with_both(controller, coarse, |c, k, now| {
+                let axes = c.config().axes.len();
+                let positions: Vec<f64> = (0..axes).filter_map(|i| c.position(i, now)).collect();
+                let coarse_now = k.map(|k| {
+                    let axes = k.config().axes.len();
+                    let positions: Vec<f64> =
+                        (0..axes).filter_map(|i| k.position(i, now)).collect();
+                    (k.take_motions(), positions, k.any_moving(now))
+                });
+                let moving = c.any_moving(now) || coarse_now.as_ref().is_some_and(|k| k.2);
+                (
+                    (c.take_motions(), positions),
+                    coarse_now,
+                    moving,
+                    SystemTime::now(),
+                    now,
+                )
+            });
+        let (coarse_motions, coarse_positions) =
+            coarse_now.map(|(m, p, _)| (m, p)).unwrap_or_default();
         let (view, state) = {
             let mut w = lock(world);
-            w.advance(motions, now);
+            w.advance_with_coarse(nano.0, coarse_motions, now);
             let state = w.motions_applied() as u64;
             let view = if moving {
                 None
             } else {
-                let tip = w.tip_m(&positions);
+                let tip = w.tip_on_sample_m(&nano.1, &coarse_positions);
+                let offset = w.coarse_offset_m(&coarse_positions);
                 Some(
                     settings
                         .camera
-                        .view(&w.world.particles, tip, [0.0, 0.0])
+                        .view(&w.world.particles, tip, offset)
                         .map_err(|e| FeederError::Render(e.to_string()))?,
                 )
             };

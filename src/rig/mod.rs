@@ -12,6 +12,8 @@ pub mod camera_source;
 pub mod camera_video;
 pub mod error;
 pub mod gcs;
+pub mod gcs_coarse_stage;
+pub mod gcs_line_stage;
 pub mod hardware;
 pub mod microscope_feeder;
 pub mod sim;

@@ -34,6 +34,11 @@ pub trait CoarseStage {
     fn coarse_position(&mut self) -> Result<[f64; 2], RigError>;
     /// Moves the coarse stage and returns once it has settled.
     fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError>;
+    /// Stops any coarse motion at once (stages that only move inside
+    /// `move_coarse`, such as the simulated one, have nothing to stop).
+    fn halt_coarse(&mut self) -> Result<(), RigError> {
+        Ok(())
+    }
 }
 
 /// Checks a target against a range before anything moves.

@@ -29,37 +29,57 @@ pub use controller::GcsController;
 pub use controller_error::ControllerError;
 pub use dry_run_link::{DryRunLink, SentLog};
 pub use error::GcsError;
-pub use rig_file::{CameraSource, LinkKind, RigFile, RigFileError, StageDriver};
+pub use rig_file::{
+    CameraSource, CoarseSection, LinkKind, RigFile, RigFileError, StageDriver, StageSection,
+};
 pub use safety::{SafetyLimits, SafetyViolation, SoftLimit};
 pub use serial_link::SerialLink;
 pub use sim_server::{SimFault, SimHandle, SimServer};
-pub use sim_world::{GcsSimWorld, TipAxes};
+pub use sim_world::{CoarseAxes, GcsSimWorld, TipAxes};
 pub use simulator::{Motion, SimAxisConfig, SimConfig, SimController};
 pub use stage::{GcsStage, StageSettings};
 pub use tcp_link::TcpLink;
 pub use transport::{ByteLink, Transport};
 
-/// Opens the link a rig file names and returns a driver on it. With
-/// `dry_run`, nothing is opened: the returned log receives every byte that
-/// would have been sent, and an in-process simulator answers.
+/// Opens the link a rig file names for its nanostage and returns a driver
+/// on it. With `dry_run`, nothing is opened: the returned log receives every
+/// byte that would have been sent, and an in-process simulator answers.
 pub fn connect(rig: &RigFile, dry_run: bool) -> Result<(GcsController, Option<SentLog>), GcsError> {
-    let timeout = rig.reply_timeout();
-    let endpoint = rig.stage.address.clone();
+    connect_section(&rig.stage, dry_run, SimConfig::default())
+}
+
+/// [`connect`] for the rig file's coarse stage (a dry run is answered by
+/// [`SimConfig::coarse`]).
+pub fn connect_coarse(
+    coarse: &CoarseSection,
+    dry_run: bool,
+) -> Result<(GcsController, Option<SentLog>), GcsError> {
+    connect_section(&coarse.stage, dry_run, SimConfig::coarse())
+}
+
+/// Opens the link of one controller section; `dry_run_sim` answers a dry run.
+fn connect_section(
+    section: &StageSection,
+    dry_run: bool,
+    dry_run_sim: SimConfig,
+) -> Result<(GcsController, Option<SentLog>), GcsError> {
+    let timeout = section.reply_timeout();
+    let endpoint = section.address.clone();
     let io = |source| GcsError::Io {
         endpoint: endpoint.clone(),
         source,
     };
     let (link, log): (Box<dyn ByteLink>, Option<SentLog>) = if dry_run {
-        let (link, log) = DryRunLink::new(SimConfig::default());
+        let (link, log) = DryRunLink::new(dry_run_sim);
         (Box::new(link), Some(log))
     } else {
-        match rig.stage.link {
+        match section.link {
             LinkKind::Tcp => (
-                Box::new(TcpLink::connect(&rig.stage.address, timeout).map_err(io)?),
+                Box::new(TcpLink::connect(&section.address, timeout).map_err(io)?),
                 None,
             ),
             LinkKind::Serial => (
-                Box::new(SerialLink::open(&rig.stage.address, rig.stage.baud).map_err(io)?),
+                Box::new(SerialLink::open(&section.address, section.baud).map_err(io)?),
                 None,
             ),
         }
@@ -81,5 +101,20 @@ pub fn open_stage(
     let confirmation =
         FirstMoveConfirmation::for_rig(rig.stage.real_hardware, dry_run, waive_confirmation);
     let stage = GcsStage::new(controller, rig.stage_settings(), confirmation, interrupt)?;
+    Ok((stage, log))
+}
+
+/// [`open_stage`] for the rig file's coarse stage: the same checks under its
+/// own limits, its own confirmation on real hardware, the same Ctrl-C flag.
+pub fn open_coarse_stage(
+    coarse: &CoarseSection,
+    dry_run: bool,
+    waive_confirmation: bool,
+    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Result<(GcsStage, Option<SentLog>), GcsError> {
+    let (controller, log) = connect_coarse(coarse, dry_run)?;
+    let confirmation =
+        FirstMoveConfirmation::for_rig(coarse.stage.real_hardware, dry_run, waive_confirmation);
+    let stage = GcsStage::new(controller, coarse.stage_settings(), confirmation, interrupt)?;
     Ok((stage, log))
 }

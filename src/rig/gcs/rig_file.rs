@@ -29,6 +29,30 @@ pub struct RigFile {
     pub camera: CameraSource,
     /// Pixel-to-stage calibration file (relative to the rig file).
     pub calibration: PathBuf,
+    /// The coarse XY stage, if the rig has one under software control.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coarse: Option<CoarseSection>,
+}
+
+/// The motorised coarse XY stage that brings the work area into the
+/// nanostage's reach: another GCS controller (a C-884 driving two linear
+/// stages, say) with its own link and its own host-side limits. In TOML:
+/// `[coarse]` with `sign`, then `[coarse.stage]` and `[coarse.safety]`,
+/// laid out as the nanostage's `[stage]` and `[safety]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoarseSection {
+    /// Per axis (coarse axes in nanostage order x, y): +1 where a positive
+    /// coarse move carries the nanostage's origin positive across the
+    /// sample (the coarse stage carries the nanostage and the camera), -1
+    /// where it moves the sample positive under them (the usual case: the
+    /// coarse stage carries the sample). The coarse axes must be parallel
+    /// to the nanostage's.
+    pub sign: [i8; 2],
+    /// The controller and how to reach it (exactly two axes, x then y).
+    pub stage: StageSection,
+    /// Host-side limits of the coarse axes, micrometres.
+    pub safety: SafetySection,
 }
 
 /// How the stage is driven and reached.
@@ -170,74 +194,132 @@ impl RigFile {
                 self.schema
             ));
         }
-        let n = self.stage.axes.len();
-        if n == 0 {
-            return Err("stage.axes is empty".into());
+        validate_controller(&self.stage, &self.safety, "stage", "safety")?;
+        if let Some(coarse) = &self.coarse {
+            coarse.validate()?;
         }
-        for axis in &self.stage.axes {
-            super::protocol::validate_axis(axis).map_err(|e| format!("stage.axes: {e}"))?;
-        }
-        if self.safety.soft_min_um.len() != n || self.safety.soft_max_um.len() != n {
-            return Err(format!(
-                "safety.soft_min_um and soft_max_um need {n} entries (one per axis)"
-            ));
-        }
-        if !(self.stage.unit_um.is_finite() && self.stage.unit_um > 0.0) {
-            return Err(format!(
-                "stage.unit_um must be positive, got {}",
-                self.stage.unit_um
-            ));
-        }
-        if self.stage.timeout_ms == 0 || self.stage.settle_timeout_ms == 0 {
-            return Err("stage.timeout_ms and stage.settle_timeout_ms must be positive".into());
-        }
-        if self.stage.link == LinkKind::Serial
-            && super::serial_link::baud_rate(self.stage.baud).is_none()
-        {
-            return Err(format!(
-                "stage.baud {} is not a supported rate",
-                self.stage.baud
-            ));
-        }
-        self.camera.validate()?;
-        self.safety_limits()
-            .validate()
-            .map_err(|e| format!("safety: {e}"))
+        self.camera.validate()
     }
 
     /// The safety limits in SI units.
     pub fn safety_limits(&self) -> SafetyLimits {
+        self.safety.limits()
+    }
+
+    /// Stage settings in SI units.
+    pub fn stage_settings(&self) -> StageSettings {
+        self.stage.settings(&self.safety)
+    }
+
+    /// Reply timeout per command.
+    pub fn reply_timeout(&self) -> Duration {
+        self.stage.reply_timeout()
+    }
+}
+
+impl CoarseSection {
+    fn validate(&self) -> Result<(), String> {
+        if self.stage.axes.len() != 2 {
+            return Err(format!(
+                "coarse.stage.axes needs 2 axes (x, y), got {}",
+                self.stage.axes.len()
+            ));
+        }
+        if let Some(bad) = self.sign.iter().find(|s| s.abs() != 1) {
+            return Err(format!("coarse.sign entries must be 1 or -1, got {bad}"));
+        }
+        validate_controller(&self.stage, &self.safety, "coarse.stage", "coarse.safety")
+    }
+
+    /// The coarse controller's settings in SI units.
+    pub fn stage_settings(&self) -> StageSettings {
+        self.stage.settings(&self.safety)
+    }
+
+    /// `sign` as factors.
+    pub fn sign_factors(&self) -> [f64; 2] {
+        self.sign.map(f64::from)
+    }
+}
+
+impl StageSection {
+    /// Reply timeout per command.
+    pub fn reply_timeout(&self) -> Duration {
+        Duration::from_millis(self.timeout_ms)
+    }
+
+    /// Settings in SI units under `safety`'s limits.
+    pub fn settings(&self, safety: &SafetySection) -> StageSettings {
+        StageSettings {
+            axes: self.axes.clone(),
+            unit_m: self.unit_um * 1e-6,
+            limits: safety.limits(),
+            settle_timeout: Duration::from_millis(self.settle_timeout_ms),
+            poll_interval: Duration::from_millis(10),
+        }
+    }
+}
+
+impl SafetySection {
+    /// The limits in SI units.
+    pub fn limits(&self) -> SafetyLimits {
         SafetyLimits {
             soft_limits: self
-                .safety
                 .soft_min_um
                 .iter()
-                .zip(&self.safety.soft_max_um)
+                .zip(&self.soft_max_um)
                 .map(|(&lo, &hi)| SoftLimit {
                     min_m: lo * 1e-6,
                     max_m: hi * 1e-6,
                 })
                 .collect(),
-            max_step_m: self.safety.max_step_um * 1e-6,
-            max_speed_m_per_s: self.safety.top_speed_um_s * 1e-6,
+            max_step_m: self.max_step_um * 1e-6,
+            max_speed_m_per_s: self.top_speed_um_s * 1e-6,
         }
     }
+}
 
-    /// Stage settings in SI units.
-    pub fn stage_settings(&self) -> StageSettings {
-        StageSettings {
-            axes: self.stage.axes.clone(),
-            unit_m: self.stage.unit_um * 1e-6,
-            limits: self.safety_limits(),
-            settle_timeout: Duration::from_millis(self.stage.settle_timeout_ms),
-            poll_interval: Duration::from_millis(10),
-        }
+/// Checks one controller's link and limits; `stage` and `safety` name the
+/// sections in messages (`stage` / `coarse.stage`, ...).
+fn validate_controller(
+    section: &StageSection,
+    safety: &SafetySection,
+    stage: &str,
+    safety_name: &str,
+) -> Result<(), String> {
+    let n = section.axes.len();
+    if n == 0 {
+        return Err(format!("{stage}.axes is empty"));
     }
-
-    /// Reply timeout per command.
-    pub fn reply_timeout(&self) -> Duration {
-        Duration::from_millis(self.stage.timeout_ms)
+    for axis in &section.axes {
+        super::protocol::validate_axis(axis).map_err(|e| format!("{stage}.axes: {e}"))?;
     }
+    if safety.soft_min_um.len() != n || safety.soft_max_um.len() != n {
+        return Err(format!(
+            "{safety_name}.soft_min_um and soft_max_um need {n} entries (one per axis)"
+        ));
+    }
+    if !(section.unit_um.is_finite() && section.unit_um > 0.0) {
+        return Err(format!(
+            "{stage}.unit_um must be positive, got {}",
+            section.unit_um
+        ));
+    }
+    if section.timeout_ms == 0 || section.settle_timeout_ms == 0 {
+        return Err(format!(
+            "{stage}.timeout_ms and {stage}.settle_timeout_ms must be positive"
+        ));
+    }
+    if section.link == LinkKind::Serial && super::serial_link::baud_rate(section.baud).is_none() {
+        return Err(format!(
+            "{stage}.baud {} is not a supported rate",
+            section.baud
+        ));
+    }
+    safety
+        .limits()
+        .validate()
+        .map_err(|e| format!("{safety_name}: {e}"))
 }
 
 #[cfg(test)]
@@ -288,5 +370,34 @@ mod tests {
             RigFile::from_toml(&bad, Path::new("bad.toml")),
             Err(RigFileError::Parse { .. })
         ));
+    }
+
+    const COARSE: &str = include_str!("../../../calib/rig-gcs-sim-coarse-folder.toml");
+
+    #[test]
+    fn a_coarse_section_round_trips_and_is_checked() {
+        let rig = RigFile::from_toml(COARSE, Path::new("coarse.toml")).unwrap();
+        let coarse = rig.coarse.as_ref().expect("a [coarse] section");
+        assert_eq!(coarse.sign, [-1, -1]);
+        assert_eq!(coarse.stage.axes, vec!["1", "2"]);
+        let limits = coarse.stage_settings().limits;
+        assert!((limits.soft_limits[1].max_m - 24e-3).abs() < 1e-15);
+        assert!((coarse.stage_settings().unit_m - 1e-3).abs() < 1e-18);
+        let back = RigFile::from_toml(&rig.to_toml().unwrap(), Path::new("again.toml")).unwrap();
+        assert_eq!(rig, back);
+        let bad = [
+            COARSE.replace(
+                "axes = [\"1\", \"2\"]\nunit_um = 1000.0",
+                "axes = [\"1\", \"2\", \"3\"]\nunit_um = 1000.0",
+            ),
+            COARSE.replace("sign = [-1, -1]", "sign = [-1, 2]"),
+            COARSE.replace("soft_min_um = [1000.0, 1000.0]", "soft_min_um = [1000.0]"),
+        ];
+        for text in bad {
+            assert_ne!(text, COARSE, "the replacement did not apply");
+            let err = RigFile::from_toml(&text, Path::new("bad.toml")).unwrap_err();
+            assert!(matches!(err, RigFileError::Invalid { .. }), "{err}");
+            assert!(err.to_string().contains("coarse"), "{err}");
+        }
     }
 }

@@ -13,6 +13,15 @@
 //! (on target, or cut short by the next command such as `HLT`), so the
 //! particles jump at the end of a stroke: the camera is only read with the
 //! stage at rest.
+//!
+//! A second simulated controller may play the coarse stage ([`CoarseAxes`]):
+//! it moves the sample under the probe (and the camera), so the tip on the
+//! sample is the nanostage's position plus the coarse offset, as on the
+//! simulated rig. The motions of both controllers are merged in time order
+//! and cut at every change of either, so a coarse move with the tip lowered
+//! drags it through the world like any other stroke. Both controllers must
+//! run at the same time scale (the tip's speed on the sample is taken in the
+//! nanostage controller's simulated seconds).
 
 use super::simulator::Motion;
 use crate::rig::sim::world::{ContactEvent, PushPhysics, World};
@@ -28,20 +37,59 @@ pub struct TipAxes {
     pub unit_m: f64,
 }
 
-/// Pieces shorter than this fraction of their motion are merged into the
+/// How the coarse controller's axes move the nanostage's origin on the
+/// sample: offset = sign * position * unit - zero, per axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CoarseAxes {
+    /// Coarse controller axis indices (in `SAI?` order) of x and y.
+    pub xy: [usize; 2],
+    /// Metres per controller unit (1e-3 for millimetres).
+    pub unit_m: f64,
+    /// The rig file's `sign` (+1: the nanostage is carried, -1: the sample is).
+    pub sign: [f64; 2],
+    /// Signed axis positions, metres, at which the offset is zero.
+    pub zero_m: [f64; 2],
+}
+
+impl CoarseAxes {
+    /// Where the coarse stage puts the nanostage's origin on the sample,
+    /// metres, for controller axis positions.
+    pub fn offset_m(&self, positions: &[f64]) -> [f64; 2] {
+        [0, 1].map(|i| {
+            self.sign[i] * positions.get(self.xy[i]).copied().unwrap_or(0.0) * self.unit_m
+                - self.zero_m[i]
+        })
+    }
+
+    /// These axes, with the zero chosen so that `positions` give `offset_m`.
+    pub fn with_offset_at(mut self, positions: &[f64], offset_m: [f64; 2]) -> Self {
+        self.zero_m = [0.0, 0.0];
+        let raw = self.offset_m(positions);
+        self.zero_m = [raw[0] - offset_m[0], raw[1] - offset_m[1]];
+        self
+    }
+}
+
+/// Pieces shorter than this fraction of their interval are merged into the
 /// neighbouring piece: axes of a straight-line move arrive together up to the
 /// rounding of their velocities, and a sliver of a piece must not start a
 /// contact of its own.
 const MERGE_FRACTION: f64 = 1e-6;
 
-/// The world the simulated controller's tip moves through.
+/// The world the simulated controllers' tip moves through.
 pub struct GcsSimWorld {
     /// Ground truth: the particles and the tip friction.
     pub world: World,
     physics: Box<dyn PushPhysics + Send>,
     axes: TipAxes,
+    coarse_axes: Option<CoarseAxes>,
     start: Instant,
-    pending: Option<Motion>,
+    /// The nanostage controller's current motion.
+    nano: Option<Motion>,
+    /// The coarse controller's current motion.
+    coarse: Option<Motion>,
+    /// The world has been swept up to this instant.
+    swept_to: Option<Instant>,
     contacts: Vec<ContactEvent>,
     applied: usize,
 }
@@ -58,11 +106,21 @@ impl GcsSimWorld {
             world,
             physics,
             axes,
+            coarse_axes: None,
             start,
-            pending: None,
+            nano: None,
+            coarse: None,
+            swept_to: None,
             contacts: Vec::new(),
             applied: 0,
         }
+    }
+
+    /// The same world with a coarse stage: pass its motions to
+    /// [`GcsSimWorld::advance_with_coarse`].
+    pub fn with_coarse(mut self, coarse: CoarseAxes) -> Self {
+        self.coarse_axes = Some(coarse);
+        self
     }
 
     /// Motions applied so far: the same count means the same stage state.
@@ -75,61 +133,117 @@ impl GcsSimWorld {
         &self.contacts
     }
 
-    /// The tip in stage metres for controller axis positions.
+    /// The tip in nanostage metres for controller axis positions.
     pub fn tip_m(&self, positions: &[f64]) -> StageXyz {
         self.axes
             .xyz
             .map(|i| positions.get(i).copied().unwrap_or(0.0) * self.axes.unit_m)
     }
 
-    /// Applies `motions` (oldest first, as the controller recorded them) and,
-    /// if the last one is over by `now`, that one too.
+    /// The coarse offset for coarse controller positions (zero without a coarse stage).
+    pub fn coarse_offset_m(&self, coarse_positions: &[f64]) -> [f64; 2] {
+        self.coarse_axes
+            .map_or([0.0, 0.0], |c| c.offset_m(coarse_positions))
+    }
+
+    /// The tip on the sample: nanostage position plus coarse offset.
+    pub fn tip_on_sample_m(&self, positions: &[f64], coarse_positions: &[f64]) -> StageXyz {
+        let [x, y, z] = self.tip_m(positions);
+        let o = self.coarse_offset_m(coarse_positions);
+        [x + o[0], y + o[1], z]
+    }
+
+    /// Applies the nanostage controller's `motions` (oldest first, as it
+    /// recorded them) and, if the last one is over by `now`, that one too.
     pub fn advance(&mut self, motions: Vec<Motion>, now: Instant) {
-        for m in motions {
-            if let Some(previous) = self.pending.take() {
-                let lasted = m.at.saturating_duration_since(previous.at).as_secs_f64();
-                self.apply(&previous, lasted);
+        self.advance_with_coarse(motions, Vec::new(), now);
+    }
+
+    /// [`GcsSimWorld::advance`] for both controllers: `now` must be one
+    /// instant at which neither could record a motion unseen here (the
+    /// caller holds both controllers while taking their motions).
+    pub fn advance_with_coarse(&mut self, nano: Vec<Motion>, coarse: Vec<Motion>, now: Instant) {
+        let mut events: Vec<(bool, Motion)> = nano
+            .into_iter()
+            .map(|m| (false, m))
+            .chain(coarse.into_iter().map(|m| (true, m)))
+            .collect();
+        // Stable: at equal instants the nanostage's motion comes first.
+        events.sort_by_key(|(_, m)| m.at);
+        for (is_coarse, m) in events {
+            if let Some(from) = self.swept_to
+                && m.at > from
+            {
+                self.sweep(from, m.at);
             }
-            self.pending = Some(m);
+            self.swept_to = Some(self.swept_to.map_or(m.at, |t| t.max(m.at)));
+            if is_coarse {
+                self.coarse = Some(m);
+            } else {
+                self.nano = Some(m);
+            }
+            self.applied += 1;
         }
-        let over = self.pending.as_ref().and_then(|m| {
-            let arrive = m.arrivals_s().into_iter().fold(0.0, f64::max);
-            let elapsed = now.saturating_duration_since(m.at).as_secs_f64();
-            (elapsed >= arrive).then_some(arrive)
-        });
-        if let Some(arrive) = over
-            && let Some(m) = self.pending.take()
+        // At rest by now: sweep up to the last arrival.
+        let rest = [&self.nano, &self.coarse]
+            .into_iter()
+            .flatten()
+            .map(|m| m.at + std::time::Duration::from_secs_f64(latest_arrival_s(m)))
+            .max();
+        if let (Some(rest), Some(from)) = (rest, self.swept_to)
+            && rest <= now
+            && rest > from
         {
-            self.apply(&m, arrive);
+            self.sweep(from, rest);
+            self.swept_to = Some(rest);
+            self.applied += 1;
         }
     }
 
-    /// Sweeps the tip along motion `m` for its first `lasted_s` wall seconds.
-    fn apply(&mut self, m: &Motion, lasted_s: f64) {
-        self.applied += 1;
-        if lasted_s <= 0.0 {
+    /// Tip on the sample at instant `t` under the current motions.
+    fn tip_at(&self, t: Instant) -> StageXyz {
+        let positions =
+            |m: &Motion| m.positions_after(t.saturating_duration_since(m.at).as_secs_f64());
+        let nano = self.nano.as_ref().map(positions).unwrap_or_default();
+        let coarse = self.coarse.as_ref().map(positions).unwrap_or_default();
+        self.tip_on_sample_m(&nano, &coarse)
+    }
+
+    /// Sweeps the tip through the world from `t0` to `t1` under the current
+    /// motions, in straight pieces cut where an axis of either controller arrives.
+    fn sweep(&mut self, t0: Instant, t1: Instant) {
+        let span = t1.saturating_duration_since(t0).as_secs_f64();
+        let Some(time_scale) = self.nano.as_ref().map(|m| m.time_scale) else {
+            return;
+        };
+        if span <= 0.0 {
             return;
         }
-        let merge = lasted_s * MERGE_FRACTION;
-        let mut cuts: Vec<f64> = m
-            .arrivals_s()
+        let merge = span * MERGE_FRACTION;
+        let mut cuts: Vec<f64> = [&self.nano, &self.coarse]
             .into_iter()
-            .filter(|&t| t > merge && t < lasted_s - merge)
+            .flatten()
+            .flat_map(|m| {
+                let offset = m.at.saturating_duration_since(t0).as_secs_f64()
+                    - t0.saturating_duration_since(m.at).as_secs_f64();
+                m.arrivals_s().into_iter().map(move |a| a + offset)
+            })
+            .filter(|&t| t > merge && t < span - merge)
             .collect();
         cuts.sort_by(f64::total_cmp);
         cuts.dedup_by(|a, b| (*a - *b).abs() <= merge);
-        cuts.push(lasted_s);
-        let mut t0 = 0.0;
-        for t1 in cuts {
-            let from = self.tip_m(&m.positions_after(t0));
-            let to = self.tip_m(&m.positions_after(t1));
+        cuts.push(span);
+        let mut a = 0.0;
+        for b in cuts {
+            let from = self.tip_at(t0 + std::time::Duration::from_secs_f64(a));
+            let to = self.tip_at(t0 + std::time::Duration::from_secs_f64(b));
             let lateral = (to[0] - from[0]).hypot(to[1] - from[1]);
-            let simulated_s = (t1 - t0) * m.time_scale;
+            let simulated_s = (b - a) * time_scale;
             // As on the simulated stage: only level strokes push.
             if lateral > 0.0 && (to[2] - from[2]).abs() < 1e-12 && simulated_s > 0.0 {
-                let session_s = m.at.saturating_duration_since(self.start).as_secs_f64()
-                    * m.time_scale
-                    + t1 * m.time_scale;
+                let end = t0 + std::time::Duration::from_secs_f64(b);
+                let session_s =
+                    end.saturating_duration_since(self.start).as_secs_f64() * time_scale;
                 let events = self.world.sweep(
                     from,
                     to,
@@ -139,9 +253,14 @@ impl GcsSimWorld {
                 );
                 self.contacts.extend(events);
             }
-            t0 = t1;
+            a = b;
         }
     }
+}
+
+/// Wall-clock seconds after its start at which every axis of `m` is on target.
+fn latest_arrival_s(m: &Motion) -> f64 {
+    m.arrivals_s().into_iter().fold(0.0, f64::max)
 }
 
 #[cfg(test)]
@@ -263,5 +382,78 @@ mod tests {
         w.advance(c.take_motions(), t0 + Duration::from_secs(3));
         assert!(w.contacts().is_empty(), "{:?}", w.contacts());
         assert_eq!(w.world.particles, world_at(50.0, 50.0).particles);
+    }
+
+    /// The coarse stage carries the sample: `MOV 1 12.46` (mm) moves the
+    /// nanostage's origin 40 um in +x across it.
+    fn coarse(t0: Instant, scale: f64) -> (SimController, CoarseAxes) {
+        let mut k = SimController::new(SimConfig::coarse(), t0);
+        k.set_time_scale(scale, t0);
+        k.record_motions(t0);
+        k.handle_line("SVO 1 1 2 1", t0);
+        let axes = CoarseAxes {
+            xy: [0, 1],
+            unit_m: 1e-3,
+            sign: [-1.0, -1.0],
+            zero_m: [0.0, 0.0],
+        }
+        .with_offset_at(&[12.5, 12.5], [0.0, 0.0]);
+        (k, axes)
+    }
+
+    #[test]
+    fn a_coarse_move_under_a_lowered_tip_pushes_like_a_stroke() {
+        let t0 = Instant::now();
+        let mut c = controller(t0, 10.0);
+        let (mut k, axes) = coarse(t0, 10.0);
+        let z = height_for_contact_angle(45f64.to_radians(), 5e-6) * 1e6;
+        let mut w =
+            GcsSimWorld::new(world_at(50.0, 30.0), Box::new(Onset2um), AXES, t0).with_coarse(axes);
+        approach(&mut c, t0, z);
+        // The sample moves 40 um in -x under the tip at 1 mm/s: 4 ms of wall time.
+        let t1 = t0 + Duration::from_secs(1);
+        k.handle_line("MOV 1 12.46", t1);
+        let end = t1 + Duration::from_millis(10);
+        assert!(!k.any_moving(end));
+        w.advance_with_coarse(c.take_motions(), k.take_motions(), end);
+        let coarse_at = [k.position(0, end).unwrap(), k.position(1, end).unwrap()];
+        let offset = w.coarse_offset_m(&coarse_at);
+        assert!(
+            (offset[0] - 40e-6).abs() < 1e-12 && offset[1].abs() < 1e-12,
+            "{offset:?}"
+        );
+        assert_eq!(w.contacts().len(), 1, "{:?}", w.contacts());
+        // As the 40 um nanostage stroke from x = 20 um in the test above.
+        let rc = (25e-12_f64 - (z * 1e-6 - 5e-6).powi(2)).sqrt();
+        let expected = 60e-6 - (50e-6 - rc) - 2e-6;
+        let moved = w.world.particles[0].x_m - 50e-6;
+        assert!((moved - expected).abs() < 1e-9, "moved {moved}");
+    }
+
+    #[test]
+    fn a_coarse_move_with_the_tip_lifted_pushes_nothing_and_shifts_the_tip() {
+        let t0 = Instant::now();
+        let mut c = controller(t0, 10.0);
+        let (mut k, axes) = coarse(t0, 10.0);
+        let mut w =
+            GcsSimWorld::new(world_at(50.0, 30.0), Box::new(Onset2um), AXES, t0).with_coarse(axes);
+        approach(&mut c, t0, 14.0);
+        let t1 = t0 + Duration::from_secs(1);
+        k.handle_line("MOV 1 12.46 2 12.51", t1);
+        let end = t1 + Duration::from_millis(10);
+        w.advance_with_coarse(c.take_motions(), k.take_motions(), end);
+        assert!(w.contacts().is_empty(), "{:?}", w.contacts());
+        assert_eq!(w.world.particles, world_at(50.0, 30.0).particles);
+        let nano = [
+            c.position(0, end).unwrap(),
+            c.position(1, end).unwrap(),
+            14.0,
+        ];
+        let coarse_at = [k.position(0, end).unwrap(), k.position(1, end).unwrap()];
+        let tip = w.tip_on_sample_m(&nano, &coarse_at);
+        assert!(
+            (tip[0] - 60e-6).abs() < 1e-12 && (tip[1] - 20e-6).abs() < 1e-12,
+            "{tip:?}"
+        );
     }
 }

@@ -57,6 +57,26 @@ impl Default for SimConfig {
     }
 }
 
+impl SimConfig {
+    /// A 2-axis coarse XY stage controller (a C-884 driving two linear
+    /// stages): 25 x 25 mm of travel in millimetres, 1 mm/s, starting
+    /// mid-travel with servos off.
+    pub fn coarse() -> Self {
+        let axis = |name: &str| SimAxisConfig {
+            name: name.into(),
+            min: 0.0,
+            max: 25.0,
+            velocity: 1.0,
+            max_velocity: 20.0,
+            initial_position: 12.5,
+        };
+        Self {
+            identity: "(c)2026 nanopush, GCS simulator C-884.4DC, 0000000000, 01.000".into(),
+            axes: vec![axis("1"), axis("2")],
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 struct AxisState {
     servo: bool,

@@ -36,6 +36,14 @@ pub fn world_for(scene: &Scene, layout: &Layout) -> World {
     }
 }
 
+/// The coarse offset that centres a nanostage range of `range_m` on a
+/// layout's field of `field_m` (zero along an axis where the range covers
+/// the field): where the simulated rig, and the simulated microscope under
+/// a coarse GCS controller, start.
+pub fn centring_offset(field_m: [f64; 2], range_m: [f64; 2]) -> [f64; 2] {
+    [0, 1].map(|i| (field_m[i] - range_m[i]).max(0.0) / 2.0)
+}
+
 /// Builds the simulated rig: world from `layout`, physics from `scene`, noise from `seed`.
 pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig, RigError> {
     let world = world_for(scene, layout);
@@ -47,10 +55,7 @@ pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig
         (config.range[0].max_m - config.range[0].min_m) * 1e6,
         (config.range[1].max_m - config.range[1].min_m) * 1e6,
     ];
-    let centre_offset = [
-        (layout.field_m[0] - range_um[0] * 1e-6).max(0.0) / 2.0,
-        (layout.field_m[1] - range_um[1] * 1e-6).max(0.0) / 2.0,
-    ];
+    let centre_offset = centring_offset(layout.field_m, range_um.map(|r| r * 1e-6));
     let stage = SimStage::new(
         world,
         Box::new(ModelPhysics::new(scene.clone())),

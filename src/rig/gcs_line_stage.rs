@@ -1,0 +1,271 @@
+//! Straight-line moves on the axes of one GCS controller, in metres: what
+//! the nanostage ([`GcsNanoStage`](super::hardware::GcsNanoStage)) and the
+//! coarse stage ([`GcsCoarseStage`](super::gcs_coarse_stage::GcsCoarseStage))
+//! both are, so that neither copies the other.
+//!
+//! Every move is a straight line: each axis gets the share of the speed that
+//! its part of the displacement asks for (GCS `VEL` is per axis, so one
+//! common velocity would bend a diagonal move). Safety is the GCS stage's
+//! (soft limits, largest step, top speed checked before any byte is sent;
+//! confirmation before the first move on real hardware; Ctrl-C sends `HLT`;
+//! a failure or drop while moving halts).
+
+use super::error::RigError;
+use super::gcs::{GcsError, GcsStage, SafetyViolation};
+use super::stage::AxisRange;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// How far outside its range a target may be and still be taken, metres,
+/// snapped onto the range's edge: the rounding of the executor's
+/// sample-to-stage arithmetic (a target computed as `p - (p - min)` need not
+/// be `min` in floating point). Far below any stage's resolution.
+pub const RANGE_ROUNDING_M: f64 = 1e-12;
+
+/// `target` snapped onto `range` when it lies within [`RANGE_ROUNDING_M`]
+/// outside it; anything else (NaN included) is returned unchanged.
+pub fn snap_into_range(target: f64, range: &AxisRange) -> f64 {
+    if target < range.min_m && target >= range.min_m - RANGE_ROUNDING_M {
+        range.min_m
+    } else if target > range.max_m && target <= range.max_m + RANGE_ROUNDING_M {
+        range.max_m
+    } else {
+        target
+    }
+}
+
+/// The axes of one GCS controller moving in straight lines, in metres.
+pub struct GcsLineStage {
+    stage: GcsStage,
+    endpoint: String,
+    names: Vec<char>,
+    range: Vec<AxisRange>,
+    servo_on: bool,
+    interrupt: Arc<AtomicBool>,
+    /// Last velocity set per axis, controller units per second.
+    velocity_units: Vec<Option<f64>>,
+}
+
+impl GcsLineStage {
+    /// Wraps a stage whose axes are called `names` in messages (`x`, `y`,
+    /// `z`); the range is the rig file's soft limits narrowed to the
+    /// controller's travel (`TMN?`/`TMX?`). `interrupt` is the stage's
+    /// Ctrl-C flag: while it is up, moves are refused before anything (not
+    /// even `VEL`) is sent.
+    pub fn new(
+        mut stage: GcsStage,
+        interrupt: Arc<AtomicBool>,
+        names: &[char],
+    ) -> Result<Self, GcsError> {
+        let settings = stage.settings().clone();
+        let n = settings.axes.len();
+        if n != names.len() {
+            return Err(GcsError::InvalidArgument(format!(
+                "{} axes ({}) expected, the rig file names {n}",
+                names.len(),
+                names.iter().collect::<String>()
+            )));
+        }
+        let axes: Vec<&str> = settings.axes.iter().map(String::as_str).collect();
+        let tmn = stage.controller().travel_min(&axes)?;
+        let tmx = stage.controller().travel_max(&axes)?;
+        let mut range = Vec::with_capacity(n);
+        for i in 0..n {
+            let soft = settings.limits.soft_limits[i];
+            let r = AxisRange {
+                min_m: soft.min_m.max(tmn[i] * settings.unit_m),
+                max_m: soft.max_m.min(tmx[i] * settings.unit_m),
+            };
+            if r.min_m > r.max_m {
+                return Err(GcsError::InvalidArgument(format!(
+                    "axis {}: soft limits {:.3}..{:.3} um lie outside the controller's travel {:.3}..{:.3} um",
+                    settings.axes[i],
+                    soft.min_m * 1e6,
+                    soft.max_m * 1e6,
+                    tmn[i] * settings.unit_m * 1e6,
+                    tmx[i] * settings.unit_m * 1e6
+                )));
+            }
+            range.push(r);
+        }
+        Ok(Self {
+            endpoint: stage.controller().endpoint(),
+            stage,
+            names: names.to_vec(),
+            range,
+            servo_on: false,
+            interrupt,
+            velocity_units: vec![None; n],
+        })
+    }
+
+    /// The GCS stage underneath (for queries this type does not cover).
+    pub fn gcs(&mut self) -> &mut GcsStage {
+        &mut self.stage
+    }
+
+    /// Travel of each axis: soft limits within the controller's travel.
+    pub fn range(&self) -> &[AxisRange] {
+        &self.range
+    }
+
+    /// Per-axis velocities (controller units) that make the move from
+    /// `from` to `to` a straight line at `speed_m_per_s`; axes that do not
+    /// move keep their velocity (`VEL 0` is refused by controllers).
+    fn set_line_velocities(
+        &mut self,
+        from: &[f64],
+        to: &[f64],
+        speed_m_per_s: f64,
+    ) -> Result<(), GcsError> {
+        let length: f64 = from
+            .iter()
+            .zip(to)
+            .map(|(a, b)| (b - a).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if length == 0.0 {
+            return Ok(());
+        }
+        let unit_m = self.stage.settings().unit_m;
+        let axes = self.stage.settings().axes.clone();
+        let mut pairs = Vec::new();
+        for (i, axis) in axes.iter().enumerate() {
+            let share = (to[i] - from[i]).abs() / length;
+            if share < 1e-9 {
+                continue;
+            }
+            // Rounded like positions, so that equal speeds are not re-sent.
+            let units = (speed_m_per_s * share / unit_m * 1e9).round() / 1e9;
+            if units > 0.0 && self.velocity_units[i] != Some(units) {
+                pairs.push((axis.as_str(), units, i));
+            }
+        }
+        if pairs.is_empty() {
+            return Ok(());
+        }
+        let wire: Vec<(&str, f64)> = pairs.iter().map(|&(a, u, _)| (a, u)).collect();
+        self.stage.controller().set_velocity(&wire)?;
+        for (_, units, i) in pairs {
+            self.velocity_units[i] = Some(units);
+        }
+        Ok(())
+    }
+
+    /// Where the axes are, metres.
+    pub fn position_m(&mut self) -> Result<Vec<f64>, RigError> {
+        self.stage.position_m().map_err(|e| self.rig_error(e))
+    }
+
+    /// Moves every axis in a straight line to `target_m` at `speed_m_per_s`
+    /// and returns once on target; refused before any byte when outside the
+    /// range, too long a step, too fast, or after Ctrl-C.
+    /// Targets within [`RANGE_ROUNDING_M`] outside the range are snapped onto it.
+    pub fn move_to_m(&mut self, target_m: &[f64], speed_m_per_s: f64) -> Result<(), RigError> {
+        let target: Vec<f64> = target_m
+            .iter()
+            .zip(self.range.iter().chain(std::iter::repeat(&self.range[0])))
+            .map(|(t, r)| snap_into_range(*t, r))
+            .collect();
+        self.check_in_range(&target)?;
+        self.move_checked(&target, speed_m_per_s)
+            .map_err(|e| self.rig_error(e))
+    }
+
+    /// Halts every axis now.
+    pub fn halt(&mut self) -> Result<(), RigError> {
+        self.stage.halt().map_err(|e| self.rig_error(e))
+    }
+
+    fn check_in_range(&self, target_m: &[f64]) -> Result<(), RigError> {
+        if target_m.len() != self.range.len() {
+            return Err(RigError::StageFault(format!(
+                "{} coordinates for {} axes",
+                target_m.len(),
+                self.range.len()
+            )));
+        }
+        for ((t, r), name) in target_m.iter().zip(&self.range).zip(&self.names) {
+            if !(t.is_finite() && *t >= r.min_m && *t <= r.max_m) {
+                return Err(RigError::OutOfRange {
+                    axis: *name,
+                    target_um: t * 1e6,
+                    min_um: r.min_m * 1e6,
+                    max_um: r.max_m * 1e6,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn move_checked(&mut self, target: &[f64], speed_m_per_s: f64) -> Result<(), GcsError> {
+        if self.interrupt.load(Ordering::SeqCst) {
+            // The stage halted when the flag was seen; make sure, then refuse.
+            let _ = self.stage.halt();
+            return Err(GcsError::Interrupted);
+        }
+        self.stage
+            .settings()
+            .limits
+            .check_speed(speed_m_per_s)
+            .map_err(GcsError::Safety)?;
+        if !self.servo_on {
+            self.stage.enable_servo()?;
+            self.servo_on = true;
+        }
+        let from = self.stage.position_m()?;
+        // Limits and step are checked again by the stage before MOV; checking
+        // here first keeps a refused move from touching VEL.
+        let limits = &self.stage.settings().limits;
+        limits.check_target(&self.stage.settings().axes, target)?;
+        limits.check_step(&from, target)?;
+        self.set_line_velocities(&from, target, speed_m_per_s)?;
+        self.stage.move_to_m(target)
+    }
+
+    /// Maps a driver error to the executor's error, naming axes as given to [`GcsLineStage::new`].
+    pub fn rig_error(&self, e: GcsError) -> RigError {
+        let axis_name = |id: &str| {
+            self.stage
+                .settings()
+                .axes
+                .iter()
+                .position(|a| a == id)
+                .and_then(|i| self.names.get(i).copied())
+                .unwrap_or('?')
+        };
+        match e {
+            GcsError::Safety(SafetyViolation::OutsideSoftLimits {
+                axis,
+                target_m,
+                min_m,
+                max_m,
+            }) => RigError::OutOfRange {
+                axis: axis_name(&axis),
+                target_um: target_m * 1e6,
+                min_um: min_m * 1e6,
+                max_um: max_m * 1e6,
+            },
+            GcsError::Safety(SafetyViolation::StepTooLarge { step_m, max_step_m }) => {
+                RigError::StepTooLarge {
+                    step_um: step_m * 1e6,
+                    max_um: max_step_m * 1e6,
+                }
+            }
+            GcsError::Safety(SafetyViolation::SpeedNotAllowed {
+                speed_m_per_s,
+                max_speed_m_per_s,
+            }) => RigError::BadSpeed {
+                speed_um_s: speed_m_per_s * 1e6,
+                max_um_s: max_speed_m_per_s * 1e6,
+            },
+            GcsError::Timeout {
+                command, timeout, ..
+            } => RigError::Timeout {
+                device: format!("stage {} (`{command}`)", self.endpoint),
+                timeout_ms: timeout.as_millis() as u64,
+            },
+            other => RigError::StageFault(other.to_string()),
+        }
+    }
+}
