@@ -12,7 +12,7 @@ use crate::plan::assignment::{
     instance_json, lp, sparse_ssp,
 };
 use crate::plan::pattern::numbered_sites;
-use crate::plan::{PlanConfig, bounds, order, plan_assembly, pushes};
+use crate::plan::{PlanConfig, bounds, order, plan_assembly, pushes, tour};
 use nalgebra::Vector2;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -211,7 +211,12 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
     let (ratio, note) = match &outcome {
         Ok(p) => (
             Some(p.summary.push_distance_m / p.summary.lb_push_m),
-            format!("planned, {} pushes", p.summary.pushes),
+            format!(
+                "planned, {} pushes, push+tip ratio {:.3}",
+                p.summary.pushes,
+                (p.summary.push_distance_m + p.summary.tip_travel_m)
+                    / (p.summary.lb_push_m + p.summary.lb_tip_m)
+            ),
         ),
         Err(e) => (None, format!("refused: {e}")),
     };
@@ -220,7 +225,7 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
     let t = Instant::now();
     let assigned = crate::plan::assignment::assign(sites, &parts, config.method);
     let assign_ms = t.elapsed().as_secs_f64() * 1e3;
-    let (mut order_ms, mut lb_tip_ms) = (f64::NAN, f64::NAN);
+    let (mut order_ms, mut tour_ms, mut lb_tip_ms) = (f64::NAN, f64::NAN, f64::NAN);
     if let Ok(a) = &assigned {
         let pairs: Vec<(usize, usize)> = a
             .site_to_particle
@@ -232,7 +237,10 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
         let ordered = order::order_moves(layout, &site_list, &pairs, &[], &config);
         order_ms = t.elapsed().as_secs_f64() * 1e3;
         if let Ok(o) = ordered {
-            let steps = pushes::with_tip_travel(o.steps, None, &config);
+            let t = Instant::now();
+            let steps = tour::shorten_tip_travel(o.steps, layout, None, &config);
+            tour_ms = t.elapsed().as_secs_f64() * 1e3;
+            let steps = pushes::with_tip_travel(steps, None, &config);
             let t = Instant::now();
             let _ = bounds::lb_tip(&steps, None, &config);
             lb_tip_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -243,11 +251,11 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
             "{}",
             serde_json::json!({"schema": "nanopush.study-plan/1", "n": n, "method": "full-plan",
                 "push_ratio": ratio, "time_ms": total_ms, "assign_ms": assign_ms,
-                "order_ms": order_ms, "lb_tip_ms": lb_tip_ms, "note": note})
+                "order_ms": order_ms, "tour_ms": tour_ms, "lb_tip_ms": lb_tip_ms, "note": note})
         );
     } else {
         println!(
-            "{n:>6} {:>9} {:>12} {:>12} {total_ms:>11.1}  {note}; stages alone: assignment {assign_ms:.1} ms, order {order_ms:.1} ms, LB_tip {lb_tip_ms:.1} ms",
+            "{n:>6} {:>9} {:>12} {:>12} {total_ms:>11.1}  {note}; stages alone: assignment {assign_ms:.1} ms, order {order_ms:.1} ms, tour {tour_ms:.1} ms, LB_tip {lb_tip_ms:.1} ms",
             "full-plan",
             "",
             ratio.map_or("-".into(), |x| format!("{x:.6}")),

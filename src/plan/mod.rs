@@ -27,6 +27,7 @@ pub mod pushes;
 pub mod rebase;
 pub mod route;
 pub mod synth_layout;
+pub mod tour;
 pub mod verify;
 pub mod windows;
 
@@ -239,7 +240,7 @@ pub fn plan_assembly(
     let (assigned, ordered) = assign_and_order(layout, sites, config)?;
     let lb_push = assigned.lb_push_m;
     let pairs = &ordered.pairs;
-    let mut steps = ordered.steps;
+    let mut steps = tour::shorten_tip_travel(ordered.steps, layout, config.tip_start_m, config);
     let start = config.tip_start_m.or_else(|| {
         steps.iter().find_map(|s| match s {
             Step::Push {
