@@ -495,14 +495,17 @@ impl Scheduler<'_> {
     ) -> Option<Vec<Vector2<f64>>> {
         let rank = self.moves[k].rank;
         let r = self.radius(particle);
+        // Particles first: at large N they reject most corridors, and
+        // more cheaply than the sites.
         let free = |c: &Corridor| {
-            self.obstacles.misses(c, |s| {
-                s != k && (self.moves[s].rank < rank || !self.moves[s].pending)
-            }) && (!dynamic
+            (!dynamic
                 || self
                     .occ
                     .first_hit(c, particle, self.config.clearance_m)
                     .is_none())
+                && self.obstacles.misses(c, |s| {
+                    s != k && (self.moves[s].rank < rank || !self.moves[s].pending)
+                })
         };
         let to = self.obstacles.site(k);
         if !detours {
