@@ -288,11 +288,17 @@ fn assign_and_order(
     let mut tries = 0;
     loop {
         let assigned = assign_with_fixed(layout, sites, config, &forbidden)?;
-        let refusal =
-            match order::order_moves(layout, sites, &assigned.pairs, &assigned.on_site, config) {
-                Ok(ordered) => return Ok((assigned, ordered)),
-                Err(refusal) => refusal,
-            };
+        let refusal = match order::order_moves(
+            layout,
+            sites,
+            &assigned.pairs,
+            &assigned.on_site,
+            &forbidden,
+            config,
+        ) {
+            Ok(ordered) => return Ok((assigned, ordered)),
+            Err(refusal) => refusal,
+        };
         let before = forbidden.len();
         for pair in refusal.stuck_pairs.iter().copied() {
             if !forbidden.contains(&pair) {

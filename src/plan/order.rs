@@ -105,15 +105,20 @@ struct Scheduler<'a> {
     tip: Option<Vector2<f64>>,
     /// Route searches that found nothing, until a change where they looked.
     failed_routes: RefCell<FailedRoutes>,
+    /// (particle, site) pairs no swap may make.
+    banned: &'a [(usize, usize)],
 }
 
 /// Orders the moves `pairs` (particle index, site index) into collision-free
-/// pushes; particles in `on_site` (and immovable ones) are never pushed.
+/// pushes; particles in `on_site` (and immovable ones) are never pushed, and
+/// no repair hands a site to a particle it is `banned` from (pairs that got
+/// stuck in an earlier try).
 pub fn order_moves(
     layout: &Layout,
     sites: &[Site],
     pairs: &[(usize, usize)],
     on_site: &[usize],
+    banned: &[(usize, usize)],
     config: &PlanConfig,
 ) -> Result<Ordered, Refusal> {
     let mut role: Vec<Role> = layout
@@ -179,6 +184,7 @@ pub fn order_moves(
         buffer_pushes: 0,
         tip: config.tip_start_m,
         failed_routes: Default::default(),
+        banned,
     };
     sch.clear_sites();
     let order = sch.peel_with_clearing(&radii)?;
@@ -556,6 +562,11 @@ impl Scheduler<'_> {
     /// (straight only, unless `detours`).
     fn swap_with(&mut self, k: usize, q: usize, detours: bool) -> bool {
         let p = self.moves[k].particle;
+        let banned =
+            |particle: usize, m: usize| self.banned.contains(&(particle, self.moves[m].site_index));
+        if banned(q, k) || matches!(self.role[q], Role::Pending(m) if banned(p, m)) {
+            return false;
+        }
         match self.role[q] {
             Role::Idle => {
                 let Some(route) = self.route_for(k, q, self.occ.pos[q], true, detours) else {
