@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{box_mean_in_place, local_extrema, local_maxima};
+use super::filter::{box_mean_in_place, box_mean_into, local_extrema, local_maxima};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
@@ -148,12 +148,12 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
     // Three full-frame buffers in all: fresh 4 MB allocations cost page
     // faults, which on a 1024x1024 frame took as long as the filtering.
-    let mut values = frame.pixels().to_vec();
-    let mut bg = frame.pixels().to_vec();
+    let mut values = vec![0.0f32; w * h];
+    let mut bg = vec![0.0f32; w * h];
     let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut values, &mut scratch, w, h, 1);
+    box_mean_into(frame.pixels(), &mut scratch, &mut values, w, h, 1);
     let bg_r = diameter.ceil() as usize;
-    box_mean_in_place(&mut bg, &mut scratch, w, h, bg_r);
+    box_mean_into(frame.pixels(), &mut scratch, &mut bg, w, h, bg_r);
     for (v, b) in values.iter_mut().zip(&bg) {
         *v -= b;
     }

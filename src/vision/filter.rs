@@ -4,6 +4,8 @@
 //! because they are a few lines, run on our own buffer type, and avoid a copy
 //! into OpenCV per call.
 
+use super::cpu_dispatch::avx2_dispatch;
+
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
 pub fn box_mean(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
@@ -20,6 +22,20 @@ pub fn box_mean_in_place(image: &mut [f32], scratch: &mut [f32], w: usize, h: us
     box_columns(scratch, image, w, h, r);
 }
 
+/// [`box_mean`] of `src` written into `out`, with a caller-owned scratch
+/// frame (no copy of `src`, no allocation per call).
+pub fn box_mean_into(
+    src: &[f32],
+    scratch: &mut [f32],
+    out: &mut [f32],
+    w: usize,
+    h: usize,
+    r: usize,
+) {
+    box_rows(src, scratch, w, h, r);
+    box_columns(scratch, out, w, h, r);
+}
+
 /// 1 / (pixels in the window cut at the ends) for every position along a line.
 fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
     (0..n)
@@ -27,27 +43,40 @@ fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
         .collect()
 }
 
+avx2_dispatch!(
+    /// Horizontal pass (see [`box_rows_lanes`]).
+    fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) => box_rows_lanes
+);
+
 /// Horizontal pass. A running sum along a row is one long dependency chain;
 /// instead the window sum is built from power-of-two partial sums (binary
 /// decomposition of 2r+1), each a whole-row element-wise add that
 /// vectorises. No running subtraction, so no drift in f32.
-fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
-    out.fill(0.0);
+#[inline(always)]
+fn box_rows_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
     let inv: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
     let len = w + 2 * r;
+    // Zero pads either side stay zero: only the middle is overwritten per row.
     let mut pow = vec![0.0f32; len];
     let mut next = vec![0.0f32; len];
     for y in 0..h {
         // pow = the row with r zeros either side: window [x, x + 2r] of pow
         // is the window [x - r, x + r] of the row, cut at the ends.
-        pow.fill(0.0);
+        pow[..r].fill(0.0);
         pow[r..r + w].copy_from_slice(&src[y * w..(y + 1) * w]);
+        pow[r + w..].fill(0.0);
         let dst = &mut out[y * w..(y + 1) * w];
-        let (mut rem, mut width, mut offset) = (2 * r + 1, 1usize, 0usize);
+        let (mut rem, mut width, mut offset, mut first) = (2 * r + 1, 1usize, 0usize, true);
         loop {
             if rem & 1 == 1 {
-                for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
-                    *d += p;
+                // The first partial sum is stored, the others added.
+                if first {
+                    dst.copy_from_slice(&pow[offset..offset + w]);
+                    first = false;
+                } else {
+                    for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
+                        *d += p;
+                    }
                 }
                 offset += width;
             }
@@ -55,10 +84,13 @@ fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
             if rem == 0 {
                 break;
             }
-            // next[i]: the sum of 2 * width elements from i.
-            for ((n, &a), &b) in next.iter_mut().zip(&pow).zip(&pow[width..]) {
+            // next[i]: the sum of 2 * width elements from i (the last
+            // `width` entries would read past the end; they are never used).
+            let used = len - width;
+            for ((n, &a), &b) in next[..used].iter_mut().zip(&pow[..used]).zip(&pow[width..]) {
                 *n = a + b;
             }
+            next[used..].fill(0.0);
             std::mem::swap(&mut pow, &mut next);
             width *= 2;
         }
@@ -68,8 +100,14 @@ fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
     }
 }
 
+avx2_dispatch!(
+    /// Vertical pass (see [`box_columns_lanes`]).
+    fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) => box_columns_lanes
+);
+
 /// Vertical pass with a running row of column sums (cache-friendly).
-fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+#[inline(always)]
+fn box_columns_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
     let mut acc = vec![0.0f64; w];
     for y in 0..(r + 1).min(h) {
         for (a, &v) in acc.iter_mut().zip(&src[y * w..(y + 1) * w]) {
@@ -116,9 +154,54 @@ pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -
     local_extrema(src, w, h, r, threshold, 1.0)
 }
 
-/// [`local_maxima`] of `sign * src` (sign -1: local minima below -threshold),
-/// without a negated copy of the frame.
-pub fn local_extrema(
+avx2_dispatch!(
+    /// [`local_maxima`] of `sign * src` (sign -1: local minima below
+    /// -threshold), without a negated copy of the frame.
+    pub fn local_extrema(
+        src: &[f32],
+        w: usize,
+        h: usize,
+        r: usize,
+        threshold: f32,
+        sign: f32,
+    ) -> Vec<usize> => local_extrema_lanes
+);
+
+/// Pixels in a row that pass the threshold and the left/right test: a
+/// branch-free pass over the row that vectorises. Per pixel, with branches,
+/// the tests mispredicted on noisy maps and cost a third of candidate
+/// finding.
+#[inline(always)]
+fn row_flags(row: &[f32], sign: f32, threshold: f32, check_sides: bool, flags: &mut [u8]) {
+    let w = row.len();
+    for (x, f) in flags.iter_mut().enumerate().take(w) {
+        // Edges: only the neighbour inside the row is compared.
+        if x == 1 && w > 2 {
+            break;
+        }
+        let v = sign * row[x];
+        let left_wins = check_sides && x > 0 && sign * row[x - 1] >= v;
+        let right_wins = check_sides && x + 1 < w && sign * row[x + 1] > v;
+        *f = u8::from(v > threshold && !left_wins && !right_wins);
+    }
+    if w > 2 {
+        let interior = &mut flags[1..w - 1];
+        let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+        for (((f, &l), &m), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
+            let v = sign * m;
+            // (Finite maps: `l < v` is `!(l >= v)`.)
+            let sides_ok = (sign * l < v) & (sign * rt <= v);
+            *f = u8::from((v > threshold) & (sides_ok | !check_sides));
+        }
+        let x = w - 1;
+        let v = sign * row[x];
+        let left_wins = check_sides && sign * row[x - 1] >= v;
+        flags[x] = u8::from(v > threshold && !left_wins);
+    }
+}
+
+#[inline(always)]
+fn local_extrema_lanes(
     src: &[f32],
     w: usize,
     h: usize,
@@ -128,21 +211,23 @@ pub fn local_extrema(
 ) -> Vec<usize> {
     let mut out = Vec::new();
     let at = |i: usize| sign * src[i];
+    let mut flags = vec![0u8; w];
     for y in 0..h {
         let row = y * w;
-        for x in 0..w {
-            let v = at(row + x);
-            if v <= threshold {
+        // Raster-order tie rule: an equal pixel to the left wins.
+        row_flags(&src[row..row + w], sign, threshold, r >= 1, &mut flags);
+        for (chunk_no, chunk) in flags.chunks(32).enumerate() {
+            if chunk.iter().fold(0u8, |any, &f| any | f) == 0 {
                 continue;
             }
-            // Raster-order tie rule: an equal pixel to the left wins.
-            if r >= 1 && ((x > 0 && at(row + x - 1) >= v) || (x + 1 < w && at(row + x + 1) > v)) {
-                continue;
-            }
-            if wins_window(&at, w, h, x, y, 1.min(r), v)
-                && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
-            {
-                out.push(row + x);
+            for (k, _) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
+                let x = chunk_no * 32 + k;
+                let v = at(row + x);
+                if wins_window(&at, w, h, x, y, 1.min(r), v)
+                    && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
+                {
+                    out.push(row + x);
+                }
             }
         }
     }

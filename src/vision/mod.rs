@@ -2,6 +2,7 @@
 //! and the Cramer-Rao bound that says how good detection can get.
 
 pub mod analyse;
+pub mod cpu_dispatch;
 pub mod cramer_rao;
 pub mod detect;
 pub mod detections_file;

@@ -11,6 +11,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::cpu_dispatch::avx2_dispatch;
 use super::fast_exp::exp_f32;
 use super::frame::Frame;
 use super::least_squares::NormalEquations;
@@ -115,6 +116,7 @@ impl<const N: usize> Columns<N> {
     }
 
     /// J^T J, J^T r and r^T r (unit weights).
+    #[inline(always)]
     fn normal_equations(&self) -> NormalEquations<N> {
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
@@ -141,6 +143,7 @@ impl<const N: usize> Columns<N> {
 /// Dot product in 8 f32 lanes (two SSE registers), lanes summed in f64.
 /// SSE intrinsics because LLVM vectorised the portable form only in part.
 #[cfg(target_arch = "x86_64")]
+#[inline(always)]
 fn dot(a: &[f32], b: &[f32]) -> f64 {
     use std::arch::x86_64::{
         __m128, _mm_add_ps, _mm_loadu_ps, _mm_mul_ps, _mm_setzero_ps, _mm_storeu_ps,
@@ -179,9 +182,18 @@ fn dot(a: &[f32], b: &[f32]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x * y) as f64).sum()
 }
 
-/// Normal equations of the ring model (`profile_fit::ring_model`, parameters
-/// x, y, b, A, s, B, R, w) over the window.
-pub fn ring_normal(
+avx2_dispatch!(
+    /// Normal equations of the ring model (`profile_fit::ring_model`,
+    /// parameters x, y, b, A, s, B, R, w) over the window.
+    pub fn ring_normal(
+        win: &PixelWindow,
+        p: &SVector<f64, 8>,
+        cols: &mut Columns<8>,
+    ) -> NormalEquations<8> => ring_normal_lanes
+);
+
+#[inline(always)]
+fn ring_normal_lanes(
     win: &PixelWindow,
     p: &SVector<f64, 8>,
     cols: &mut Columns<8>,
@@ -229,9 +241,18 @@ pub fn ring_normal(
     cols.normal_equations()
 }
 
-/// Normal equations of the spot model (`profile_fit::spot_model`, parameters
-/// x, y, b, A, s) over the window.
-pub fn spot_normal(
+avx2_dispatch!(
+    /// Normal equations of the spot model (`profile_fit::spot_model`,
+    /// parameters x, y, b, A, s) over the window.
+    pub fn spot_normal(
+        win: &PixelWindow,
+        p: &SVector<f64, 5>,
+        cols: &mut Columns<5>,
+    ) -> NormalEquations<5> => spot_normal_lanes
+);
+
+#[inline(always)]
+fn spot_normal_lanes(
     win: &PixelWindow,
     p: &SVector<f64, 5>,
     cols: &mut Columns<5>,
