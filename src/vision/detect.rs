@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{box_mean_in_place, box_mean_into, local_extrema, local_maxima};
+use super::filter::{box_mean_in_place, box_mean_into, local_extrema_both, local_maxima};
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
@@ -142,6 +142,9 @@ struct Bandpass {
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
+    /// Two frame-sized work buffers the energy map reuses (fresh ones
+    /// would cost page faults or a memset each).
+    work: [Vec<f32>; 2],
 }
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
@@ -165,6 +168,7 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
         values,
         noise_var,
         noise_sigma: sigma,
+        work: [bg, scratch],
     }
 }
 
@@ -174,25 +178,27 @@ pub fn find_candidates(
     settings: &DetectSettings,
 ) -> Result<Vec<Candidate>, DetectError> {
     check(frame, settings)?;
-    let bp = bandpass(frame, settings.diameter_px);
-    Ok(candidates_from(frame, settings, &bp))
+    let mut bp = bandpass(frame, settings.diameter_px);
+    Ok(candidates_from(frame, settings, &mut bp))
 }
 
-fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> Vec<Candidate> {
+fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) -> Vec<Candidate> {
     let (w, h) = (frame.width(), frame.height());
     // A window of 0.3 diameter keeps crowded neighbours separate maxima; a ring
     // may give several (core and ring), which fit to one centre and are merged.
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     // Energy: local mean of the squared band-pass (two scratch frames, reused).
-    let mut energy: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
-    let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut energy, &mut scratch, w, h, r);
+    let [energy, scratch] = &mut bp.work;
+    for (e, v) in energy.iter_mut().zip(&bp.values) {
+        *e = v * v;
+    }
+    box_mean_in_place(energy, scratch, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
     let noise_e = bp.noise_var.max(1e-12);
     let e_sd = noise_e * (2.0 / n_eff).sqrt();
     let threshold = (noise_e + settings.threshold_sigma * e_sd) as f32;
     let sat = frame.max_count();
-    local_maxima(&energy, w, h, r, threshold)
+    local_maxima(energy, w, h, r, threshold)
         .into_iter()
         .filter(|&i| !(frame.pixels()[i] >= sat && bp.values[i] == 0.0))
         .map(|i| Candidate {
@@ -217,16 +223,17 @@ fn add_core_candidates(
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     let sd = bp.noise_var.max(1e-12).sqrt();
     let threshold = (settings.threshold_sigma * sd) as f32;
-    let signs: &[f32] = match settings.polarity {
-        Some(Polarity::Bright) => &[1.0],
-        Some(Polarity::Dark) => &[-1.0],
-        None => &[1.0, -1.0],
+    let [maxima, minima] = local_extrema_both(&bp.values, w, h, r, threshold);
+    let by_sign = match settings.polarity {
+        Some(Polarity::Bright) => vec![(1.0f32, maxima)],
+        Some(Polarity::Dark) => vec![(-1.0, minima)],
+        None => vec![(1.0, maxima), (-1.0, minima)],
     };
     let edge = r.min(w / 2).min(h / 2);
     let inside = |x: usize, y: usize| x >= edge && y >= edge && x + edge < w && y + edge < h;
     let near2 = (0.25 * settings.diameter_px).powi(2);
-    for &sign in signs {
-        for i in local_extrema(&bp.values, w, h, r, threshold, sign) {
+    for (sign, extrema) in by_sign {
+        for i in extrema {
             let (x, y) = (i % w, i / w);
             let taken = out
                 .iter()
@@ -351,8 +358,8 @@ pub fn detect_particles_excluding(
 ) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
-    let bp = bandpass(frame, settings.diameter_px);
-    let mut cands = candidates_from(frame, settings, &bp);
+    let mut bp = bandpass(frame, settings.diameter_px);
+    let mut cands = candidates_from(frame, settings, &mut bp);
     let n_energy = cands.len();
     if model_for(settings) == ProfileModel::Ring {
         add_core_candidates(&mut cands, &bp, w, h, settings);

@@ -151,52 +151,73 @@ fn box_columns_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize)
 /// neighbour and is rejected there, so the full window is scanned only at the
 /// few true peaks.
 pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -> Vec<usize> {
-    local_extrema(src, w, h, r, threshold, 1.0)
+    let [maxima, _] = local_extrema_both(src, w, h, r, threshold);
+    maxima
+}
+
+/// [`local_maxima`] of `sign * src` (sign -1: local minima below -threshold),
+/// without a negated copy of the frame.
+pub fn local_extrema(
+    src: &[f32],
+    w: usize,
+    h: usize,
+    r: usize,
+    threshold: f32,
+    sign: f32,
+) -> Vec<usize> {
+    let [maxima, minima] = local_extrema_both(src, w, h, r, threshold);
+    if sign >= 0.0 { maxima } else { minima }
 }
 
 avx2_dispatch!(
-    /// [`local_maxima`] of `sign * src` (sign -1: local minima below
-    /// -threshold), without a negated copy of the frame.
-    pub fn local_extrema(
+    /// [`local_maxima`] of `src` and of `-src` in one pass over the map:
+    /// `[maxima above threshold, minima below -threshold]`.
+    pub fn local_extrema_both(
         src: &[f32],
         w: usize,
         h: usize,
         r: usize,
         threshold: f32,
-        sign: f32,
-    ) -> Vec<usize> => local_extrema_lanes
+    ) -> [Vec<usize>; 2] => local_extrema_lanes
 );
 
-/// Pixels in a row that pass the threshold and the left/right test: a
-/// branch-free pass over the row that vectorises. Per pixel, with branches,
-/// the tests mispredicted on noisy maps and cost a third of candidate
-/// finding.
+/// Flag bit of a maximum candidate; a minimum candidate has bit 2.
+const MAX_FLAG: u8 = 1;
+const MIN_FLAG: u8 = 2;
+
+/// Flags of the pixels in a row that pass the threshold and the left/right
+/// test (raster-order tie rule: an equal pixel to the left wins), for maxima
+/// and minima: a branch-free pass over the row that vectorises. Per pixel,
+/// with branches, the tests mispredicted on noisy maps and cost a third of
+/// candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
 #[inline(always)]
-fn row_flags(row: &[f32], sign: f32, threshold: f32, check_sides: bool, flags: &mut [u8]) {
+fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
     let w = row.len();
-    for (x, f) in flags.iter_mut().enumerate().take(w) {
-        // Edges: only the neighbour inside the row is compared.
-        if x == 1 && w > 2 {
-            break;
+    let flag = |v: f32, left: Option<f32>, right: Option<f32>| {
+        let side = |sign: f32| {
+            !check_sides
+                || (left.is_none_or(|l| sign * l < sign * v)
+                    && right.is_none_or(|rt| sign * rt <= sign * v))
+        };
+        (u8::from(v > threshold && side(1.0)) * MAX_FLAG)
+            | (u8::from(-v > threshold && side(-1.0)) * MIN_FLAG)
+    };
+    if w <= 2 {
+        for x in 0..w {
+            let left = (x > 0).then(|| row[x - 1]);
+            let right = (x + 1 < w).then(|| row[x + 1]);
+            flags[x] = flag(row[x], left, right);
         }
-        let v = sign * row[x];
-        let left_wins = check_sides && x > 0 && sign * row[x - 1] >= v;
-        let right_wins = check_sides && x + 1 < w && sign * row[x + 1] > v;
-        *f = u8::from(v > threshold && !left_wins && !right_wins);
+        return;
     }
-    if w > 2 {
-        let interior = &mut flags[1..w - 1];
-        let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
-        for (((f, &l), &m), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
-            let v = sign * m;
-            // (Finite maps: `l < v` is `!(l >= v)`.)
-            let sides_ok = (sign * l < v) & (sign * rt <= v);
-            *f = u8::from((v > threshold) & (sides_ok | !check_sides));
-        }
-        let x = w - 1;
-        let v = sign * row[x];
-        let left_wins = check_sides && sign * row[x - 1] >= v;
-        flags[x] = u8::from(v > threshold && !left_wins);
+    flags[0] = flag(row[0], None, Some(row[1]));
+    flags[w - 1] = flag(row[w - 1], Some(row[w - 2]), None);
+    let interior = &mut flags[1..w - 1];
+    let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+    for (((f, &l), &v), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
+        let max_ok = (v > threshold) & (((l < v) & (rt <= v)) | !check_sides);
+        let min_ok = (-v > threshold) & (((-l < -v) & (-rt <= -v)) | !check_sides);
+        *f = (u8::from(max_ok) * MAX_FLAG) | (u8::from(min_ok) * MIN_FLAG);
     }
 }
 
@@ -207,26 +228,29 @@ fn local_extrema_lanes(
     h: usize,
     r: usize,
     threshold: f32,
-    sign: f32,
-) -> Vec<usize> {
-    let mut out = Vec::new();
-    let at = |i: usize| sign * src[i];
+) -> [Vec<usize>; 2] {
+    let mut out = [Vec::new(), Vec::new()];
     let mut flags = vec![0u8; w];
     for y in 0..h {
         let row = y * w;
-        // Raster-order tie rule: an equal pixel to the left wins.
-        row_flags(&src[row..row + w], sign, threshold, r >= 1, &mut flags);
+        row_flags(&src[row..row + w], threshold, r >= 1, &mut flags);
         for (chunk_no, chunk) in flags.chunks(32).enumerate() {
             if chunk.iter().fold(0u8, |any, &f| any | f) == 0 {
                 continue;
             }
-            for (k, _) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
+            for (k, &f) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
                 let x = chunk_no * 32 + k;
-                let v = at(row + x);
-                if wins_window(&at, w, h, x, y, 1.min(r), v)
-                    && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
-                {
-                    out.push(row + x);
+                for (bit, sign, found) in [(MAX_FLAG, 1.0f32, 0), (MIN_FLAG, -1.0, 1)] {
+                    if f & bit == 0 {
+                        continue;
+                    }
+                    let at = |i: usize| sign * src[i];
+                    let v = at(row + x);
+                    if wins_window(&at, w, h, x, y, 1.min(r), v)
+                        && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
+                    {
+                        out[found].push(row + x);
+                    }
                 }
             }
         }
