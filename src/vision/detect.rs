@@ -11,6 +11,7 @@ use thiserror::Error;
 
 use super::filter::{box_mean_in_place, box_mean_into, local_extrema_both, local_maxima};
 use super::frame::Frame;
+use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
@@ -138,26 +139,25 @@ pub struct Candidate {
 
 /// The band-passed frame and its noise, shared by the locators.
 struct Bandpass {
-    values: Vec<f32>,
+    values: WorkBuffer,
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
     /// Two frame-sized work buffers the energy map reuses (fresh ones
     /// would cost page faults or a memset each).
-    work: [Vec<f32>; 2],
+    work: [WorkBuffer; 2],
 }
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
-    // Three full-frame buffers in all: fresh 4 MB allocations cost page
-    // faults, which on a 1024x1024 frame took as long as the filtering.
-    let mut values = vec![0.0f32; w * h];
-    let mut bg = vec![0.0f32; w * h];
-    let mut scratch = vec![0.0f32; w * h];
+    // Three full-frame buffers in all, from the pool (see `frame_pool`).
+    let mut values = frame_pool::take(w * h);
+    let mut bg = frame_pool::take(w * h);
+    let mut scratch = frame_pool::take(w * h);
     box_mean_into(frame.pixels(), &mut scratch, &mut values, w, h, 1);
     let bg_r = diameter.ceil() as usize;
     box_mean_into(frame.pixels(), &mut scratch, &mut bg, w, h, bg_r);
-    for (v, b) in values.iter_mut().zip(&bg) {
+    for (v, b) in values.iter_mut().zip(bg.iter()) {
         *v -= b;
     }
     let sigma = estimate_noise_sigma(frame);
@@ -189,7 +189,7 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) 
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     // Energy: local mean of the squared band-pass (two scratch frames, reused).
     let [energy, scratch] = &mut bp.work;
-    for (e, v) in energy.iter_mut().zip(&bp.values) {
+    for (e, v) in energy.iter_mut().zip(bp.values.iter()) {
         *e = v * v;
     }
     box_mean_in_place(energy, scratch, w, h, r);

@@ -10,6 +10,7 @@ pub mod fast_exp;
 pub mod filter;
 pub mod frame;
 pub mod frame_input;
+pub mod frame_pool;
 pub mod least_squares;
 pub mod matching;
 pub mod noise;
