@@ -143,20 +143,18 @@ struct Bandpass {
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
-    /// Two frame-sized work buffers the energy map reuses (fresh ones
-    /// would cost page faults or a memset each).
-    work: [WorkBuffer; 2],
+    /// A frame-sized work buffer the energy map reuses.
+    work: WorkBuffer,
 }
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
-    // Three full-frame buffers in all, from the pool (see `frame_pool`).
+    // Two full-frame buffers in all, from the pool (see `frame_pool`).
     let mut values = frame_pool::take(w * h);
     let mut bg = frame_pool::take(w * h);
-    let mut scratch = frame_pool::take(w * h);
-    box_mean_into(frame.pixels(), &mut scratch, &mut values, w, h, 1);
+    box_mean_into(frame.pixels(), &mut values, w, h, 1);
     let bg_r = diameter.ceil() as usize;
-    box_mean_into(frame.pixels(), &mut scratch, &mut bg, w, h, bg_r);
+    box_mean_into(frame.pixels(), &mut bg, w, h, bg_r);
     for (v, b) in values.iter_mut().zip(bg.iter()) {
         *v -= b;
     }
@@ -168,7 +166,7 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
         values,
         noise_var,
         noise_sigma: sigma,
-        work: [bg, scratch],
+        work: bg,
     }
 }
 
@@ -187,12 +185,12 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) 
     // A window of 0.3 diameter keeps crowded neighbours separate maxima; a ring
     // may give several (core and ring), which fit to one centre and are merged.
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
-    // Energy: local mean of the squared band-pass (two scratch frames, reused).
-    let [energy, scratch] = &mut bp.work;
+    // Energy: local mean of the squared band-pass (in a reused work frame).
+    let energy = &mut bp.work;
     for (e, v) in energy.iter_mut().zip(bp.values.iter()) {
         *e = v * v;
     }
-    box_mean_in_place(energy, scratch, w, h, r);
+    box_mean_in_place(energy, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
     let noise_e = bp.noise_var.max(1e-12);
     let e_sd = noise_e * (2.0 / n_eff).sqrt();

@@ -9,31 +9,19 @@ use super::cpu_dispatch::avx2_dispatch;
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
 pub fn box_mean(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut out = src.to_vec();
-    let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut out, &mut scratch, w, h, r);
+    let mut out = vec![0.0f32; w * h];
+    box_mean_into(src, &mut out, w, h, r);
     out
 }
 
-/// [`box_mean`] replacing `image` by its box mean, with a caller-owned
-/// scratch frame of the same size (no allocation per call).
-pub fn box_mean_in_place(image: &mut [f32], scratch: &mut [f32], w: usize, h: usize, r: usize) {
-    box_rows(image, scratch, w, h, r);
-    box_columns(scratch, image, w, h, r);
+/// [`box_mean`] replacing `image` by its box mean (no allocation of a frame).
+pub fn box_mean_in_place(image: &mut [f32], w: usize, h: usize, r: usize) {
+    box_mean_stream(None, image, w, h, r);
 }
 
-/// [`box_mean`] of `src` written into `out`, with a caller-owned scratch
-/// frame (no copy of `src`, no allocation per call).
-pub fn box_mean_into(
-    src: &[f32],
-    scratch: &mut [f32],
-    out: &mut [f32],
-    w: usize,
-    h: usize,
-    r: usize,
-) {
-    box_rows(src, scratch, w, h, r);
-    box_columns(scratch, out, w, h, r);
+/// [`box_mean`] of `src` written into `out` (every value of `out` is written).
+pub fn box_mean_into(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+    box_mean_stream(Some(src), out, w, h, r);
 }
 
 /// 1 / (pixels in the window cut at the ends) for every position along a line.
@@ -44,101 +32,130 @@ fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
 }
 
 avx2_dispatch!(
-    /// Horizontal pass (see [`box_rows_lanes`]).
-    fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) => box_rows_lanes
+    /// Box mean of `src` (or of `out` itself when `src` is `None`) into
+    /// `out`, see [`box_mean_stream_lanes`].
+    fn box_mean_stream(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize)
+        => box_mean_stream_lanes
 );
 
-/// Horizontal pass. A running sum along a row is one long dependency chain;
-/// instead the window sum is built from power-of-two partial sums (binary
-/// decomposition of 2r+1), each a whole-row element-wise add that
-/// vectorises. No running subtraction, so no drift in f32.
+/// Both passes streamed row by row: the horizontal sums of the 2r+2 rows the
+/// vertical window needs live in a small ring of rows (cache-resident), and
+/// a running row of column sums in f64 (no drift) moves down the frame. Two
+/// whole-frame passes through a scratch frame moved three times the memory,
+/// and the filters are memory-bound. Row k of the input is read (step k-r-1)
+/// before row k of the output is written (step k), so `out` may be the input.
 #[inline(always)]
-fn box_rows_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
-    let inv: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
-    let len = w + 2 * r;
-    // Zero pads either side stay zero: only the middle is overwritten per row.
-    let mut pow = vec![0.0f32; len];
-    let mut next = vec![0.0f32; len];
-    for y in 0..h {
-        // pow = the row with r zeros either side: window [x, x + 2r] of pow
-        // is the window [x - r, x + r] of the row, cut at the ends.
-        pow[..r].fill(0.0);
-        pow[r..r + w].copy_from_slice(&src[y * w..(y + 1) * w]);
-        pow[r + w..].fill(0.0);
-        let dst = &mut out[y * w..(y + 1) * w];
-        let (mut rem, mut width, mut offset, mut first) = (2 * r + 1, 1usize, 0usize, true);
-        loop {
-            if rem & 1 == 1 {
-                // The first partial sum is stored, the others added.
-                if first {
-                    dst.copy_from_slice(&pow[offset..offset + w]);
-                    first = false;
-                } else {
-                    for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
-                        *d += p;
-                    }
-                }
-                offset += width;
-            }
-            rem >>= 1;
-            if rem == 0 {
-                break;
-            }
-            // next[i]: the sum of 2 * width elements from i (the last
-            // `width` entries would read past the end; they are never used).
-            let used = len - width;
-            for ((n, &a), &b) in next[..used].iter_mut().zip(&pow[..used]).zip(&pow[width..]) {
-                *n = a + b;
-            }
-            next[used..].fill(0.0);
-            std::mem::swap(&mut pow, &mut next);
-            width *= 2;
-        }
-        for (d, &k) in dst.iter_mut().zip(&inv) {
-            *d *= k;
-        }
+fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize) {
+    if w == 0 || h == 0 {
+        return;
     }
-}
-
-avx2_dispatch!(
-    /// Vertical pass (see [`box_columns_lanes`]).
-    fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) => box_columns_lanes
-);
-
-/// Vertical pass with a running row of column sums (cache-friendly).
-#[inline(always)]
-fn box_columns_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+    let inv_cols: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
+    let inv_rows = inverse_counts(h, r);
+    let slots = 2 * r + 2;
+    let mut ring = vec![0.0f32; slots * w];
+    let mut pow = vec![0.0f32; w + 2 * r];
+    let mut next = vec![0.0f32; w + 2 * r];
     let mut acc = vec![0.0f64; w];
-    for y in 0..(r + 1).min(h) {
-        for (a, &v) in acc.iter_mut().zip(&src[y * w..(y + 1) * w]) {
+    // Horizontal sums of input row k into its ring slot.
+    let mut load = |k: usize, out: &[f32], ring: &mut [f32]| {
+        let row = match src {
+            Some(s) => &s[k * w..(k + 1) * w],
+            None => &out[k * w..(k + 1) * w],
+        };
+        let slot = &mut ring[(k % slots) * w..(k % slots + 1) * w];
+        box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
+    };
+    for k in 0..(r + 1).min(h) {
+        load(k, out, &mut ring);
+        let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
+        for (a, &v) in acc.iter_mut().zip(slot) {
             *a += v as f64;
         }
     }
-    let inv_rows = inverse_counts(h, r);
-    let row = |y: usize| &src[y * w..(y + 1) * w];
     for y in 0..h {
         let inv = inv_rows[y];
         for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
             *d = (a * inv) as f32;
         }
-        match (y + r + 1 < h, y >= r) {
+        let (add, sub) = (y + r + 1 < h, y >= r);
+        if add {
+            load(y + r + 1, out, &mut ring);
+        }
+        let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
+        match (add, sub) {
             (true, true) => {
-                for ((a, &p), &m) in acc.iter_mut().zip(row(y + r + 1)).zip(row(y - r)) {
+                let (p, m) = (&ring[slot_of(y + r + 1)], &ring[slot_of(y - r)]);
+                for ((a, &p), &m) in acc.iter_mut().zip(p).zip(m) {
                     *a += p as f64 - m as f64;
                 }
             }
             (true, false) => {
-                for (a, &p) in acc.iter_mut().zip(row(y + r + 1)) {
+                for (a, &p) in acc.iter_mut().zip(&ring[slot_of(y + r + 1)]) {
                     *a += p as f64;
                 }
             }
             (false, true) => {
-                for (a, &m) in acc.iter_mut().zip(row(y - r)) {
+                for (a, &m) in acc.iter_mut().zip(&ring[slot_of(y - r)]) {
                     *a -= m as f64;
                 }
             }
             (false, false) => {}
         }
+    }
+}
+
+/// Horizontal box mean of one row (`inv`: 1 / window length per position).
+/// A running sum along a row is one long dependency chain; instead the
+/// window sum is built from power-of-two partial sums (binary decomposition
+/// of 2r+1), each a whole-row element-wise add that vectorises. No running
+/// subtraction, so no drift in f32. `pow` and `next` are work rows of length
+/// w + 2r.
+#[inline(always)]
+fn box_row(
+    src: &[f32],
+    dst: &mut [f32],
+    r: usize,
+    inv: &[f32],
+    pow: &mut Vec<f32>,
+    next: &mut Vec<f32>,
+) {
+    let w = src.len();
+    let len = w + 2 * r;
+    // pow = the row with r zeros either side: window [x, x + 2r] of pow
+    // is the window [x - r, x + r] of the row, cut at the ends.
+    pow[..r].fill(0.0);
+    pow[r..r + w].copy_from_slice(src);
+    pow[r + w..].fill(0.0);
+    let (mut rem, mut width, mut offset, mut first) = (2 * r + 1, 1usize, 0usize, true);
+    loop {
+        if rem & 1 == 1 {
+            // The first partial sum is stored, the others added.
+            if first {
+                dst.copy_from_slice(&pow[offset..offset + w]);
+                first = false;
+            } else {
+                for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
+                    *d += p;
+                }
+            }
+            offset += width;
+        }
+        rem >>= 1;
+        if rem == 0 {
+            break;
+        }
+        // next[i]: the sum of 2 * width elements from i (the last `width`
+        // entries would read past the end; they are never used).
+        let used = len - width;
+        for ((n, &a), &b) in next[..used].iter_mut().zip(&pow[..used]).zip(&pow[width..]) {
+            *n = a + b;
+        }
+        next[used..].fill(0.0);
+        std::mem::swap(pow, next);
+        width *= 2;
+    }
+    for (d, &k) in dst.iter_mut().zip(inv) {
+        *d *= k;
     }
 }
 
@@ -356,6 +373,9 @@ mod tests {
             .collect();
         for r in [0usize, 1, 2, 5, 17, 40] {
             let fast = box_mean(&src, w, h, r);
+            let mut in_place = src.clone();
+            box_mean_in_place(&mut in_place, w, h, r);
+            assert_eq!(in_place, fast, "in place, r {r}");
             for y in 0..h {
                 for x in 0..w {
                     let (mut sum, mut n) = (0.0f64, 0usize);
