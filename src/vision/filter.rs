@@ -56,17 +56,21 @@ fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usiz
     let mut pow = vec![0.0f32; w + 2 * r];
     let mut next = vec![0.0f32; w + 2 * r];
     let mut acc = vec![0.0f64; w];
-    // Horizontal sums of input row k into its ring slot.
-    let mut load = |k: usize, out: &[f32], ring: &mut [f32]| {
-        let row = match src {
-            Some(s) => &s[k * w..(k + 1) * w],
-            None => &out[k * w..(k + 1) * w],
-        };
-        let slot = &mut ring[(k % slots) * w..(k % slots + 1) * w];
-        box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
-    };
+    // Horizontal sums of input row k into its ring slot. (A macro, not a
+    // closure: a closure is compiled as its own function, without AVX2.)
+    macro_rules! load {
+        ($k:expr) => {{
+            let k = $k;
+            let row = match src {
+                Some(s) => &s[k * w..(k + 1) * w],
+                None => &out[k * w..(k + 1) * w],
+            };
+            let slot = &mut ring[(k % slots) * w..(k % slots + 1) * w];
+            box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
+        }};
+    }
     for k in 0..(r + 1).min(h) {
-        load(k, out, &mut ring);
+        load!(k);
         let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
         for (a, &v) in acc.iter_mut().zip(slot) {
             *a += v as f64;
@@ -79,7 +83,7 @@ fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usiz
         }
         let (add, sub) = (y + r + 1 < h, y >= r);
         if add {
-            load(y + r + 1, out, &mut ring);
+            load!(y + r + 1);
         }
         let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
         match (add, sub) {
