@@ -65,28 +65,21 @@ impl ProbeSilhouette {
 
     /// Signed distance from (x, y) to the silhouette edge: negative inside.
     pub fn signed_distance(&self, x: f64, y: f64) -> f64 {
-        // Work in the probe's frame: u along the axis (apex at 0), v across.
+        self.placed().signed_distance(x, y)
+    }
+
+    /// The silhouette with its axis' sine and cosine computed once, for
+    /// callers that evaluate many pixels (the tip fit: one `sin_cos` per
+    /// evaluation instead of one per pixel).
+    pub fn placed(&self) -> PlacedSilhouette {
         let (s, c) = self.angle_rad.sin_cos();
-        let dx = x - self.apex_x_px;
-        let dy = y - self.apex_y_px;
-        let u = dx * c + dy * s;
-        let v = (-dx * s + dy * c).abs();
-        let h = 0.5 * self.shape.width_px;
-        let t = self.shape.taper_length_px.max(1e-9);
-        // Symmetric in v: the half-shape is the apex edge (0,0)->(-t,h), the side
-        // edge (-t,h)->(-L,h), and the far end (never in view).
-        let seg = |ax: f64, ay: f64, bx: f64, by: f64| {
-            let (ex, ey) = (bx - ax, by - ay);
-            let k = (((u - ax) * ex + (v - ay) * ey) / (ex * ex + ey * ey)).clamp(0.0, 1.0);
-            ((u - ax - k * ex).powi(2) + (v - ay - k * ey).powi(2)).sqrt()
-        };
-        let d_edge = seg(0.0, 0.0, -t, h).min(seg(-t, h, -BODY_LENGTH_PX, h));
-        let inside_taper = u <= 0.0 && u >= -t && v <= -u * h / t;
-        let inside_body = u < -t && u > -BODY_LENGTH_PX && v <= h;
-        if inside_taper || inside_body {
-            -d_edge
-        } else {
-            d_edge
+        PlacedSilhouette {
+            apex_x_px: self.apex_x_px,
+            apex_y_px: self.apex_y_px,
+            sin: s,
+            cos: c,
+            half_width_px: 0.5 * self.shape.width_px,
+            taper_px: self.shape.taper_length_px.max(1e-9),
         }
     }
 
@@ -96,6 +89,127 @@ impl ProbeSilhouette {
         let d = self.signed_distance(x, y);
         let covered = normal_cdf(-d / edge_sigma_px.max(1e-6));
         1.0 - self.shape.opacity * covered
+    }
+}
+
+/// A [`ProbeSilhouette`] with its trigonometry done: the signed distance and
+/// its gradient with respect to the geometry, per pixel, without `sin_cos`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlacedSilhouette {
+    apex_x_px: f64,
+    apex_y_px: f64,
+    sin: f64,
+    cos: f64,
+    half_width_px: f64,
+    taper_px: f64,
+}
+
+/// Gradient of the signed distance with respect to apex x, apex y, axis
+/// angle, width and taper length (the order of the tip fit's parameters).
+pub type DistanceGradient = [f64; 5];
+
+/// The nearest point of one silhouette edge segment (in the probe's u, v
+/// frame) to a point.
+struct Nearest {
+    /// Distance to the segment.
+    distance: f64,
+    /// Position of the nearest point along the segment, 0..1.
+    k: f64,
+    /// Point minus nearest point.
+    du: f64,
+    dv: f64,
+}
+
+fn nearest_on_segment(u: f64, v: f64, ax: f64, ay: f64, bx: f64, by: f64) -> Nearest {
+    let (ex, ey) = (bx - ax, by - ay);
+    let k = (((u - ax) * ex + (v - ay) * ey) / (ex * ex + ey * ey)).clamp(0.0, 1.0);
+    let (du, dv) = (u - ax - k * ex, v - ay - k * ey);
+    Nearest {
+        distance: (du.powi(2) + dv.powi(2)).sqrt(),
+        k,
+        du,
+        dv,
+    }
+}
+
+impl PlacedSilhouette {
+    /// The point in the probe's frame: u along the axis (apex at 0), v across
+    /// (signed), and the distance parts shared by the value and the gradient.
+    #[inline]
+    fn locate(&self, x: f64, y: f64) -> (f64, f64, Nearest, bool, bool) {
+        let (s, c) = (self.sin, self.cos);
+        let dx = x - self.apex_x_px;
+        let dy = y - self.apex_y_px;
+        let u = dx * c + dy * s;
+        let v_signed = -dx * s + dy * c;
+        let v = v_signed.abs();
+        let h = self.half_width_px;
+        let t = self.taper_px;
+        // Symmetric in v: the half-shape is the apex edge (0,0)->(-t,h), the side
+        // edge (-t,h)->(-L,h), and the far end (never in view).
+        let apex_edge = nearest_on_segment(u, v, 0.0, 0.0, -t, h);
+        let side_edge = nearest_on_segment(u, v, -t, h, -BODY_LENGTH_PX, h);
+        let on_side = side_edge.distance < apex_edge.distance;
+        let nearest = if on_side { side_edge } else { apex_edge };
+        let inside_taper = u <= 0.0 && u >= -t && v <= -u * h / t;
+        let inside_body = u < -t && u > -BODY_LENGTH_PX && v <= h;
+        (u, v_signed, nearest, on_side, inside_taper || inside_body)
+    }
+
+    /// Signed distance from (x, y) to the silhouette edge: negative inside.
+    #[inline]
+    pub fn signed_distance(&self, x: f64, y: f64) -> f64 {
+        let (_, _, nearest, _, inside) = self.locate(x, y);
+        if inside {
+            -nearest.distance
+        } else {
+            nearest.distance
+        }
+    }
+
+    /// Signed distance and its analytic gradient with respect to (apex x,
+    /// apex y, angle, width, taper). The gradient of a signed distance is the
+    /// outward normal at the nearest edge point; moving a segment end moves
+    /// that point in proportion to where it lies along the segment. On the
+    /// edge itself (distance 0) the edge's own outward normal is used.
+    pub fn signed_distance_grad(&self, x: f64, y: f64) -> (f64, DistanceGradient) {
+        let (u, v_signed, nearest, on_side, inside) = self.locate(x, y);
+        let (h, t) = (self.half_width_px, self.taper_px);
+        // Outward normal in (u, |v|).
+        let (nu, nv) = if nearest.distance > 1e-12 {
+            let sign = if inside { -1.0 } else { 1.0 };
+            (
+                sign * nearest.du / nearest.distance,
+                sign * nearest.dv / nearest.distance,
+            )
+        } else if on_side {
+            (0.0, 1.0)
+        } else {
+            let len = h.hypot(t);
+            (h / len, t / len)
+        };
+        let d = if inside {
+            -nearest.distance
+        } else {
+            nearest.distance
+        };
+        // |v| folds the lower half onto the upper one.
+        let fold = if v_signed < 0.0 { -1.0 } else { 1.0 };
+        let (s, c) = (self.sin, self.cos);
+        // d u / d(apex x, apex y, angle) = (-c, -s, v); d v / d(...) = (s, -c, -u).
+        let d_ax = nu * -c + nv * fold * s;
+        let d_ay = nu * -s + nv * fold * -c;
+        let d_angle = nu * v_signed + nv * fold * -u;
+        // The segment end (-t, h) moves the nearest point by its weight along
+        // the segment: k on the apex edge (0,0)->(-t,h), 1-k on the side edge
+        // (-t,h)->(-L,h), whose far end is at v = h too.
+        let (d_h, d_t) = if on_side {
+            (-nv, (1.0 - nearest.k) * nu)
+        } else {
+            (-nearest.k * nv, nearest.k * nu)
+        };
+        let d_t = if self.taper_px > 1e-9 { d_t } else { 0.0 };
+        (d, [d_ax, d_ay, d_angle, 0.5 * d_h, d_t])
     }
 }
 
@@ -136,5 +250,49 @@ mod tests {
         assert!(p.transmission(150.0, 50.0, 1.0) > 0.999);
         assert!((normal_cdf(0.0) - 0.5).abs() < 1e-7);
         assert!((normal_cdf(1.0) - 0.841_344_7).abs() < 1e-6);
+    }
+
+    #[test]
+    fn distance_gradient_matches_central_differences() {
+        let base = [100.3, 80.6, 0.4, 38.0, 47.0];
+        let at = |q: [f64; 5]| ProbeSilhouette {
+            apex_x_px: q[0],
+            apex_y_px: q[1],
+            angle_rad: q[2],
+            shape: ProbeShape {
+                width_px: q[3],
+                taper_length_px: q[4],
+                opacity: 1.0,
+            },
+        };
+        let steps = [1e-5, 1e-5, 1e-7, 1e-5, 1e-5];
+        let mut checked = 0;
+        // A grid around the apex: in front, beside the taper, inside, over the body.
+        for iy in 0..25 {
+            for ix in 0..25 {
+                let (x, y) = (20.0 + 4.3 * ix as f64, 20.0 + 4.1 * iy as f64);
+                let (d, g) = at(base).placed().signed_distance_grad(x, y);
+                assert_eq!(d, at(base).signed_distance(x, y));
+                for i in 0..5 {
+                    let (mut a, mut b) = (base, base);
+                    a[i] += steps[i];
+                    b[i] -= steps[i];
+                    let fd = (at(a).signed_distance(x, y) - at(b).signed_distance(x, y))
+                        / (2.0 * steps[i]);
+                    // Skip the medial axis, where the nearest edge switches.
+                    let one_sided = (at(a).signed_distance(x, y) - d) / steps[i];
+                    if (one_sided - fd).abs() > 1e-3 * (1.0 + fd.abs()) {
+                        continue;
+                    }
+                    assert!(
+                        (fd - g[i]).abs() < 1e-4 * (1.0 + fd.abs()),
+                        "({x}, {y}) param {i}: {fd} vs {}",
+                        g[i]
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 2500, "only {checked} checks");
     }
 }

@@ -9,8 +9,9 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{box_mean_in_place, local_extrema, local_maxima};
+use super::filter::{box_mean_in_place, box_mean_into, local_extrema_both, local_maxima};
 use super::frame::Frame;
+use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
@@ -138,23 +139,23 @@ pub struct Candidate {
 
 /// The band-passed frame and its noise, shared by the locators.
 struct Bandpass {
-    values: Vec<f32>,
+    values: WorkBuffer,
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
+    /// A frame-sized work buffer the energy map reuses.
+    work: WorkBuffer,
 }
 
 fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
-    // Three full-frame buffers in all: fresh 4 MB allocations cost page
-    // faults, which on a 1024x1024 frame took as long as the filtering.
-    let mut values = frame.pixels().to_vec();
-    let mut bg = frame.pixels().to_vec();
-    let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut values, &mut scratch, w, h, 1);
+    // Two full-frame buffers in all, from the pool (see `frame_pool`).
+    let mut values = frame_pool::take(w * h);
+    let mut bg = frame_pool::take(w * h);
+    box_mean_into(frame.pixels(), &mut values, w, h, 1);
     let bg_r = diameter.ceil() as usize;
-    box_mean_in_place(&mut bg, &mut scratch, w, h, bg_r);
-    for (v, b) in values.iter_mut().zip(&bg) {
+    box_mean_into(frame.pixels(), &mut bg, w, h, bg_r);
+    for (v, b) in values.iter_mut().zip(bg.iter()) {
         *v -= b;
     }
     let sigma = estimate_noise_sigma(frame);
@@ -165,6 +166,7 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
         values,
         noise_var,
         noise_sigma: sigma,
+        work: bg,
     }
 }
 
@@ -174,25 +176,27 @@ pub fn find_candidates(
     settings: &DetectSettings,
 ) -> Result<Vec<Candidate>, DetectError> {
     check(frame, settings)?;
-    let bp = bandpass(frame, settings.diameter_px);
-    Ok(candidates_from(frame, settings, &bp))
+    let mut bp = bandpass(frame, settings.diameter_px);
+    Ok(candidates_from(frame, settings, &mut bp))
 }
 
-fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &Bandpass) -> Vec<Candidate> {
+fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) -> Vec<Candidate> {
     let (w, h) = (frame.width(), frame.height());
     // A window of 0.3 diameter keeps crowded neighbours separate maxima; a ring
     // may give several (core and ring), which fit to one centre and are merged.
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
-    // Energy: local mean of the squared band-pass (two scratch frames, reused).
-    let mut energy: Vec<f32> = bp.values.iter().map(|v| v * v).collect();
-    let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut energy, &mut scratch, w, h, r);
+    // Energy: local mean of the squared band-pass (in a reused work frame).
+    let energy = &mut bp.work;
+    for (e, v) in energy.iter_mut().zip(bp.values.iter()) {
+        *e = v * v;
+    }
+    box_mean_in_place(energy, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
     let noise_e = bp.noise_var.max(1e-12);
     let e_sd = noise_e * (2.0 / n_eff).sqrt();
     let threshold = (noise_e + settings.threshold_sigma * e_sd) as f32;
     let sat = frame.max_count();
-    local_maxima(&energy, w, h, r, threshold)
+    local_maxima(energy, w, h, r, threshold)
         .into_iter()
         .filter(|&i| !(frame.pixels()[i] >= sat && bp.values[i] == 0.0))
         .map(|i| Candidate {
@@ -217,16 +221,17 @@ fn add_core_candidates(
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     let sd = bp.noise_var.max(1e-12).sqrt();
     let threshold = (settings.threshold_sigma * sd) as f32;
-    let signs: &[f32] = match settings.polarity {
-        Some(Polarity::Bright) => &[1.0],
-        Some(Polarity::Dark) => &[-1.0],
-        None => &[1.0, -1.0],
+    let [maxima, minima] = local_extrema_both(&bp.values, w, h, r, threshold);
+    let by_sign = match settings.polarity {
+        Some(Polarity::Bright) => vec![(1.0f32, maxima)],
+        Some(Polarity::Dark) => vec![(-1.0, minima)],
+        None => vec![(1.0, maxima), (-1.0, minima)],
     };
     let edge = r.min(w / 2).min(h / 2);
     let inside = |x: usize, y: usize| x >= edge && y >= edge && x + edge < w && y + edge < h;
     let near2 = (0.25 * settings.diameter_px).powi(2);
-    for &sign in signs {
-        for i in local_extrema(&bp.values, w, h, r, threshold, sign) {
+    for (sign, extrema) in by_sign {
+        for i in extrema {
             let (x, y) = (i % w, i / w);
             let taken = out
                 .iter()
@@ -351,8 +356,8 @@ pub fn detect_particles_excluding(
 ) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (w, h) = (frame.width(), frame.height());
-    let bp = bandpass(frame, settings.diameter_px);
-    let mut cands = candidates_from(frame, settings, &bp);
+    let mut bp = bandpass(frame, settings.diameter_px);
+    let mut cands = candidates_from(frame, settings, &mut bp);
     let n_energy = cands.len();
     if model_for(settings) == ProfileModel::Ring {
         add_core_candidates(&mut cands, &bp, w, h, settings);

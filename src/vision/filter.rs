@@ -4,20 +4,24 @@
 //! because they are a few lines, run on our own buffer type, and avoid a copy
 //! into OpenCV per call.
 
+use super::cpu_dispatch::avx2_dispatch;
+
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
 pub fn box_mean(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
-    let mut out = src.to_vec();
-    let mut scratch = vec![0.0f32; w * h];
-    box_mean_in_place(&mut out, &mut scratch, w, h, r);
+    let mut out = vec![0.0f32; w * h];
+    box_mean_into(src, &mut out, w, h, r);
     out
 }
 
-/// [`box_mean`] replacing `image` by its box mean, with a caller-owned
-/// scratch frame of the same size (no allocation per call).
-pub fn box_mean_in_place(image: &mut [f32], scratch: &mut [f32], w: usize, h: usize, r: usize) {
-    box_rows(image, scratch, w, h, r);
-    box_columns(scratch, image, w, h, r);
+/// [`box_mean`] replacing `image` by its box mean (no allocation of a frame).
+pub fn box_mean_in_place(image: &mut [f32], w: usize, h: usize, r: usize) {
+    box_mean_stream(None, image, w, h, r);
+}
+
+/// [`box_mean`] of `src` written into `out` (every value of `out` is written).
+pub fn box_mean_into(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+    box_mean_stream(Some(src), out, w, h, r);
 }
 
 /// 1 / (pixels in the window cut at the ends) for every position along a line.
@@ -27,80 +31,135 @@ fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
         .collect()
 }
 
-/// Horizontal pass. A running sum along a row is one long dependency chain;
-/// instead the window sum is built from power-of-two partial sums (binary
-/// decomposition of 2r+1), each a whole-row element-wise add that
-/// vectorises. No running subtraction, so no drift in f32.
-fn box_rows(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
-    out.fill(0.0);
-    let inv: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
-    let len = w + 2 * r;
-    let mut pow = vec![0.0f32; len];
-    let mut next = vec![0.0f32; len];
-    for y in 0..h {
-        // pow = the row with r zeros either side: window [x, x + 2r] of pow
-        // is the window [x - r, x + r] of the row, cut at the ends.
-        pow.fill(0.0);
-        pow[r..r + w].copy_from_slice(&src[y * w..(y + 1) * w]);
-        let dst = &mut out[y * w..(y + 1) * w];
-        let (mut rem, mut width, mut offset) = (2 * r + 1, 1usize, 0usize);
-        loop {
-            if rem & 1 == 1 {
-                for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
-                    *d += p;
-                }
-                offset += width;
-            }
-            rem >>= 1;
-            if rem == 0 {
-                break;
-            }
-            // next[i]: the sum of 2 * width elements from i.
-            for ((n, &a), &b) in next.iter_mut().zip(&pow).zip(&pow[width..]) {
-                *n = a + b;
-            }
-            std::mem::swap(&mut pow, &mut next);
-            width *= 2;
-        }
-        for (d, &k) in dst.iter_mut().zip(&inv) {
-            *d *= k;
-        }
-    }
-}
+avx2_dispatch!(
+    /// Box mean of `src` (or of `out` itself when `src` is `None`) into
+    /// `out`, see [`box_mean_stream_lanes`].
+    fn box_mean_stream(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize)
+        => box_mean_stream_lanes
+);
 
-/// Vertical pass with a running row of column sums (cache-friendly).
-fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
+/// Both passes streamed row by row: the horizontal sums of the 2r+2 rows the
+/// vertical window needs live in a small ring of rows (cache-resident), and
+/// a running row of column sums in f64 (no drift) moves down the frame. Two
+/// whole-frame passes through a scratch frame moved three times the memory,
+/// and the filters are memory-bound. Row k of the input is read (step k-r-1)
+/// before row k of the output is written (step k), so `out` may be the input.
+#[inline(always)]
+fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize) {
+    if w == 0 || h == 0 {
+        return;
+    }
+    let inv_cols: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
+    let inv_rows = inverse_counts(h, r);
+    let slots = 2 * r + 2;
+    let mut ring = vec![0.0f32; slots * w];
+    let mut pow = vec![0.0f32; w + 2 * r];
+    let mut next = vec![0.0f32; w + 2 * r];
     let mut acc = vec![0.0f64; w];
-    for y in 0..(r + 1).min(h) {
-        for (a, &v) in acc.iter_mut().zip(&src[y * w..(y + 1) * w]) {
+    // Horizontal sums of input row k into its ring slot. (A macro, not a
+    // closure: a closure is compiled as its own function, without AVX2.)
+    macro_rules! load {
+        ($k:expr) => {{
+            let k = $k;
+            let row = match src {
+                Some(s) => &s[k * w..(k + 1) * w],
+                None => &out[k * w..(k + 1) * w],
+            };
+            let slot = &mut ring[(k % slots) * w..(k % slots + 1) * w];
+            box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
+        }};
+    }
+    for k in 0..(r + 1).min(h) {
+        load!(k);
+        let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
+        for (a, &v) in acc.iter_mut().zip(slot) {
             *a += v as f64;
         }
     }
-    let inv_rows = inverse_counts(h, r);
-    let row = |y: usize| &src[y * w..(y + 1) * w];
     for y in 0..h {
         let inv = inv_rows[y];
         for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
             *d = (a * inv) as f32;
         }
-        match (y + r + 1 < h, y >= r) {
+        let (add, sub) = (y + r + 1 < h, y >= r);
+        if add {
+            load!(y + r + 1);
+        }
+        let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
+        match (add, sub) {
             (true, true) => {
-                for ((a, &p), &m) in acc.iter_mut().zip(row(y + r + 1)).zip(row(y - r)) {
+                let (p, m) = (&ring[slot_of(y + r + 1)], &ring[slot_of(y - r)]);
+                for ((a, &p), &m) in acc.iter_mut().zip(p).zip(m) {
                     *a += p as f64 - m as f64;
                 }
             }
             (true, false) => {
-                for (a, &p) in acc.iter_mut().zip(row(y + r + 1)) {
+                for (a, &p) in acc.iter_mut().zip(&ring[slot_of(y + r + 1)]) {
                     *a += p as f64;
                 }
             }
             (false, true) => {
-                for (a, &m) in acc.iter_mut().zip(row(y - r)) {
+                for (a, &m) in acc.iter_mut().zip(&ring[slot_of(y - r)]) {
                     *a -= m as f64;
                 }
             }
             (false, false) => {}
         }
+    }
+}
+
+/// Horizontal box mean of one row (`inv`: 1 / window length per position).
+/// A running sum along a row is one long dependency chain; instead the
+/// window sum is built from power-of-two partial sums (binary decomposition
+/// of 2r+1), each a whole-row element-wise add that vectorises. No running
+/// subtraction, so no drift in f32. `pow` and `next` are work rows of length
+/// w + 2r.
+#[inline(always)]
+fn box_row(
+    src: &[f32],
+    dst: &mut [f32],
+    r: usize,
+    inv: &[f32],
+    pow: &mut Vec<f32>,
+    next: &mut Vec<f32>,
+) {
+    let w = src.len();
+    let len = w + 2 * r;
+    // pow = the row with r zeros either side: window [x, x + 2r] of pow
+    // is the window [x - r, x + r] of the row, cut at the ends.
+    pow[..r].fill(0.0);
+    pow[r..r + w].copy_from_slice(src);
+    pow[r + w..].fill(0.0);
+    let (mut rem, mut width, mut offset, mut first) = (2 * r + 1, 1usize, 0usize, true);
+    loop {
+        if rem & 1 == 1 {
+            // The first partial sum is stored, the others added.
+            if first {
+                dst.copy_from_slice(&pow[offset..offset + w]);
+                first = false;
+            } else {
+                for (d, &p) in dst.iter_mut().zip(&pow[offset..offset + w]) {
+                    *d += p;
+                }
+            }
+            offset += width;
+        }
+        rem >>= 1;
+        if rem == 0 {
+            break;
+        }
+        // next[i]: the sum of 2 * width elements from i (the last `width`
+        // entries would read past the end; they are never used).
+        let used = len - width;
+        for ((n, &a), &b) in next[..used].iter_mut().zip(&pow[..used]).zip(&pow[width..]) {
+            *n = a + b;
+        }
+        next[used..].fill(0.0);
+        std::mem::swap(pow, next);
+        width *= 2;
+    }
+    for (d, &k) in dst.iter_mut().zip(inv) {
+        *d *= k;
     }
 }
 
@@ -113,7 +172,8 @@ fn box_columns(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
 /// neighbour and is rejected there, so the full window is scanned only at the
 /// few true peaks.
 pub fn local_maxima(src: &[f32], w: usize, h: usize, r: usize, threshold: f32) -> Vec<usize> {
-    local_extrema(src, w, h, r, threshold, 1.0)
+    let [maxima, _] = local_extrema_both(src, w, h, r, threshold);
+    maxima
 }
 
 /// [`local_maxima`] of `sign * src` (sign -1: local minima below -threshold),
@@ -126,23 +186,93 @@ pub fn local_extrema(
     threshold: f32,
     sign: f32,
 ) -> Vec<usize> {
-    let mut out = Vec::new();
-    let at = |i: usize| sign * src[i];
+    let [maxima, minima] = local_extrema_both(src, w, h, r, threshold);
+    if sign >= 0.0 { maxima } else { minima }
+}
+
+avx2_dispatch!(
+    /// [`local_maxima`] of `src` and of `-src` in one pass over the map:
+    /// `[maxima above threshold, minima below -threshold]`.
+    pub fn local_extrema_both(
+        src: &[f32],
+        w: usize,
+        h: usize,
+        r: usize,
+        threshold: f32,
+    ) -> [Vec<usize>; 2] => local_extrema_lanes
+);
+
+/// Flag bit of a maximum candidate; a minimum candidate has bit 2.
+const MAX_FLAG: u8 = 1;
+const MIN_FLAG: u8 = 2;
+
+/// Flags of the pixels in a row that pass the threshold and the left/right
+/// test (raster-order tie rule: an equal pixel to the left wins), for maxima
+/// and minima: a branch-free pass over the row that vectorises. Per pixel,
+/// with branches, the tests mispredicted on noisy maps and cost a third of
+/// candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
+#[inline(always)]
+fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
+    let w = row.len();
+    let flag = |v: f32, left: Option<f32>, right: Option<f32>| {
+        let side = |sign: f32| {
+            !check_sides
+                || (left.is_none_or(|l| sign * l < sign * v)
+                    && right.is_none_or(|rt| sign * rt <= sign * v))
+        };
+        (u8::from(v > threshold && side(1.0)) * MAX_FLAG)
+            | (u8::from(-v > threshold && side(-1.0)) * MIN_FLAG)
+    };
+    if w <= 2 {
+        for x in 0..w {
+            let left = (x > 0).then(|| row[x - 1]);
+            let right = (x + 1 < w).then(|| row[x + 1]);
+            flags[x] = flag(row[x], left, right);
+        }
+        return;
+    }
+    flags[0] = flag(row[0], None, Some(row[1]));
+    flags[w - 1] = flag(row[w - 1], Some(row[w - 2]), None);
+    let interior = &mut flags[1..w - 1];
+    let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+    for (((f, &l), &v), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
+        let max_ok = (v > threshold) & (((l < v) & (rt <= v)) | !check_sides);
+        let min_ok = (-v > threshold) & (((-l < -v) & (-rt <= -v)) | !check_sides);
+        *f = (u8::from(max_ok) * MAX_FLAG) | (u8::from(min_ok) * MIN_FLAG);
+    }
+}
+
+#[inline(always)]
+fn local_extrema_lanes(
+    src: &[f32],
+    w: usize,
+    h: usize,
+    r: usize,
+    threshold: f32,
+) -> [Vec<usize>; 2] {
+    let mut out = [Vec::new(), Vec::new()];
+    let mut flags = vec![0u8; w];
     for y in 0..h {
         let row = y * w;
-        for x in 0..w {
-            let v = at(row + x);
-            if v <= threshold {
+        row_flags(&src[row..row + w], threshold, r >= 1, &mut flags);
+        for (chunk_no, chunk) in flags.chunks(32).enumerate() {
+            if chunk.iter().fold(0u8, |any, &f| any | f) == 0 {
                 continue;
             }
-            // Raster-order tie rule: an equal pixel to the left wins.
-            if r >= 1 && ((x > 0 && at(row + x - 1) >= v) || (x + 1 < w && at(row + x + 1) > v)) {
-                continue;
-            }
-            if wins_window(&at, w, h, x, y, 1.min(r), v)
-                && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
-            {
-                out.push(row + x);
+            for (k, &f) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
+                let x = chunk_no * 32 + k;
+                for (bit, sign, found) in [(MAX_FLAG, 1.0f32, 0), (MIN_FLAG, -1.0, 1)] {
+                    if f & bit == 0 {
+                        continue;
+                    }
+                    let at = |i: usize| sign * src[i];
+                    let v = at(row + x);
+                    if wins_window(&at, w, h, x, y, 1.min(r), v)
+                        && (r <= 1 || wins_window(&at, w, h, x, y, r, v))
+                    {
+                        out[found].push(row + x);
+                    }
+                }
             }
         }
     }
@@ -247,6 +377,9 @@ mod tests {
             .collect();
         for r in [0usize, 1, 2, 5, 17, 40] {
             let fast = box_mean(&src, w, h, r);
+            let mut in_place = src.clone();
+            box_mean_in_place(&mut in_place, w, h, r);
+            assert_eq!(in_place, fast, "in place, r {r}");
             for y in 0..h {
                 for x in 0..w {
                     let (mut sum, mut n) = (0.0f64, 0usize);

@@ -51,24 +51,29 @@ pub struct NormalEquations<const N: usize> {
     pub rss: f64,
 }
 
-/// Minimises sum w (value - model)^2 from `init`. `model(x, y, p, grad)` returns
-/// the model value and writes d model / d p into `grad`.
-pub fn levenberg_marquardt<const N: usize, F>(
+/// Minimises sum w (value - model)^2 from `init`. `model_at(p)` prepares the
+/// model at parameters `p` (work shared by every sample, such as a sine and
+/// cosine, is done there once per evaluation); the prepared model, called as
+/// `m(x, y, grad)`, returns the value at (x, y) and writes d model / d p into
+/// `grad`.
+pub fn levenberg_marquardt<const N: usize, F, M>(
     samples: &[Sample],
     init: SVector<f64, N>,
     max_iterations: usize,
-    model: F,
+    model_at: F,
 ) -> Result<FitOutcome<N>, FitError>
 where
-    F: Fn(f64, f64, &SVector<f64, N>, &mut SVector<f64, N>) -> f64,
+    F: Fn(&SVector<f64, N>) -> M,
+    M: Fn(f64, f64, &mut SVector<f64, N>) -> f64,
 {
     let mut grad = SVector::<f64, N>::zeros();
     let normal = |p: &SVector<f64, N>| {
+        let model = model_at(p);
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
         let mut rss = 0.0;
         for &(x, y, v, w) in samples {
-            let m = model(x, y, p, &mut grad);
+            let m = model(x, y, &mut grad);
             let r = v - m;
             rss += w * r * r;
             jtr += grad * (w * r);
@@ -230,11 +235,14 @@ mod tests {
                 )
             })
             .collect();
-        let model = |x: f64, _y: f64, p: &SVector<f64, 2>, g: &mut SVector<f64, 2>| {
-            let e = (-p[1] * x).exp();
-            g[0] = e;
-            g[1] = -p[0] * x * e;
-            p[0] * e
+        let model = |p: &SVector<f64, 2>| {
+            let p = *p;
+            move |x: f64, _y: f64, g: &mut SVector<f64, 2>| {
+                let e = (-p[1] * x).exp();
+                g[0] = e;
+                g[1] = -p[0] * x * e;
+                p[0] * e
+            }
         };
         let fit =
             levenberg_marquardt(&samples, SVector::<f64, 2>::new(1.0, 0.1), 50, model).unwrap();
@@ -260,10 +268,13 @@ mod tests {
                 )
             })
             .collect();
-        let model = |x: f64, _y: f64, p: &SVector<f64, 2>, g: &mut SVector<f64, 2>| {
-            g[0] = 1.0;
-            g[1] = x;
-            p[0] + p[1] * x
+        let model = |p: &SVector<f64, 2>| {
+            let p = *p;
+            move |x: f64, _y: f64, g: &mut SVector<f64, 2>| {
+                g[0] = 1.0;
+                g[1] = x;
+                p[0] + p[1] * x
+            }
         };
         let fit =
             levenberg_marquardt(&samples, SVector::<f64, 2>::new(0.0, 0.0), 50, model).unwrap();

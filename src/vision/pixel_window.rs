@@ -11,6 +11,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::cpu_dispatch::avx2_dispatch;
 use super::fast_exp::exp_f32;
 use super::frame::Frame;
 use super::least_squares::NormalEquations;
@@ -115,16 +116,34 @@ impl<const N: usize> Columns<N> {
     }
 
     /// J^T J, J^T r and r^T r (unit weights).
+    #[inline(always)]
     fn normal_equations(&self) -> NormalEquations<N> {
+        const { assert!(N < 16, "up to 15 parameters") };
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
         for i in 0..N {
-            for j in 0..=i {
-                let d = dot(&self.jacobian[i], &self.jacobian[j]);
-                jtj[(i, j)] = d;
-                jtj[(j, i)] = d;
+            // Row i: J_i . J_0..=J_i and J_i . r, four dot products per pass.
+            let mut others = [self.residual.as_slice(); 16];
+            for (o, column) in others.iter_mut().zip(&self.jacobian[..=i]) {
+                *o = column.as_slice();
             }
-            jtr[i] = dot(&self.jacobian[i], &self.residual);
+            let mut row = [0.0f64; 16];
+            for (g, group) in others[..i + 2].chunks(4).enumerate() {
+                let out = &mut row[4 * g..4 * g + group.len()];
+                let a = &self.jacobian[i];
+                match *group {
+                    [b0, b1, b2, b3] => out.copy_from_slice(&dots(a, [b0, b1, b2, b3])),
+                    [b0, b1, b2] => out.copy_from_slice(&dots(a, [b0, b1, b2])),
+                    [b0, b1] => out.copy_from_slice(&dots(a, [b0, b1])),
+                    [b0] => out.copy_from_slice(&dots(a, [b0])),
+                    _ => unreachable!("chunks(4) yields 1 to 4 slices"),
+                }
+            }
+            for j in 0..=i {
+                jtj[(i, j)] = row[j];
+                jtj[(j, i)] = row[j];
+            }
+            jtr[i] = row[i + 1];
         }
         let rss = self
             .residual
@@ -138,50 +157,52 @@ impl<const N: usize> Columns<N> {
     }
 }
 
-/// Dot product in 8 f32 lanes (two SSE registers), lanes summed in f64.
-/// SSE intrinsics because LLVM vectorised the portable form only in part.
-#[cfg(target_arch = "x86_64")]
-fn dot(a: &[f32], b: &[f32]) -> f64 {
-    use std::arch::x86_64::{
-        __m128, _mm_add_ps, _mm_loadu_ps, _mm_mul_ps, _mm_setzero_ps, _mm_storeu_ps,
-    };
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    let mut lanes = [0.0f32; 8];
-    // SAFETY: SSE is part of the x86_64 baseline; each chunk holds 8 f32, so
-    // both unaligned 4-lane loads stay inside it, and each store writes 4 f32
-    // into its half of `lanes`.
-    unsafe {
-        let (mut lo, mut hi): (__m128, __m128) = (_mm_setzero_ps(), _mm_setzero_ps());
-        for (x, y) in ca.zip(cb) {
-            let (p, q) = (x.as_ptr(), y.as_ptr());
-            lo = _mm_add_ps(lo, _mm_mul_ps(_mm_loadu_ps(p), _mm_loadu_ps(q)));
-            hi = _mm_add_ps(
-                hi,
-                _mm_mul_ps(_mm_loadu_ps(p.add(4)), _mm_loadu_ps(q.add(4))),
-            );
+/// Lanes of the dot products: lane k sums the products of elements k, k + 8,
+/// k + 16, ... in f32 (one AVX register, or two SSE ones), then the lanes are
+/// summed in f64.
+const LANES: usize = 8;
+
+/// `K` dot products of `a` with each of `bs` in one pass: `a` is loaded once
+/// per chunk and the K accumulators are independent, so the adds do not wait
+/// on each other (one dot per pass waited on its own accumulator's latency,
+/// and was half the time of a ring-model evaluation).
+#[inline(always)]
+fn dots<const K: usize>(a: &[f32], bs: [&[f32]; K]) -> [f64; K] {
+    let n = bs.iter().fold(a.len(), |n, b| n.min(b.len()));
+    let whole = n / LANES * LANES;
+    let mut acc = [[0.0f32; LANES]; K];
+    for c in (0..whole).step_by(LANES) {
+        let x: &[f32; LANES] = a[c..c + LANES].try_into().expect("chunk of LANES");
+        for (acc_k, b) in acc.iter_mut().zip(&bs) {
+            let y: &[f32; LANES] = b[c..c + LANES].try_into().expect("chunk of LANES");
+            for l in 0..LANES {
+                acc_k[l] += x[l] * y[l];
+            }
         }
-        _mm_storeu_ps(lanes.as_mut_ptr(), lo);
-        _mm_storeu_ps(lanes.as_mut_ptr().add(4), hi);
     }
-    let mut s: f64 = lanes.iter().map(|&v| v as f64).sum();
-    for (x, y) in ra.iter().zip(rb) {
-        s += (x * y) as f64;
+    let mut out = [0.0f64; K];
+    for ((o, acc_k), b) in out.iter_mut().zip(&acc).zip(&bs) {
+        let mut s: f64 = acc_k.iter().map(|&v| v as f64).sum();
+        for (x, y) in a[whole..n].iter().zip(&b[whole..n]) {
+            s += (x * y) as f64;
+        }
+        *o = s;
     }
-    s
+    out
 }
 
-/// Dot product, lanes summed in f64 (portable form for other targets).
-#[cfg(not(target_arch = "x86_64"))]
-fn dot(a: &[f32], b: &[f32]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x * y) as f64).sum()
-}
+avx2_dispatch!(
+    /// Normal equations of the ring model (`profile_fit::ring_model`,
+    /// parameters x, y, b, A, s, B, R, w) over the window.
+    pub fn ring_normal(
+        win: &PixelWindow,
+        p: &SVector<f64, 8>,
+        cols: &mut Columns<8>,
+    ) -> NormalEquations<8> => ring_normal_lanes
+);
 
-/// Normal equations of the ring model (`profile_fit::ring_model`, parameters
-/// x, y, b, A, s, B, R, w) over the window.
-pub fn ring_normal(
+#[inline(always)]
+fn ring_normal_lanes(
     win: &PixelWindow,
     p: &SVector<f64, 8>,
     cols: &mut Columns<8>,
@@ -229,9 +250,18 @@ pub fn ring_normal(
     cols.normal_equations()
 }
 
-/// Normal equations of the spot model (`profile_fit::spot_model`, parameters
-/// x, y, b, A, s) over the window.
-pub fn spot_normal(
+avx2_dispatch!(
+    /// Normal equations of the spot model (`profile_fit::spot_model`,
+    /// parameters x, y, b, A, s) over the window.
+    pub fn spot_normal(
+        win: &PixelWindow,
+        p: &SVector<f64, 5>,
+        cols: &mut Columns<5>,
+    ) -> NormalEquations<5> => spot_normal_lanes
+);
+
+#[inline(always)]
+fn spot_normal_lanes(
     win: &PixelWindow,
     p: &SVector<f64, 5>,
     cols: &mut Columns<5>,

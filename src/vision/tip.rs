@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::frame::Frame;
 use super::least_squares::{Sample, levenberg_marquardt};
-use crate::render::probe::{ProbeShape, ProbeSilhouette, normal_cdf};
+use crate::render::probe::{PlacedSilhouette, ProbeShape, ProbeSilhouette, normal_cdf};
 
 /// Tip detection parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -74,15 +74,41 @@ impl TipDetection {
     }
 }
 
-/// The largest dark connected region, as pixel indices.
-fn dark_region(frame: &Frame, settings: &TipSettings) -> Option<Vec<usize>> {
-    let (w, h) = (frame.width(), frame.height());
+/// Median of a sample of about 65 536 of the frame's pixels: the background
+/// level (the probe and particles cover a minority of the frame).
+fn background_median(frame: &Frame) -> f32 {
     let px = frame.pixels();
     let step = (px.len() / 65536).max(1);
     let mut sample: Vec<f32> = px.iter().step_by(step).copied().collect();
     let mid = sample.len() / 2;
-    let median = *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
-    let black = px.iter().copied().fold(f32::INFINITY, f32::min);
+    *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
+}
+
+/// Lanes for the whole-frame scans below: fixed-width chunks whose
+/// per-lane minimum and "any below" compile to vector instructions, where a
+/// per-pixel fold or an early-exit test runs one pixel per cycle or worse.
+const SCAN_LANES: usize = 16;
+
+/// Smallest pixel value (NaN-free frames; a NaN would be skipped).
+fn darkest(px: &[f32]) -> f32 {
+    let chunks = px.chunks_exact(SCAN_LANES);
+    let mut lanes = [f32::INFINITY; SCAN_LANES];
+    for v in chunks.remainder() {
+        lanes[0] = if *v < lanes[0] { *v } else { lanes[0] };
+    }
+    for chunk in chunks {
+        for (m, &v) in lanes.iter_mut().zip(chunk) {
+            *m = if v < *m { v } else { *m };
+        }
+    }
+    lanes.into_iter().fold(f32::INFINITY, f32::min)
+}
+
+/// The largest dark connected region, as pixel indices.
+fn dark_region(frame: &Frame, settings: &TipSettings, median: f32) -> Option<Vec<usize>> {
+    let (w, h) = (frame.width(), frame.height());
+    let px = frame.pixels();
+    let black = darkest(px);
     if median - black <= 0.0 {
         return None;
     }
@@ -90,39 +116,49 @@ fn dark_region(frame: &Frame, settings: &TipSettings) -> Option<Vec<usize>> {
     let mut label = vec![false; w * h];
     let mut best: Option<Vec<usize>> = None;
     let mut stack = Vec::new();
-    for start in 0..w * h {
-        if label[start] || px[start] >= t {
+    // Skip whole chunks with no dark pixel (most of the frame) at once.
+    for chunk_start in (0..w * h).step_by(SCAN_LANES) {
+        let chunk_end = (chunk_start + SCAN_LANES).min(w * h);
+        if px[chunk_start..chunk_end]
+            .iter()
+            .fold(true, |all, &v| all & (v >= t))
+        {
             continue;
         }
-        let mut region = Vec::new();
-        label[start] = true;
-        stack.push(start);
-        while let Some(i) = stack.pop() {
-            region.push(i);
-            let (x, y) = (i % w, i / w);
-            let mut visit = |j: usize| {
-                if !label[j] && px[j] < t {
-                    label[j] = true;
-                    stack.push(j);
+        for start in chunk_start..chunk_end {
+            if label[start] || px[start] >= t {
+                continue;
+            }
+            let mut region = Vec::new();
+            label[start] = true;
+            stack.push(start);
+            while let Some(i) = stack.pop() {
+                region.push(i);
+                let (x, y) = (i % w, i / w);
+                let mut visit = |j: usize| {
+                    if !label[j] && px[j] < t {
+                        label[j] = true;
+                        stack.push(j);
+                    }
+                };
+                if x > 0 {
+                    visit(i - 1);
                 }
-            };
-            if x > 0 {
-                visit(i - 1);
+                if x + 1 < w {
+                    visit(i + 1);
+                }
+                if y > 0 {
+                    visit(i - w);
+                }
+                if y + 1 < h {
+                    visit(i + w);
+                }
             }
-            if x + 1 < w {
-                visit(i + 1);
+            if region.len() >= settings.min_area_px
+                && best.as_ref().is_none_or(|b| region.len() > b.len())
+            {
+                best = Some(region);
             }
-            if y > 0 {
-                visit(i - w);
-            }
-            if y + 1 < h {
-                visit(i + w);
-            }
-        }
-        if region.len() >= settings.min_area_px
-            && best.as_ref().is_none_or(|b| region.len() > b.len())
-        {
-            best = Some(region);
         }
     }
     best
@@ -202,53 +238,70 @@ fn edge_sigma(p: &SVector<f64, 8>) -> f64 {
     p[7].abs().max(0.05)
 }
 
-fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
-    p[5] * silhouette_of(p).transmission(px, py, edge_sigma(p))
+/// The tip model at parameters p, placed once: f(x, y) = level * (1 -
+/// opacity * Phi(-d / blur)), d the signed distance to the silhouette.
+struct TipModel {
+    placed: PlacedSilhouette,
+    level: f64,
+    opacity: f64,
+    sigma: f64,
+    blur_sign: f64,
 }
 
-/// Forward-difference steps for the geometry (apex x, y, angle, width, taper).
-const GEOMETRY_STEPS: [f64; 5] = [1e-4, 1e-4, 1e-6, 1e-4, 1e-4];
-
-/// Model f = level * (1 - opacity * Phi(-d / blur)) and its gradient. The
-/// level, opacity and blur derivatives are analytic; the geometry enters only
-/// through the signed distance d, so only d is differenced (5 distance
-/// evaluations per pixel instead of 8 full model evaluations).
-fn tip_model_grad(px: f64, py: f64, p: &SVector<f64, 8>, g: &mut SVector<f64, 8>) -> f64 {
-    let sigma = edge_sigma(p);
-    let d = silhouette_of(p).signed_distance(px, py);
-    let z = -d / sigma;
-    let covered = normal_cdf(z);
-    let density = (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt();
-    let (level, opacity) = (p[5], p[6]);
-    // df/dd = level * opacity * phi(z) / sigma.
-    let df_dd = level * opacity * density / sigma;
-    for (i, step) in GEOMETRY_STEPS.iter().enumerate() {
-        let mut q = *p;
-        q[i] += step;
-        g[i] = df_dd * (silhouette_of(&q).signed_distance(px, py) - d) / step;
+impl TipModel {
+    fn at(p: &SVector<f64, 8>) -> Self {
+        Self {
+            placed: silhouette_of(p).placed(),
+            level: p[5],
+            opacity: p[6],
+            sigma: edge_sigma(p),
+            // The blur enters as |p7| floored at 0.05: no gradient on the floor.
+            blur_sign: if p[7].abs() > 0.05 {
+                p[7].signum()
+            } else {
+                0.0
+            },
+        }
     }
-    g[5] = 1.0 - opacity * covered;
-    g[6] = -level * covered;
-    g[7] = if p[7].abs() > 0.05 {
-        -df_dd * (d / sigma) * p[7].signum()
-    } else {
-        0.0
-    };
-    level * (1.0 - opacity * covered)
+
+    fn value(&self, x: f64, y: f64) -> f64 {
+        let d = self.placed.signed_distance(x, y);
+        self.level * (1.0 - self.opacity * normal_cdf(-d / self.sigma))
+    }
+
+    /// Value and analytic gradient (the geometry through the signed
+    /// distance's gradient, see `PlacedSilhouette::signed_distance_grad`).
+    fn value_grad(&self, x: f64, y: f64, g: &mut SVector<f64, 8>) -> f64 {
+        let (d, dd) = self.placed.signed_distance_grad(x, y);
+        let z = -d / self.sigma;
+        let covered = normal_cdf(z);
+        let density = (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt();
+        // df/dd = level * opacity * phi(z) / sigma.
+        let df_dd = self.level * self.opacity * density / self.sigma;
+        for (gi, ddi) in g.iter_mut().zip(dd) {
+            *gi = df_dd * ddi;
+        }
+        g[5] = 1.0 - self.opacity * covered;
+        g[6] = -self.level * covered;
+        g[7] = -df_dd * (d / self.sigma) * self.blur_sign;
+        self.level * (1.0 - self.opacity * covered)
+    }
+}
+
+#[cfg(test)]
+fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
+    TipModel::at(p).value(px, py)
 }
 
 /// Finds the probe tip, or `None` when no probe silhouette is in view.
 pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection> {
     let (w, h) = (frame.width(), frame.height());
-    let region = dark_region(frame, settings)?;
+    let median = background_median(frame);
+    let region = dark_region(frame, settings, median)?;
     let (ax, ay, angle, width, taper) = initial_guess(&region, w, h);
     let inside: Vec<f64> = region.iter().map(|&i| frame.pixels()[i] as f64).collect();
     let dark = inside.iter().sum::<f64>() / inside.len() as f64;
-    let px = frame.pixels();
-    let step = (px.len() / 65536).max(1);
-    let mut sample: Vec<f32> = px.iter().step_by(step).copied().collect();
-    let mid = sample.len() / 2;
-    let bg = *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1 as f64;
+    let bg = median as f64;
     let opacity = (1.0 - dark / bg.max(1e-9)).clamp(0.05, 1.0);
     let mut p =
         SVector::<f64, 8>::from_column_slice(&[ax, ay, angle, width, taper, bg, opacity, 1.0]);
@@ -256,16 +309,8 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let mut weights_from: Option<(SVector<f64, 8>, f64)> = None;
     let mut score = 0.0;
     for _round in 0..3 {
-        let sil = ProbeSilhouette {
-            apex_x_px: p[0],
-            apex_y_px: p[1],
-            angle_rad: p[2],
-            shape: ProbeShape {
-                width_px: p[3],
-                taper_length_px: p[4],
-                opacity: 1.0,
-            },
-        };
+        let sil = silhouette_of(&p).placed();
+        let weighting = weights_from.map(|(q, s)| (TipModel::at(&q), s));
         let band = 3.0 * p[7].abs() + 3.0;
         let (x0, x1) = (
             (p[0] - radius).max(0.0) as usize,
@@ -286,9 +331,10 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
                     continue;
                 }
                 let v = frame.at(x, y) as f64;
-                let wgt = match weights_from {
+                let wgt = match &weighting {
                     Some((q, s)) => {
-                        let r = (v - tip_model(xf, yf, &q)).abs();
+                        let (q, s) = (q, *s);
+                        let r = (v - q.value(xf, yf)).abs();
                         if r <= 2.5 * s { 1.0 } else { 2.5 * s / r }
                     }
                     None => 1.0,
@@ -296,12 +342,17 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
                 samples.push((xf, yf, v, wgt));
             }
         }
-        let fit = levenberg_marquardt(&samples, p, 40, tip_model_grad).ok()?;
+        let fit = levenberg_marquardt(&samples, p, 40, |q| {
+            let model = TipModel::at(q);
+            move |x, y, g: &mut SVector<f64, 8>| model.value_grad(x, y, g)
+        })
+        .ok()?;
         p = fit.params;
         // Robust noise scale for the next round's weights.
+        let model = TipModel::at(&p);
         let mut abs_res: Vec<f64> = samples
             .iter()
-            .map(|s| (s.2 - tip_model(s.0, s.1, &p)).abs())
+            .map(|s| (s.2 - model.value(s.0, s.1)).abs())
             .collect();
         let m = abs_res.len() / 2;
         let mad = *abs_res.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1;
@@ -341,7 +392,7 @@ mod tests {
         let mut g = SVector::<f64, 8>::zeros();
         // Pixels near the taper edges, the side edges and the apex.
         for &(x, y) in &[(98.0, 83.0), (70.0, 85.0), (60.0, 40.0), (101.0, 81.0)] {
-            tip_model_grad(x, y, &p, &mut g);
+            TipModel::at(&p).value_grad(x, y, &mut g);
             for i in 0..8 {
                 let h = [1e-3, 1e-3, 1e-5, 1e-3, 1e-3, 1e-3, 1e-5, 1e-4][i];
                 let (mut a, mut b) = (p, p);
