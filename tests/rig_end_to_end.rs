@@ -21,8 +21,8 @@ use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const UM: f64 = 1e-6;
-/// The pattern: the planner refuses many CMU layouts today, and L on most
-/// of these layouts; L on the layout of seed 4 completes (see docs/rig.md).
+/// The pattern on the rig without a coarse stage: its 94 um of travel holds
+/// L, not CMU; L on the layout of seed 4 completes (see docs/rig.md).
 const TEXT: &str = "L";
 const SEED: u64 = 4;
 const PARTICLES: usize = 20;
