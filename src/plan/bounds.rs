@@ -16,7 +16,7 @@ use nalgebra::Vector2;
 
 /// Above [`EXACT_SPARSE_MAX_PAIRS`] LB_tip's relaxation is bounded from below
 /// within this fraction instead of solved exactly (still a lower bound).
-pub const LB_TIP_REL_GAP: f64 = 1e-3;
+pub const LB_TIP_REL_GAP: f64 = 1e-2;
 
 /// LB_tip of the pushes in `steps`, tip starting at `start` (None: free start).
 pub fn lb_tip(steps: &[Step], start: Option<Vector2<f64>>, config: &PlanConfig) -> f64 {
@@ -55,7 +55,8 @@ pub fn lb_tip(steps: &[Step], start: Option<Vector2<f64>>, config: &PlanConfig) 
         .chain(&ends)
         .all(|p| p.x.is_finite() && p.y.is_finite())
     {
-        // Large plans: a valid bound within 0.1 % of the optimum, at a fraction of its cost.
+        // Large plans: a valid bound within 1 % of the optimum, at a fraction of
+        // its cost (0.1 % took twice as long at N = 1,000: 0.35-0.44 s against 0.21 s).
         auction::lower_bound_m(&landings, &ends, LB_TIP_REL_GAP)
     } else {
         0.0
