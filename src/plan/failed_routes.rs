@@ -11,8 +11,8 @@ use nalgebra::Vector2;
 use std::collections::HashMap;
 
 /// What a search was: (move, particle, start x bits, start y bits, whether
-/// other particles counted).
-pub type SearchKey = (usize, usize, u64, u64, bool);
+/// other particles counted, most waypoints).
+pub type SearchKey = (usize, usize, u64, u64, bool, usize);
 
 /// Failed searches with the box (lower, upper corner, metres) each looked in.
 #[derive(Debug, Default)]
@@ -46,10 +46,10 @@ mod tests {
     #[test]
     fn a_failure_is_forgotten_only_when_its_box_is_touched() {
         let mut f = FailedRoutes::default();
-        let key = (3, 7, 1, 2, true);
+        let key = (3, 7, 1, 2, true, 2);
         f.remember(key, Vector2::new(0.0, 0.0), Vector2::new(10.0, 10.0));
         assert!(f.known(&key));
-        assert!(!f.known(&(3, 7, 1, 2, false)));
+        assert!(!f.known(&(3, 7, 1, 2, false, 2)));
         f.forget_near(Vector2::new(11.0, 0.0), Vector2::new(20.0, 5.0));
         assert!(f.known(&key), "a change beside the box keeps it");
         f.forget_near(Vector2::new(9.0, 9.0), Vector2::new(20.0, 20.0));

@@ -50,9 +50,25 @@ pub fn find_route(
     reach: Reach,
     free: &dyn Fn(&Corridor) -> bool,
 ) -> Option<Vec<Vector2<f64>>> {
+    find_route_within(from, to, radius_m, config, reach, 2, free)
+}
+
+/// [`find_route`] with at most `waypoints` (0, 1 or 2) waypoints.
+pub fn find_route_within(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    radius_m: f64,
+    config: &PlanConfig,
+    reach: Reach,
+    waypoints: usize,
+    free: &dyn Fn(&Corridor) -> bool,
+) -> Option<Vec<Vector2<f64>>> {
     let leg_free = |a: Vector2<f64>, b: Vector2<f64>| free(&Corridor::new(a, b, radius_m, config));
     if leg_free(from, to) {
         return Some(vec![to]);
+    }
+    if waypoints == 0 {
+        return None;
     }
     // Waypoints on rays from both ends. A waypoint on a ray from `to` needs a
     // free last leg into `to`, one on a ray from `from` a free first leg: its
@@ -95,6 +111,9 @@ pub fn find_route(
             };
             return Some(vec![w, to]);
         }
+    }
+    if waypoints == 1 {
+        return None;
     }
     // Two waypoints: free first leg to w1, free last leg from w2, test the middle.
     let first_ok = first_rays.open_points(|w| leg_free(from, w));
