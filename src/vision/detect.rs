@@ -59,6 +59,12 @@ pub struct DetectSettings {
     /// Keep only particles whose centre is darker (`Dark`) or brighter
     /// (`Bright`) than the background; `None` keeps both.
     pub polarity: Option<Polarity>,
+    /// Minimum centre-to-centre distance between reported particles, pixels:
+    /// of two closer ones only the more significant is kept (trackpy's
+    /// `separation`, by default its `diameter + 1`). `None` keeps the
+    /// locator's own merge distance; set it to compare against a tool that
+    /// was run with a given separation.
+    pub min_separation_px: Option<f64>,
 }
 
 /// Contrast of a particle's centre against the background.
@@ -81,6 +87,7 @@ impl Default for DetectSettings {
             locator: Locator::ProfileFit,
             roi: None,
             polarity: None,
+            min_separation_px: None,
         }
     }
 }
@@ -486,10 +493,39 @@ pub fn detect_particles_excluding(
         }
         out.push(d);
     }
+    if let Some(sep) = settings.min_separation_px {
+        keep_separated(&mut out, sep);
+    }
     if settings.locator == Locator::ProfileFit && model == ProfileModel::Ring {
         refine_touching(frame, &mut out, radius, settings);
     }
     Ok(out)
+}
+
+/// Keeps, most significant first, only particles at least `separation_px`
+/// from every particle already kept (trackpy's `drop_close`, ranked by
+/// quality instead of peak brightness). Order of the survivors is preserved.
+fn keep_separated(found: &mut Vec<Detection>, separation_px: f64) {
+    if !(separation_px.is_finite() && separation_px > 0.0) {
+        return;
+    }
+    let mut order: Vec<usize> = (0..found.len()).collect();
+    order.sort_by(|&a, &b| found[b].quality.total_cmp(&found[a].quality));
+    let sep2 = separation_px * separation_px;
+    let mut keep = vec![false; found.len()];
+    let mut kept: Vec<(f64, f64)> = Vec::with_capacity(found.len());
+    for i in order {
+        let (x, y) = (found[i].x_px, found[i].y_px);
+        if kept
+            .iter()
+            .all(|&(kx, ky)| (kx - x).powi(2) + (ky - y).powi(2) >= sep2)
+        {
+            keep[i] = true;
+            kept.push((x, y));
+        }
+    }
+    let mut k = keep.iter();
+    found.retain(|_| *k.next().unwrap_or(&false));
 }
 
 /// Refits every ring with a neighbour closer than 1.25 diameters on a window cut
@@ -523,5 +559,47 @@ fn refine_touching(frame: &Frame, found: &mut [Detection], radius: f64, settings
             d.y_px = f.y_px;
             d.sigma_px = f.sigma_px;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn det(x_px: f64, y_px: f64, quality: f64) -> Detection {
+        Detection {
+            x_px,
+            y_px,
+            r_px: 3.0,
+            sigma_px: 0.1,
+            quality,
+            edge_clipped: false,
+        }
+    }
+
+    #[test]
+    fn keep_separated_keeps_the_more_significant_of_close_pairs_in_order() {
+        // 0 and 1 are 10 px apart (1 wins), 2 is 10 px from 1 but 20 from 0,
+        // 3 is far from all; survivors keep their input order.
+        let mut found = vec![
+            det(0.0, 0.0, 5.0),
+            det(10.0, 0.0, 9.0),
+            det(20.0, 0.0, 4.0),
+            det(100.0, 0.0, 1.0),
+        ];
+        keep_separated(&mut found, 12.0);
+        let xs: Vec<f64> = found.iter().map(|d| d.x_px).collect();
+        assert_eq!(xs, vec![10.0, 100.0]);
+    }
+
+    #[test]
+    fn keep_separated_keeps_pairs_at_exactly_the_separation_and_ignores_bad_values() {
+        let mut found = vec![det(0.0, 0.0, 1.0), det(12.0, 0.0, 2.0)];
+        keep_separated(&mut found, 12.0);
+        assert_eq!(found.len(), 2);
+        let mut close = vec![det(0.0, 0.0, 1.0), det(1.0, 0.0, 2.0)];
+        keep_separated(&mut close, f64::NAN);
+        keep_separated(&mut close, -1.0);
+        assert_eq!(close.len(), 2);
     }
 }
