@@ -209,6 +209,7 @@ pub fn for_each_cell_near_segment(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::pushes::segment_distance;
 
     #[test]
     fn nearest_matches_brute_force() {
@@ -229,13 +230,6 @@ mod tests {
             grid.within(q, 8.0).len(),
             brute.iter().filter(|b| b.0 <= 8.0).count()
         );
-    }
-
-    /// Distance from p to the segment a-b.
-    fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
-        let ab = b - a;
-        let t = ((p - a).dot(&ab) / ab.norm_squared().max(1e-300)).clamp(0.0, 1.0);
-        (p - (a + ab * t)).norm()
     }
 
     #[test]

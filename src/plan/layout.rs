@@ -163,6 +163,15 @@ impl Layout {
         Ok(())
     }
 
+    /// Particle index by id (ids are unique in a valid layout).
+    pub fn index_by_id(&self) -> std::collections::HashMap<u32, usize> {
+        self.particles
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.id, i))
+            .collect()
+    }
+
     /// Largest particle radius (0 for an empty layout).
     pub fn max_radius_m(&self) -> f64 {
         self.particles

@@ -112,7 +112,7 @@ impl Corridor {
 }
 
 /// Distance from `p` to the segment a-b, metres.
-fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
+pub fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     let ab = b - a;
     let l2 = ab.norm_squared();
     let t = if l2 > 0.0 {

@@ -7,9 +7,9 @@
 //! it. This pass does the relocating that stays safe: Or-opt (a run of one
 //! to three moves taken out and put back elsewhere) over candidate places
 //! next to the moves whose ends are nearest, each accepted only when the
-//! pushes it reorders still miss every particle where it then is. A move
-//! is the run of consecutive pushes of one particle (a route's legs stay
-//! together), and each particle's moves keep their order.
+//! pushes it reorders still start where their particles are and miss every
+//! particle where it then is. A move is the run of consecutive pushes of one
+//! particle (a route's legs stay together).
 
 use super::grid::Grid;
 use super::layout::Layout;
@@ -17,7 +17,6 @@ use super::occupancy::Occupancy;
 use super::pushes::{Corridor, landing_point, tip_end};
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
-use std::collections::HashMap;
 
 /// Longest run of moves relocated at once.
 const MAX_RUN: usize = 3;
@@ -91,12 +90,7 @@ pub fn shorten_tip_travel(
 
 /// Splits the pushes into moves; None if a step is not a push of a known particle.
 fn moves_of(steps: &[Step], layout: &Layout, config: &PlanConfig) -> Option<Vec<Move>> {
-    let index: HashMap<u32, usize> = layout
-        .particles
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (p.id, i))
-        .collect();
+    let index = layout.index_by_id();
     let mut moves: Vec<Move> = Vec::new();
     for (i, step) in steps.iter().enumerate() {
         let Step::Push {
@@ -164,14 +158,10 @@ impl Tour<'_> {
     /// none gains.
     fn improve_once(&self, order: &mut Vec<usize>) -> bool {
         let n = order.len();
-        let pos = |order: &[usize]| {
-            let mut p = vec![0; n];
-            for (i, &m) in order.iter().enumerate() {
-                p[m] = i;
-            }
-            p
-        };
-        let at = pos(order);
+        let mut at = vec![0; n];
+        for (i, &m) in order.iter().enumerate() {
+            at[m] = i;
+        }
         let mut candidates: Vec<(f64, usize, usize, usize)> = Vec::new();
         for len in 1..=MAX_RUN.min(n - 1) {
             for i in 0..=n - len {
@@ -197,7 +187,7 @@ impl Tour<'_> {
         for &(_, i, len, j) in candidates.iter().take(4 * NEIGHBOURS) {
             let moved = relocated(order, i, len, j);
             let (lo, hi) = (i.min(j), (i + len).max(j));
-            if self.keeps_particle_order(&moved, lo, hi) && self.collision_free(&moved, lo, hi) {
+            if self.collision_free(&moved, lo, hi) {
                 debug_assert!(self.travel(&moved) < self.travel(order));
                 *order = moved;
                 return true;
@@ -224,19 +214,9 @@ impl Tour<'_> {
         gain
     }
 
-    /// True when no particle's moves change order within `lo..hi`.
-    fn keeps_particle_order(&self, moved: &[usize], lo: usize, hi: usize) -> bool {
-        let mut last_seen: HashMap<usize, usize> = HashMap::new();
-        moved[lo..hi.min(moved.len())].iter().all(|&m| {
-            let p = self.moves[m].particle;
-            let ok = last_seen.get(&p).is_none_or(|&prev| prev < m);
-            last_seen.insert(p, m);
-            ok
-        })
-    }
-
-    /// True when every push of the moves in `order[lo..hi]` misses every
-    /// other particle where it is at that moment.
+    /// True when every push of the moves in `order[lo..hi]` starts where its
+    /// particle is at that moment (so each particle's moves keep their
+    /// order) and misses every other particle where it then is.
     fn collision_free(&self, order: &[usize], lo: usize, hi: usize) -> bool {
         let mut occ = Occupancy::new(self.layout);
         for &m in &order[..lo] {

@@ -113,12 +113,7 @@ pub fn verify_plan_with(
     let standoff = geometry.standoff_um * 1e-6;
     let range = geometry.nanostage_range_um * 1e-6;
     let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
-    let index: HashMap<u32, usize> = layout
-        .particles
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (p.id, i))
-        .collect();
+    let index = layout.index_by_id();
     let mut rep = VerifyReport {
         schema: "nanopush.verify/1",
         ..Default::default()
