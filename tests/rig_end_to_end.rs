@@ -15,6 +15,7 @@ use nanopush::plan::Layout;
 use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
 use nanopush::rig::gcs::{RigFile, SimConfig, SimFault, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
+use nanopush::rig::sim::world::World;
 use nanopush::vision::frame_input::save_png;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
@@ -186,6 +187,20 @@ fn coarse_bench(time_scale: f64) -> Bench {
 }
 
 impl Bench {
+    /// The run's JSON report, after checking that it finished every site as
+    /// the simulated rig's `reference` run did, with the camera as the error
+    /// source, the microscope still running and no stage moving.
+    fn completed_like(&self, out: &Output, reference: &serde_json::Value) -> serde_json::Value {
+        let report = json(out);
+        assert_eq!(report["outcome"], "done", "{report}");
+        assert_eq!(report["filled"], report["sites"], "{report}");
+        assert_eq!(report["sites"], reference["sites"]);
+        assert_eq!(report["error_source"], "camera");
+        assert!(self.feeder.is_running(), "the simulated microscope failed");
+        assert!(!self.moving(), "a stage was left moving");
+        report
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -306,6 +321,20 @@ fn reference_run(dir: &Path, args: &[&str]) -> serde_json::Value {
     reference
 }
 
+/// Per site, the distance to the nearest particle of the simulated world, nm.
+fn nearest_particle_nm(world: &World, sites: &[[f64; 2]]) -> Vec<f64> {
+    sites
+        .iter()
+        .map(|s| {
+            world
+                .particles
+                .iter()
+                .map(|p| (p.x_m - s[0]).hypot(p.y_m - s[1]) * 1e9)
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect()
+}
+
 /// Root mean square and largest of `errors`.
 fn rms_max(errors: &[f64]) -> (f64, f64) {
     let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
@@ -357,29 +386,13 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
     std::fs::write(b.frames.join("frame_99999999.png"), png).unwrap();
     let out = finish(child, RUN_LIMIT);
     assert!(out.status.success(), "{}", failed(out.status, &out));
-    let report = json(&out);
-    assert_eq!(report["outcome"], "done", "{report}");
-    assert_eq!(report["filled"], report["sites"], "{report}");
-    assert_eq!(report["sites"], reference["sites"]);
-    assert_eq!(report["error_source"], "camera");
-    assert!(b.feeder.is_running(), "the simulated microscope failed");
-    assert!(!b.moving(), "the stage was left moving");
+    let report = b.completed_like(&out, &reference);
 
     // Ground truth: the particles of the simulated world, against the sites.
     let run_dir = b.dir.path().join("run");
     let sites = sites_m(&run_dir);
     let world = b.feeder.world();
-    let errors_nm: Vec<f64> = sites
-        .iter()
-        .map(|s| {
-            world
-                .world
-                .particles
-                .iter()
-                .map(|p| (p.x_m - s[0]).hypot(p.y_m - s[1]) * 1e9)
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
+    let errors_nm = nearest_particle_nm(&world.world, &sites);
     let (rms, max) = rms_max(&errors_nm);
     eprintln!(
         "GCS rig: {} sites, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes, {:.1} s wall; \
@@ -511,13 +524,7 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     let out = finish(b.assemble("run", &["--json"]), RUN_LIMIT);
     let wall_s = started.elapsed().as_secs_f64();
     assert!(out.status.success(), "{}", failed(out.status, &out));
-    let report = json(&out);
-    assert_eq!(report["outcome"], "done", "{report}");
-    assert_eq!(report["filled"], report["sites"], "{report}");
-    assert_eq!(report["sites"], reference["sites"]);
-    assert_eq!(report["error_source"], "camera");
-    assert!(b.feeder.is_running(), "the simulated microscope failed");
-    assert!(!b.moving(), "a stage was left moving");
+    let report = b.completed_like(&out, &reference);
 
     // The coarse stage was used: the journal holds coarse moves and the
     // coarse controller is no longer where it started.
@@ -538,19 +545,14 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
         AffineCalibration::load(&manifest().join("calib/camera-stage-sim-coarse.toml")).unwrap();
     let world = b.feeder.world();
     let offset = world.coarse_offset_m(&end_units);
-    let errors_nm: Vec<f64> = sites_px(&run_dir)
+    let sites: Vec<[f64; 2]> = sites_px(&run_dir)
         .iter()
         .map(|px| {
             let [x, y] = calibration.pixel_to_stage_m(px[0], px[1]);
-            let site = [x + offset[0], y + offset[1]];
-            world
-                .world
-                .particles
-                .iter()
-                .map(|p| (p.x_m - site[0]).hypot(p.y_m - site[1]) * 1e9)
-                .fold(f64::INFINITY, f64::min)
+            [x + offset[0], y + offset[1]]
         })
         .collect();
+    let errors_nm = nearest_particle_nm(&world.world, &sites);
     let (rms, max) = rms_max(&errors_nm);
     eprintln!(
         "GCS rig with coarse stage: {} sites, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes, \
