@@ -24,6 +24,22 @@ fn rig_text(port: u16) -> String {
         .replace("127.0.0.1:50000", &format!("127.0.0.1:{port}"))
 }
 
+/// `nanopush rig probe --rig RIG`'s output, which must succeed.
+fn probe(rig: &std::path::Path) -> String {
+    let out = nanopush()
+        .args(["rig", "probe", "--rig"])
+        .arg(rig)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
 #[test]
 fn probe_reads_a_running_simulator() {
     let mut child = nanopush()
@@ -42,17 +58,7 @@ fn probe_reads_a_running_simulator() {
     let dir = tempfile::tempdir().unwrap();
     let rig = dir.path().join("rig.toml");
     std::fs::write(&rig, rig_text(port)).unwrap();
-    let out = nanopush()
-        .args(["rig", "probe", "--rig"])
-        .arg(&rig)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = probe(&rig);
     assert!(text.contains("GCS syntax:     2"), "{text}");
     assert!(text.contains("axes:           1 2 3"), "{text}");
     assert!(text.contains("pending error:  none"), "{text}");
@@ -124,17 +130,7 @@ fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
             ),
         );
     std::fs::write(&rig, text).unwrap();
-    let out = nanopush()
-        .args(["rig", "probe", "--rig"])
-        .arg(&rig)
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let text = probe(&rig);
     let (stage, coarse_part) = text.split_once("coarse stage:").expect("a coarse section");
     assert!(stage.contains("axes:           1 2 3"), "{text}");
     assert!(coarse_part.contains("C-884"), "{text}");
