@@ -97,11 +97,14 @@ pub fn open_stage(
     waive_confirmation: bool,
     interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<(GcsStage, Option<SentLog>), GcsError> {
-    let (controller, log) = connect(rig, dry_run)?;
-    let confirmation =
-        FirstMoveConfirmation::for_rig(rig.stage.real_hardware, dry_run, waive_confirmation);
-    let stage = GcsStage::new(controller, rig.stage_settings(), confirmation, interrupt)?;
-    Ok((stage, log))
+    open_section(
+        &rig.stage,
+        rig.stage_settings(),
+        SimConfig::default(),
+        dry_run,
+        waive_confirmation,
+        interrupt,
+    )
 }
 
 /// [`open_stage`] for the rig file's coarse stage: the same checks under its
@@ -112,9 +115,28 @@ pub fn open_coarse_stage(
     waive_confirmation: bool,
     interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<(GcsStage, Option<SentLog>), GcsError> {
-    let (controller, log) = connect_coarse(coarse, dry_run)?;
+    open_section(
+        &coarse.stage,
+        coarse.stage_settings(),
+        SimConfig::coarse(),
+        dry_run,
+        waive_confirmation,
+        interrupt,
+    )
+}
+
+/// Opens one controller section as a checked stage under `settings`.
+fn open_section(
+    section: &StageSection,
+    settings: StageSettings,
+    dry_run_sim: SimConfig,
+    dry_run: bool,
+    waive_confirmation: bool,
+    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Result<(GcsStage, Option<SentLog>), GcsError> {
+    let (controller, log) = connect_section(section, dry_run, dry_run_sim)?;
     let confirmation =
-        FirstMoveConfirmation::for_rig(coarse.stage.real_hardware, dry_run, waive_confirmation);
-    let stage = GcsStage::new(controller, coarse.stage_settings(), confirmation, interrupt)?;
+        FirstMoveConfirmation::for_rig(section.real_hardware, dry_run, waive_confirmation);
+    let stage = GcsStage::new(controller, settings, confirmation, interrupt)?;
     Ok((stage, log))
 }
