@@ -138,6 +138,10 @@ pub struct Walled {
 
 /// Peels the sites of `obstacles`; `starts[k]` and `radius[k]` are move k's
 /// particle position and radius.
+///
+/// Cost: each move's straight corridor is tested once; a site's removal
+/// updates the counts of the moves it blocked or covered (inverse lists),
+/// so a step costs a scan of the candidates, not a corridor test each.
 pub fn peel(
     obstacles: &SiteObstacles,
     starts: &[Vector2<f64>],
@@ -148,45 +152,52 @@ pub fn peel(
     let m = starts.len();
     let mut rank: Vec<Option<usize>> = vec![None; m];
     let mut route: Vec<Option<Vec<Vector2<f64>>>> = vec![None; m];
-    let mut straight = vec![false; m];
-    let covered: Vec<Vec<usize>> = (0..m)
-        .map(|k| obstacles.covered_by(starts[k], radius[k]))
-        .collect();
+    // `covering[k]`: other remaining sites move k's particle covers now (it
+    // cannot be the last of them). `blocking[k]`: remaining sites its
+    // straight push hits; `fixed_free[k]`: that push misses every fixed particle.
+    let mut covering = vec![0usize; m];
+    let mut blocking = vec![0usize; m];
+    let mut covered_by_site: Vec<Vec<usize>> = vec![Vec::new(); m];
+    let mut blocked_by_site: Vec<Vec<usize>> = vec![Vec::new(); m];
+    let mut fixed_free = vec![false; m];
+    for k in 0..m {
+        for s in obstacles.covered_by(starts[k], radius[k]) {
+            if s != k {
+                covering[k] += 1;
+                covered_by_site[s].push(k);
+            }
+        }
+        let c = Corridor::new(starts[k], obstacles.site(k), radius[k], config);
+        fixed_free[k] = obstacles.misses(&c, |_| false);
+        for s in obstacles.sites_hit(&c) {
+            if s != k {
+                blocking[k] += 1;
+                blocked_by_site[s].push(k);
+            }
+        }
+    }
+    let mut remaining: Vec<usize> = (0..m).collect();
+    let mut site_sum: Vector2<f64> = (0..m).map(|k| obstacles.site(k)).sum();
     for step in (0..m).rev() {
         // Remaining sites are the ones without a rank (all filled before `step`).
         let filled = |s: usize| rank[s].is_none();
-        let remaining: Vec<usize> = (0..m).filter(|&k| rank[k].is_none()).collect();
+        let centroid = site_sum / remaining.len() as f64;
         // A move whose particle still covers another remaining site cannot be
         // the last of them: that site is filled after the particle has left.
-        let eligible: Vec<usize> = remaining
-            .iter()
-            .copied()
-            .filter(|&k| covered[k].iter().all(|&s| s == k || !filled(s)))
-            .collect();
-        for &k in &eligible {
-            if !straight[k] {
-                let c = Corridor::new(starts[k], obstacles.site(k), radius[k], config);
-                straight[k] = obstacles.misses(&c, |s| s != k && filled(s));
-            }
-        }
-        let centroid = remaining
-            .iter()
-            .map(|&k| obstacles.site(k))
-            .sum::<Vector2<f64>>()
-            / remaining.len() as f64;
+        let eligible = remaining.iter().copied().filter(|&k| covering[k] == 0);
         // Outermost straight move first; else the shortest detour.
         let pick = eligible
-            .iter()
-            .filter(|&&k| straight[k])
-            .max_by(|&&a, &&b| {
+            .clone()
+            .filter(|&k| fixed_free[k] && blocking[k] == 0)
+            .max_by(|&a, &b| {
                 let da = (obstacles.site(a) - centroid).norm();
                 let db = (obstacles.site(b) - centroid).norm();
                 da.total_cmp(&db).then(b.cmp(&a))
             })
-            .map(|&k| (k, vec![obstacles.site(k)]));
+            .map(|k| (k, vec![obstacles.site(k)]));
         let pick = pick.or_else(|| {
             let mut best: Option<(f64, usize, Vec<Vector2<f64>>)> = None;
-            for &k in &eligible {
+            for k in eligible {
                 let free = |c: &Corridor| obstacles.misses(c, |s| s != k && filled(s));
                 let found = route[k].clone().or_else(|| {
                     find_route(
@@ -209,20 +220,25 @@ pub fn peel(
             }
             best.map(|(_, k, r)| (k, r))
         });
-        match pick {
-            Some((k, r)) => {
-                rank[k] = Some(step);
-                route[k] = Some(r);
-            }
-            None => {
-                let first = obstacles.site(remaining[0]);
-                return Err(Walled {
-                    stuck: remaining.clone(),
-                    walled: remaining.len(),
-                    x_um: first.x * 1e6,
-                    y_um: first.y * 1e6,
-                });
-            }
+        let Some((k, r)) = pick else {
+            let first = obstacles.site(remaining[0]);
+            return Err(Walled {
+                stuck: remaining.clone(),
+                walled: remaining.len(),
+                x_um: first.x * 1e6,
+                y_um: first.y * 1e6,
+            });
+        };
+        rank[k] = Some(step);
+        route[k] = Some(r);
+        let at = remaining.iter().position(|&q| q == k).expect("picked from remaining");
+        remaining.remove(at);
+        site_sum -= obstacles.site(k);
+        for &q in &covered_by_site[k] {
+            covering[q] -= 1;
+        }
+        for &q in &blocked_by_site[k] {
+            blocking[q] -= 1;
         }
     }
     Ok(FillOrder {
