@@ -45,3 +45,21 @@ fn cmu_first_plan_of_sim_seed_28_plans() {
     // no free buffer spot; another particle can take the site.
     assert_plans_every_site("cmu-seed28-first", "58.75,35");
 }
+
+#[test]
+fn a_block_of_600_sites_whose_only_ready_move_is_blocked_by_a_pending_particle_plans() {
+    use nanopush::plan::assignment::block_instance;
+    use nanopush::plan::pattern::numbered_sites;
+    use nanopush::plan::{PlanConfig, plan_assembly, verify_plan};
+    // Refused once (seed 8 of `nanopush study plan --sizes 600`): the one
+    // ready move's long push was blocked by a particle still to move, in a
+    // crowd with no buffer spot and no two-waypoint detour. That particle
+    // lies on the way, nearer the site: it takes the site over (swap_nearer).
+    let (sites, layout) = block_instance(600, 8);
+    let config = PlanConfig::default();
+    let plan = plan_assembly(&layout, &numbered_sites(sites.iter().copied()), &config)
+        .unwrap_or_else(|e| panic!("refused: {e}"));
+    let rep = verify_plan(&plan, &layout, &config);
+    assert!(rep.ok, "replay: {}", rep.summary());
+    assert_eq!(plan.summary.pushes, rep.pushes);
+}

@@ -51,7 +51,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1.0)]
     pub speed_um_s: f64,
     /// Assignment method.
-    #[arg(long, value_enum, default_value_t = AssignmentMethod::Exact)]
+    #[arg(long, value_enum, default_value_t = AssignmentMethod::Fast)]
     pub method: AssignmentMethod,
     /// Write the plan here (nanopush.plan/1 JSON).
     #[arg(long)]

@@ -58,7 +58,8 @@ pub struct PlanConfig {
     pub nanostage_range_m: f64,
     /// A particle within this distance of a site counts as already on it (default 0.25 um).
     pub on_site_tolerance_m: f64,
-    /// Assignment method (default exact).
+    /// Assignment method (default `Fast`: exact on small instances, the
+    /// auction within a proven 0.01 % gap on large ones).
     pub method: AssignmentMethod,
     /// Where the tip starts; None = the first push's landing point.
     pub tip_start_m: Option<Vector2<f64>>,
@@ -78,7 +79,7 @@ impl Default for PlanConfig {
             travel_speed_m_per_s: 10e-6,
             nanostage_range_m: 100e-6,
             on_site_tolerance_m: 0.25e-6,
-            method: AssignmentMethod::Exact,
+            method: AssignmentMethod::Fast,
             tip_start_m: None,
             immovable: Vec::new(),
         }
@@ -284,10 +285,11 @@ fn assign_and_order(
     sites: &[Site],
     config: &PlanConfig,
 ) -> Result<(Assigned, order::Ordered), PlanError> {
+    let problem = FreeProblem::new(layout, sites, config)?;
     let mut forbidden: Vec<(usize, usize)> = Vec::new();
     let mut tries = 0;
     loop {
-        let assigned = assign_with_fixed(layout, sites, config, &forbidden)?;
+        let assigned = problem.assigned(&forbidden);
         let refusal = match order::order_moves(
             layout,
             sites,
@@ -330,99 +332,120 @@ struct Assigned {
 /// (dense method); above it the plain assignment is used.
 const PARKING_AWARE_MAX_PAIRS: usize = 250_000;
 
-/// Assignment with particles already on a site kept there. For exact
-/// methods on small instances, unassigned particles that cover a site pay
-/// the push that clears them ([`assignment::with_parking`]).
-/// `forbidden` (particle index, site index) pairs are avoided when possible
-/// (dense method, small instances only).
-fn assign_with_fixed(
-    layout: &Layout,
-    sites: &[Site],
-    config: &PlanConfig,
-    forbidden: &[(usize, usize)],
-) -> Result<Assigned, PlanError> {
-    let grid = grid::Grid::new(
-        layout.particles.iter().map(|p| p.centre_m),
-        layout.max_radius_m() * 2.0,
-    );
-    let mut particle_taken = vec![false; layout.particles.len()];
-    let mut pairs = Vec::new();
-    let mut on_site = Vec::new();
-    let mut free_sites = Vec::new();
-    for (si, s) in sites.iter().enumerate() {
-        match grid.nearest(s.centre_m, 1).first() {
-            Some(&(d, p))
-                if d <= config.on_site_tolerance_m
-                    && !particle_taken[p]
-                    && !config.immovable.contains(&layout.particles[p].id) =>
-            {
-                particle_taken[p] = true;
-                pairs.push((p, si));
-                on_site.push(p);
+/// The assignment problem of the sites not yet filled, solved once per plan
+/// (re-assignments after a refused order only add forbidden pairs).
+struct FreeProblem {
+    /// (particle index, site index) of particles already on a site.
+    on_site_pairs: Vec<(usize, usize)>,
+    free_sites: Vec<usize>,
+    free_particles: Vec<usize>,
+    site_pts: Vec<Vector2<f64>>,
+    part_pts: Vec<Vector2<f64>>,
+    /// The plain assignment (free-site index -> free-particle index).
+    plain: Vec<usize>,
+    /// Parking cost of every free particle (empty on large instances).
+    park: Vec<f64>,
+    lb_push_m: f64,
+}
+
+impl FreeProblem {
+    /// Particles already on a site are kept there; the rest is assigned with
+    /// `config.method`. For exact methods on small instances, unassigned
+    /// particles that cover a site pay the push that clears them
+    /// ([`assignment::with_parking`]).
+    fn new(layout: &Layout, sites: &[Site], config: &PlanConfig) -> Result<Self, PlanError> {
+        let grid = grid::Grid::new(
+            layout.particles.iter().map(|p| p.centre_m),
+            layout.max_radius_m() * 2.0,
+        );
+        let mut particle_taken = vec![false; layout.particles.len()];
+        let mut on_site_pairs = Vec::new();
+        let mut free_sites = Vec::new();
+        for (si, s) in sites.iter().enumerate() {
+            match grid.nearest(s.centre_m, 1).first() {
+                Some(&(d, p))
+                    if d <= config.on_site_tolerance_m
+                        && !particle_taken[p]
+                        && !config.immovable.contains(&layout.particles[p].id) =>
+                {
+                    particle_taken[p] = true;
+                    on_site_pairs.push((p, si));
+                }
+                _ => free_sites.push(si),
             }
-            _ => free_sites.push(si),
         }
-    }
-    let free_particles: Vec<usize> = (0..layout.particles.len())
-        .filter(|&p| !particle_taken[p] && !config.immovable.contains(&layout.particles[p].id))
-        .collect();
-    if free_particles.len() < free_sites.len() {
-        return Err(assignment::AssignmentError::TooFewParticles {
-            sites: free_sites.len(),
-            particles: free_particles.len(),
+        let free_particles: Vec<usize> = (0..layout.particles.len())
+            .filter(|&p| !particle_taken[p] && !config.immovable.contains(&layout.particles[p].id))
+            .collect();
+        if free_particles.len() < free_sites.len() {
+            return Err(assignment::AssignmentError::TooFewParticles {
+                sites: free_sites.len(),
+                particles: free_particles.len(),
+            }
+            .into());
         }
-        .into());
-    }
-    let site_pts: Vec<Vector2<f64>> = free_sites.iter().map(|&s| sites[s].centre_m).collect();
-    let part_pts: Vec<Vector2<f64>> = free_particles
-        .iter()
-        .map(|&p| layout.particles[p].centre_m)
-        .collect();
-    let plain = assignment::assign(&site_pts, &part_pts, config.method)?;
-    let exact_method = matches!(
-        config.method,
-        AssignmentMethod::Exact
-            | AssignmentMethod::Auction
-            | AssignmentMethod::Dense
-            | AssignmentMethod::Lp
-    );
-    let park = if exact_method && site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS {
-        park_costs(layout, &site_pts, &free_particles, config)
-    } else {
-        Vec::new()
-    };
-    let banned: Vec<(usize, usize)> = forbidden
-        .iter()
-        .filter_map(|&(p, s)| {
-            let k = free_sites.iter().position(|&f| f == s)?;
-            let j = free_particles.iter().position(|&f| f == p)?;
-            Some((j, k))
+        let site_pts: Vec<Vector2<f64>> = free_sites.iter().map(|&s| sites[s].centre_m).collect();
+        let part_pts: Vec<Vector2<f64>> = free_particles
+            .iter()
+            .map(|&p| layout.particles[p].centre_m)
+            .collect();
+        let plain = assignment::assign(&site_pts, &part_pts, config.method)?;
+        let park = if config.method != AssignmentMethod::Greedy
+            && site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS
+        {
+            park_costs(layout, &site_pts, &free_particles, config)
+        } else {
+            Vec::new()
+        };
+        let fixed: f64 = on_site_pairs
+            .iter()
+            .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
+            .sum();
+        // LB_push: the method's own bound (the optimum, or within the fast
+        // path's gap below it); greedy has none, so compare with the optimum.
+        let free_lb = match plain.lower_bound_m {
+            Some(lb) => lb,
+            None => assignment::assign(&site_pts, &part_pts, AssignmentMethod::Exact)?.cost_m,
+        };
+        Ok(FreeProblem {
+            on_site_pairs,
+            free_sites,
+            free_particles,
+            site_pts,
+            part_pts,
+            plain: plain.site_to_particle,
+            park,
+            lb_push_m: free_lb + fixed,
         })
-        .collect();
-    let small = site_pts.len() * part_pts.len() <= PARKING_AWARE_MAX_PAIRS;
-    let chosen = if small && (!banned.is_empty() || park.iter().any(|&c| c > 0.0)) {
-        assignment::with_parking::solve(&site_pts, &part_pts, &park, &banned)
-    } else {
-        plain.site_to_particle.clone()
-    };
-    for (k, &p) in chosen.iter().enumerate() {
-        pairs.push((free_particles[p], free_sites[k]));
     }
-    let fixed: f64 = pairs[..on_site.len()]
-        .iter()
-        .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
-        .sum();
-    // LB_push is the optimum only for exact methods; for others compare with it.
-    let free_lb = if exact_method {
-        plain.cost_m
-    } else {
-        assignment::assign(&site_pts, &part_pts, AssignmentMethod::Exact)?.cost_m
-    };
-    Ok(Assigned {
-        pairs,
-        on_site,
-        lb_push_m: free_lb + fixed,
-    })
+
+    /// The assignment avoiding `forbidden` (particle index, site index)
+    /// pairs where it can (small instances only).
+    fn assigned(&self, forbidden: &[(usize, usize)]) -> Assigned {
+        let banned: Vec<(usize, usize)> = forbidden
+            .iter()
+            .filter_map(|&(p, s)| {
+                let k = self.free_sites.iter().position(|&f| f == s)?;
+                let j = self.free_particles.iter().position(|&f| f == p)?;
+                Some((j, k))
+            })
+            .collect();
+        let small = self.site_pts.len() * self.part_pts.len() <= PARKING_AWARE_MAX_PAIRS;
+        let chosen = if small && (!banned.is_empty() || self.park.iter().any(|&c| c > 0.0)) {
+            assignment::with_parking::solve(&self.site_pts, &self.part_pts, &self.park, &banned)
+        } else {
+            self.plain.clone()
+        };
+        let mut pairs = self.on_site_pairs.clone();
+        for (k, &p) in chosen.iter().enumerate() {
+            pairs.push((self.free_particles[p], self.free_sites[k]));
+        }
+        Assigned {
+            pairs,
+            on_site: self.on_site_pairs.iter().map(|&(p, _)| p).collect(),
+            lb_push_m: self.lb_push_m,
+        }
+    }
 }
 
 /// Parking cost of every free particle (0 unless it covers a free site).

@@ -486,7 +486,8 @@ impl Scheduler<'_> {
                 }
             }
         }
-        false
+        // Last resort before refusing: blockers nearer the site take it over.
+        blocked.iter().any(|&(k, q)| self.swap_nearer(k, q))
     }
 
     /// Route for move k's site with `particle` starting at `from`, missing
@@ -571,6 +572,23 @@ impl Scheduler<'_> {
     /// (so the swap makes progress) and the other changed move has a route
     /// (with at most `waypoints` waypoints).
     fn swap_with(&mut self, k: usize, q: usize, waypoints: usize) -> bool {
+        self.swap_if(k, q, waypoints, true)
+    }
+
+    /// Hands move k to particle q when q is nearer k's site than k's
+    /// particle: its route need only miss the sites (it may be blocked by
+    /// particles nearer still, swapped in their turn). A blocker on the way
+    /// costs nothing to swap with (triangle inequality), and each swap
+    /// brings move k's particle nearer its site, so chains of them end.
+    fn swap_nearer(&mut self, k: usize, q: usize) -> bool {
+        let site = self.obstacles.site(k);
+        let p = self.moves[k].particle;
+        (self.occ.pos[q] - site).norm() < (self.occ.pos[p] - site).norm()
+            && self.swap_if(k, q, 0, false)
+    }
+
+    /// [`Self::swap_with`]; `dynamic`: q's new route must miss every particle now.
+    fn swap_if(&mut self, k: usize, q: usize, waypoints: usize, dynamic: bool) -> bool {
         let p = self.moves[k].particle;
         let banned =
             |particle: usize, m: usize| self.banned.contains(&(particle, self.moves[m].site_index));
@@ -579,7 +597,7 @@ impl Scheduler<'_> {
         }
         match self.role[q] {
             Role::Idle => {
-                let Some(route) = self.route_for(k, q, self.occ.pos[q], true, waypoints) else {
+                let Some(route) = self.route_for(k, q, self.occ.pos[q], dynamic, waypoints) else {
                     return false;
                 };
                 self.moves[k].particle = q;
@@ -590,7 +608,8 @@ impl Scheduler<'_> {
                 true
             }
             Role::Pending(m) => {
-                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], true, waypoints) else {
+                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], dynamic, waypoints)
+                else {
                     return false;
                 };
                 let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false, waypoints) else {

@@ -231,7 +231,10 @@ pub fn peel(
         };
         rank[k] = Some(step);
         route[k] = Some(r);
-        let at = remaining.iter().position(|&q| q == k).expect("picked from remaining");
+        let at = remaining
+            .iter()
+            .position(|&q| q == k)
+            .expect("picked from remaining");
         remaining.remove(at);
         site_sum -= obstacles.site(k);
         for &q in &covered_by_site[k] {

@@ -42,6 +42,10 @@ pub enum AssignmentMethod {
     Exact,
     /// Epsilon-scaling auction at any size (exact for distances rounded to diag / 1e9).
     Auction,
+    /// The large-N fast path: exact up to [`EXACT_SPARSE_MAX_PAIRS`] pairs;
+    /// above, the auction stopped at a proven gap of [`FAST_REL_GAP`], with
+    /// its dual bound as the lower bound.
+    Fast,
     /// Exact, dense Jonker-Volgenant style; O(n^2 m), reference only.
     Dense,
     /// Greedy nearest particle; fast, not optimal.
@@ -57,6 +61,9 @@ pub struct Assignment {
     pub site_to_particle: Vec<usize>,
     /// Sum of straight-line distances, metres.
     pub cost_m: f64,
+    /// A proven lower bound of the optimal cost, metres: the cost itself for
+    /// exact methods, the dual bound for `Fast`; None for greedy.
+    pub lower_bound_m: Option<f64>,
 }
 
 /// Ways an assignment can fail.
@@ -103,6 +110,10 @@ pub fn assignment_cost(sites: &[Vector2<f64>], particles: &[Vector2<f64>], s2p: 
 /// it the auction is faster (measured in `nanopush study plan`).
 pub const EXACT_SPARSE_MAX_PAIRS: usize = 5_000;
 
+/// Proven relative gap at which `Fast` stops the auction: 0.01 %, far below
+/// what detours add to a plan.
+pub const FAST_REL_GAP: f64 = 1e-4;
+
 /// Assigns particles to sites with `method`, minimising total distance.
 pub fn assign(
     sites: &[Vector2<f64>],
@@ -123,9 +134,16 @@ pub fn assign(
             return Err(AssignmentError::NotFinite { what, index });
         }
     }
+    let small = sites.len() * particles.len() <= EXACT_SPARSE_MAX_PAIRS;
+    let mut lower_bound_m = None;
     let s2p = match method {
-        AssignmentMethod::Exact if sites.len() * particles.len() <= EXACT_SPARSE_MAX_PAIRS => {
+        AssignmentMethod::Exact | AssignmentMethod::Fast if small => {
             sparse_ssp::solve(sites, particles)
+        }
+        AssignmentMethod::Fast => {
+            let within = auction::solve_within(sites, particles, FAST_REL_GAP);
+            lower_bound_m = Some(within.lower_bound_m);
+            within.site_to_particle
         }
         AssignmentMethod::Exact | AssignmentMethod::Auction => auction::solve(sites, particles),
         AssignmentMethod::Dense => {
@@ -135,9 +153,13 @@ pub fn assign(
         AssignmentMethod::Lp => lp::solve(sites, particles, &lp::SideConstraints::default())?,
     };
     let cost_m = assignment_cost(sites, particles, &s2p);
+    if method != AssignmentMethod::Greedy {
+        lower_bound_m = lower_bound_m.or(Some(cost_m));
+    }
     Ok(Assignment {
         site_to_particle: s2p,
         cost_m,
+        lower_bound_m,
     })
 }
 
@@ -177,6 +199,42 @@ mod tests {
             );
             assert!(g.cost_m >= b.cost_m - 1e-9);
             let mut used = a.site_to_particle.clone();
+            used.sort();
+            used.dedup();
+            assert_eq!(used.len(), sites.len(), "each particle used at most once");
+        }
+    }
+
+    #[test]
+    fn fast_is_within_its_gap_and_its_bound_is_below_the_optimum() {
+        for seed in 0..6 {
+            // 120 x 200 = 24,000 pairs: above the sparse threshold, so the
+            // auction stops at its gap.
+            let sites = random_points(120, 1000.0, seed);
+            let parts = random_points(200, 1000.0, seed + 100);
+            let opt = assign(&sites, &parts, AssignmentMethod::Dense)
+                .unwrap()
+                .cost_m;
+            let fast = assign(&sites, &parts, AssignmentMethod::Fast).unwrap();
+            let lb = fast.lower_bound_m.unwrap();
+            // The auction's rounding: n costs of diag / 1e9 each.
+            let rounding = 120.0 * 1000.0 * 2f64.sqrt() * 1e-9;
+            assert!(
+                lb <= opt + 1e-9 * opt,
+                "seed {seed}: bound {lb} above {opt}"
+            );
+            assert!(fast.cost_m >= opt - 1e-9 * opt, "seed {seed}");
+            assert!(
+                fast.cost_m <= opt * (1.0 + FAST_REL_GAP) + rounding,
+                "seed {seed}: {} against the optimum {opt}",
+                fast.cost_m
+            );
+            assert!(
+                fast.cost_m * (1.0 - FAST_REL_GAP) <= lb + rounding,
+                "seed {seed}: the bound {lb} is not within the gap of {}",
+                fast.cost_m
+            );
+            let mut used = fast.site_to_particle.clone();
             used.sort();
             used.dedup();
             assert_eq!(used.len(), sites.len(), "each particle used at most once");
