@@ -198,8 +198,8 @@ fn profile_fit_trackpy_test_frame_matches_trackpy() {
 
 /// Runs nanopush's Crocker-Grier mode with the reference call's own
 /// parameters and checks the acceptance (>= 95 % of trackpy's features
-/// matched within 1.5 px, <= 5 % extra); also prints how close positions and
-/// masses are.
+/// matched within 1.5 px, <= 5 % extra) and that matched positions agree to
+/// 1e-3 px; prints how close positions and masses are.
 fn crocker_grier_versus_trackpy(
     frame_rel: &str,
     reference: &str,
@@ -237,6 +237,13 @@ fn crocker_grier_versus_trackpy(
     );
     assert!(m.recall() >= 0.95, "{frame_rel}: matched {}", m.recall());
     assert!(extra <= 0.05, "{frame_rel}: extra {extra}");
+    // Same algorithm, same rounding rules: positions agree to the reference
+    // file's precision (4 decimals), far inside the 1.5 px acceptance.
+    assert!(
+        worst(&offsets) <= 1e-3,
+        "{frame_rel}: worst offset {} px",
+        worst(&offsets)
+    );
 }
 
 #[test]

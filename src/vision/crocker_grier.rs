@@ -440,6 +440,9 @@ impl Disc {
 
 /// A refined feature in the rescaled levels.
 struct Refined {
+    /// Centroid offset from the disc centre, px.
+    off_x: f64,
+    off_y: f64,
     x: f64,
     y: f64,
     mass: f64,
@@ -469,7 +472,7 @@ fn refine(
     loop {
         let result = centroid(levels, w, disc, cx, cy);
         computed += 1;
-        let (ox, oy) = (result.x - cx as f64, result.y - cy as f64);
+        let (ox, oy) = (result.off_x, result.off_y);
         if (ox.abs() < SHIFT_PX && oy.abs() < SHIFT_PX) || computed >= max_iterations.max(1) {
             return result;
         }
@@ -490,30 +493,36 @@ fn refine(
 
 /// Centroid, mass, radius of gyration and peak of the levels in the disc at (cx, cy).
 fn centroid(levels: &[u32], w: usize, disc: &Disc, cx: usize, cy: usize) -> Refined {
+    // Moments in disc-corner coordinates (0..=2r): the sums are exact
+    // integers, and the offset from the disc centre is (sum / mass) - r, the
+    // order of rounding that decides a 0.6 px tie the way trackpy does.
+    let r = disc.radius as isize;
     let (mut m, mut sx, mut sy, mut sr2, mut peak) = (0.0, 0.0, 0.0, 0.0, 0u32);
     for &(dx, dy) in &disc.offsets {
         let v = levels[(cy as isize + dy) as usize * w + (cx as isize + dx) as usize];
         let f = f64::from(v);
         m += f;
-        sx += f * dx as f64;
-        sy += f * dy as f64;
+        sx += f * (dx + r) as f64;
+        sy += f * (dy + r) as f64;
         sr2 += f * (dx * dx + dy * dy) as f64;
         peak = peak.max(v);
     }
-    let (ox, oy, size) = if m > 0.0 {
-        (sx / m, sy / m, (sr2 / m).sqrt())
+    let (off_x, off_y, size) = if m > 0.0 {
+        (sx / m - r as f64, sy / m - r as f64, (sr2 / m).sqrt())
     } else {
         (0.0, 0.0, 0.0)
     };
     let spread = disc
         .offsets
         .iter()
-        .map(|&(dx, _)| (dx as f64 - ox).powi(2))
+        .map(|&(dx, _)| (dx as f64 - off_x).powi(2))
         .sum::<f64>()
         .sqrt();
     Refined {
-        x: cx as f64 + ox,
-        y: cy as f64 + oy,
+        off_x,
+        off_y,
+        x: off_x + cx as f64,
+        y: off_y + cy as f64,
         mass: m,
         size,
         signal: f64::from(peak),
