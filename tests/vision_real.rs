@@ -310,3 +310,44 @@ fn big_endian_16bit_tiff_stack_reads_every_page() {
     assert_eq!(first.pixels(), frames[0].pixels());
     assert!(frames[0].pixels().iter().any(|&v| v > 255.0));
 }
+
+/// `nanopush detect --locator crocker-grier` runs the same call from the
+/// command line: trackpy's 344 features on T76 in the JSON it writes; an
+/// even diameter is refused with a non-zero exit.
+#[test]
+fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
+    let frame = fixture("trackpy_tests/T76S3F00001.png");
+    let run = |diameter: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(["detect", "--locator", "crocker-grier", "--diameter-px"])
+            .arg(diameter)
+            .args([
+                "--minmass",
+                "140",
+                "--polarity",
+                "dark",
+                "--no-tip",
+                "--json",
+            ])
+            .arg(&frame)
+            .output()
+            .unwrap()
+    };
+    let out = run("9");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
+        &String::from_utf8(out.stdout).unwrap(),
+    )
+    .unwrap();
+    let tp = read_csv_xy(&fixture("reference/T76S3F00001.trackpy.csv"));
+    let pts: Vec<[f64; 2]> = doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
+    assert_eq!(doc.particles.len(), tp.len());
+    assert_eq!(match_points(&tp, &pts, 1e-3).pairs.len(), tp.len());
+    let refused = run("8");
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("odd"));
+}

@@ -30,6 +30,7 @@
 
 use thiserror::Error;
 
+use super::detect::Detection;
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
 
@@ -178,6 +179,22 @@ pub struct Feature {
     /// (white noise through the Gaussian blur; the boxcar's small share and
     /// the centroid's bias are ignored).
     pub sigma_px: f64,
+}
+
+/// A feature as the rest of nanopush reports particles: `r_px` is the radius
+/// of gyration, `quality` the mass; features sit inside the edge margin, so
+/// none is edge-clipped.
+impl From<Feature> for Detection {
+    fn from(f: Feature) -> Self {
+        Detection {
+            x_px: f.x_px,
+            y_px: f.y_px,
+            r_px: f.size_px,
+            sigma_px: f.sigma_px,
+            quality: f.mass,
+            edge_clipped: false,
+        }
+    }
 }
 
 /// Locates features in `frame` (see the module doc for the steps). An empty
