@@ -419,38 +419,66 @@ fn percentile(values: &mut [u32], p: f64) -> Option<f64> {
 /// Grey dilation (maximum filter) over a `side` x `side` square, zero outside
 /// the frame; window offsets -(side-1)/2 ..= side - 1 - (side-1)/2 (an even
 /// side reaches one pixel further right/down, as a reflected structuring
-/// element does).
+/// element does). Each axis by window doubling: maxima over 1, 2, 4, ..
+/// pixels, then two overlapping power-of-two windows cover `side`; about
+/// log2(side) + 1 whole-row passes per axis instead of `side`.
 fn dilate(levels: &[u32], w: usize, h: usize, side: usize) -> Vec<u32> {
     let lo = (side - 1) / 2;
     let hi = side - 1 - lo;
+    let span = largest_power_of_two_at_most(side);
+    // Horizontal: each row zero-padded by lo on the left and hi on the right.
     let mut horizontal = vec![0u32; w * h];
+    let mut padded = vec![0u32; w + side - 1];
+    let mut doubled = vec![0u32; w + side - 1];
     for y in 0..h {
-        let src = &levels[y * w..(y + 1) * w];
+        padded.fill(0);
+        padded[lo..lo + w].copy_from_slice(&levels[y * w..(y + 1) * w]);
+        let mut len = 1;
+        while len < span {
+            let n = padded.len() - len;
+            doubled[..n]
+                .iter_mut()
+                .zip(padded[..n].iter().zip(&padded[len..]))
+                .for_each(|(o, (&p, &q))| *o = p.max(q));
+            std::mem::swap(&mut padded, &mut doubled);
+            len *= 2;
+        }
         let out = &mut horizontal[y * w..(y + 1) * w];
-        out.copy_from_slice(src);
-        for d in 1..=lo.min(w - 1) {
-            // out[x] = max(out[x], src[x - d]) for x >= d
-            for (o, &s) in out[d..].iter_mut().zip(&src[..w - d]) {
-                *o = (*o).max(s);
-            }
-        }
-        for d in 1..=hi.min(w - 1) {
-            for (o, &s) in out[..w - d].iter_mut().zip(&src[d..]) {
-                *o = (*o).max(s);
-            }
-        }
+        let (a, b) = (&padded[..w], &padded[side - span..side - span + w]);
+        out.iter_mut()
+            .zip(a.iter().zip(b))
+            .for_each(|(o, (&p, &q))| *o = p.max(q));
     }
-    let mut out = horizontal.clone();
-    for y in 0..h {
-        let dst = &mut out[y * w..(y + 1) * w];
-        for yy in y.saturating_sub(lo)..=(y + hi).min(h - 1) {
-            if yy != y {
-                let src = &horizontal[yy * w..(yy + 1) * w];
-                dst.iter_mut().zip(src).for_each(|(o, &s)| *o = (*o).max(s));
-            }
+    // Vertical: the same on whole rows, zero rows padding top and bottom.
+    let rows = h + side - 1;
+    let mut stack = vec![0u32; rows * w];
+    stack[lo * w..(lo + h) * w].copy_from_slice(&horizontal);
+    let mut len = 1;
+    while len < span {
+        for r in 0..rows - len {
+            let (top, rest) = stack[r * w..].split_at_mut(len * w);
+            top[..w]
+                .iter_mut()
+                .zip(&rest[..w])
+                .for_each(|(o, &s)| *o = (*o).max(s));
         }
+        len *= 2;
+    }
+    let mut out = horizontal;
+    for y in 0..h {
+        let a = &stack[y * w..(y + 1) * w];
+        let b = &stack[(y + side - span) * w..(y + side - span + 1) * w];
+        out[y * w..(y + 1) * w]
+            .iter_mut()
+            .zip(a.iter().zip(b))
+            .for_each(|(o, (&p, &q))| *o = p.max(q));
     }
     out
+}
+
+/// Largest power of two <= `n` (n >= 1).
+fn largest_power_of_two_at_most(n: usize) -> usize {
+    1 << (usize::BITS - 1 - n.leading_zeros())
 }
 
 /// The refinement disc: offsets (dx, dy) with dx^2 + dy^2 <= r^2.
