@@ -247,7 +247,7 @@ pub fn locate(frame: &Frame, params: &LocateParams) -> Result<Vec<Feature>, Loca
                 mass: r.mass / scale,
                 size_px: r.size,
                 signal: r.signal / scale,
-                sigma_px: noise_bp * r.spread / (r.mass / scale).max(f64::MIN_POSITIVE),
+                sigma_px: noise_bp * r.spread(&disc) / (r.mass / scale).max(f64::MIN_POSITIVE),
             }
         })
         .collect();
@@ -508,9 +508,18 @@ struct Refined {
     mass: f64,
     size: f64,
     signal: f64,
+}
+
+impl Refined {
     /// sqrt(sum over the disc of (x_i - x_centroid)^2), px: turns pixel noise
     /// into centroid noise.
-    spread: f64,
+    fn spread(&self, disc: &Disc) -> f64 {
+        disc.offsets
+            .iter()
+            .map(|&(dx, _)| (dx as f64 - self.off_x).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
 }
 
 /// Centroid in the disc, moving the disc by one pixel per axis while the
@@ -572,12 +581,6 @@ fn centroid(levels: &[u32], w: usize, disc: &Disc, cx: usize, cy: usize) -> Refi
     } else {
         (0.0, 0.0, 0.0)
     };
-    let spread = disc
-        .offsets
-        .iter()
-        .map(|&(dx, _)| (dx as f64 - off_x).powi(2))
-        .sum::<f64>()
-        .sqrt();
     Refined {
         off_x,
         off_y,
@@ -586,7 +589,6 @@ fn centroid(levels: &[u32], w: usize, disc: &Disc, cx: usize, cy: usize) -> Refi
         mass: m,
         size,
         signal: f64::from(peak),
-        spread,
     }
 }
 
