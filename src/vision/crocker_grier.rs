@@ -424,9 +424,9 @@ fn percentile(values: &mut [u32], p: f64) -> Option<f64> {
 /// log2(side) + 1 whole-row passes per axis instead of `side`.
 fn dilate(levels: &[u32], w: usize, h: usize, side: usize) -> Vec<u32> {
     let lo = (side - 1) / 2;
-    let hi = side - 1 - lo;
     let span = largest_power_of_two_at_most(side);
-    // Horizontal: each row zero-padded by lo on the left and hi on the right.
+    // Horizontal: each row zero-padded by lo on the left and side - 1 - lo on
+    // the right.
     let mut horizontal = vec![0u32; w * h];
     let mut padded = vec![0u32; w + side - 1];
     let mut doubled = vec![0u32; w + side - 1];
