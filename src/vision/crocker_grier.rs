@@ -176,8 +176,9 @@ pub struct Feature {
     /// Brightest band-passed pixel in the disc, frame counts.
     pub signal: f64,
     /// Per-axis centroid uncertainty from the frame's measured noise, px
-    /// (white noise through the Gaussian blur; the boxcar's small share and
-    /// the centroid's bias are ignored).
+    /// (white noise through the Gaussian blur; the boxcar's share, the
+    /// band-pass clipping and the centroid's bias are ignored, so it runs
+    /// about 20 % below the scatter over noise realisations).
     pub sigma_px: f64,
 }
 
@@ -760,6 +761,54 @@ mod tests {
                 f.y_px
             );
             assert!(f.sigma_px > 0.0 && f.sigma_px < 0.5, "sigma {}", f.sigma_px);
+        }
+    }
+
+    /// `sigma_px` is the right scale for the centroid's scatter over noise
+    /// realisations: within 1.5x either way (measured: scatter / sigma = 1.27
+    /// at noise 2 counts, 1.19 at 5; the estimate leaves out the boxcar's
+    /// noise and the clipping of the band-pass).
+    #[test]
+    fn reported_sigma_matches_the_scatter_over_noise_realisations() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let (w, h, cx, cy) = (48usize, 48usize, 24.3, 23.8);
+        for noise in [2.0, 5.0] {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+            let normal = Normal::new(0.0, noise).unwrap();
+            let (mut xs, mut sigmas) = (Vec::new(), Vec::new());
+            for _ in 0..300 {
+                let mut px = vec![0f32; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        let r2 = (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2);
+                        let v = 100.0 + 80.0 * (-r2 / (2.0 * 1.8 * 1.8)).exp();
+                        px[y * w + x] = (v + normal.sample(&mut rng)).round() as f32;
+                    }
+                }
+                let frame = Frame::new(w, h, px, 16).unwrap();
+                let params = LocateParams {
+                    minmass: 100.0,
+                    ..LocateParams::new(11)
+                };
+                let found = locate(&frame, &params).unwrap();
+                let near: Vec<_> = found
+                    .iter()
+                    .filter(|f| (f.x_px - cx).hypot(f.y_px - cy) < 2.0)
+                    .collect();
+                assert_eq!(near.len(), 1, "noise {noise}: {found:?}");
+                xs.push(near[0].x_px);
+                sigmas.push(near[0].sigma_px);
+            }
+            let n = xs.len() as f64;
+            let mean = xs.iter().sum::<f64>() / n;
+            let scatter = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+            let sigma = sigmas.iter().sum::<f64>() / n;
+            let ratio = scatter / sigma;
+            assert!(
+                (1.0 / 1.5..=1.5).contains(&ratio),
+                "noise {noise}: scatter {scatter}, mean sigma {sigma}"
+            );
         }
     }
 
