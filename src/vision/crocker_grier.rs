@@ -300,10 +300,9 @@ fn gaussian_blur(image: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> 
     // Horizontal pass through a zero-padded row, one tap pair at a time over
     // the whole row (vectorises; each pixel sums in the same order as above).
     let mut padded = vec![0.0; w + 2 * r];
-    let mut out = vec![0.0; w * h];
     for y in 0..h {
         padded[r..r + w].copy_from_slice(&vertical[y * w..(y + 1) * w]);
-        let row = &mut out[y * w..(y + 1) * w];
+        let row = &mut vertical[y * w..(y + 1) * w];
         row.iter_mut()
             .zip(&padded[r..r + w])
             .for_each(|(o, &v)| *o = v * kernel[r]);
@@ -315,7 +314,7 @@ fn gaussian_blur(image: &[f64], w: usize, h: usize, kernel: &[f64]) -> Vec<f64> 
                 .for_each(|(o, (&p, &q))| *o += (p + q) * wj);
         }
     }
-    out
+    vertical
 }
 
 /// Largest whole number <= `v` (`f64::floor` without a libm call on the
@@ -358,17 +357,22 @@ fn floored_boxcar(image: &[f64], w: usize, h: usize, size: usize) -> Vec<f64> {
             .zip(leaving.iter().zip(entering))
             .for_each(|(s, (&a, &b))| *s += b - a);
     }
-    let mut out = vec![0.0; w * h];
+    // Horizontal pass in place, from a copy of the row with its edge pixels
+    // repeated lo to the left and hi + 1 to the right.
+    let mut padded = vec![0.0; w + size + 1];
     for y in 0..h {
-        let src = &vertical[y * w..(y + 1) * w];
-        let at = |x: isize| src[x.clamp(0, w as isize - 1) as usize];
-        let mut s: f64 = (-(lo as isize)..=hi as isize).map(at).sum();
-        for x in 0..w {
-            out[y * w + x] = floor_fast(s / n);
-            s += at(x as isize + hi as isize + 1) - at(x as isize - lo as isize);
+        let row = &mut vertical[y * w..(y + 1) * w];
+        padded[lo..lo + w].copy_from_slice(row);
+        let (first, last) = (row[0], row[w - 1]);
+        padded[..lo].fill(first);
+        padded[lo + w..].fill(last);
+        let mut s: f64 = padded[..size].iter().sum();
+        for (x, o) in row.iter_mut().enumerate() {
+            *o = floor_fast(s / n);
+            s += padded[x + size] - padded[x];
         }
     }
-    out
+    vertical
 }
 
 /// Pixels equal to the maximum of their dilation window, brighter than the
