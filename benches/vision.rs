@@ -12,6 +12,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nanopush::render::microscope::{RenderSettings, TipView, render_frame};
 use nanopush::render::microscope_truth::{random_scene, with_tip};
 use nanopush::vision::analyse::analyse_frame;
+use nanopush::vision::crocker_grier::{LocateParams, locate};
 use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_candidates};
 use nanopush::vision::frame_input::{Channel, load_frame};
 use nanopush::vision::noise::estimate_noise_sigma;
@@ -115,5 +116,47 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The Crocker-Grier mode with the same calls as scripts/peers/bench_trackpy.py
+/// makes to trackpy: bulk_water_000 (green, diameter 11, invert, minmass 20)
+/// and the 1024x1024 bench frame (diameter 19, minmass 1e5).
+fn bench_crocker_grier(c: &mut Criterion) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("fixtures/real/bulk_water/bulk_water_000.png");
+    let water = load_frame(&path, Channel::Green).expect("fixture");
+    let water_call = LocateParams {
+        minmass: 20.0,
+        invert: true,
+        ..LocateParams::new(11)
+    };
+    let scene = with_tip(
+        random_scene(100, 1024, 1024, 8.0, 42),
+        TipView {
+            apex_x_px: 600.0,
+            apex_y_px: 500.0,
+            angle_rad: 0.4,
+        },
+    );
+    let frame = render_frame(&scene, &RenderSettings::with_snr(10.0, 16), 42).expect("render");
+    let frame_call = LocateParams {
+        minmass: 1e5,
+        ..LocateParams::new(19)
+    };
+    let mut g = c.benchmark_group("vision_crocker_grier");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    g.sample_size(20);
+    g.bench_function("bulk_water_000", |b| b.iter(|| locate(&water, &water_call)));
+    g.bench_function("bulk_water_000_cpu_time", |b| {
+        cpu_timed(b, || locate(&water, &water_call))
+    });
+    g.bench_function("1024x1024_16bit_d19", |b| {
+        b.iter(|| locate(&frame, &frame_call))
+    });
+    g.bench_function("1024x1024_16bit_d19_cpu_time", |b| {
+        cpu_timed(b, || locate(&frame, &frame_call))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_crocker_grier);
 criterion_main!(benches);

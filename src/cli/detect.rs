@@ -6,11 +6,12 @@ use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
 use crate::vision::analyse::{FrameAnalysis, analyse_frame};
+use crate::vision::crocker_grier::{LocateParams, locate};
 use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::overlay::draw_overlay;
-use crate::vision::tip::TipSettings;
+use crate::vision::tip::{TipSettings, detect_tip};
 
 /// Arguments of `nanopush detect`.
 #[derive(clap::Args, Debug)]
@@ -35,9 +36,17 @@ pub struct Args {
     /// Colour frames: luminance, red, green or blue.
     #[arg(long, default_value = "luminance")]
     pub channel: Channel,
-    /// Sub-pixel locator.
+    /// Sub-pixel locator. `crocker-grier` gives trackpy-comparable results
+    /// (trackpy's `locate`: --diameter-px is its odd `diameter`, --polarity
+    /// dark its `invert`; quality is its `mass`, r_px its radius of gyration).
     #[arg(long, value_enum, default_value = "profile-fit")]
     pub locator: LocatorArg,
+    /// crocker-grier: minimum band-passed mass in frame counts (trackpy's `minmass`).
+    #[arg(long, default_value_t = 0.0)]
+    pub minmass: f64,
+    /// crocker-grier: minimum feature separation in px (default diameter + 1).
+    #[arg(long)]
+    pub separation_px: Option<f64>,
     /// Keep only dark-centred or bright-centred particles.
     #[arg(long, value_parser = ["dark", "bright"])]
     pub polarity: Option<String>,
@@ -53,17 +62,49 @@ pub enum LocatorArg {
     Centroid,
     RadialSymmetry,
     ProfileFit,
+    CrockerGrier,
 }
 
-impl From<LocatorArg> for Locator {
-    fn from(l: LocatorArg) -> Self {
-        match l {
-            LocatorArg::PixelPeak => Locator::PixelPeak,
-            LocatorArg::Centroid => Locator::Centroid,
-            LocatorArg::RadialSymmetry => Locator::RadialSymmetry,
-            LocatorArg::ProfileFit => Locator::ProfileFit,
+impl LocatorArg {
+    /// The detector's locator; `None` for crocker-grier, which is its own
+    /// detector (vision::crocker_grier).
+    fn detector_locator(self) -> Option<Locator> {
+        match self {
+            LocatorArg::PixelPeak => Some(Locator::PixelPeak),
+            LocatorArg::Centroid => Some(Locator::Centroid),
+            LocatorArg::RadialSymmetry => Some(Locator::RadialSymmetry),
+            LocatorArg::ProfileFit => Some(Locator::ProfileFit),
+            LocatorArg::CrockerGrier => None,
         }
     }
+}
+
+/// Particles by the Crocker-Grier mode, and the tip by nanopush's tip fit.
+fn crocker_grier_analysis(
+    frame: &crate::vision::frame::Frame,
+    args: &Args,
+    diameter_px: f64,
+    tip_settings: Option<&TipSettings>,
+) -> anyhow::Result<FrameAnalysis> {
+    if !(diameter_px.fract() == 0.0 && diameter_px >= 3.0 && diameter_px % 2.0 == 1.0) {
+        anyhow::bail!(
+            "--locator crocker-grier needs --diameter-px as an odd whole number of pixels \
+             (got {diameter_px}); when in doubt, round up"
+        );
+    }
+    let params = LocateParams {
+        minmass: args.minmass,
+        separation_px: args.separation_px,
+        invert: args.polarity.as_deref() == Some("dark"),
+        ..LocateParams::new(diameter_px as u32)
+    };
+    let particles = locate(frame, &params)
+        .context("locating particles (crocker-grier)")?
+        .into_iter()
+        .map(Into::into)
+        .collect();
+    let tip = tip_settings.and_then(|t| detect_tip(frame, t));
+    Ok(FrameAnalysis { particles, tip })
 }
 
 /// Detects and prints (text or JSON), optionally drawing an overlay.
@@ -82,19 +123,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         (None, Some(r), Some(c)) => 2.0 * r * 1e-6 / c.m_per_px(),
         _ => DetectSettings::default().diameter_px,
     };
-    let settings = DetectSettings {
-        diameter_px,
-        locator: args.locator.into(),
-        polarity: match args.polarity.as_deref() {
-            Some("dark") => Some(Polarity::Dark),
-            Some("bright") => Some(Polarity::Bright),
-            _ => None,
-        },
-        ..DetectSettings::default()
-    };
     let tip_settings = (!args.no_tip).then(TipSettings::default);
-    let FrameAnalysis { particles, tip } =
-        analyse_frame(&frame, &settings, tip_settings.as_ref()).context("detecting particles")?;
+    let FrameAnalysis { particles, tip } = match args.locator.detector_locator() {
+        Some(locator) => {
+            let settings = DetectSettings {
+                diameter_px,
+                locator,
+                polarity: match args.polarity.as_deref() {
+                    Some("dark") => Some(Polarity::Dark),
+                    Some("bright") => Some(Polarity::Bright),
+                    _ => None,
+                },
+                ..DetectSettings::default()
+            };
+            analyse_frame(&frame, &settings, tip_settings.as_ref())
+                .context("detecting particles")?
+        }
+        None => crocker_grier_analysis(&frame, &args, diameter_px, tip_settings.as_ref())?,
+    };
     if let Some(path) = &args.overlay {
         draw_overlay(&frame, &particles, tip.as_ref())
             .save(path)

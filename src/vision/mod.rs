@@ -4,6 +4,7 @@
 pub mod analyse;
 pub mod cpu_dispatch;
 pub mod cramer_rao;
+pub mod crocker_grier;
 pub mod detect;
 pub mod detections_file;
 pub mod fast_exp;
