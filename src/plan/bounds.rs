@@ -104,30 +104,50 @@ fn forbidden(pushes: &[PushEnds], i: usize, j: usize) -> bool {
 /// The exact relaxation: landings (rows) to push ends plus the start
 /// (columns, the start last), forbidden pairs excluded.
 fn assignment_with_forbidden_pairs(pushes: &[PushEnds], start: Option<Vector2<f64>>) -> f64 {
-    let n = pushes.len();
-    let rows: Vec<Vector2<f64>> = pushes.iter().map(|p| p.land).collect();
-    let mut cols: Vec<Vector2<f64>> = pushes.iter().map(|p| p.end).collect();
-    cols.push(start.unwrap_or(rows[0]));
+    let lands: Vec<Vector2<f64>> = pushes.iter().map(|p| p.land).collect();
+    let ends: Vec<Vector2<f64>> = pushes.iter().map(|p| p.end).collect();
+    // None cannot happen (the start and the other particles' ends always
+    // give a feasible assignment); the bound without forbidden pairs stays valid.
+    path_assignment_bound(&lands, &ends, start, |i, j| forbidden(pushes, i, j))
+        .unwrap_or_else(|| large_plan_bound(pushes, start))
+}
+
+/// Cheapest assignment of every landing `lands[j]` to a distinct
+/// predecessor: the start (None: free, costs nothing) or an end `ends[i]`
+/// with `forbidden(i, j)` false. A lower bound on the hops of every path
+/// through the items (entered at their landing, left at their end) that
+/// never puts j right after i where `forbidden(i, j)`. None when no such
+/// assignment exists. Dense Jonker-Volgenant: O(n^3), for small n.
+pub fn path_assignment_bound(
+    lands: &[Vector2<f64>],
+    ends: &[Vector2<f64>],
+    start: Option<Vector2<f64>>,
+    forbidden: impl Fn(usize, usize) -> bool,
+) -> Option<f64> {
+    let n = lands.len();
+    if n == 0 {
+        return Some(0.0);
+    }
+    let mut cols = ends.to_vec();
+    cols.push(start.unwrap_or(lands[0]));
     let cost = |j: usize, i: usize| -> f64 {
         if i == n {
-            start.map_or(0.0, |s| (rows[j] - s).norm())
-        } else if forbidden(pushes, i, j) {
+            start.map_or(0.0, |s| (lands[j] - s).norm())
+        } else if forbidden(i, j) {
             FORBIDDEN_M
         } else {
-            (rows[j] - cols[i]).norm()
+            (lands[j] - cols[i]).norm()
         }
     };
-    let chosen = dense_jv::solve(&rows, &cols, cost);
+    let chosen = dense_jv::solve(lands, &cols, cost);
     if chosen
         .iter()
         .enumerate()
-        .any(|(j, &i)| i < n && forbidden(pushes, i, j))
+        .any(|(j, &i)| i < n && forbidden(i, j))
     {
-        // Cannot happen (the start and the other particles' ends always give
-        // a feasible assignment); the bound without forbidden pairs stays valid.
-        return large_plan_bound(pushes, start);
+        return None;
     }
-    chosen.iter().enumerate().map(|(j, &i)| cost(j, i)).sum()
+    Some(chosen.iter().enumerate().map(|(j, &i)| cost(j, i)).sum())
 }
 
 /// The auction's dual bound on the relaxation without forbidden pairs.

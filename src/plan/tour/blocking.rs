@@ -30,6 +30,8 @@ pub struct Blocking {
     particle: Vec<usize>,
     /// Number of particles (size of a state vector).
     particles: usize,
+    /// Per particle: its number of moves (its last state).
+    last_state: Vec<u8>,
 }
 
 impl Blocking {
@@ -88,6 +90,7 @@ impl Blocking {
             blocked_by.push(masks);
         }
         Some(Blocking {
+            last_state: count.iter().map(|&c| c as u8).collect(),
             blocked_by,
             rank,
             particle: moves.iter().map(|m| m.particle).collect(),
@@ -125,6 +128,34 @@ impl Blocking {
             && self.blocked_by[m]
                 .iter()
                 .all(|&(q, mask)| mask & (1u64 << state[q]) == 0)
+    }
+
+    /// False when move `j` can never run right after move `i`: the same move,
+    /// not the next of the same particle, or colliding with `i`'s particle
+    /// where `i` leaves it.
+    pub fn may_follow(&self, i: usize, j: usize) -> bool {
+        let q = self.particle[i];
+        let after_i = self.rank[i] + 1;
+        if q == self.particle[j] {
+            return self.rank[j] == after_i;
+        }
+        self.blocked_by[j]
+            .iter()
+            .all(|&(p, mask)| p != q || mask & (1u64 << after_i) == 0)
+    }
+
+    /// True when move `m` could still run from `state` as far as particle
+    /// `q` goes: some state `q` has yet to pass through is not one `m`
+    /// collides with (a necessary condition only).
+    pub fn may_still_run(&self, m: usize, q: usize, state: &[u8]) -> bool {
+        self.blocked_by[m].iter().all(|&(p, mask)| {
+            p != q || (state[q]..=self.last_state[q]).any(|s| mask & (1u64 << s) == 0)
+        })
+    }
+
+    /// The particle move `m` pushes.
+    pub fn particle_of(&self, m: usize) -> usize {
+        self.particle[m]
     }
 
     /// Number of moves.

@@ -23,9 +23,9 @@ use blocking::Blocking;
 use nalgebra::Vector2;
 use search::{PathProblem, SearchBudget, shortest_path};
 
-/// Gain evaluations the tour search may spend (about 2-3 ns each: a few ms
-/// on CMU's 40-60 moves, where the local search alone stops far sooner).
-pub const SEARCH_EVALUATIONS: usize = 1_000_000;
+/// Candidate orders the tour search may look at (on CMU's 40-60 moves the
+/// ratios hardly change beyond it: see docs/plan.md).
+pub const SEARCH_EVALUATIONS: usize = 100_000;
 /// Seed of the search's kicks (plans are reproducible).
 const SEARCH_SEED: u64 = 0x7001;
 
@@ -62,12 +62,7 @@ pub fn shorten_tip_travel(
         return steps;
     };
     let (lands, ends) = endpoints(&moves);
-    let problem = PathProblem {
-        lands: &lands,
-        ends: &ends,
-        start: tip_start,
-        blocking: &blocking,
-    };
+    let problem = PathProblem::new(&lands, &ends, tip_start, &blocking);
     let order = shortest_path(&problem, identity(moves.len()), budget());
     if !collision_free(&steps, &moves, layout, config, &order) {
         debug_assert!(false, "the blocking masks let a colliding order through");
@@ -93,6 +88,10 @@ pub struct TourStudy {
     pub constrained_m: f64,
     /// Travel after the same search without collision constraints.
     pub unconstrained_m: f64,
+    /// Assignment bound of the constrained problem: LB_tip's relaxation with
+    /// also the pairs forbidden where the second move would hit the first
+    /// one's particle where it was just left (hops only, no standoffs).
+    pub constrained_bound_m: f64,
     /// Number of moves.
     pub moves: usize,
 }
@@ -109,18 +108,18 @@ pub fn study(
     let blocking = Blocking::new(&moves, steps, layout, config)?;
     let free = blocking.sequence_only();
     let (lands, ends) = endpoints(&moves);
-    let mut problem = PathProblem {
-        lands: &lands,
-        ends: &ends,
-        start: tip_start,
-        blocking: &blocking,
-    };
+    let mut problem = PathProblem::new(&lands, &ends, tip_start, &blocking);
     let given = identity(moves.len());
     let given_m = problem.travel(&given);
     let constrained_m = problem.travel(&shortest_path(&problem, given.clone(), budget()));
     problem.blocking = &free;
     let unconstrained_m = problem.travel(&shortest_path(&problem, given, budget()));
+    let constrained_bound_m =
+        crate::plan::bounds::path_assignment_bound(&lands, &ends, tip_start, |i, j| {
+            !blocking.may_follow(i, j)
+        })?;
     Some(TourStudy {
+        constrained_bound_m,
         given_m,
         constrained_m,
         unconstrained_m,
