@@ -169,3 +169,115 @@ fn large_plan_bound(pushes: &[PushEnds], start: Option<Vector2<f64>>) -> f64 {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::assignment::{AssignmentMethod, assign};
+    use crate::plan::pushes::{approach_point, with_tip_travel};
+    use crate::plan::summarise;
+    use proptest::prelude::*;
+
+    const UM: f64 = 1e-6;
+
+    /// Pushes of `chains[p]` (particle p's successive centres, um), in the
+    /// order given by `order` (particle ids; each occurrence runs that
+    /// particle's next push).
+    fn pushes_in_order(chains: &[Vec<(f64, f64)>], order: &[usize], cfg: &PlanConfig) -> Vec<Step> {
+        let mut next = vec![0; chains.len()];
+        order
+            .iter()
+            .map(|&p| {
+                let k = next[p];
+                next[p] += 1;
+                let (a, b) = (chains[p][k], chains[p][k + 1]);
+                let (from, to) = (Vector2::new(a.0, a.1) * UM, Vector2::new(b.0, b.1) * UM);
+                Step::Push {
+                    particle: p as u32,
+                    from_m: from,
+                    to_m: to,
+                    approach_m: approach_point(from, to, 5.0 * UM, cfg),
+                    contact_angle_rad: 0.0,
+                }
+            })
+            .collect()
+    }
+
+    fn tip_travel(steps: &[Step], start: Option<Vector2<f64>>, cfg: &PlanConfig) -> f64 {
+        let start = start.or_else(|| {
+            steps.first().map(|s| match s {
+                Step::Push {
+                    from_m,
+                    to_m,
+                    approach_m,
+                    ..
+                } => landing_point(*from_m, *to_m, *approach_m, cfg),
+                _ => unreachable!(),
+            })
+        });
+        summarise(&with_tip_travel(steps.to_vec(), start, cfg), cfg).tip_travel_m
+    }
+
+    proptest! {
+        /// LB_tip is below the tip travel of every order of the same pushes
+        /// (each particle's pushes in sequence), free start or given, and
+        /// at least the old bound (self pairs allowed).
+        #[test]
+        fn lb_tip_is_below_every_order_and_above_the_self_pair_bound(
+            chains in prop::collection::vec(
+                prop::collection::vec((0.0..100.0f64, 0.0..100.0f64), 2..5), 1..5),
+            keys in prop::collection::vec(0.0..1.0f64, 16),
+            start in (0.0..100.0f64, 0.0..100.0f64),
+        ) {
+            let cfg = PlanConfig::default();
+            let start = Vector2::new(start.0, start.1) * UM;
+            // A random interleaving: each particle's pushes keep their sequence.
+            let mut slots: Vec<(f64, usize)> = Vec::new();
+            for (p, c) in chains.iter().enumerate() {
+                for k in 0..c.len() - 1 {
+                    slots.push((keys[(p * 4 + k) % keys.len()] + k as f64 * 1e-9, p));
+                }
+            }
+            slots.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let order: Vec<usize> = slots.iter().map(|s| s.1).collect();
+            let steps = pushes_in_order(&chains, &order, &cfg);
+            let free = lb_tip(&steps, None, &cfg);
+            prop_assert!(free <= tip_travel(&steps, None, &cfg) + 1e-12);
+            let fixed = lb_tip(&steps, Some(start), &cfg);
+            prop_assert!(fixed <= tip_travel(&steps, Some(start), &cfg) + 1e-12);
+            // The bound before: landings to {ends, start}, self pairs allowed.
+            let mut lands = Vec::new();
+            let mut ends = Vec::new();
+            for s in &steps {
+                if let Step::Push { from_m, to_m, approach_m, .. } = s {
+                    lands.push(landing_point(*from_m, *to_m, *approach_m, &cfg));
+                    ends.push(tip_end(*from_m, *to_m, *approach_m));
+                }
+            }
+            ends.push(start);
+            let old = assign(&lands, &ends, AssignmentMethod::Dense).unwrap().cost_m
+                + lands.len() as f64 * cfg.standoff_m;
+            prop_assert!(fixed >= old - 1e-12, "{fixed} < {old}");
+        }
+    }
+
+    /// Two pushes far apart, each returning near its own landing: allowing
+    /// self pairs would give LB_tip = standoffs only; forbidding them forces
+    /// one crossing (the free start pays the other).
+    #[test]
+    fn self_pairs_are_forbidden() {
+        let cfg = PlanConfig::default();
+        let chains = vec![
+            vec![(10.0, 10.0), (10.0, 11.0)],
+            vec![(90.0, 10.0), (90.0, 11.0)],
+        ];
+        let steps = pushes_in_order(&chains, &[0, 1], &cfg);
+        let lb = lb_tip(&steps, None, &cfg) - 2.0 * cfg.standoff_m;
+        let travel = tip_travel(&steps, None, &cfg) - 2.0 * cfg.standoff_m;
+        assert!(lb > 75.0 * UM, "one crossing of 80 um: {lb}");
+        assert!(
+            (lb - travel).abs() < 1e-12,
+            "two pushes: the bound is the tour"
+        );
+    }
+}

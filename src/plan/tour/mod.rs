@@ -305,4 +305,67 @@ mod tests {
         };
         assert_eq!(*from_m, a, "the buffer push stays first: {order:?}");
     }
+
+    /// On a real CMU plan, the precomputed masks accept exactly the orders
+    /// the replay accepts (orders near the planned one: random swaps of
+    /// neighbouring moves, many valid, many not), and the search returns a
+    /// valid order no longer than the scheduler's.
+    #[test]
+    fn blocking_masks_agree_with_the_replay_and_the_search_stays_valid() {
+        use crate::plan::pattern::transform::{Reachable, place_optimised};
+        use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+        use crate::plan::{Pattern, plan_assembly};
+        use rand::{RngExt, SeedableRng};
+        let cfg = PlanConfig::default();
+        let layout = synth_layout(&SynthParams {
+            n: 50,
+            field_m: [120e-6, 100e-6],
+            radius_m: 5e-6,
+            min_gap_m: 1e-6,
+            polydisperse: false,
+            kind: LayoutKind::Uniform,
+            seed: 3,
+        })
+        .unwrap();
+        let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+        let sites = place_optimised(
+            &pattern,
+            &Reachable::for_field(layout.field_m, 5e-6),
+            5e-6,
+            &pts,
+        )
+        .unwrap();
+        let plan = plan_assembly(&layout, &sites, &cfg).unwrap();
+        let steps: Vec<Step> = plan
+            .steps
+            .into_iter()
+            .filter(|s| matches!(s, Step::Push { .. }))
+            .collect();
+        let moves = moves_of(&steps, &layout, &cfg).unwrap();
+        let blocking = Blocking::new(&moves, &steps, &layout, &cfg).unwrap();
+        let (lands, ends) = endpoints(&moves);
+        let problem = PathProblem::new(&lands, &ends, None, &blocking);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let (mut valid, mut invalid) = (0, 0);
+        for _ in 0..400 {
+            let mut order = identity(moves.len());
+            for _ in 0..rng.random_range(1..6) {
+                let k = rng.random_range(0..order.len() - 1);
+                order.swap(k, k + 1);
+            }
+            let replay = collision_free(&steps, &moves, &layout, &cfg, &order);
+            assert_eq!(problem.valid(&order), replay, "order {order:?}");
+            if replay { valid += 1 } else { invalid += 1 }
+        }
+        assert!(
+            valid > 20 && invalid > 20,
+            "valid {valid}, invalid {invalid}"
+        );
+        let given = identity(moves.len());
+        let best = shortest_path(&problem, given.clone(), budget());
+        assert!(problem.valid(&best));
+        assert!(collision_free(&steps, &moves, &layout, &cfg, &best));
+        assert!(problem.travel(&best) <= problem.travel(&given) + 1e-12);
+    }
 }

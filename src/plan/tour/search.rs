@@ -169,7 +169,7 @@ fn swap_gain(p: &PathProblem, order: &[usize], a: usize, b: usize, c: usize) -> 
 }
 
 /// Segment swaps to a local optimum (or until `work` reaches `limit`).
-fn segment_swaps(p: &PathProblem, order: &mut Vec<usize>, work: &mut usize, limit: usize) {
+fn segment_swaps(p: &PathProblem, order: &mut [usize], work: &mut usize, limit: usize) {
     let n = order.len();
     let full = n <= FULL_SCAN_MAX_MOVES;
     let bl = p.blocking;
