@@ -1,65 +1,283 @@
 //! Lower bounds a plan is measured against.
 //!
 //! LB_push: the optimal assignment's total straight-line distance (computed
-//! in `plan_assembly`). LB_tip: every push's landing point must be reached
-//! from somewhere, either the tip's start or the end of another push; the
-//! minimum-cost assignment of landing points to {start, push ends} is a
-//! relaxation of the tip's tour (self pairs are allowed, which only lowers
-//! it), plus the standoff approach every push needs. On large plans the
-//! relaxation is replaced by the auction's dual bound within
-//! [`LB_TIP_REL_GAP`] of it (`auction::lower_bound_m`): lower still, faster.
+//! in `plan_assembly`).
+//!
+//! LB_tip: a lower bound on the tip travel of *every* order of a plan's
+//! pushes (each particle's pushes in their sequence; collisions ignored, so
+//! it holds a fortiori for the collision-free ones). Why it is one: in any
+//! order, push j's landing point is reached either from the tip's start (the
+//! first push only) or from the end of the push i run just before it, and
+//! each end and the start lead to at most one landing. So the order's hops
+//! form an assignment of landings to {start} + push ends, and the cheapest
+//! such assignment cannot cost more. Pairs no order can use are forbidden,
+//! which keeps it a bound and makes it tighter (the assignment relaxation of
+//! the asymmetric TSP path):
+//! - i = j: a push never follows itself;
+//! - i, j pushes of the same particle with i's end position not j's start:
+//!   nothing else moves that particle between two consecutive pushes, so j
+//!   could not start where its particle is.
+//!
+//! The start: the configured tip position, or, when the tip starts free (at
+//! its first landing), a source that reaches any landing at no cost. Every
+//! push also needs its standoff approach, added on top.
+//!
+//! Above [`LB_TIP_DENSE_MAX_PUSHES`] pushes the forbidden pairs are dropped
+//! (which only lowers the bound) and the auction's dual bound within
+//! [`LB_TIP_REL_GAP`] of the relaxation is used (`auction::lower_bound_m`):
+//! a free start is then relaxed by closing the path into a cycle, which
+//! costs at most the largest landing-to-end distance `D`, so
+//! `path >= cycle assignment - D`.
 
-use super::assignment::{AssignmentMethod, EXACT_SPARSE_MAX_PAIRS, assign, auction};
+use super::assignment::{auction, dense_jv};
 use super::pushes::{landing_point, tip_end};
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 
-/// Above [`EXACT_SPARSE_MAX_PAIRS`] LB_tip's relaxation is bounded from below
+/// Above [`LB_TIP_DENSE_MAX_PUSHES`] LB_tip's relaxation is bounded from below
 /// within this fraction instead of solved exactly (still a lower bound).
 pub const LB_TIP_REL_GAP: f64 = 1e-2;
 
-/// LB_tip of the pushes in `steps`, tip starting at `start` (None: free start).
+/// Largest plan whose LB_tip is the exact assignment with the forbidden
+/// pairs (dense Jonker-Volgenant, O(n^3): about 1 ms at 150 pushes).
+pub const LB_TIP_DENSE_MAX_PUSHES: usize = 150;
+
+/// Cost that keeps a forbidden pair out of the assignment (metres, far
+/// beyond any field); a solution using one is discarded.
+const FORBIDDEN_M: f64 = 1e3;
+
+/// A push as LB_tip sees it.
+struct PushEnds {
+    particle: u32,
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    land: Vector2<f64>,
+    end: Vector2<f64>,
+}
+
+/// LB_tip of the pushes in `steps` (metres, standoffs included), tip
+/// starting at `start` (None: free, at whichever push goes first).
 pub fn lb_tip(steps: &[Step], start: Option<Vector2<f64>>, config: &PlanConfig) -> f64 {
-    let mut landings = Vec::new();
-    let mut ends = Vec::new();
-    for s in steps {
-        if let Step::Push {
-            from_m,
-            to_m,
-            approach_m,
-            ..
-        } = s
-        {
-            landings.push(landing_point(*from_m, *to_m, *approach_m, config));
-            ends.push(tip_end(*from_m, *to_m, *approach_m));
-        }
-    }
-    if landings.is_empty() {
+    let pushes: Vec<PushEnds> = steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                approach_m,
+                ..
+            } => Some(PushEnds {
+                particle: *particle,
+                from: *from_m,
+                to: *to_m,
+                land: landing_point(*from_m, *to_m, *approach_m, config),
+                end: tip_end(*from_m, *to_m, *approach_m),
+            }),
+            _ => None,
+        })
+        .collect();
+    if pushes.is_empty() {
         return 0.0;
     }
-    let standoffs = landings.len() as f64 * config.standoff_m;
-    match start {
-        Some(s) => ends.push(s),
-        None => {
-            // A free start: the first landing costs nothing; drop the largest-cost row
-            // is not cheap to find exactly, so use the start at the first landing.
-            ends.push(landings[0]);
-        }
-    }
-    let relaxation = if landings.len() * ends.len() <= EXACT_SPARSE_MAX_PAIRS {
-        assign(&landings, &ends, AssignmentMethod::Exact)
-            .map(|a| a.cost_m)
-            .unwrap_or(0.0)
-    } else if landings
-        .iter()
-        .chain(&ends)
-        .all(|p| p.x.is_finite() && p.y.is_finite())
+    let finite = |p: &Vector2<f64>| p.x.is_finite() && p.y.is_finite();
+    if !pushes.iter().all(|p| finite(&p.land) && finite(&p.end))
+        || !start.is_none_or(|s| finite(&s))
     {
-        // Large plans: a valid bound within 1 % of the optimum, at a fraction of
-        // its cost (0.1 % took twice as long at N = 1,000: 0.35-0.44 s against 0.21 s).
-        auction::lower_bound_m(&landings, &ends, LB_TIP_REL_GAP)
+        return 0.0;
+    }
+    let standoffs = pushes.len() as f64 * config.standoff_m;
+    let relaxation = if pushes.len() <= LB_TIP_DENSE_MAX_PUSHES {
+        assignment_with_forbidden_pairs(&pushes, start)
     } else {
-        0.0
+        large_plan_bound(&pushes, start)
     };
     relaxation + standoffs
+}
+
+/// True when push `j` can never run right after push `i`.
+fn forbidden(pushes: &[PushEnds], i: usize, j: usize) -> bool {
+    let (a, b) = (&pushes[i], &pushes[j]);
+    i == j || (a.particle == b.particle && (a.to - b.from).norm() > 1e-12)
+}
+
+/// The exact relaxation: landings (rows) to push ends plus the start
+/// (columns, the start last), forbidden pairs excluded.
+fn assignment_with_forbidden_pairs(pushes: &[PushEnds], start: Option<Vector2<f64>>) -> f64 {
+    let lands: Vec<Vector2<f64>> = pushes.iter().map(|p| p.land).collect();
+    let ends: Vec<Vector2<f64>> = pushes.iter().map(|p| p.end).collect();
+    // None cannot happen (the start and the other particles' ends always
+    // give a feasible assignment); the bound without forbidden pairs stays valid.
+    path_assignment_bound(&lands, &ends, start, |i, j| forbidden(pushes, i, j))
+        .unwrap_or_else(|| large_plan_bound(pushes, start))
+}
+
+/// Cheapest assignment of every landing `lands[j]` to a distinct
+/// predecessor: the start (None: free, costs nothing) or an end `ends[i]`
+/// with `forbidden(i, j)` false. A lower bound on the hops of every path
+/// through the items (entered at their landing, left at their end) that
+/// never puts j right after i where `forbidden(i, j)`. None when no such
+/// assignment exists. Dense Jonker-Volgenant: O(n^3), for small n.
+pub fn path_assignment_bound(
+    lands: &[Vector2<f64>],
+    ends: &[Vector2<f64>],
+    start: Option<Vector2<f64>>,
+    forbidden: impl Fn(usize, usize) -> bool,
+) -> Option<f64> {
+    let n = lands.len();
+    if n == 0 {
+        return Some(0.0);
+    }
+    let mut cols = ends.to_vec();
+    cols.push(start.unwrap_or(lands[0]));
+    let cost = |j: usize, i: usize| -> f64 {
+        if i == n {
+            start.map_or(0.0, |s| (lands[j] - s).norm())
+        } else if forbidden(i, j) {
+            FORBIDDEN_M
+        } else {
+            (lands[j] - cols[i]).norm()
+        }
+    };
+    let chosen = dense_jv::solve(lands, &cols, cost);
+    if chosen
+        .iter()
+        .enumerate()
+        .any(|(j, &i)| i < n && forbidden(i, j))
+    {
+        return None;
+    }
+    Some(chosen.iter().enumerate().map(|(j, &i)| cost(j, i)).sum())
+}
+
+/// The auction's dual bound on the relaxation without forbidden pairs.
+fn large_plan_bound(pushes: &[PushEnds], start: Option<Vector2<f64>>) -> f64 {
+    let lands: Vec<Vector2<f64>> = pushes.iter().map(|p| p.land).collect();
+    let mut ends: Vec<Vector2<f64>> = pushes.iter().map(|p| p.end).collect();
+    match start {
+        Some(s) => {
+            ends.push(s);
+            auction::lower_bound_m(&lands, &ends, LB_TIP_REL_GAP)
+        }
+        None => {
+            // Close the path into a cycle: every landing takes an end.
+            let (lo, hi) = lands
+                .iter()
+                .chain(&ends)
+                .fold((lands[0], lands[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
+            (auction::lower_bound_m(&lands, &ends, LB_TIP_REL_GAP) - (hi - lo).norm()).max(0.0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::assignment::{AssignmentMethod, assign};
+    use crate::plan::pushes::{approach_point, with_tip_travel};
+    use crate::plan::summarise;
+    use proptest::prelude::*;
+
+    const UM: f64 = 1e-6;
+
+    /// Pushes of `chains[p]` (particle p's successive centres, um), in the
+    /// order given by `order` (particle ids; each occurrence runs that
+    /// particle's next push).
+    fn pushes_in_order(chains: &[Vec<(f64, f64)>], order: &[usize], cfg: &PlanConfig) -> Vec<Step> {
+        let mut next = vec![0; chains.len()];
+        order
+            .iter()
+            .map(|&p| {
+                let k = next[p];
+                next[p] += 1;
+                let (a, b) = (chains[p][k], chains[p][k + 1]);
+                let (from, to) = (Vector2::new(a.0, a.1) * UM, Vector2::new(b.0, b.1) * UM);
+                Step::Push {
+                    particle: p as u32,
+                    from_m: from,
+                    to_m: to,
+                    approach_m: approach_point(from, to, 5.0 * UM, cfg),
+                    contact_angle_rad: 0.0,
+                }
+            })
+            .collect()
+    }
+
+    fn tip_travel(steps: &[Step], start: Option<Vector2<f64>>, cfg: &PlanConfig) -> f64 {
+        let start = start.or_else(|| {
+            steps.first().map(|s| match s {
+                Step::Push {
+                    from_m,
+                    to_m,
+                    approach_m,
+                    ..
+                } => landing_point(*from_m, *to_m, *approach_m, cfg),
+                _ => unreachable!(),
+            })
+        });
+        summarise(&with_tip_travel(steps.to_vec(), start, cfg), cfg).tip_travel_m
+    }
+
+    proptest! {
+        /// LB_tip is below the tip travel of every order of the same pushes
+        /// (each particle's pushes in sequence), free start or given, and
+        /// at least the old bound (self pairs allowed).
+        #[test]
+        fn lb_tip_is_below_every_order_and_above_the_self_pair_bound(
+            chains in prop::collection::vec(
+                prop::collection::vec((0.0..100.0f64, 0.0..100.0f64), 2..5), 1..5),
+            keys in prop::collection::vec(0.0..1.0f64, 16),
+            start in (0.0..100.0f64, 0.0..100.0f64),
+        ) {
+            let cfg = PlanConfig::default();
+            let start = Vector2::new(start.0, start.1) * UM;
+            // A random interleaving: each particle's pushes keep their sequence.
+            let mut slots: Vec<(f64, usize)> = Vec::new();
+            for (p, c) in chains.iter().enumerate() {
+                for k in 0..c.len() - 1 {
+                    slots.push((keys[(p * 4 + k) % keys.len()] + k as f64 * 1e-9, p));
+                }
+            }
+            slots.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let order: Vec<usize> = slots.iter().map(|s| s.1).collect();
+            let steps = pushes_in_order(&chains, &order, &cfg);
+            let free = lb_tip(&steps, None, &cfg);
+            prop_assert!(free <= tip_travel(&steps, None, &cfg) + 1e-12);
+            let fixed = lb_tip(&steps, Some(start), &cfg);
+            prop_assert!(fixed <= tip_travel(&steps, Some(start), &cfg) + 1e-12);
+            // The bound before: landings to {ends, start}, self pairs allowed.
+            let mut lands = Vec::new();
+            let mut ends = Vec::new();
+            for s in &steps {
+                if let Step::Push { from_m, to_m, approach_m, .. } = s {
+                    lands.push(landing_point(*from_m, *to_m, *approach_m, &cfg));
+                    ends.push(tip_end(*from_m, *to_m, *approach_m));
+                }
+            }
+            ends.push(start);
+            let old = assign(&lands, &ends, AssignmentMethod::Dense).unwrap().cost_m
+                + lands.len() as f64 * cfg.standoff_m;
+            prop_assert!(fixed >= old - 1e-12, "{fixed} < {old}");
+        }
+    }
+
+    /// Two pushes far apart, each returning near its own landing: allowing
+    /// self pairs would give LB_tip = standoffs only; forbidding them forces
+    /// one crossing (the free start pays the other).
+    #[test]
+    fn self_pairs_are_forbidden() {
+        let cfg = PlanConfig::default();
+        let chains = vec![
+            vec![(10.0, 10.0), (10.0, 11.0)],
+            vec![(90.0, 10.0), (90.0, 11.0)],
+        ];
+        let steps = pushes_in_order(&chains, &[0, 1], &cfg);
+        let lb = lb_tip(&steps, None, &cfg) - 2.0 * cfg.standoff_m;
+        let travel = tip_travel(&steps, None, &cfg) - 2.0 * cfg.standoff_m;
+        assert!(lb > 75.0 * UM, "one crossing of 80 um: {lb}");
+        assert!(
+            (lb - travel).abs() < 1e-12,
+            "two pushes: the bound is the tour"
+        );
+    }
 }

@@ -255,7 +255,7 @@ pub fn plan_assembly(
     });
     steps = pushes::with_tip_travel(steps, start, config);
     let coarse = windows::insert_coarse_moves(&mut steps, config);
-    let lb_tip = bounds::lb_tip(&steps, start, config);
+    let lb_tip = bounds::lb_tip(&steps, config.tip_start_m, config);
     let mut summary = summarise(&steps, config);
     summary.lb_push_m = lb_push;
     summary.lb_tip_m = lb_tip;
