@@ -9,7 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{band_pass_into, box_mean_of_squares_into, local_extrema_both, local_maxima};
+use super::filter::{box_mean_in_place, box_mean_into, local_extrema_both, local_maxima};
 use super::frame::Frame;
 use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
@@ -158,8 +158,13 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
     // Two full-frame buffers in all, from the pool (see `frame_pool`).
     let mut values = frame_pool::take(w * h);
+    let mut bg = frame_pool::take(w * h);
+    box_mean_into(frame.pixels(), &mut values, w, h, 1);
     let bg_r = diameter.ceil() as usize;
-    band_pass_into(frame.pixels(), &mut values, w, h, 1, bg_r);
+    box_mean_into(frame.pixels(), &mut bg, w, h, bg_r);
+    for (v, b) in values.iter_mut().zip(bg.iter()) {
+        *v -= b;
+    }
     let sigma = estimate_noise_sigma(frame);
     let big = ((2 * bg_r + 1) as f64).powi(2);
     // White noise through (3x3 mean - big mean): sum of squared kernel weights.
@@ -168,7 +173,7 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
         values,
         noise_var,
         noise_sigma: sigma,
-        work: frame_pool::take(w * h),
+        work: bg,
     }
 }
 
@@ -189,7 +194,10 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) 
     let r = (0.3 * settings.diameter_px).round().max(1.0) as usize;
     // Energy: local mean of the squared band-pass (in a reused work frame).
     let energy = &mut bp.work;
-    box_mean_of_squares_into(&bp.values, energy, w, h, r);
+    for (e, v) in energy.iter_mut().zip(bp.values.iter()) {
+        *e = v * v;
+    }
+    box_mean_in_place(energy, w, h, r);
     let n_eff = (((2 * r + 1) * (2 * r + 1)) as f64 / 9.0).max(1.0);
     let noise_e = bp.noise_var.max(1e-12);
     let e_sd = noise_e * (2.0 / n_eff).sqrt();

@@ -16,33 +16,12 @@ pub fn box_mean(src: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
 
 /// [`box_mean`] replacing `image` by its box mean (no allocation of a frame).
 pub fn box_mean_in_place(image: &mut [f32], w: usize, h: usize, r: usize) {
-    box_mean_stream(None, image, w, h, r, Load::Copy);
+    box_mean_stream(None, image, w, h, r);
 }
 
 /// [`box_mean`] of `src` written into `out` (every value of `out` is written).
 pub fn box_mean_into(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
-    box_mean_stream(Some(src), out, w, h, r, Load::Copy);
-}
-
-/// Box mean of the squares of `src` into `out`: the local energy of a
-/// band-passed frame without a squared copy of it written and read back.
-pub fn box_mean_of_squares_into(src: &[f32], out: &mut [f32], w: usize, h: usize, r: usize) {
-    box_mean_stream(Some(src), out, w, h, r, Load::Square);
-}
-
-/// Band-pass: box mean of radius `r_small` minus box mean of radius `r_big`,
-/// both from one streamed read of `src`, written once into `out`. Equal, to
-/// the bit, to the two [`box_mean_into`] frames subtracted; the fused form
-/// moves 2 frames of memory instead of 7 (the filters are memory-bound).
-pub fn band_pass_into(
-    src: &[f32],
-    out: &mut [f32],
-    w: usize,
-    h: usize,
-    r_small: usize,
-    r_big: usize,
-) {
-    band_pass_stream(src, out, w, h, r_small, r_big);
+    box_mean_stream(Some(src), out, w, h, r);
 }
 
 /// 1 / (pixels in the window cut at the ends) for every position along a line.
@@ -52,205 +31,80 @@ fn inverse_counts(n: usize, r: usize) -> Vec<f64> {
         .collect()
 }
 
-/// What a box stream sums: the input values or their squares.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Load {
-    Copy,
-    Square,
-}
+avx2_dispatch!(
+    /// Box mean of `src` (or of `out` itself when `src` is `None`) into
+    /// `out`, see [`box_mean_stream_lanes`].
+    fn box_mean_stream(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize)
+        => box_mean_stream_lanes
+);
 
-/// One box mean streamed down a frame row by row: the horizontal sums of the
-/// 2r+2 rows the vertical window needs live in a small ring of rows
-/// (cache-resident), and a running row of column sums in f64 (no drift)
-/// moves down the frame. Two whole-frame passes through a scratch frame moved
-/// three times the memory, and the filters are memory-bound.
-///
-/// Schedule, for y in 0..h: [`Self::emit`] row y, then [`Self::step`] with
-/// input row y + r + 1 (if any). Input row k is read (step k-r-1) before
-/// output row k is written (step k), so the output may be the input. The
-/// methods are `#[inline(always)]` so they compile into the AVX2 callers.
-struct BoxStream {
-    r: usize,
-    w: usize,
-    slots: usize,
-    inv_cols: Vec<f32>,
-    inv_rows: Vec<f64>,
-    ring: Vec<f32>,
-    acc: Vec<f64>,
-}
-
-impl BoxStream {
-    /// A stream of radius `r` over a w x h frame (w, h > 0).
-    #[inline(always)]
-    fn new(w: usize, h: usize, r: usize) -> Self {
-        let slots = 2 * r + 2;
-        Self {
-            r,
-            w,
-            slots,
-            inv_cols: inverse_counts(w, r).iter().map(|&v| v as f32).collect(),
-            inv_rows: inverse_counts(h, r),
-            ring: vec![0.0f32; slots * w],
-            acc: vec![0.0f64; w],
+/// Both passes streamed row by row: the horizontal sums of the 2r+2 rows the
+/// vertical window needs live in a small ring of rows (cache-resident), and
+/// a running row of column sums in f64 (no drift) moves down the frame. Two
+/// whole-frame passes through a scratch frame moved three times the memory,
+/// and the filters are memory-bound. Row k of the input is read (step k-r-1)
+/// before row k of the output is written (step k), so `out` may be the input.
+#[inline(always)]
+fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize) {
+    if w == 0 || h == 0 {
+        return;
+    }
+    let inv_cols: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
+    let inv_rows = inverse_counts(h, r);
+    let slots = 2 * r + 2;
+    let mut ring = vec![0.0f32; slots * w];
+    let mut pow = vec![0.0f32; w + 2 * r];
+    let mut next = vec![0.0f32; w + 2 * r];
+    let mut acc = vec![0.0f64; w];
+    // Horizontal sums of input row k into its ring slot. (A macro, not a
+    // closure: a closure is compiled as its own function, without AVX2.)
+    macro_rules! load {
+        ($k:expr) => {{
+            let k = $k;
+            let row = match src {
+                Some(s) => &s[k * w..(k + 1) * w],
+                None => &out[k * w..(k + 1) * w],
+            };
+            let slot = &mut ring[(k % slots) * w..(k % slots + 1) * w];
+            box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
+        }};
+    }
+    for k in 0..(r + 1).min(h) {
+        load!(k);
+        let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
+        for (a, &v) in acc.iter_mut().zip(slot) {
+            *a += v as f64;
         }
     }
-
-    fn slot(&self, k: usize) -> std::ops::Range<usize> {
-        (k % self.slots) * self.w..(k % self.slots + 1) * self.w
-    }
-
-    /// Horizontal sums of input row k (`row`) into its ring slot; `scratch`
-    /// holds two work rows of at least w + 2r values.
-    #[inline(always)]
-    fn load(&mut self, k: usize, row: &[f32], load: Load, scratch: &mut [f32]) {
-        let slot = self.slot(k);
-        let len = self.w + 2 * self.r;
-        let (pow, next) = scratch.split_at_mut(scratch.len() / 2);
-        box_row(
-            row,
-            &mut self.ring[slot],
-            self.r,
-            &self.inv_cols,
-            load,
-            &mut pow[..len],
-            &mut next[..len],
-        );
-    }
-
-    /// Input rows 0..=r of the frame `rows`: loads them into the column sums.
-    #[inline(always)]
-    fn prime(&mut self, rows: &[f32], h: usize, load: Load, scratch: &mut [f32]) {
-        let w = self.w;
-        for k in 0..(self.r + 1).min(h) {
-            self.load(k, &rows[k * w..(k + 1) * w], load, scratch);
-            let slot = self.slot(k);
-            for (a, &v) in self.acc.iter_mut().zip(&self.ring[slot]) {
-                *a += v as f64;
-            }
-        }
-    }
-
-    /// Output row y into `dst`.
-    #[inline(always)]
-    fn emit(&self, y: usize, dst: &mut [f32]) {
-        let inv = self.inv_rows[y];
-        for (d, a) in dst.iter_mut().zip(&self.acc) {
+    for y in 0..h {
+        let inv = inv_rows[y];
+        for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
             *d = (a * inv) as f32;
         }
-    }
-
-    /// Output row y subtracted from `dst`.
-    #[inline(always)]
-    fn emit_subtract(&self, y: usize, dst: &mut [f32]) {
-        let inv = self.inv_rows[y];
-        for (d, a) in dst.iter_mut().zip(&self.acc) {
-            *d -= (a * inv) as f32;
+        let (add, sub) = (y + r + 1 < h, y >= r);
+        if add {
+            load!(y + r + 1);
         }
-    }
-
-    /// Moves the window from row y to y + 1: `entering` is input row y + r + 1
-    /// (None past the bottom).
-    #[inline(always)]
-    fn step(&mut self, y: usize, entering: Option<&[f32]>, load: Load, scratch: &mut [f32]) {
-        let r = self.r;
-        if let Some(row) = entering {
-            self.load(y + r + 1, row, load, scratch);
-        }
-        let (add, sub) = (entering.is_some(), y >= r);
-        let (p, m) = (self.slot(y + r + 1), self.slot(y.wrapping_sub(r)));
+        let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
         match (add, sub) {
             (true, true) => {
-                let (p, m) = (&self.ring[p], &self.ring[m]);
-                for ((a, &p), &m) in self.acc.iter_mut().zip(p).zip(m) {
+                let (p, m) = (&ring[slot_of(y + r + 1)], &ring[slot_of(y - r)]);
+                for ((a, &p), &m) in acc.iter_mut().zip(p).zip(m) {
                     *a += p as f64 - m as f64;
                 }
             }
             (true, false) => {
-                for (a, &p) in self.acc.iter_mut().zip(&self.ring[p]) {
+                for (a, &p) in acc.iter_mut().zip(&ring[slot_of(y + r + 1)]) {
                     *a += p as f64;
                 }
             }
             (false, true) => {
-                for (a, &m) in self.acc.iter_mut().zip(&self.ring[m]) {
+                for (a, &m) in acc.iter_mut().zip(&ring[slot_of(y - r)]) {
                     *a -= m as f64;
                 }
             }
             (false, false) => {}
         }
-    }
-}
-
-avx2_dispatch!(
-    /// Box mean of `src` (or of `out` itself when `src` is `None`) into
-    /// `out`, see [`BoxStream`].
-    fn box_mean_stream(
-        src: Option<&[f32]>,
-        out: &mut [f32],
-        w: usize,
-        h: usize,
-        r: usize,
-        load: Load,
-    ) => box_mean_stream_lanes
-);
-
-#[inline(always)]
-fn box_mean_stream_lanes(
-    src: Option<&[f32]>,
-    out: &mut [f32],
-    w: usize,
-    h: usize,
-    r: usize,
-    load: Load,
-) {
-    if w == 0 || h == 0 {
-        return;
-    }
-    let mut stream = BoxStream::new(w, h, r);
-    let mut scratch = vec![0.0f32; 2 * (w + 2 * r)];
-    stream.prime(src.unwrap_or(&*out), h, load, &mut scratch);
-    for y in 0..h {
-        stream.emit(y, &mut out[y * w..(y + 1) * w]);
-        let k = y + r + 1;
-        // In place, row k of `out` still holds the input: it is written at step k > y.
-        let input = src.unwrap_or(&*out);
-        stream.step(
-            y,
-            (k < h).then(|| &input[k * w..(k + 1) * w]),
-            load,
-            &mut scratch,
-        );
-    }
-}
-
-avx2_dispatch!(
-    /// [`band_pass_into`], see [`BoxStream`].
-    fn band_pass_stream(
-        src: &[f32],
-        out: &mut [f32],
-        w: usize,
-        h: usize,
-        r_small: usize,
-        r_big: usize,
-    ) => band_pass_lanes
-);
-
-#[inline(always)]
-fn band_pass_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r_small: usize, r_big: usize) {
-    if w == 0 || h == 0 {
-        return;
-    }
-    let mut scratch = vec![0.0f32; 2 * (w + 2 * r_small.max(r_big))];
-    let mut small = BoxStream::new(w, h, r_small);
-    let mut big = BoxStream::new(w, h, r_big);
-    small.prime(src, h, Load::Copy, &mut scratch);
-    big.prime(src, h, Load::Copy, &mut scratch);
-    let row = |k: usize| (k < h).then(|| &src[k * w..(k + 1) * w]);
-    for y in 0..h {
-        let dst = &mut out[y * w..(y + 1) * w];
-        small.emit(y, dst);
-        big.emit_subtract(y, dst);
-        small.step(y, row(y + r_small + 1), Load::Copy, &mut scratch);
-        big.step(y, row(y + r_big + 1), Load::Copy, &mut scratch);
     }
 }
 
@@ -261,28 +115,20 @@ fn band_pass_lanes(src: &[f32], out: &mut [f32], w: usize, h: usize, r_small: us
 /// subtraction, so no drift in f32. `pow` and `next` are work rows of length
 /// w + 2r.
 #[inline(always)]
-fn box_row<'a>(
+fn box_row(
     src: &[f32],
     dst: &mut [f32],
     r: usize,
     inv: &[f32],
-    load: Load,
-    mut pow: &'a mut [f32],
-    mut next: &'a mut [f32],
+    pow: &mut Vec<f32>,
+    next: &mut Vec<f32>,
 ) {
     let w = src.len();
     let len = w + 2 * r;
     // pow = the row with r zeros either side: window [x, x + 2r] of pow
     // is the window [x - r, x + r] of the row, cut at the ends.
     pow[..r].fill(0.0);
-    match load {
-        Load::Copy => pow[r..r + w].copy_from_slice(src),
-        Load::Square => {
-            for (p, &v) in pow[r..r + w].iter_mut().zip(src) {
-                *p = v * v;
-            }
-        }
-    }
+    pow[r..r + w].copy_from_slice(src);
     pow[r + w..].fill(0.0);
     let (mut rem, mut width, mut offset, mut first) = (2 * r + 1, 1usize, 0usize, true);
     loop {
@@ -309,7 +155,7 @@ fn box_row<'a>(
             *n = a + b;
         }
         next[used..].fill(0.0);
-        std::mem::swap(&mut pow, &mut next);
+        std::mem::swap(pow, next);
         width *= 2;
     }
     for (d, &k) in dst.iter_mut().zip(inv) {
@@ -550,30 +396,6 @@ mod tests {
                         fast[y * w + x]
                     );
                 }
-            }
-        }
-    }
-
-    #[test]
-    fn fused_band_pass_and_energy_equal_the_separate_filters_to_the_bit() {
-        for (w, h) in [(37usize, 23usize), (5, 40), (1, 1)] {
-            let src: Vec<f32> = (0..w * h)
-                .map(|i| ((i * 7919) % 1009) as f32 * 0.37 - 150.0)
-                .collect();
-            for (small, big) in [(1usize, 17usize), (1, 3), (0, 40), (2, 2)] {
-                let mut want = box_mean(&src, w, h, small);
-                for (v, b) in want.iter_mut().zip(box_mean(&src, w, h, big)) {
-                    *v -= b;
-                }
-                let mut got = vec![f32::NAN; w * h];
-                band_pass_into(&src, &mut got, w, h, small, big);
-                assert_eq!(got, want, "{w}x{h} radii {small} {big}");
-            }
-            for r in [0usize, 1, 5, 30] {
-                let squares: Vec<f32> = src.iter().map(|v| v * v).collect();
-                let mut got = vec![f32::NAN; w * h];
-                box_mean_of_squares_into(&src, &mut got, w, h, r);
-                assert_eq!(got, box_mean(&squares, w, h, r), "{w}x{h} r {r}");
             }
         }
     }
