@@ -160,17 +160,26 @@ fn fit_ring(
                 .all(|&n| d2(x, y, (cx, cy)) <= d2(x, y, n))
         });
     }
-    // Background from the window's outer band, core from the centre.
-    let outer: Vec<f64> = win
+    // Each pixel's value, squared distance and distance from the start,
+    // computed once for the three uses below.
+    let polar: Vec<(f64, f64, f64)> = win
         .pixels()
-        .filter(|s| ((s.0 - cx).powi(2) + (s.1 - cy).powi(2)).sqrt() > r0 + 3.0)
-        .map(|s| s.2)
+        .map(|s| {
+            let d2 = (s.0 - cx).powi(2) + (s.1 - cy).powi(2);
+            (s.2, d2, d2.sqrt())
+        })
+        .collect();
+    // Background from the window's outer band, core from the centre.
+    let outer: Vec<f64> = polar
+        .iter()
+        .filter(|s| s.2 > r0 + 3.0)
+        .map(|s| s.0)
         .collect();
     let b = median(outer);
-    let inner: Vec<f64> = win
-        .pixels()
-        .filter(|s| ((s.0 - cx).powi(2) + (s.1 - cy).powi(2)) < (0.25 * r0).max(1.0).powi(2))
-        .map(|s| s.2)
+    let inner: Vec<f64> = polar
+        .iter()
+        .filter(|s| s.1 < (0.25 * r0).max(1.0).powi(2))
+        .map(|s| s.0)
         .collect();
     let core = if inner.is_empty() {
         frame.max_count() as f64
@@ -182,11 +191,10 @@ fn fit_ring(
     let nb = (2.0 * r0) as usize + 1;
     let mut sum = vec![0.0; 4 * nb + 4];
     let mut cnt = vec![0usize; 4 * nb + 4];
-    for s in win.pixels() {
-        let r = ((s.0 - cx).powi(2) + (s.1 - cy).powi(2)).sqrt();
+    for &(v, _, r) in &polar {
         let k = (r * 2.0) as usize;
         if k < sum.len() {
-            sum[k] += s.2 - b;
+            sum[k] += v - b;
             cnt[k] += 1;
         }
     }

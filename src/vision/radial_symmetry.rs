@@ -3,6 +3,7 @@
 //! local intensity gradient. Works for spots and rings of either contrast,
 //! needs no model and no iteration; the profile fit starts from it.
 
+use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
 
 /// Centre of radial symmetry of the square window of half-size `half` around
@@ -16,60 +17,136 @@ pub fn radial_symmetry_centre(frame: &Frame, cx: f64, cy: f64, half: usize) -> O
     if x1 - x0 < 2 || y1 - y0 < 2 {
         return None;
     }
-    // Gradients at the centres of 2x2 blocks (Roberts cross, rotated to x/y).
-    let mut pts: Vec<(f64, f64, f64, f64, f64)> = Vec::new(); // px, py, nx, ny, g2
-    let (mut sx, mut sy, mut sw) = (0.0, 0.0, 0.0);
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let (xu, yu) = (x as usize, y as usize);
-            let a = frame.at(xu, yu) as f64;
-            let b = frame.at(xu + 1, yu) as f64;
-            let c = frame.at(xu, yu + 1) as f64;
-            let d = frame.at(xu + 1, yu + 1) as f64;
-            let gx = 0.5 * ((b - a) + (d - c));
-            let gy = 0.5 * ((c - a) + (d - b));
-            let g2 = gx * gx + gy * gy;
-            if g2 <= 0.0 {
-                continue;
+    let (x0, y0) = (x0 as usize, y0 as usize);
+    let (bw, bh) = (x1 as usize - x0, y1 as usize - y0);
+    let (cx, cy) = window_centre(frame, x0, y0, bw, bh)?;
+    Some((x0 as f64 + cx, y0 as f64 + cy))
+}
+
+/// Lanes of the weighted sums: each lane sums every 8th block, so the loops
+/// run as vectors (8 f32 with AVX2, two SSE registers without); the lanes
+/// are added in f64 at the end.
+const LANES: usize = 8;
+
+avx2_dispatch!(
+    /// The centre, relative to (x0, y0), from the gradients of the `bw` x
+    /// `bh` blocks of 2x2 pixels whose top-left corners start at (x0, y0).
+    fn window_centre(frame: &Frame, x0: usize, y0: usize, bw: usize, bh: usize)
+        -> Option<(f64, f64)> => window_centre_lanes
+);
+
+/// Lane sums (see [`LANES`]) of K terms per block: `term(chunk, l)` gives
+/// the terms of block l of the chunk of blocks starting at `chunk`; `n` is a
+/// whole number of lanes. The chunk's values are taken as fixed-size arrays
+/// by the callers, so each lane loop compiles to vector instructions.
+#[inline(always)]
+fn lane_sums<const K: usize>(n: usize, term: impl Fn(usize, usize) -> [f32; K]) -> [f64; K] {
+    let mut acc = [[0.0f32; LANES]; K];
+    for c in (0..n).step_by(LANES) {
+        let terms: [[f32; K]; LANES] = std::array::from_fn(|l| term(c, l));
+        for (k, acc_k) in acc.iter_mut().enumerate() {
+            for (a, t) in acc_k.iter_mut().zip(&terms) {
+                *a += t[k];
             }
-            let g = g2.sqrt();
-            let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-            pts.push((px, py, -gy / g, gx / g, g2));
-            sx += g2 * px;
-            sy += g2 * py;
-            sw += g2;
         }
     }
+    acc.map(|lanes| lanes.iter().map(|&v| v as f64).sum())
+}
+
+/// Block values `c..c + LANES` of `v` as an array.
+#[inline(always)]
+fn chunk(v: &[f32], c: usize) -> &[f32; LANES] {
+    v[c..c + LANES].try_into().expect("whole lanes")
+}
+
+/// The least-squares point nearest to the lines through the block centres
+/// along their gradients, each line weighted by |g|^2 / (distance to
+/// `centre`): with unit normals n = (-gy, gx) / |g| the weights' |g|^2
+/// cancels the normalisation, so every term is a product of gradient
+/// components over the distance (no square root or division per line for
+/// the normal, one of each for the distance).
+#[inline(always)]
+fn refine(
+    px: &[f32],
+    py: &[f32],
+    gx: &[f32],
+    gy: &[f32],
+    centre: (f64, f64),
+) -> Option<(f64, f64)> {
+    let (cx, cy) = (centre.0 as f32, centre.1 as f32);
+    let [a11, a12, a22, b1, b2] = lane_sums(px.len(), |c, l| {
+        let (x, y, gx, gy) = (
+            chunk(px, c)[l],
+            chunk(py, c)[l],
+            chunk(gx, c)[l],
+            chunk(gy, c)[l],
+        );
+        let dist = ((x - cx) * (x - cx) + (y - cy) * (y - cy)).sqrt();
+        let inv = 1.0 / if dist > 0.5 { dist } else { 0.5 };
+        // Line i: n . p = n . (x, y), n = (-gy, gx) / |g|.
+        let pn = gx * y - gy * x;
+        [
+            gy * gy * inv,
+            -gx * gy * inv,
+            gx * gx * inv,
+            -gy * pn * inv,
+            gx * pn * inv,
+        ]
+    });
+    let det = a11 * a22 - a12 * a12;
+    if det.abs() <= 1e-12 * (a11 * a22).abs().max(1e-300) {
+        return None;
+    }
+    let c = ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det);
+    (c.0.is_finite() && c.1.is_finite()).then_some(c)
+}
+
+#[inline(always)]
+fn window_centre_lanes(
+    frame: &Frame,
+    x0: usize,
+    y0: usize,
+    bw: usize,
+    bh: usize,
+) -> Option<(f64, f64)> {
+    // Gradients at the centres of 2x2 blocks (Roberts cross, rotated to x/y),
+    // in structure-of-arrays f32 with coordinates relative to (x0, y0), so
+    // they are exact. Padded to whole lanes with flat blocks (g = 0), which
+    // add nothing to any sum.
+    let n = (bw * bh).div_ceil(LANES) * LANES;
+    let (mut px, mut py) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let (mut gxs, mut gys) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let w = frame.width();
+    let pixels = frame.pixels();
+    for by in 0..bh {
+        let top = &pixels[(y0 + by) * w + x0..][..bw + 1];
+        let bottom = &pixels[(y0 + by + 1) * w + x0..][..bw + 1];
+        let row = by * bw..(by + 1) * bw;
+        let out = px[row.clone()]
+            .iter_mut()
+            .zip(&mut py[row.clone()])
+            .zip(&mut gxs[row.clone()])
+            .zip(&mut gys[row]);
+        for (bx, (((px, py), gx), gy)) in out.enumerate() {
+            let (a, b, c, d) = (top[bx], top[bx + 1], bottom[bx], bottom[bx + 1]);
+            *gx = 0.5 * ((b - a) + (d - c));
+            *gy = 0.5 * ((c - a) + (d - b));
+            *px = bx as f32 + 0.5;
+            *py = by as f32 + 0.5;
+        }
+    }
+    // Start: the centroid of the block centres weighted by |g|^2.
+    let [sx, sy, sw] = lane_sums(n, |c, l| {
+        let (gx, gy) = (chunk(&gxs, c)[l], chunk(&gys, c)[l]);
+        let g2 = gx * gx + gy * gy;
+        [g2 * chunk(&px, c)[l], g2 * chunk(&py, c)[l], g2]
+    });
     if sw <= 0.0 {
         return None;
     }
-    let mut centre = (sx / sw, sy / sw);
     // Two passes: weights |g|^2 / distance to the current centre estimate.
-    for _ in 0..2 {
-        let (mut a11, mut a12, mut a22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for &(px, py, nx, ny, g2) in &pts {
-            let dist = ((px - centre.0).powi(2) + (py - centre.1).powi(2))
-                .sqrt()
-                .max(0.5);
-            let wt = g2 / dist;
-            let pn = px * nx + py * ny;
-            a11 += wt * nx * nx;
-            a12 += wt * nx * ny;
-            a22 += wt * ny * ny;
-            b1 += wt * nx * pn;
-            b2 += wt * ny * pn;
-        }
-        let det = a11 * a22 - a12 * a12;
-        if det.abs() <= 1e-12 * (a11 * a22).abs().max(1e-300) {
-            return None;
-        }
-        let c = ((a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det);
-        if !(c.0.is_finite() && c.1.is_finite()) {
-            return None;
-        }
-        centre = c;
-    }
-    Some(centre)
+    let centre = refine(&px, &py, &gxs, &gys, (sx / sw, sy / sw))?;
+    refine(&px, &py, &gxs, &gys, centre)
 }
 
 #[cfg(test)]

@@ -104,8 +104,10 @@ fn darkest(px: &[f32]) -> f32 {
     lanes.into_iter().fold(f32::INFINITY, f32::min)
 }
 
-/// The largest dark connected region, as pixel indices.
-fn dark_region(frame: &Frame, settings: &TipSettings, median: f32) -> Option<Vec<usize>> {
+/// The largest dark connected region, as pixel (x, y). Positions travel as
+/// coordinates, not indices: splitting an index into x and y is an integer
+/// division per pixel, which cost more than the flood fill itself.
+fn dark_region(frame: &Frame, settings: &TipSettings, median: f32) -> Option<Vec<(usize, usize)>> {
     let (w, h) = (frame.width(), frame.height());
     let px = frame.pixels();
     let black = darkest(px);
@@ -114,50 +116,50 @@ fn dark_region(frame: &Frame, settings: &TipSettings, median: f32) -> Option<Vec
     }
     let t = black + settings.dark_fraction as f32 * (median - black);
     let mut label = vec![false; w * h];
-    let mut best: Option<Vec<usize>> = None;
+    let mut best: Option<Vec<(usize, usize)>> = None;
     let mut stack = Vec::new();
-    // Skip whole chunks with no dark pixel (most of the frame) at once.
-    for chunk_start in (0..w * h).step_by(SCAN_LANES) {
-        let chunk_end = (chunk_start + SCAN_LANES).min(w * h);
-        if px[chunk_start..chunk_end]
-            .iter()
-            .fold(true, |all, &v| all & (v >= t))
-        {
-            continue;
-        }
-        for start in chunk_start..chunk_end {
-            if label[start] || px[start] >= t {
+    for y0 in 0..h {
+        let row = &px[y0 * w..(y0 + 1) * w];
+        // Skip whole chunks with no dark pixel (most of the frame) at once.
+        for (chunk_no, chunk) in row.chunks(SCAN_LANES).enumerate() {
+            if chunk.iter().fold(true, |all, &v| all & (v >= t)) {
                 continue;
             }
-            let mut region = Vec::new();
-            label[start] = true;
-            stack.push(start);
-            while let Some(i) = stack.pop() {
-                region.push(i);
-                let (x, y) = (i % w, i / w);
-                let mut visit = |j: usize| {
-                    if !label[j] && px[j] < t {
-                        label[j] = true;
-                        stack.push(j);
+            for x0 in chunk_no * SCAN_LANES..chunk_no * SCAN_LANES + chunk.len() {
+                let start = y0 * w + x0;
+                if label[start] || px[start] >= t {
+                    continue;
+                }
+                let mut region = Vec::new();
+                label[start] = true;
+                stack.push((x0, y0));
+                while let Some((x, y)) = stack.pop() {
+                    region.push((x, y));
+                    let mut visit = |x: usize, y: usize| {
+                        let j = y * w + x;
+                        if !label[j] && px[j] < t {
+                            label[j] = true;
+                            stack.push((x, y));
+                        }
+                    };
+                    if x > 0 {
+                        visit(x - 1, y);
                     }
-                };
-                if x > 0 {
-                    visit(i - 1);
+                    if x + 1 < w {
+                        visit(x + 1, y);
+                    }
+                    if y > 0 {
+                        visit(x, y - 1);
+                    }
+                    if y + 1 < h {
+                        visit(x, y + 1);
+                    }
                 }
-                if x + 1 < w {
-                    visit(i + 1);
+                if region.len() >= settings.min_area_px
+                    && best.as_ref().is_none_or(|b| region.len() > b.len())
+                {
+                    best = Some(region);
                 }
-                if y > 0 {
-                    visit(i - w);
-                }
-                if y + 1 < h {
-                    visit(i + w);
-                }
-            }
-            if region.len() >= settings.min_area_px
-                && best.as_ref().is_none_or(|b| region.len() > b.len())
-            {
-                best = Some(region);
             }
         }
     }
@@ -165,11 +167,11 @@ fn dark_region(frame: &Frame, settings: &TipSettings, median: f32) -> Option<Vec
 }
 
 /// Rough apex, angle, width and taper from the dark region.
-fn initial_guess(region: &[usize], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
-    let xy = |i: usize| ((i % w) as f64, (i / w) as f64);
+fn initial_guess(region: &[(usize, usize)], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
+    let xy = |&(x, y): &(usize, usize)| (x as f64, y as f64);
     let on_border: Vec<(f64, f64)> = region
         .iter()
-        .map(|&i| xy(i))
+        .map(xy)
         .filter(|&(x, y)| x == 0.0 || y == 0.0 || x == (w - 1) as f64 || y == (h - 1) as f64)
         .collect();
     let mean = |pts: &[(f64, f64)]| {
@@ -180,14 +182,14 @@ fn initial_guess(region: &[usize], w: usize, h: usize) -> (f64, f64, f64, f64, f
         )
     };
     let base = if on_border.is_empty() {
-        let all: Vec<(f64, f64)> = region.iter().map(|&i| xy(i)).collect();
+        let all: Vec<(f64, f64)> = region.iter().map(xy).collect();
         mean(&all)
     } else {
         mean(&on_border)
     };
     let far = region
         .iter()
-        .map(|&i| xy(i))
+        .map(xy)
         .max_by(|a, b| {
             let da = (a.0 - base.0).powi(2) + (a.1 - base.1).powi(2);
             let db = (b.0 - base.0).powi(2) + (b.1 - base.1).powi(2);
@@ -202,8 +204,8 @@ fn initial_guess(region: &[usize], w: usize, h: usize) -> (f64, f64, f64, f64, f
         .max(1.0);
     let nbins = len.ceil() as usize + 2;
     let mut counts = vec![0usize; nbins];
-    for &i in region {
-        let (x, y) = xy(i);
+    for p in region {
+        let (x, y) = xy(p);
         let u = -((x - far.0) * c + (y - far.1) * s);
         if u >= 0.0 && (u as usize) < nbins {
             counts[u as usize] += 1;
@@ -293,13 +295,65 @@ fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
     TipModel::at(p).value(px, py)
 }
 
+/// Side of the pixel blocks [`edge_band`] tests as a whole.
+const BAND_BLOCK: usize = 4;
+
+/// The pixels of the box [x0, x1] x [y0, y1] (inclusive) within the circle
+/// (cx, cy, radius) whose signed distance to `sil` is at most `band` in
+/// magnitude, in raster order. The signed distance is 1-Lipschitz (the
+/// distance to the silhouette's edge, signed by side; its far end is 1e5 px
+/// away), so a block whose centre lies farther than `band` + half its
+/// diagonal from the edge holds no such pixel and is skipped whole: the edge
+/// band is a few percent of the box, and a distance costs two segment
+/// projections and a square root.
+fn edge_band(
+    sil: &PlacedSilhouette,
+    (x0, x1): (usize, usize),
+    (y0, y1): (usize, usize),
+    (cx, cy, radius): (f64, f64, f64),
+    band: f64,
+) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    if x1 < x0 || y1 < y0 {
+        return out;
+    }
+    let blocks = (x1 - x0) / BAND_BLOCK + 1;
+    let mut live = vec![false; blocks];
+    for by in (y0..=y1).step_by(BAND_BLOCK) {
+        let ey = (by + BAND_BLOCK - 1).min(y1);
+        for (b, l) in live.iter_mut().enumerate() {
+            let bx = x0 + b * BAND_BLOCK;
+            let ex = (bx + BAND_BLOCK - 1).min(x1);
+            let (mx, my) = (0.5 * (bx + ex) as f64, 0.5 * (by + ey) as f64);
+            // Half the diagonal, and a margin for the rounding of distances.
+            let reach = 0.5 * ((ex - bx) as f64).hypot((ey - by) as f64) + 1e-6;
+            *l = (mx - cx).hypot(my - cy) <= radius + reach
+                && sil.signed_distance(mx, my).abs() <= band + reach;
+        }
+        for y in by..=ey {
+            for (b, _) in live.iter().enumerate().filter(|&(_, &l)| l) {
+                let bx = x0 + b * BAND_BLOCK;
+                for x in bx..=(bx + BAND_BLOCK - 1).min(x1) {
+                    let (xf, yf) = (x as f64, y as f64);
+                    if (xf - cx).powi(2) + (yf - cy).powi(2) <= radius * radius
+                        && sil.signed_distance(xf, yf).abs() <= band
+                    {
+                        out.push((x, y));
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// Finds the probe tip, or `None` when no probe silhouette is in view.
 pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection> {
     let (w, h) = (frame.width(), frame.height());
     let median = background_median(frame);
     let region = dark_region(frame, settings, median)?;
     let (ax, ay, angle, width, taper) = initial_guess(&region, w, h);
-    let inside: Vec<f64> = region.iter().map(|&i| frame.pixels()[i] as f64).collect();
+    let inside: Vec<f64> = region.iter().map(|&(x, y)| frame.at(x, y) as f64).collect();
     let dark = inside.iter().sum::<f64>() / inside.len() as f64;
     let bg = median as f64;
     let opacity = (1.0 - dark / bg.max(1e-9)).clamp(0.05, 1.0);
@@ -321,26 +375,17 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             ((p[1] + radius) as usize).min(h - 1),
         );
         let mut samples: Vec<Sample> = Vec::new();
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let (xf, yf) = (x as f64, y as f64);
-                if (xf - p[0]).powi(2) + (yf - p[1]).powi(2) > radius * radius {
-                    continue;
+        for (x, y) in edge_band(&sil, (x0, x1), (y0, y1), (p[0], p[1], radius), band) {
+            let (xf, yf) = (x as f64, y as f64);
+            let v = frame.at(x, y) as f64;
+            let wgt = match &weighting {
+                Some((q, s)) => {
+                    let r = (v - q.value(xf, yf)).abs();
+                    if r <= 2.5 * *s { 1.0 } else { 2.5 * *s / r }
                 }
-                if sil.signed_distance(xf, yf).abs() > band {
-                    continue;
-                }
-                let v = frame.at(x, y) as f64;
-                let wgt = match &weighting {
-                    Some((q, s)) => {
-                        let (q, s) = (q, *s);
-                        let r = (v - q.value(xf, yf)).abs();
-                        if r <= 2.5 * s { 1.0 } else { 2.5 * s / r }
-                    }
-                    None => 1.0,
-                };
-                samples.push((xf, yf, v, wgt));
-            }
+                None => 1.0,
+            };
+            samples.push((xf, yf, v, wgt));
         }
         let fit = levenberg_marquardt(&samples, p, 40, |q| {
             let model = TipModel::at(q);
@@ -384,6 +429,33 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn edge_band_equals_the_pixel_by_pixel_selection() {
+        let mut selected = 0;
+        for (angle, taper, band) in [(0.4, 47.0, 6.0), (-2.9, 10.0, 3.05), (1.57, 0.5, 9.7)] {
+            let sil = silhouette_of(&SVector::<f64, 8>::from_column_slice(&[
+                100.3, 80.6, angle, 38.0, taper, 900.0, 0.8, 1.0,
+            ]))
+            .placed();
+            for (bx, by, radius) in [((31, 170), (0, 161), 80.0), ((95, 97), (3, 200), 90.0)] {
+                let mut want = Vec::new();
+                for y in by.0..=by.1 {
+                    for x in bx.0..=bx.1 {
+                        let (xf, yf) = (x as f64, y as f64);
+                        if (xf - 100.3).powi(2) + (yf - 80.6).powi(2) <= radius * radius
+                            && sil.signed_distance(xf, yf).abs() <= band
+                        {
+                            want.push((x, y));
+                        }
+                    }
+                }
+                selected += want.len();
+                assert_eq!(edge_band(&sil, bx, by, (100.3, 80.6, radius), band), want);
+            }
+        }
+        assert!(selected > 1000, "the cases select edge pixels: {selected}");
+    }
 
     #[test]
     fn tip_model_gradient_matches_central_differences() {
