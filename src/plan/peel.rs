@@ -248,9 +248,7 @@ pub fn peel(
             let mut by_blocking: Vec<usize> = eligible.collect();
             by_blocking.sort_by_key(|&k| (!fixed_free[k], blocking[k], k));
             let (first, rest) = by_blocking.split_at(by_blocking.len().min(DETOUR_CANDIDATES));
-            [first, rest]
-                .into_iter()
-                .find_map(|group| shortest_detour(group))
+            [first, rest].into_iter().find_map(&mut shortest_detour)
         });
         let Some((k, r)) = pick else {
             let first = obstacles.site(remaining[0]);
