@@ -20,15 +20,7 @@ fn cmu(c: &mut Criterion) {
     let mut cases = Vec::new();
     for seed in 0..100u64 {
         let n = 40 + (seed as usize * 7) % 21;
-        let p = SynthParams {
-            n,
-            field_m: [120e-6, 100e-6],
-            radius_m: 5e-6,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind: LayoutKind::Uniform,
-            seed,
-        };
+        let p = SynthParams::cmu_field(n, LayoutKind::Uniform, seed);
         let layout = synth_layout(&p).unwrap();
         let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
         let sites = place_optimised(

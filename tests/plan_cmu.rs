@@ -50,15 +50,7 @@ fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
     };
     for seed in seeds {
         let n = 40 + (seed as usize * 7) % 21;
-        let p = SynthParams {
-            n,
-            field_m: [120e-6, 100e-6],
-            radius_m: 5e-6,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind,
-            seed,
-        };
+        let p = SynthParams::cmu_field(n, kind, seed);
         let layout = synth_layout(&p).unwrap();
         let area = Reachable::for_field(layout.field_m, 5e-6);
         let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
@@ -147,15 +139,7 @@ fn tip_tour_study_on_cmu() {
     let (mut plan_r, mut free_r, mut lb_gain, mut total_old, mut total_new, mut cons_b) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     for seed in 0..100u64 {
-        let p = SynthParams {
-            n: 40 + (seed as usize * 7) % 21,
-            field_m: [120e-6, 100e-6],
-            radius_m: 5e-6,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind: LayoutKind::Uniform,
-            seed,
-        };
+        let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
         let layout = synth_layout(&p).unwrap();
         let area = Reachable::for_field(layout.field_m, 5e-6);
         let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
@@ -236,15 +220,7 @@ fn replan_after_every_push(seed: u64, immovable_idle: bool) -> (usize, Vec<Strin
     use nanopush::plan::Step;
     use rand::{RngExt, SeedableRng};
     let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
-    let p = SynthParams {
-        n: 40 + (seed as usize * 7) % 21,
-        field_m: [120e-6, 100e-6],
-        radius_m: 5e-6,
-        min_gap_m: 1e-6,
-        polydisperse: false,
-        kind: LayoutKind::Uniform,
-        seed,
-    };
+    let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
     let mut layout = synth_layout(&p).unwrap();
     let area = Reachable::for_field(layout.field_m, 5e-6);
     let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();

@@ -54,16 +54,8 @@ mod tests {
         let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
         let mut better = 0;
         for seed in 0..6 {
-            let layout = synth_layout(&SynthParams {
-                n: 50,
-                field_m: [120e-6, 100e-6],
-                radius_m: 5e-6,
-                min_gap_m: 1e-6,
-                polydisperse: false,
-                kind: LayoutKind::Uniform,
-                seed,
-            })
-            .unwrap();
+            let layout =
+                synth_layout(&SynthParams::cmu_field(50, LayoutKind::Uniform, seed)).unwrap();
             let area = Reachable::for_field(layout.field_m, 5e-6);
             let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
             let by_bound = place_optimised(&pattern, &area, 5e-6, &centres).unwrap();

@@ -38,6 +38,22 @@ pub struct SynthParams {
     pub seed: u64,
 }
 
+impl SynthParams {
+    /// The CMU acceptance scene of issue 4: `n` particles of radius 5 um,
+    /// at least 1 um apart, in a 120 x 100 um field.
+    pub fn cmu_field(n: usize, kind: LayoutKind, seed: u64) -> Self {
+        SynthParams {
+            n,
+            field_m: [120e-6, 100e-6],
+            radius_m: 5e-6,
+            min_gap_m: 1e-6,
+            polydisperse: false,
+            kind,
+            seed,
+        }
+    }
+}
+
 /// Why a layout could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum SynthError {
@@ -187,15 +203,7 @@ mod tests {
             LayoutKind::Clustered,
             LayoutKind::Adversarial,
         ] {
-            let p = SynthParams {
-                n: 50,
-                field_m: [120e-6, 100e-6],
-                radius_m: 5e-6,
-                min_gap_m: 1e-6,
-                polydisperse: false,
-                kind,
-                seed: 3,
-            };
+            let p = SynthParams::cmu_field(50, kind, 3);
             let a = synth_layout(&p).unwrap();
             assert_eq!(a, synth_layout(&p).unwrap());
             assert_eq!(a.particles.len(), 50);
@@ -205,15 +213,7 @@ mod tests {
                 }
             }
         }
-        let too_many = SynthParams {
-            n: 500,
-            field_m: [120e-6, 100e-6],
-            radius_m: 5e-6,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind: LayoutKind::Uniform,
-            seed: 1,
-        };
+        let too_many = SynthParams::cmu_field(500, LayoutKind::Uniform, 1);
         assert!(matches!(
             synth_layout(&too_many),
             Err(SynthError::TooDense { .. })

@@ -317,16 +317,7 @@ mod tests {
         use crate::plan::{Pattern, plan_assembly};
         use rand::{RngExt, SeedableRng};
         let cfg = PlanConfig::default();
-        let layout = synth_layout(&SynthParams {
-            n: 50,
-            field_m: [120e-6, 100e-6],
-            radius_m: 5e-6,
-            min_gap_m: 1e-6,
-            polydisperse: false,
-            kind: LayoutKind::Uniform,
-            seed: 3,
-        })
-        .unwrap();
+        let layout = synth_layout(&SynthParams::cmu_field(50, LayoutKind::Uniform, 3)).unwrap();
         let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
         let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
         let sites = place_optimised(
