@@ -107,6 +107,9 @@ struct Scheduler<'a> {
     failed_routes: RefCell<FailedRoutes>,
     /// (particle, site) pairs no swap may make.
     banned: &'a [(usize, usize)],
+    /// [`Scheduler::swap_nearer`] hand-overs per move, capped so that two
+    /// moves cannot hand a site back and forth for ever.
+    nearer_swaps: Vec<u8>,
 }
 
 /// Orders the moves `pairs` (particle index, site index) into collision-free
@@ -167,6 +170,7 @@ pub fn order_moves(
     // Sites are held at the largest radius: moves may trade particles.
     let site_radii = vec![r; moves.len()];
     let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
+    let n_moves = moves.len();
     let mut sch = Scheduler {
         config,
         layout,
@@ -185,6 +189,7 @@ pub fn order_moves(
         tip: config.tip_start_m,
         failed_routes: Default::default(),
         banned,
+        nearer_swaps: vec![0; n_moves],
     };
     sch.clear_sites();
     let order = sch.peel_with_clearing(&radii)?;
@@ -205,6 +210,9 @@ pub fn order_moves(
         buffer_pushes: sch.buffer_pushes,
     })
 }
+
+/// Hand-overs to a nearer blocker per move.
+const MAX_NEARER_SWAPS: u8 = 8;
 
 /// Buffer pushes allowed to break covering cycles before the peel gives up.
 const MAX_CYCLE_BREAKS: usize = 8;
@@ -590,8 +598,13 @@ impl Scheduler<'_> {
     fn swap_nearer(&mut self, k: usize, q: usize) -> bool {
         let site = self.obstacles.site(k);
         let p = self.moves[k].particle;
-        (self.occ.pos[q] - site).norm() < (self.occ.pos[p] - site).norm()
-            && self.swap_if(k, q, 0, false)
+        let ok = self.nearer_swaps[k] < MAX_NEARER_SWAPS
+            && (self.occ.pos[q] - site).norm() < (self.occ.pos[p] - site).norm()
+            && self.swap_if(k, q, 0, false);
+        if ok {
+            self.nearer_swaps[k] += 1;
+        }
+        ok
     }
 
     /// [`Self::swap_with`]; `dynamic`: q's new route must miss every particle now.
