@@ -7,6 +7,8 @@
 //! the particles and filled sites inside the box it looked in, so its
 //! failure stands until a push or a filled site touches that box.
 
+use super::PlanConfig;
+use super::route::search_extent_m;
 use nalgebra::Vector2;
 use std::collections::HashMap;
 
@@ -15,19 +17,47 @@ use std::collections::HashMap;
 pub type SearchKey = (usize, usize, u64, u64, bool, usize);
 
 /// Failed searches with the box (lower, upper corner, metres) each looked in.
-#[derive(Debug, Default)]
-pub struct FailedRoutes {
-    boxes: HashMap<SearchKey, (Vector2<f64>, Vector2<f64>)>,
+#[derive(Debug)]
+pub struct FailedRoutes<K = SearchKey> {
+    boxes: HashMap<K, (Vector2<f64>, Vector2<f64>)>,
 }
 
-impl FailedRoutes {
+impl<K> Default for FailedRoutes<K> {
+    fn default() -> Self {
+        FailedRoutes {
+            boxes: HashMap::new(),
+        }
+    }
+}
+
+/// The box a route search from `from` to `to` looked in, as (lower, upper)
+/// corners: every corridor it tested lies within its extent of the two ends,
+/// and what it could hit within a particle (`max_radius_m`) and the
+/// clearances more (the on-site tolerance for a particle on a site).
+pub fn search_box(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    radius_m: f64,
+    max_radius_m: f64,
+    config: &PlanConfig,
+) -> (Vector2<f64>, Vector2<f64>) {
+    let margin = Vector2::repeat(
+        search_extent_m(radius_m, config)
+            + max_radius_m
+            + config.clearance_m
+            + config.on_site_tolerance_m,
+    );
+    (from.inf(&to) - margin, from.sup(&to) + margin)
+}
+
+impl<K: std::hash::Hash + Eq> FailedRoutes<K> {
     /// True when this search failed and nothing has changed in its box since.
-    pub fn known(&self, key: &SearchKey) -> bool {
+    pub fn known(&self, key: &K) -> bool {
         self.boxes.contains_key(key)
     }
 
     /// Remembers a failed search that looked inside `lo`..`hi`.
-    pub fn remember(&mut self, key: SearchKey, lo: Vector2<f64>, hi: Vector2<f64>) {
+    pub fn remember(&mut self, key: K, lo: Vector2<f64>, hi: Vector2<f64>) {
         self.boxes.insert(key, (lo, hi));
     }
 

@@ -13,14 +13,14 @@
 //! Repairs are bounded; beyond them, or when none applies, the planner
 //! refuses and names the blocked move and its blocker.
 
-use super::failed_routes::FailedRoutes;
+use super::failed_routes::{FailedRoutes, search_box};
 use super::grid::Grid;
 use super::layout::Layout;
 use super::occupancy::Occupancy;
 use super::pattern::Site;
 use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
-use super::route::{Reach, find_route_within, search_extent_m};
+use super::route::{Reach, find_route_within};
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 use std::cell::RefCell;
@@ -549,20 +549,8 @@ impl Scheduler<'_> {
         }
         let res = find_route_within(from, to, r, self.config, self.reach, waypoints, &free);
         if res.is_none() {
-            // Every corridor the search tested lies within its extent of
-            // the two ends; what it could hit, within a particle and the
-            // clearances more.
-            let margin = Vector2::repeat(
-                search_extent_m(r, self.config)
-                    + self.occ.max_radius_m
-                    + self.config.clearance_m
-                    + self.config.on_site_tolerance_m,
-            );
-            self.failed_routes.borrow_mut().remember(
-                key,
-                from.inf(&to) - margin,
-                from.sup(&to) + margin,
-            );
+            let (lo, hi) = search_box(from, to, r, self.occ.max_radius_m, self.config);
+            self.failed_routes.borrow_mut().remember(key, lo, hi);
         }
         res
     }

@@ -15,9 +15,10 @@
 //! theirs.
 
 use super::PlanConfig;
+use super::failed_routes::{FailedRoutes, search_box};
 use super::grid::Grid;
 use super::pushes::Corridor;
-use super::route::{Reach, find_route, route_length, search_extent_m};
+use super::route::{Reach, find_route, route_length};
 use nalgebra::Vector2;
 
 /// What stands still while the moves are made: the sites (held by the
@@ -182,7 +183,7 @@ pub fn peel(
     // Detour searches that found nothing, with the box they looked in: a
     // search is repeated only once a site inside its box has been removed
     // (at N = 10,000 the same failing searches were most of the time).
-    let mut failed_box: Vec<Option<(Vector2<f64>, Vector2<f64>)>> = vec![None; m];
+    let mut failed: FailedRoutes<usize> = FailedRoutes::default();
     let mut remaining: Vec<usize> = (0..m).collect();
     let mut site_sum: Vector2<f64> = (0..m).map(|k| obstacles.site(k)).sum();
     for step in (0..m).rev() {
@@ -196,7 +197,7 @@ pub fn peel(
         let mut shortest_detour = |group: &[usize]| {
             let mut best: Option<(f64, usize, Vec<Vector2<f64>>)> = None;
             for &k in group {
-                if route[k].is_none() && failed_box[k].is_some() {
+                if route[k].is_none() && failed.known(&k) {
                     continue;
                 }
                 let free = |c: &Corridor| obstacles.misses(c, |s| s != k && filled(s));
@@ -211,13 +212,14 @@ pub fn peel(
                     )
                 });
                 if found.is_none() {
-                    let (a, b) = (starts[k], obstacles.site(k));
-                    let margin = Vector2::repeat(
-                        search_extent_m(radius[k], config)
-                            + obstacles.max_radius_m
-                            + obstacles.site_clearance_m,
+                    let (lo, hi) = search_box(
+                        starts[k],
+                        obstacles.site(k),
+                        radius[k],
+                        obstacles.max_radius_m,
+                        config,
                     );
-                    failed_box[k] = Some((a.inf(&b) - margin, a.sup(&b) + margin));
+                    failed.remember(k, lo, hi);
                 }
                 if let Some(r) = found {
                     let extra =
@@ -273,14 +275,7 @@ pub fn peel(
         for &q in &blocked_by_site[k] {
             blocking[q] -= 1;
         }
-        let freed = obstacles.site(k);
-        for b in failed_box.iter_mut() {
-            if b.is_some_and(|(lo, hi)| {
-                freed.x >= lo.x && freed.y >= lo.y && freed.x <= hi.x && freed.y <= hi.y
-            }) {
-                *b = None;
-            }
-        }
+        failed.forget_near(obstacles.site(k), obstacles.site(k));
     }
     Ok(FillOrder {
         rank: rank
