@@ -134,6 +134,25 @@ fn study_plan_reports_every_method_and_dumps_instances_that_read_back() {
     let (sites, parts) = nanopush::plan::assignment::read_instance_json(&text).unwrap();
     assert_eq!((sites.len(), parts.len()), (70, 140));
 
+    // Greedy alone: no exact cost to divide by, so no ratio (it read 0).
+    let alone = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args([
+            "study",
+            "plan",
+            "--sizes",
+            "20",
+            "--methods",
+            "greedy",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    let row: serde_json::Value = serde_json::from_slice(&alone.stdout).unwrap();
+    assert!(
+        row["ratio"].is_null() && row["cost_um"].as_f64().unwrap() > 0.0,
+        "{row}"
+    );
+
     let bad = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
         .args(["study", "plan", "--sizes", "0"])
         .output()

@@ -173,7 +173,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .filter_map(|r| r.cost_m)
             .fold(f64::INFINITY, f64::min);
         for r in &rows {
-            let ratio = r.cost_m.map(|c| c / best).filter(|x| x.is_finite());
+            // No exact method ran (all skipped): no ratio, not c / inf = 0.
+            let ratio = r.cost_m.filter(|_| best.is_finite()).map(|c| c / best);
             if args.json {
                 println!(
                     "{}",
