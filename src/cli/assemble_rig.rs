@@ -66,7 +66,6 @@ const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
 
 /// Runs the assembly on the hardware rig named by `args.hardware.rig`.
 pub fn run(args: &Args) -> anyhow::Result<()> {
-    show_warnings();
     let hw = &args.hardware;
     let Some(rig_path) = &hw.rig else {
         bail!("assemble on a rig needs --rig FILE");
@@ -125,17 +124,6 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         bail!("assembly did not finish: {}", report.outcome);
     }
     Ok(())
-}
-
-/// Rig warnings (skipped frame files, discarded frames, halts) go to
-/// stderr; `RUST_LOG` (e.g. `nanopush=debug`) shows more.
-pub(super) fn show_warnings() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
-    let _ = tracing_subscriber::fmt()
-        .with_writer(std::io::stderr)
-        .with_env_filter(filter)
-        .try_init();
 }
 
 fn assemble(

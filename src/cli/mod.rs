@@ -90,6 +90,7 @@ enum RigCommand {
 /// Parses the command line, runs the command and maps errors to a non-zero exit.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    show_warnings();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
@@ -97,6 +98,18 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Warnings (rig: skipped frame files, discarded frames, halts) go to
+/// stderr; `RUST_LOG` (e.g. `nanopush=debug`) shows more, such as the
+/// planner's stage times.
+fn show_warnings() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(filter)
+        .try_init();
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {

@@ -75,7 +75,6 @@ const LAYOUT_MARGIN_UM: f64 = 10.0;
 
 /// Serves the simulator until Ctrl-C.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    super::assemble_rig::show_warnings();
     anyhow::ensure!(
         args.velocity_um_s.is_finite() && args.velocity_um_s > 0.0,
         "--velocity-um-s must be positive, got {}",

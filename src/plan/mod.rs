@@ -241,7 +241,9 @@ pub fn plan_assembly(
     let (assigned, ordered) = assign_and_order(layout, sites, config)?;
     let lb_push = assigned.lb_push_m;
     let pairs = &ordered.pairs;
+    let t = Instant::now();
     let mut steps = tour::shorten_tip_travel(ordered.steps, layout, config.tip_start_m, config);
+    tracing::debug!("plan: tour {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     let start = config.tip_start_m.or_else(|| {
         steps.iter().find_map(|s| match s {
             Step::Push {
@@ -255,7 +257,13 @@ pub fn plan_assembly(
     });
     steps = pushes::with_tip_travel(steps, start, config);
     let coarse = windows::insert_coarse_moves(&mut steps, config);
+    let t = Instant::now();
     let lb_tip = bounds::lb_tip(&steps, config.tip_start_m, config);
+    tracing::debug!(
+        "plan: LB_tip {:.1} ms ({} steps)",
+        t.elapsed().as_secs_f64() * 1e3,
+        steps.len()
+    );
     let mut summary = summarise(&steps, config);
     summary.lb_push_m = lb_push;
     summary.lb_tip_m = lb_tip;
@@ -285,19 +293,31 @@ fn assign_and_order(
     sites: &[Site],
     config: &PlanConfig,
 ) -> Result<(Assigned, order::Ordered), PlanError> {
+    let t = Instant::now();
     let problem = FreeProblem::new(layout, sites, config)?;
+    tracing::debug!("plan: assignment {:.1} ms", t.elapsed().as_secs_f64() * 1e3);
     let mut forbidden: Vec<(usize, usize)> = Vec::new();
     let mut tries = 0;
     loop {
         let assigned = problem.assigned(&forbidden);
-        let refusal = match order::order_moves(
+        let t = Instant::now();
+        let ordered = order::order_moves(
             layout,
             sites,
             &assigned.pairs,
             &assigned.on_site,
             &forbidden,
             config,
-        ) {
+        );
+        tracing::debug!(
+            "plan: order (try {}) {:.1} ms: {}",
+            tries + 1,
+            t.elapsed().as_secs_f64() * 1e3,
+            ordered
+                .as_ref()
+                .map_or_else(|r| r.reason.as_str(), |_| "ordered")
+        );
+        let refusal = match ordered {
             Ok(ordered) => return Ok((assigned, ordered)),
             Err(refusal) => refusal,
         };
