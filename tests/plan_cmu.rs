@@ -211,6 +211,80 @@ fn tip_tour_study_on_cmu() {
     show("push+tip ratio against LB_tip", total_new);
 }
 
+/// Where the push distance above LB_push goes on CMU: the executed
+/// assignment's straight distance above the optimum (repairs that trade
+/// sites, re-assignments), and the path above the executed straight lines
+/// (detours, buffer pushes, particles pushed off a site first).
+#[test]
+#[ignore = "a study: prints the push-excess breakdown of docs/plan.md (about 10 s in release)"]
+fn push_excess_study_on_cmu() {
+    let config = PlanConfig::default();
+    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+    let (mut assign_x, mut path_x, mut ratio) = (vec![], vec![], vec![]);
+    let (mut buffers, mut idle_m) = (0, 0.0);
+    for seed in 0..100u64 {
+        let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
+        let layout = synth_layout(&p).unwrap();
+        let area = Reachable::for_field(layout.field_m, 5e-6);
+        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+        let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+        let Ok(plan) = plan_assembly(&layout, &sites, &config) else {
+            continue;
+        };
+        let by_id = layout.index_by_id();
+        let executed: f64 = plan
+            .assignment
+            .iter()
+            .map(|&(pid, sid)| {
+                let site = plan.sites.iter().find(|s| s.id == sid).unwrap().centre_m;
+                (layout.particles[by_id[&pid]].centre_m - site).norm()
+            })
+            .sum();
+        let s = &plan.summary;
+        assert!(
+            executed >= s.lb_push_m * (1.0 - 1e-9),
+            "seed {seed}: below LB_push"
+        );
+        let assigned: std::collections::HashSet<u32> =
+            plan.assignment.iter().map(|a| a.0).collect();
+        for step in &plan.steps {
+            if let nanopush::plan::Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } = step
+            {
+                if !assigned.contains(particle) {
+                    idle_m += (to_m - from_m).norm() / s.lb_push_m;
+                }
+            }
+        }
+        assign_x.push(executed / s.lb_push_m - 1.0);
+        path_x.push((s.push_distance_m - executed) / s.lb_push_m);
+        ratio.push(s.push_distance_m / s.lb_push_m);
+        buffers += s.buffer_pushes;
+    }
+    let show = |name: &str, mut v: Vec<f64>| {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        v.sort_by(f64::total_cmp);
+        eprintln!(
+            "{name}: mean {mean:.4}, median {:.4}, worst {:.4} ({} layouts)",
+            v[v.len() / 2],
+            v[v.len() - 1],
+            v.len()
+        );
+    };
+    show("push ratio", ratio);
+    show("executed assignment above LB_push (/ LB_push)", assign_x);
+    show("path above the executed straight lines (/ LB_push)", path_x);
+    eprintln!("buffer or waypoint pushes: {buffers}");
+    eprintln!(
+        "pushes of unassigned particles, mean per layout (/ LB_push): {:.4}",
+        idle_m / 100.0
+    );
+}
+
 /// The executor's loop: plan, execute only the first push (landing a little
 /// off target, within the on-site tolerance), re-plan from the new state.
 /// Every re-plan must succeed without collisions until the pattern is done
