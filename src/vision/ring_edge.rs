@@ -583,3 +583,242 @@ pub fn recentre_on_ring_edges(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::vision::profile_fit::{ProfileModel, fit_particle};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    const BACKGROUND: f64 = 1000.0;
+
+    /// A 16-bit frame of `f(x, y)` plus Gaussian noise of `noise` counts (seeded).
+    fn frame_of(size: usize, noise: f64, seed: u64, f: impl Fn(f64, f64) -> f64) -> Frame {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let normal = Normal::new(0.0, noise.max(1e-12)).unwrap();
+        let pixels = (0..size * size)
+            .map(|i| {
+                let (x, y) = ((i % size) as f64, (i / size) as f64);
+                let n = if noise > 0.0 {
+                    normal.sample(&mut rng)
+                } else {
+                    0.0
+                };
+                (f(x, y) + n).clamp(0.0, 65535.0) as f32
+            })
+            .collect();
+        Frame::new(size, size, pixels, 16).unwrap()
+    }
+
+    /// A bright-field sphere whose outline (dark ring, radius 8.5 px) is
+    /// centred at (cx, cy) and whose bright core sits `core_dx` px to the
+    /// side; the ring is broader on the side away from the core, as on the
+    /// real fixtures (oblique light). `sign` -1 flips the contrast.
+    fn asymmetric_sphere(cx: f64, cy: f64, core_dx: f64, sign: f64) -> impl Fn(f64, f64) -> f64 {
+        move |x, y| {
+            let (dx, dy) = (x - cx, y - cy);
+            let r = dx.hypot(dy);
+            let cos_t = if r > 0.0 { dx / r } else { 0.0 };
+            let away = if core_dx == 0.0 {
+                0.0
+            } else {
+                -cos_t * core_dx.signum()
+            };
+            let width = 1.2 + 0.8 * away.max(0.0);
+            let ring = 400.0 * (-0.5 * ((r - 8.5) / width).powi(2)).exp();
+            let core_r2 = (x - cx - core_dx).powi(2) + dy * dy;
+            let core = 600.0 * (-0.5 * core_r2 / 3.8f64.powi(2)).exp();
+            BACKGROUND + sign * (core - ring)
+        }
+    }
+
+    #[test]
+    fn symmetric_noise_free_rings_give_their_centre() {
+        for (cx, cy) in [(40.0, 40.0), (40.3, 39.8), (39.55, 40.45)] {
+            let frame = frame_of(80, 0.0, 1, asymmetric_sphere(cx, cy, 0.0, 1.0));
+            let f = ring_edge_centre(&frame, cx + 0.7, cy - 0.6, 8.0, &[], 1.0).unwrap();
+            let err = (f.x_px - cx).hypot(f.y_px - cy);
+            assert!(err < 0.03, "({cx}, {cy}): error {err} px");
+            // The profile's minimum, which the core's tail puts a little
+            // outside the ring's 8.5 px (dense 1-D search).
+            let sphere = asymmetric_sphere(cx, cy, 0.0, 1.0);
+            let r_min = (6000..11000)
+                .map(|i| i as f64 * 1e-3)
+                .min_by(|a, b| sphere(cx + a, cy).total_cmp(&sphere(cx + b, cy)))
+                .unwrap();
+            assert!(r_min > 8.55, "core tail moves the minimum out: {r_min}");
+            assert!(
+                (f.r_px - r_min).abs() < 0.05,
+                "radius {} vs {r_min}",
+                f.r_px
+            );
+            assert_eq!(f.rays_used, f.rays_cast);
+        }
+    }
+
+    /// The failure mode this module exists for: the core 1 px off the outline
+    /// pulls the profile fit; the ring edge stays on the outline.
+    #[test]
+    fn asymmetric_sphere_outline_centre_where_the_profile_fit_is_pulled_to_the_core() {
+        let (cx, cy) = (50.2, 49.7);
+        for seed in 1..=4 {
+            let frame = frame_of(100, 10.0, seed, asymmetric_sphere(cx, cy, -1.0, 1.0));
+            let p = fit_particle(&frame, cx, cy, 8.5, ProfileModel::Ring).unwrap();
+            let f = ring_edge_centre(&frame, p.x_px, p.y_px, p.r_px, &[], 10.0).unwrap();
+            let profile_err = (p.x_px - cx).hypot(p.y_px - cy);
+            let ring_err = (f.x_px - cx).hypot(f.y_px - cy);
+            println!(
+                "seed {seed}: profile error {profile_err:.3} px, ring-edge error {ring_err:.3} px"
+            );
+            assert!(
+                profile_err > 0.2,
+                "seed {seed}: profile error {profile_err}"
+            );
+            assert!(ring_err < 0.1, "seed {seed}: ring-edge error {ring_err}");
+            assert!(f.sigma_px > 0.0 && f.sigma_px < 0.1, "sigma {}", f.sigma_px);
+        }
+    }
+
+    #[test]
+    fn bright_ring_of_the_inverted_contrast_is_found() {
+        let (cx, cy) = (40.4, 40.1);
+        let frame = frame_of(80, 5.0, 7, asymmetric_sphere(cx, cy, 0.0, -1.0));
+        let f = ring_edge_centre(&frame, cx - 0.5, cy + 0.5, 8.5, &[], 5.0).unwrap();
+        assert!((f.x_px - cx).hypot(f.y_px - cy) < 0.1, "{f:?}");
+        assert!((f.r_px - 8.5).abs() < 0.2, "{f:?}");
+    }
+
+    /// A dark bar (the probe's cantilever) across the ring's right side: its
+    /// rays are rejected as outliers, the centre stays on the outline.
+    #[test]
+    fn a_dark_bar_across_the_ring_is_rejected() {
+        let (cx, cy) = (40.0, 40.0);
+        let sphere = asymmetric_sphere(cx, cy, 0.0, 1.0);
+        let frame = frame_of(80, 5.0, 3, |x, y| {
+            let bar = if (y - 41.0).abs() < 1.5 && x > 44.0 {
+                -700.0
+            } else {
+                0.0
+            };
+            sphere(x, y) + bar
+        });
+        let f = ring_edge_centre(&frame, cx + 0.4, cy, 8.5, &[], 5.0).unwrap();
+        assert!((f.x_px - cx).hypot(f.y_px - cy) < 0.1, "{f:?}");
+        assert!(f.rays_used < f.rays_cast);
+    }
+
+    /// A touching neighbour's ring is not taken for this one's: rays are cut
+    /// at the bisector.
+    #[test]
+    fn touching_neighbour_is_cut_at_the_bisector() {
+        let a = asymmetric_sphere(30.0, 40.0, 0.0, 1.0);
+        let b = asymmetric_sphere(47.0, 40.3, 0.0, 1.0);
+        let frame = frame_of(80, 5.0, 5, |x, y| a(x, y) + b(x, y) - BACKGROUND);
+        let f = ring_edge_centre(&frame, 30.3, 40.2, 8.5, &[(47.0, 40.3)], 5.0).unwrap();
+        assert!((f.x_px - 30.0).hypot(f.y_px - 40.0) < 0.15, "{f:?}");
+    }
+
+    #[test]
+    fn no_ring_gives_a_typed_outcome_never_nan() {
+        // Flat noise, a Gaussian spot without a ring, a uniform frame.
+        let flat = frame_of(64, 5.0, 2, |_, _| BACKGROUND);
+        let spot = frame_of(64, 5.0, 2, |x, y| {
+            BACKGROUND + 800.0 * (-0.5 * ((x - 32.0).powi(2) + (y - 32.0).powi(2)) / 9.0).exp()
+        });
+        let uniform = frame_of(64, 0.0, 2, |_, _| BACKGROUND);
+        for (name, frame) in [("flat", &flat), ("spot", &spot), ("uniform", &uniform)] {
+            match ring_edge_centre(frame, 32.0, 32.0, 8.5, &[], 5.0) {
+                Err(RingEdgeError::NoRing { found, cast, .. }) => {
+                    assert!(found < MIN_RAYS && cast > 0, "{name}")
+                }
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn bad_starts_and_one_sided_rings_are_refused() {
+        let frame = frame_of(80, 5.0, 4, asymmetric_sphere(40.0, 40.0, 0.0, 1.0));
+        for (x, y, r) in [
+            (f64::NAN, 40.0, 8.5),
+            (40.0, f64::INFINITY, 8.5),
+            (40.0, 40.0, 1.0),
+            (40.0, 40.0, f64::NAN),
+            (-3.0, 40.0, 8.5),
+            (40.0, 95.0, 8.5),
+        ] {
+            assert!(
+                matches!(
+                    ring_edge_centre(&frame, x, y, r, &[], 5.0),
+                    Err(RingEdgeError::BadStart(_))
+                ),
+                "({x}, {y}, {r})"
+            );
+        }
+        // A sphere cut by the frame's corner: most rays leave the frame.
+        let corner = frame_of(60, 5.0, 4, asymmetric_sphere(2.0, 2.0, 0.0, 1.0));
+        let outcome = ring_edge_centre(&corner, 2.0, 2.0, 8.5, &[], 5.0);
+        assert!(
+            matches!(
+                outcome,
+                Err(RingEdgeError::OneSided { .. } | RingEdgeError::NoRing { .. })
+            ),
+            "{outcome:?}"
+        );
+        // Neighbours all round leave no ray.
+        let around: Vec<(f64, f64)> = (0..6)
+            .map(|k| {
+                let t = k as f64 * std::f64::consts::FRAC_PI_3;
+                (40.0 + 12.0 * t.cos(), 40.0 + 12.0 * t.sin())
+            })
+            .collect();
+        assert!(ring_edge_centre(&frame, 40.0, 40.0, 8.5, &around, 5.0).is_err());
+        // A tiny frame, and a non-finite noise figure (falls back to the floor).
+        let tiny = Frame::new(1, 1, vec![5.0], 8).unwrap();
+        assert!(ring_edge_centre(&tiny, 0.0, 0.0, 8.5, &[], 1.0).is_err());
+        let f = ring_edge_centre(&frame, 40.2, 40.0, 8.5, &[], f64::NAN).unwrap();
+        assert!(f.x_px.is_finite() && f.sigma_px.is_finite());
+    }
+
+    #[test]
+    fn recentring_moves_only_significantly_asymmetric_particles() {
+        let det = |x_px, y_px, sigma_px| Detection {
+            x_px,
+            y_px,
+            r_px: 8.5,
+            sigma_px,
+            quality: 30.0,
+            edge_clipped: false,
+        };
+        let a = asymmetric_sphere(30.0, 30.0, -1.0, 1.0);
+        let s = asymmetric_sphere(90.0, 90.0, 0.0, 1.0);
+        let frame = frame_of(120, 10.0, 9, |x, y| a(x, y) + s(x, y) - BACKGROUND);
+        // The asymmetric one as the profile fit would report it (0.4 px
+        // towards the core), the symmetric one at its truth.
+        let mut found = vec![det(29.6, 30.0, 0.02), det(90.0, 90.0, 0.02)];
+        let outcomes = recentre_on_ring_edges(&frame, &mut found, 10.0);
+        assert!(
+            matches!(outcomes[0], RingEdgeOutcome::Recentred { shift_px, .. } if shift_px > 0.3),
+            "{outcomes:?}"
+        );
+        assert!(
+            matches!(outcomes[1], RingEdgeOutcome::Consistent { .. }),
+            "{outcomes:?}"
+        );
+        assert!((found[0].x_px - 30.0).hypot(found[0].y_px - 30.0) < 0.1);
+        assert_eq!((found[1].x_px, found[1].y_px), (90.0, 90.0));
+    }
+
+    #[test]
+    fn correlation_inflation_grows_with_smooth_residuals() {
+        let alternating: Vec<f64> = (0..40)
+            .map(|i| if i % 2 == 0 { 0.1 } else { -0.1 })
+            .collect();
+        assert_eq!(correlation_inflation(&alternating), 1.0);
+        let smooth: Vec<f64> = (0..40).map(|i| (i as f64 * 0.3).sin()).collect();
+        assert!(correlation_inflation(&smooth) > 5.0);
+        assert_eq!(correlation_inflation(&[0.0; 10]), 1.0);
+    }
+}
