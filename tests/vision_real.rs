@@ -376,3 +376,36 @@ fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("odd"));
 }
+
+/// `nanopush detect --centre ring-edge` on a brightfield frame: the five
+/// particles within 0.5 px of the independent ring fit in the JSON it writes;
+/// with --locator crocker-grier (no ring fit) the flag is refused.
+#[test]
+fn detect_cli_ring_edge_centres_on_brightfield() {
+    let frame = fixture("brightfield/bf_0000.png");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(["detect", "--centre", "ring-edge", "--no-tip", "--json"])
+            .args(extra)
+            .arg(&frame)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
+        &String::from_utf8(out.stdout).unwrap(),
+    )
+    .unwrap();
+    let reference = read_csv_xy(&fixture("reference/bf_0000.ringfit.csv"));
+    let pts: Vec<[f64; 2]> = doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
+    assert_eq!(doc.particles.len(), 5);
+    assert_eq!(match_points(&reference, &pts, 0.5).pairs.len(), 5);
+    let refused = run(&["--locator", "crocker-grier", "--diameter-px", "17"]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("ring-edge"));
+}
