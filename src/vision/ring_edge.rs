@@ -353,11 +353,11 @@ impl RaySearch<'_> {
         }
         let b = stv / s2;
         let c = (n * st2v - s2 * sv) / (n * s4 - s2 * s2);
-        if !(c > 0.0) {
+        if c.is_nan() || c <= 0.0 {
             return None;
         }
         let vertex = -b / (2.0 * c);
-        if !(vertex.abs() <= VERTEX_HALF_WIDTH_PX) {
+        if vertex.is_nan() || vertex.abs() > VERTEX_HALF_WIDTH_PX {
             return None;
         }
         Some(self.band().0 + k as f64 * RADIAL_STEP_PX + vertex)
@@ -488,7 +488,7 @@ fn solve_shape(
         atb += a * *rho;
     }
     let coverage = (ata / rows.len() as f64).symmetric_eigenvalues().min();
-    if !(coverage >= MIN_COVERAGE) {
+    if coverage.is_nan() || coverage < MIN_COVERAGE {
         return Err(RingEdgeError::OneSided {
             coverage: if coverage.is_finite() { coverage } else { 0.0 },
         });
