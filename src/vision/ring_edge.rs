@@ -47,8 +47,10 @@ pub enum CentreEstimate {
     RingEdge,
 }
 
-/// Radial sampling step along a ray, pixels (bilinear samples).
-const RADIAL_STEP_PX: f64 = 0.25;
+/// Radial sampling step along a ray, pixels (bilinear samples): half a
+/// pixel, 5 samples under the vertex parabola (0.25 px measured no better:
+/// SNR 8 raw RMS 0.048 vs 0.045 px, at twice the cost).
+const RADIAL_STEP_PX: f64 = 0.5;
 /// The ring is searched between these fractions of the radius estimate: wide
 /// enough for a centre a third of a radius off, narrow enough to stay out of
 /// the core and of a touching neighbour's ring.
@@ -400,8 +402,9 @@ fn bilinear(frame: &Frame, x: f64, y: f64) -> Option<(f64, bool)> {
     if !(x >= 0.0 && y >= 0.0 && x <= (w - 1) as f64 && y <= (h - 1) as f64) {
         return None;
     }
-    let x0 = (x.floor() as usize).min(w - 2);
-    let y0 = (y.floor() as usize).min(h - 2);
+    // x, y >= 0 here, so truncation is the floor (and needs no libm call).
+    let x0 = (x as usize).min(w - 2);
+    let y0 = (y as usize).min(h - 2);
     let (fx, fy) = (x - x0 as f64, y - y0 as f64);
     let p = [
         frame.at(x0, y0),
