@@ -9,6 +9,7 @@ use nanopush::vision::crocker_grier::{LocateParams, locate};
 use nanopush::vision::detect::{DetectSettings, detect_particles};
 use nanopush::vision::frame_input::{Channel, load_frame, load_frames};
 use nanopush::vision::matching::match_points;
+use nanopush::vision::ring_edge::CentreEstimate;
 
 fn fixture(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -46,38 +47,62 @@ fn brightfield_exactly_five_particles_in_every_frame() {
     }
 }
 
-/// Acceptance NOT met (see docs/vision.md): these particles are asymmetric
-/// (core ~1 px left of the dark ring), the symmetric profile fit sits 0.28-0.59 px
-/// left of the ring-minimum circle. Run with --ignored to see the figures.
+/// Worst distance from the independent ring-minimum fit (scripts/peers/
+/// brightfield_ring_reference.py) over the five particles of each frame,
+/// with the given centre estimate; asserts exactly five found and matched.
+fn brightfield_worst_offsets(centre: CentreEstimate) -> Vec<(String, f64)> {
+    ["bf_0000", "bf_0025", "bf_0049"]
+        .iter()
+        .map(|name| {
+            let frame = load_frame(
+                &fixture(&format!("brightfield/{name}.png")),
+                Channel::Luminance,
+            )
+            .unwrap();
+            let found = detect_particles(
+                &frame,
+                &DetectSettings {
+                    diameter_px: 17.0,
+                    centre,
+                    ..DetectSettings::default()
+                },
+            )
+            .unwrap();
+            let reference = read_csv_xy(&fixture(&format!("reference/{name}.ringfit.csv")));
+            let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
+            let m = match_points(&reference, &pts, 3.0);
+            let worst = m.pairs.iter().map(|p| p.2.hypot(p.3)).fold(0.0, f64::max);
+            println!(
+                "{name} ({centre:?}): {} found, {} matched, worst offset {worst:.3} px",
+                found.len(),
+                m.pairs.len()
+            );
+            assert_eq!(found.len(), 5, "{name}");
+            assert_eq!(m.pairs.len(), 5, "{name}");
+            (name.to_string(), worst)
+        })
+        .collect()
+}
+
+/// The brightfield particles are asymmetric (core ~1 px left of the dark
+/// ring): the ring-edge centre sits within 0.5 px of the independent
+/// ring-minimum fit, where the profile centre is up to 0.63 px off
+/// (docs/vision.md, ninth pass).
 #[test]
-#[ignore = "acceptance not met: 0.28-0.59 px from the ring-minimum fit (asymmetric particles)"]
 fn brightfield_exactly_five_particles_within_half_a_pixel_of_the_ring_fit() {
-    for name in ["bf_0000", "bf_0025", "bf_0049"] {
-        let frame = load_frame(
-            &fixture(&format!("brightfield/{name}.png")),
-            Channel::Luminance,
-        )
-        .unwrap();
-        let found = detect_particles(
-            &frame,
-            &DetectSettings {
-                diameter_px: 17.0,
-                ..DetectSettings::default()
-            },
-        )
-        .unwrap();
-        let reference = read_csv_xy(&fixture(&format!("reference/{name}.ringfit.csv")));
-        let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
-        let m = match_points(&reference, &pts, 3.0);
-        let worst = m.pairs.iter().map(|p| p.2.hypot(p.3)).fold(0.0, f64::max);
-        println!(
-            "{name}: {} found, {} matched, worst offset {worst:.3} px",
-            found.len(),
-            m.pairs.len()
-        );
-        assert_eq!(found.len(), 5, "{name}");
-        assert_eq!(m.pairs.len(), 5, "{name}");
-        assert!(worst <= 0.5, "{name}: worst offset {worst}");
+    for (name, worst) in brightfield_worst_offsets(CentreEstimate::RingEdge) {
+        assert!(worst <= 0.5, "{name}: worst offset {worst} px");
+    }
+}
+
+/// The profile centre alone (the default) does not meet the 0.5 px target on
+/// these asymmetric particles: kept to show the figures (worst 0.633 px on
+/// bf_0049); run with --ignored.
+#[test]
+#[ignore = "profile centre: worst 0.589, 0.450, 0.633 px from the ring-minimum fit on bf_0000, bf_0025, bf_0049 (asymmetric particles); met by CentreEstimate::RingEdge"]
+fn brightfield_profile_centre_within_half_a_pixel_of_the_ring_fit() {
+    for (name, worst) in brightfield_worst_offsets(CentreEstimate::Profile) {
+        assert!(worst <= 0.5, "{name}: worst offset {worst} px");
     }
 }
 
@@ -350,4 +375,37 @@ fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
     let refused = run("8");
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("odd"));
+}
+
+/// `nanopush detect --centre ring-edge` on a brightfield frame: the five
+/// particles within 0.5 px of the independent ring fit in the JSON it writes;
+/// with --locator crocker-grier (no ring fit) the flag is refused.
+#[test]
+fn detect_cli_ring_edge_centres_on_brightfield() {
+    let frame = fixture("brightfield/bf_0000.png");
+    let run = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(["detect", "--centre", "ring-edge", "--no-tip", "--json"])
+            .args(extra)
+            .arg(&frame)
+            .output()
+            .unwrap()
+    };
+    let out = run(&[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
+        &String::from_utf8(out.stdout).unwrap(),
+    )
+    .unwrap();
+    let reference = read_csv_xy(&fixture("reference/bf_0000.ringfit.csv"));
+    let pts: Vec<[f64; 2]> = doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
+    assert_eq!(doc.particles.len(), 5);
+    assert_eq!(match_points(&reference, &pts, 0.5).pairs.len(), 5);
+    let refused = run(&["--locator", "crocker-grier", "--diameter-px", "17"]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("ring-edge"));
 }

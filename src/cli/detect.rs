@@ -11,6 +11,7 @@ use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::overlay::draw_overlay;
+use crate::vision::ring_edge::CentreEstimate;
 use crate::vision::tip::{TipSettings, detect_tip};
 
 /// Arguments of `nanopush detect`.
@@ -53,6 +54,28 @@ pub struct Args {
     /// Do not look for the probe tip.
     #[arg(long)]
     pub no_tip: bool,
+    /// Centre of ring-shaped (bright-field) particles: `profile` (the profile
+    /// fit's, most precise on symmetric particles) or `ring-edge` (the centre
+    /// of the dark ring, the particle's outline, where it differs
+    /// significantly: asymmetric particles under oblique light).
+    #[arg(long, value_enum, default_value = "profile")]
+    pub centre: CentreArg,
+}
+
+/// CLI spelling of the centre estimates.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum CentreArg {
+    Profile,
+    RingEdge,
+}
+
+impl From<CentreArg> for CentreEstimate {
+    fn from(arg: CentreArg) -> Self {
+        match arg {
+            CentreArg::Profile => CentreEstimate::Profile,
+            CentreArg::RingEdge => CentreEstimate::RingEdge,
+        }
+    }
 }
 
 /// CLI spelling of the locators.
@@ -134,11 +157,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     Some("bright") => Some(Polarity::Bright),
                     _ => None,
                 },
+                centre: args.centre.into(),
                 ..DetectSettings::default()
             };
             analyse_frame(&frame, &settings, tip_settings.as_ref())
                 .context("detecting particles")?
         }
+        None if matches!(args.centre, CentreArg::RingEdge) => anyhow::bail!(
+            "--centre ring-edge refines the detector's ring fits; --locator crocker-grier \
+             reproduces trackpy and has no ring fit (use --locator profile-fit)"
+        ),
         None => crocker_grier_analysis(&frame, &args, diameter_px, tip_settings.as_ref())?,
     };
     if let Some(path) = &args.overlay {

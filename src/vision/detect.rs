@@ -15,6 +15,7 @@ use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
+use super::ring_edge::{CentreEstimate, recentre_on_ring_edges};
 use super::roi::RoiMask;
 
 /// How a candidate's sub-pixel centre is found (the study compares them).
@@ -65,6 +66,10 @@ pub struct DetectSettings {
     /// locator's own merge distance; set it to compare against a tool that
     /// was run with a given separation.
     pub min_separation_px: Option<f64>,
+    /// Centre reported for ring-model particles: the profile centre, or the
+    /// centre of the outline where an asymmetric particle's differs
+    /// (`ring_edge`). Default: profile.
+    pub centre: CentreEstimate,
 }
 
 /// Contrast of a particle's centre against the background.
@@ -88,6 +93,7 @@ impl Default for DetectSettings {
             roi: None,
             polarity: None,
             min_separation_px: None,
+            centre: CentreEstimate::Profile,
         }
     }
 }
@@ -498,6 +504,9 @@ pub fn detect_particles_excluding(
     }
     if settings.locator == Locator::ProfileFit && model == ProfileModel::Ring {
         refine_touching(frame, &mut out, radius, settings);
+    }
+    if settings.centre == CentreEstimate::RingEdge && model == ProfileModel::Ring {
+        recentre_on_ring_edges(frame, &mut out, bp.noise_sigma);
     }
     Ok(out)
 }

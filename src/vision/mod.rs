@@ -19,5 +19,6 @@ pub mod overlay;
 pub mod pixel_window;
 pub mod profile_fit;
 pub mod radial_symmetry;
+pub mod ring_edge;
 pub mod roi;
 pub mod tip;
