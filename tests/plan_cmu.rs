@@ -11,7 +11,7 @@
 
 use nanopush::plan::pattern::transform::{Reachable, place_optimised};
 use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use nanopush::plan::{Pattern, PlanConfig, PlanError, plan_assembly, verify_plan};
+use nanopush::plan::{Layout, Pattern, PlanConfig, PlanError, Site, plan_assembly, verify_plan};
 
 struct Outcome {
     planned: usize,
@@ -38,9 +38,20 @@ impl Outcome {
     }
 }
 
+/// The acceptance scene of `seed`: a CMU field of 40-60 particles and the
+/// "CMU" sites placed on it where the pushes are shortest.
+fn cmu_scene(kind: LayoutKind, seed: u64) -> (Layout, Vec<Site>) {
+    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
+    let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, kind, seed);
+    let layout = synth_layout(&p).unwrap();
+    let area = Reachable::for_field(layout.field_m, 5e-6);
+    let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+    (layout, sites)
+}
+
 fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
     let config = PlanConfig::default();
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
     let mut o = Outcome {
         planned: 0,
         refused: Vec::new(),
@@ -49,12 +60,7 @@ fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
         ratios: Vec::new(),
     };
     for seed in seeds {
-        let n = 40 + (seed as usize * 7) % 21;
-        let p = SynthParams::cmu_field(n, kind, seed);
-        let layout = synth_layout(&p).unwrap();
-        let area = Reachable::for_field(layout.field_m, 5e-6);
-        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-        let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+        let (layout, sites) = cmu_scene(kind, seed);
         match plan_assembly(&layout, &sites, &config) {
             Ok(plan) => {
                 let rep = verify_plan(&plan, &layout, &config);
@@ -135,15 +141,10 @@ fn tip_tour_study_on_cmu() {
     use nanopush::plan::pushes::{landing_point, tip_end};
     use nanopush::plan::{Step, bounds, tour};
     let config = PlanConfig::default();
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
     let (mut plan_r, mut free_r, mut lb_gain, mut total_old, mut total_new, mut cons_b) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
     for seed in 0..100u64 {
-        let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
-        let layout = synth_layout(&p).unwrap();
-        let area = Reachable::for_field(layout.field_m, 5e-6);
-        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-        let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+        let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
         let Ok(plan) = plan_assembly(&layout, &sites, &config) else {
             continue;
         };
@@ -219,15 +220,10 @@ fn tip_tour_study_on_cmu() {
 #[ignore = "a study: prints the push-excess breakdown of docs/plan.md (about 10 s in release)"]
 fn push_excess_study_on_cmu() {
     let config = PlanConfig::default();
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
     let (mut assign_x, mut path_x, mut ratio) = (vec![], vec![], vec![]);
     let (mut buffers, mut idle_m) = (0, 0.0);
     for seed in 0..100u64 {
-        let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
-        let layout = synth_layout(&p).unwrap();
-        let area = Reachable::for_field(layout.field_m, 5e-6);
-        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-        let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+        let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
         let Ok(plan) = plan_assembly(&layout, &sites, &config) else {
             continue;
         };
@@ -293,12 +289,7 @@ fn push_excess_study_on_cmu() {
 fn replan_after_every_push(seed: u64, immovable_idle: bool) -> (usize, Vec<String>) {
     use nanopush::plan::Step;
     use rand::{RngExt, SeedableRng};
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
-    let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, LayoutKind::Uniform, seed);
-    let mut layout = synth_layout(&p).unwrap();
-    let area = Reachable::for_field(layout.field_m, 5e-6);
-    let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-    let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
+    let (mut layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
     let mut config = PlanConfig {
         on_site_tolerance_m: 0.1e-6,
         ..PlanConfig::default()
