@@ -336,6 +336,31 @@ fn big_endian_16bit_tiff_stack_reads_every_page() {
     assert!(frames[0].pixels().iter().any(|&v| v > 255.0));
 }
 
+/// `nanopush detect ARGS FRAME` (with --no-tip --json).
+fn detect_cli(frame: &std::path::Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .arg("detect")
+        .args(args)
+        .args(["--no-tip", "--json"])
+        .arg(frame)
+        .output()
+        .unwrap()
+}
+
+/// The particle centres (px) of a successful `detect_cli` run.
+fn detected_centres(out: &std::process::Output) -> Vec<[f64; 2]> {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
+        &String::from_utf8(out.stdout.clone()).unwrap(),
+    )
+    .unwrap();
+    doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect()
+}
+
 /// `nanopush detect --locator crocker-grier` runs the same call from the
 /// command line: trackpy's 344 features on T76 in the JSON it writes; an
 /// even diameter is refused with a non-zero exit.
@@ -343,34 +368,23 @@ fn big_endian_16bit_tiff_stack_reads_every_page() {
 fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
     let frame = fixture("trackpy_tests/T76S3F00001.png");
     let run = |diameter: &str| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
-            .args(["detect", "--locator", "crocker-grier", "--diameter-px"])
-            .arg(diameter)
-            .args([
+        detect_cli(
+            &frame,
+            &[
+                "--locator",
+                "crocker-grier",
+                "--diameter-px",
+                diameter,
                 "--minmass",
                 "140",
                 "--polarity",
                 "dark",
-                "--no-tip",
-                "--json",
-            ])
-            .arg(&frame)
-            .output()
-            .unwrap()
+            ],
+        )
     };
-    let out = run("9");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
-        &String::from_utf8(out.stdout).unwrap(),
-    )
-    .unwrap();
+    let pts = detected_centres(&run("9"));
     let tp = read_csv_xy(&fixture("reference/T76S3F00001.trackpy.csv"));
-    let pts: Vec<[f64; 2]> = doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
-    assert_eq!(doc.particles.len(), tp.len());
+    assert_eq!(pts.len(), tp.len());
     assert_eq!(match_points(&tp, &pts, 1e-3).pairs.len(), tp.len());
     let refused = run("8");
     assert!(!refused.status.success());
@@ -383,27 +397,10 @@ fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
 #[test]
 fn detect_cli_ring_edge_centres_on_brightfield() {
     let frame = fixture("brightfield/bf_0000.png");
-    let run = |extra: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
-            .args(["detect", "--centre", "ring-edge", "--no-tip", "--json"])
-            .args(extra)
-            .arg(&frame)
-            .output()
-            .unwrap()
-    };
-    let out = run(&[]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let doc = nanopush::vision::detections_file::DetectionsFile::from_json(
-        &String::from_utf8(out.stdout).unwrap(),
-    )
-    .unwrap();
+    let run = |extra: &[&str]| detect_cli(&frame, &[&["--centre", "ring-edge"], extra].concat());
+    let pts = detected_centres(&run(&[]));
     let reference = read_csv_xy(&fixture("reference/bf_0000.ringfit.csv"));
-    let pts: Vec<[f64; 2]> = doc.particles.iter().map(|p| [p.x_px, p.y_px]).collect();
-    assert_eq!(doc.particles.len(), 5);
+    assert_eq!(pts.len(), 5);
     assert_eq!(match_points(&reference, &pts, 0.5).pairs.len(), 5);
     let refused = run(&["--locator", "crocker-grier", "--diameter-px", "17"]);
     assert!(!refused.status.success());
