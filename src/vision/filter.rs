@@ -206,15 +206,44 @@ avx2_dispatch!(
 const MAX_FLAG: u8 = 1;
 const MIN_FLAG: u8 = 2;
 
-/// Flags of the pixels in a row that pass the threshold and the left/right
-/// test (raster-order tie rule: an equal pixel to the left wins), for maxima
-/// and minima: a branch-free pass over the row that vectorises. Per pixel,
-/// with branches, the tests mispredicted on noisy maps and cost a third of
-/// candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
+/// Pixels per chunk of a row that [`local_extrema_both`] skips at once when
+/// no value in it passes the threshold.
+const EXTREMA_CHUNK: usize = 32;
+
+/// Largest |v| of a chunk, in lanes that compile to vector max instructions.
 #[inline(always)]
-fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
+fn chunk_abs_max(chunk: &[f32]) -> f32 {
+    let mut lanes = [0.0f32; 8];
+    let whole = chunk.chunks_exact(8);
+    let rest = whole.remainder();
+    for part in whole {
+        for (m, &v) in lanes.iter_mut().zip(part) {
+            let a = v.abs();
+            *m = if a > *m { a } else { *m };
+        }
+    }
+    for &v in rest {
+        let a = v.abs();
+        lanes[0] = if a > lanes[0] { a } else { lanes[0] };
+    }
+    lanes
+        .into_iter()
+        .fold(0.0, |m, a| if a > m { a } else { m })
+}
+
+/// Flags of the pixels `row[x0..x0 + flags.len()]` that pass the threshold
+/// and the left/right test (raster-order tie rule: an equal pixel to the left
+/// wins), for maxima and minima: a branch-free pass that vectorises. Per
+/// pixel, with branches, the tests mispredicted on noisy maps and cost a
+/// third of candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
+#[inline(always)]
+fn row_flags_in(row: &[f32], x0: usize, threshold: f32, check_sides: bool, flags: &mut [u8]) {
     let w = row.len();
-    let flag = |v: f32, left: Option<f32>, right: Option<f32>| {
+    let n = flags.len();
+    let flag = |x: usize| {
+        let v = row[x];
+        let left = (x > 0).then(|| row[x - 1]);
+        let right = (x + 1 < w).then(|| row[x + 1]);
         let side = |sign: f32| {
             !check_sides
                 || (left.is_none_or(|l| sign * l < sign * v)
@@ -223,18 +252,20 @@ fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
         (u8::from(v > threshold && side(1.0)) * MAX_FLAG)
             | (u8::from(-v > threshold && side(-1.0)) * MIN_FLAG)
     };
-    if w <= 2 {
-        for x in 0..w {
-            let left = (x > 0).then(|| row[x - 1]);
-            let right = (x + 1 < w).then(|| row[x + 1]);
-            flags[x] = flag(row[x], left, right);
+    if n <= 2 {
+        for (k, f) in flags.iter_mut().enumerate() {
+            *f = flag(x0 + k);
         }
         return;
     }
-    flags[0] = flag(row[0], None, Some(row[1]));
-    flags[w - 1] = flag(row[w - 1], Some(row[w - 2]), None);
-    let interior = &mut flags[1..w - 1];
-    let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+    flags[0] = flag(x0);
+    flags[n - 1] = flag(x0 + n - 1);
+    let interior = &mut flags[1..n - 1];
+    let (left, mid, right) = (
+        &row[x0..x0 + n - 2],
+        &row[x0 + 1..x0 + n - 1],
+        &row[x0 + 2..x0 + n],
+    );
     for (((f, &l), &v), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
         let max_ok = (v > threshold) & (((l < v) & (rt <= v)) | !check_sides);
         let min_ok = (-v > threshold) & (((-l < -v) & (-rt <= -v)) | !check_sides);
@@ -254,13 +285,20 @@ fn local_extrema_lanes(
     let mut flags = vec![0u8; w];
     for y in 0..h {
         let row = y * w;
-        row_flags(&src[row..row + w], threshold, r >= 1, &mut flags);
-        for (chunk_no, chunk) in flags.chunks(32).enumerate() {
-            if chunk.iter().fold(0u8, |any, &f| any | f) == 0 {
+        let values = &src[row..row + w];
+        for (chunk_no, chunk) in values.chunks(EXTREMA_CHUNK).enumerate() {
+            // A chunk whose largest |v| is at most the threshold holds
+            // neither a maximum above it nor a minimum below -threshold
+            // (most of a frame: the band-pass is noise away from particles).
+            if chunk_abs_max(chunk) <= threshold {
                 continue;
             }
-            for (k, &f) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
-                let x = chunk_no * 32 + k;
+            let x0 = chunk_no * EXTREMA_CHUNK;
+            let x1 = x0 + chunk.len();
+            let flags = &mut flags[x0..x1];
+            row_flags_in(values, x0, threshold, r >= 1, flags);
+            for (k, &f) in flags.iter().enumerate().filter(|&(_, &f)| f != 0) {
+                let x = x0 + k;
                 for (bit, sign, found) in [(MAX_FLAG, 1.0f32, 0), (MIN_FLAG, -1.0, 1)] {
                     if f & bit == 0 {
                         continue;
@@ -402,7 +440,14 @@ mod tests {
 
     #[test]
     fn local_maxima_equal_the_brute_force_window_maxima() {
-        let (w, h) = (23, 17);
+        // 23 wide: one chunk per row; 75 wide: chunks of 32 cut the rows, and
+        // the threshold 480 leaves whole chunks below it (skipped unread).
+        for (w, h) in [(23, 17), (75, 13)] {
+            brute_force_maxima_case(w, h);
+        }
+    }
+
+    fn brute_force_maxima_case(w: usize, h: usize) {
         // An irregular image with a plateau (ties resolved in raster order).
         let mut src: Vec<f32> = (0..w * h)
             .map(|i| ((i * 7919) % 1009) as f32 - 500.0)
@@ -411,7 +456,7 @@ mod tests {
             src[i] = 600.0;
         }
         for r in [0usize, 1, 2, 5, 12] {
-            for threshold in [-1000.0f32, 100.0] {
+            for threshold in [-1000.0f32, 100.0, 480.0] {
                 let mut want = Vec::new();
                 for y in 0..h {
                     for x in 0..w {
