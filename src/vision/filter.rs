@@ -38,24 +38,36 @@ avx2_dispatch!(
         => box_mean_stream_lanes
 );
 
+/// Rows between exact re-sums of the running f32 column sums in
+/// [`box_mean_stream_lanes`]: each step adds at most two roundings (2^-24
+/// relative each) of the sums it passes through, so the error stays below
+/// 64 * 2^-24 = 4e-6 of the largest column sum of the last 32 rows (0.1
+/// count on a 16-bit background), and a bright stretch that has left the
+/// window leaves no error behind.
+const RESUM_ROWS: usize = 32;
+
 /// Both passes streamed row by row: the horizontal sums of the 2r+2 rows the
 /// vertical window needs live in a small ring of rows (cache-resident), and
-/// a running row of column sums in f64 (no drift) moves down the frame. Two
-/// whole-frame passes through a scratch frame moved three times the memory,
-/// and the filters are memory-bound. Row k of the input is read (step k-r-1)
-/// before row k of the output is written (step k), so `out` may be the input.
+/// a running row of column sums moves down the frame. Two whole-frame passes
+/// through a scratch frame moved three times the memory. The column sums run
+/// in f32 (8 lanes, no conversions; in f64 the vertical pass was half the
+/// filter's time) and are re-summed exactly from the ring every
+/// [`RESUM_ROWS`] rows, so rounding cannot drift. Row k of the input is read
+/// (step k-r-1) before row k of the output is written (step k), so `out` may
+/// be the input.
 #[inline(always)]
 fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize) {
     if w == 0 || h == 0 {
         return;
     }
     let inv_cols: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
-    let inv_rows = inverse_counts(h, r);
+    let inv_rows: Vec<f32> = inverse_counts(h, r).iter().map(|&v| v as f32).collect();
     let slots = 2 * r + 2;
     let mut ring = vec![0.0f32; slots * w];
     let mut pow = vec![0.0f32; w + 2 * r];
     let mut next = vec![0.0f32; w + 2 * r];
-    let mut acc = vec![0.0f64; w];
+    let mut acc = vec![0.0f32; w];
+    let mut exact = vec![0.0f64; w];
     // Horizontal sums of input row k into its ring slot. (A macro, not a
     // closure: a closure is compiled as its own function, without AVX2.)
     macro_rules! load {
@@ -69,38 +81,47 @@ fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usiz
             box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
         }};
     }
+    let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
     for k in 0..(r + 1).min(h) {
         load!(k);
-        let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
-        for (a, &v) in acc.iter_mut().zip(slot) {
-            *a += v as f64;
-        }
     }
     for y in 0..h {
+        // The window of output row y: input rows y - r ..= y + r, cut.
+        let (lo, hi) = (y.saturating_sub(r), (y + r).min(h - 1));
+        if y % RESUM_ROWS == 0 {
+            exact.fill(0.0);
+            for k in lo..=hi {
+                for (e, &v) in exact.iter_mut().zip(&ring[slot_of(k)]) {
+                    *e += v as f64;
+                }
+            }
+            for (a, &e) in acc.iter_mut().zip(&exact) {
+                *a = e as f32;
+            }
+        }
         let inv = inv_rows[y];
-        for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
-            *d = (a * inv) as f32;
+        for (d, &a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
+            *d = a * inv;
         }
         let (add, sub) = (y + r + 1 < h, y >= r);
         if add {
             load!(y + r + 1);
         }
-        let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
         match (add, sub) {
             (true, true) => {
                 let (p, m) = (&ring[slot_of(y + r + 1)], &ring[slot_of(y - r)]);
                 for ((a, &p), &m) in acc.iter_mut().zip(p).zip(m) {
-                    *a += p as f64 - m as f64;
+                    *a += p - m;
                 }
             }
             (true, false) => {
                 for (a, &p) in acc.iter_mut().zip(&ring[slot_of(y + r + 1)]) {
-                    *a += p as f64;
+                    *a += p;
                 }
             }
             (false, true) => {
                 for (a, &m) in acc.iter_mut().zip(&ring[slot_of(y - r)]) {
-                    *a -= m as f64;
+                    *a -= m;
                 }
             }
             (false, false) => {}
@@ -432,6 +453,46 @@ mod tests {
                         (fast[y * w + x] as f64 - want).abs() < 1e-4 * (1.0 + want.abs()),
                         "r {r} at ({x}, {y}): {} vs {want}",
                         fast[y * w + x]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn box_mean_column_sums_do_not_drift_down_a_tall_frame() {
+        // 40 bright rows (1e6 counts) above 260 dim ones (1-2 counts): a
+        // running f32 column sum keeps the rounding of the bright rows
+        // (~ulp(3.5e7) = 4 counts) after they leave the window, swamping the
+        // dim means; re-summed every RESUM_ROWS rows it is exact again.
+        let (w, h, bright) = (11, 300, 40);
+        let src: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let texture = ((i * 7919) % 1009) as f32 / 1009.0;
+                if i / w < bright {
+                    1e6 + 777.0 * texture
+                } else {
+                    1.0 + texture
+                }
+            })
+            .collect();
+        assert!(RESUM_ROWS <= 32, "the check below starts 32 rows on");
+        for r in [3usize, 17] {
+            let fast = box_mean(&src, w, h, r);
+            for y in bright + r + 32..h {
+                for x in 0..w {
+                    let (mut sum, mut n) = (0.0f64, 0usize);
+                    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                        for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                            sum += src[yy * w + xx] as f64;
+                            n += 1;
+                        }
+                    }
+                    let want = sum / n as f64;
+                    let got = fast[y * w + x] as f64;
+                    assert!(
+                        (got - want).abs() < 1e-5 * want,
+                        "r {r} at ({x}, {y}): {got} vs {want}"
                     );
                 }
             }
