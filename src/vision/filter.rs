@@ -363,6 +363,33 @@ fn wins_window(
     true
 }
 
+/// 2x2 binning: each output pixel is the mean of a 2x2 block (of the pixels
+/// there are, at an odd width or height), so the output is
+/// ceil(w / 2) x ceil(h / 2). Returns the binned pixels and their width and
+/// height.
+pub fn bin_2x2(src: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
+    let (bw, bh) = (w.div_ceil(2), h.div_ceil(2));
+    let mut out = vec![0.0f32; bw * bh];
+    for (by, dst) in out.chunks_exact_mut(bw.max(1)).enumerate() {
+        let top = &src[2 * by * w..(2 * by + 1) * w];
+        let bottom = if 2 * by + 1 < h {
+            &src[(2 * by + 1) * w..(2 * by + 2) * w]
+        } else {
+            top
+        };
+        // Whole pairs of columns: a branch-free loop that vectorises.
+        let pairs = w / 2;
+        for (bx, d) in dst[..pairs].iter_mut().enumerate() {
+            let x = 2 * bx;
+            *d = 0.25 * ((top[x] + top[x + 1]) + (bottom[x] + bottom[x + 1]));
+        }
+        if w % 2 == 1 {
+            dst[pairs] = 0.5 * (top[w - 1] + bottom[w - 1]);
+        }
+    }
+    (out, bw, bh)
+}
+
 /// Normalised 1-D Gaussian kernel of width `sigma`, radius ceil(3 sigma).
 pub fn gaussian_kernel(sigma: f64) -> Vec<f32> {
     let r = (3.0 * sigma).ceil().max(1.0) as isize;
@@ -406,6 +433,19 @@ pub fn gaussian(src: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bin_2x2_averages_blocks_and_the_cut_blocks_at_odd_edges() {
+        // 5x3: blocks of 4, 2 (right column) and 2 (bottom row), 1 (corner).
+        let src: Vec<f32> = (0..15).map(|i| i as f32).collect();
+        let (out, bw, bh) = bin_2x2(&src, 5, 3);
+        assert_eq!((bw, bh), (3, 2));
+        assert_eq!(
+            out,
+            vec![3.0, 5.0, 6.5, 10.5, 12.5, 14.0],
+            "means of 0 1 5 6 | 2 3 7 8 | 4 9 | 10 11 | 12 13 | 14"
+        );
+    }
 
     #[test]
     fn box_and_gaussian_keep_constants_and_smooth_impulses() {
@@ -476,7 +516,7 @@ mod tests {
                 }
             })
             .collect();
-        assert!(RESUM_ROWS <= 32, "the check below starts 32 rows on");
+        const { assert!(RESUM_ROWS <= 32, "the check below starts 32 rows on") };
         for r in [3usize, 17] {
             let fast = box_mean(&src, w, h, r);
             for y in bright + r + 32..h {
