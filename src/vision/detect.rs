@@ -9,7 +9,9 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use super::filter::{bin_2x2, box_mean_in_place, box_mean_into, local_extrema_both, local_maxima};
+use super::filter::{
+    bin_frame, box_mean_in_place, box_mean_into, local_extrema_both, local_maxima,
+};
 use super::frame::Frame;
 use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
@@ -243,11 +245,8 @@ impl CandidateSearch {
             };
         }
         let (w, h) = (frame.width(), frame.height());
-        let (px, bw, bh) = bin_2x2(frame.pixels(), w, h);
-        let Ok(small) = Frame::new(bw, bh, px, frame.bit_depth()) else {
-            // Means of finite pixels are finite and the size is not zero.
-            unreachable!("a binned frame is a valid frame");
-        };
+        let small = &bin_frame(frame);
+        let (bw, bh) = (small.width(), small.height());
         // What the search reads of the settings, at half the size.
         let half = DetectSettings {
             diameter_px: 0.5 * settings.diameter_px,
@@ -256,8 +255,8 @@ impl CandidateSearch {
             model: Some(ProfileModel::Ring),
             ..DetectSettings::default()
         };
-        let mut bp = bandpass(&small, half.diameter_px);
-        let mut cands = candidates_from(&small, &half, &mut bp);
+        let mut bp = bandpass(small, half.diameter_px);
+        let mut cands = candidates_from(small, &half, &mut bp);
         let n_energy = cands.len();
         // No core is dropped for lying near an energy candidate: on the
         // 2-px grid the quarter-diameter test of the full search flips at

@@ -5,6 +5,7 @@
 //! into OpenCV per call.
 
 use super::cpu_dispatch::avx2_dispatch;
+use super::frame::Frame;
 
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
@@ -388,6 +389,18 @@ pub fn bin_2x2(src: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
         }
     }
     (out, bw, bh)
+}
+
+/// [`bin_2x2`] of a frame, as a frame of the same bit depth (a binned pixel
+/// reaches the saturation count only when its whole block does). The tip's
+/// dark-region search and the particles' candidate search share it.
+pub fn bin_frame(frame: &Frame) -> Frame {
+    let (px, w, h) = bin_2x2(frame.pixels(), frame.width(), frame.height());
+    match Frame::new(w, h, px, frame.bit_depth()) {
+        Ok(f) => f,
+        // Means of finite pixels are finite, and the size is at least 1x1.
+        Err(e) => unreachable!("a binned frame is a valid frame: {e}"),
+    }
 }
 
 /// Normalised 1-D Gaussian kernel of width `sigma`, radius ceil(3 sigma).
