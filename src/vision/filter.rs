@@ -380,9 +380,12 @@ pub fn bin_2x2(src: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
         };
         // Whole pairs of columns: a branch-free loop that vectorises.
         let pairs = w / 2;
-        for (bx, d) in dst[..pairs].iter_mut().enumerate() {
-            let x = 2 * bx;
-            *d = 0.25 * ((top[x] + top[x + 1]) + (bottom[x] + bottom[x + 1]));
+        let blocks = dst[..pairs]
+            .iter_mut()
+            .zip(top.chunks_exact(2))
+            .zip(bottom.chunks_exact(2));
+        for ((d, t), b) in blocks {
+            *d = 0.25 * ((t[0] + t[1]) + (b[0] + b[1]));
         }
         if w % 2 == 1 {
             dst[pairs] = 0.5 * (top[w - 1] + bottom[w - 1]);
