@@ -5,6 +5,7 @@
 //! into OpenCV per call.
 
 use super::cpu_dispatch::avx2_dispatch;
+use super::frame::Frame;
 
 /// Box mean over a (2r+1)^2 window; the window shrinks at the borders so the
 /// mean stays unbiased there.
@@ -38,24 +39,36 @@ avx2_dispatch!(
         => box_mean_stream_lanes
 );
 
+/// Rows between exact re-sums of the running f32 column sums in
+/// [`box_mean_stream_lanes`]: each step adds at most two roundings (2^-24
+/// relative each) of the sums it passes through, so the error stays below
+/// 64 * 2^-24 = 4e-6 of the largest column sum of the last 32 rows (0.1
+/// count on a 16-bit background), and a bright stretch that has left the
+/// window leaves no error behind.
+const RESUM_ROWS: usize = 32;
+
 /// Both passes streamed row by row: the horizontal sums of the 2r+2 rows the
 /// vertical window needs live in a small ring of rows (cache-resident), and
-/// a running row of column sums in f64 (no drift) moves down the frame. Two
-/// whole-frame passes through a scratch frame moved three times the memory,
-/// and the filters are memory-bound. Row k of the input is read (step k-r-1)
-/// before row k of the output is written (step k), so `out` may be the input.
+/// a running row of column sums moves down the frame. Two whole-frame passes
+/// through a scratch frame moved three times the memory. The column sums run
+/// in f32 (8 lanes, no conversions; in f64 the vertical pass was half the
+/// filter's time) and are re-summed exactly from the ring every
+/// [`RESUM_ROWS`] rows, so rounding cannot drift. Row k of the input is read
+/// (step k-r-1) before row k of the output is written (step k), so `out` may
+/// be the input.
 #[inline(always)]
 fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usize, r: usize) {
     if w == 0 || h == 0 {
         return;
     }
     let inv_cols: Vec<f32> = inverse_counts(w, r).iter().map(|&v| v as f32).collect();
-    let inv_rows = inverse_counts(h, r);
+    let inv_rows: Vec<f32> = inverse_counts(h, r).iter().map(|&v| v as f32).collect();
     let slots = 2 * r + 2;
     let mut ring = vec![0.0f32; slots * w];
     let mut pow = vec![0.0f32; w + 2 * r];
     let mut next = vec![0.0f32; w + 2 * r];
-    let mut acc = vec![0.0f64; w];
+    let mut acc = vec![0.0f32; w];
+    let mut exact = vec![0.0f64; w];
     // Horizontal sums of input row k into its ring slot. (A macro, not a
     // closure: a closure is compiled as its own function, without AVX2.)
     macro_rules! load {
@@ -69,38 +82,47 @@ fn box_mean_stream_lanes(src: Option<&[f32]>, out: &mut [f32], w: usize, h: usiz
             box_row(row, slot, r, &inv_cols, &mut pow, &mut next);
         }};
     }
+    let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
     for k in 0..(r + 1).min(h) {
         load!(k);
-        let slot = &ring[(k % slots) * w..(k % slots + 1) * w];
-        for (a, &v) in acc.iter_mut().zip(slot) {
-            *a += v as f64;
-        }
     }
     for y in 0..h {
+        // The window of output row y: input rows y - r ..= y + r, cut.
+        let (lo, hi) = (y.saturating_sub(r), (y + r).min(h - 1));
+        if y % RESUM_ROWS == 0 {
+            exact.fill(0.0);
+            for k in lo..=hi {
+                for (e, &v) in exact.iter_mut().zip(&ring[slot_of(k)]) {
+                    *e += v as f64;
+                }
+            }
+            for (a, &e) in acc.iter_mut().zip(&exact) {
+                *a = e as f32;
+            }
+        }
         let inv = inv_rows[y];
-        for (d, a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
-            *d = (a * inv) as f32;
+        for (d, &a) in out[y * w..(y + 1) * w].iter_mut().zip(&acc) {
+            *d = a * inv;
         }
         let (add, sub) = (y + r + 1 < h, y >= r);
         if add {
             load!(y + r + 1);
         }
-        let slot_of = |k: usize| (k % slots) * w..(k % slots + 1) * w;
         match (add, sub) {
             (true, true) => {
                 let (p, m) = (&ring[slot_of(y + r + 1)], &ring[slot_of(y - r)]);
                 for ((a, &p), &m) in acc.iter_mut().zip(p).zip(m) {
-                    *a += p as f64 - m as f64;
+                    *a += p - m;
                 }
             }
             (true, false) => {
                 for (a, &p) in acc.iter_mut().zip(&ring[slot_of(y + r + 1)]) {
-                    *a += p as f64;
+                    *a += p;
                 }
             }
             (false, true) => {
                 for (a, &m) in acc.iter_mut().zip(&ring[slot_of(y - r)]) {
-                    *a -= m as f64;
+                    *a -= m;
                 }
             }
             (false, false) => {}
@@ -206,15 +228,44 @@ avx2_dispatch!(
 const MAX_FLAG: u8 = 1;
 const MIN_FLAG: u8 = 2;
 
-/// Flags of the pixels in a row that pass the threshold and the left/right
-/// test (raster-order tie rule: an equal pixel to the left wins), for maxima
-/// and minima: a branch-free pass over the row that vectorises. Per pixel,
-/// with branches, the tests mispredicted on noisy maps and cost a third of
-/// candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
+/// Pixels per chunk of a row that [`local_extrema_both`] skips at once when
+/// no value in it passes the threshold.
+const EXTREMA_CHUNK: usize = 32;
+
+/// Largest |v| of a chunk, in lanes that compile to vector max instructions.
 #[inline(always)]
-fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
+fn chunk_abs_max(chunk: &[f32]) -> f32 {
+    let mut lanes = [0.0f32; 8];
+    let whole = chunk.chunks_exact(8);
+    let rest = whole.remainder();
+    for part in whole {
+        for (m, &v) in lanes.iter_mut().zip(part) {
+            let a = v.abs();
+            *m = if a > *m { a } else { *m };
+        }
+    }
+    for &v in rest {
+        let a = v.abs();
+        lanes[0] = if a > lanes[0] { a } else { lanes[0] };
+    }
+    lanes
+        .into_iter()
+        .fold(0.0, |m, a| if a > m { a } else { m })
+}
+
+/// Flags of the pixels `row[x0..x0 + flags.len()]` that pass the threshold
+/// and the left/right test (raster-order tie rule: an equal pixel to the left
+/// wins), for maxima and minima: a branch-free pass that vectorises. Per
+/// pixel, with branches, the tests mispredicted on noisy maps and cost a
+/// third of candidate finding. Maps are finite, so `l < v` is `!(l >= v)`.
+#[inline(always)]
+fn row_flags_in(row: &[f32], x0: usize, threshold: f32, check_sides: bool, flags: &mut [u8]) {
     let w = row.len();
-    let flag = |v: f32, left: Option<f32>, right: Option<f32>| {
+    let n = flags.len();
+    let flag = |x: usize| {
+        let v = row[x];
+        let left = (x > 0).then(|| row[x - 1]);
+        let right = (x + 1 < w).then(|| row[x + 1]);
         let side = |sign: f32| {
             !check_sides
                 || (left.is_none_or(|l| sign * l < sign * v)
@@ -223,18 +274,20 @@ fn row_flags(row: &[f32], threshold: f32, check_sides: bool, flags: &mut [u8]) {
         (u8::from(v > threshold && side(1.0)) * MAX_FLAG)
             | (u8::from(-v > threshold && side(-1.0)) * MIN_FLAG)
     };
-    if w <= 2 {
-        for x in 0..w {
-            let left = (x > 0).then(|| row[x - 1]);
-            let right = (x + 1 < w).then(|| row[x + 1]);
-            flags[x] = flag(row[x], left, right);
+    if n <= 2 {
+        for (k, f) in flags.iter_mut().enumerate() {
+            *f = flag(x0 + k);
         }
         return;
     }
-    flags[0] = flag(row[0], None, Some(row[1]));
-    flags[w - 1] = flag(row[w - 1], Some(row[w - 2]), None);
-    let interior = &mut flags[1..w - 1];
-    let (left, mid, right) = (&row[..w - 2], &row[1..w - 1], &row[2..]);
+    flags[0] = flag(x0);
+    flags[n - 1] = flag(x0 + n - 1);
+    let interior = &mut flags[1..n - 1];
+    let (left, mid, right) = (
+        &row[x0..x0 + n - 2],
+        &row[x0 + 1..x0 + n - 1],
+        &row[x0 + 2..x0 + n],
+    );
     for (((f, &l), &v), &rt) in interior.iter_mut().zip(left).zip(mid).zip(right) {
         let max_ok = (v > threshold) & (((l < v) & (rt <= v)) | !check_sides);
         let min_ok = (-v > threshold) & (((-l < -v) & (-rt <= -v)) | !check_sides);
@@ -254,13 +307,20 @@ fn local_extrema_lanes(
     let mut flags = vec![0u8; w];
     for y in 0..h {
         let row = y * w;
-        row_flags(&src[row..row + w], threshold, r >= 1, &mut flags);
-        for (chunk_no, chunk) in flags.chunks(32).enumerate() {
-            if chunk.iter().fold(0u8, |any, &f| any | f) == 0 {
+        let values = &src[row..row + w];
+        for (chunk_no, chunk) in values.chunks(EXTREMA_CHUNK).enumerate() {
+            // A chunk whose largest |v| is at most the threshold holds
+            // neither a maximum above it nor a minimum below -threshold
+            // (most of a frame: the band-pass is noise away from particles).
+            if chunk_abs_max(chunk) <= threshold {
                 continue;
             }
-            for (k, &f) in chunk.iter().enumerate().filter(|&(_, &f)| f != 0) {
-                let x = chunk_no * 32 + k;
+            let x0 = chunk_no * EXTREMA_CHUNK;
+            let x1 = x0 + chunk.len();
+            let flags = &mut flags[x0..x1];
+            row_flags_in(values, x0, threshold, r >= 1, flags);
+            for (k, &f) in flags.iter().enumerate().filter(|&(_, &f)| f != 0) {
+                let x = x0 + k;
                 for (bit, sign, found) in [(MAX_FLAG, 1.0f32, 0), (MIN_FLAG, -1.0, 1)] {
                     if f & bit == 0 {
                         continue;
@@ -302,6 +362,48 @@ fn wins_window(
         }
     }
     true
+}
+
+/// 2x2 binning: each output pixel is the mean of a 2x2 block (of the pixels
+/// there are, at an odd width or height), so the output is
+/// ceil(w / 2) x ceil(h / 2). Returns the binned pixels and their width and
+/// height.
+pub fn bin_2x2(src: &[f32], w: usize, h: usize) -> (Vec<f32>, usize, usize) {
+    let (bw, bh) = (w.div_ceil(2), h.div_ceil(2));
+    let mut out = vec![0.0f32; bw * bh];
+    for (by, dst) in out.chunks_exact_mut(bw.max(1)).enumerate() {
+        let top = &src[2 * by * w..(2 * by + 1) * w];
+        let bottom = if 2 * by + 1 < h {
+            &src[(2 * by + 1) * w..(2 * by + 2) * w]
+        } else {
+            top
+        };
+        // Whole pairs of columns: a branch-free loop that vectorises.
+        let pairs = w / 2;
+        let blocks = dst[..pairs]
+            .iter_mut()
+            .zip(top.chunks_exact(2))
+            .zip(bottom.chunks_exact(2));
+        for ((d, t), b) in blocks {
+            *d = 0.25 * ((t[0] + t[1]) + (b[0] + b[1]));
+        }
+        if w % 2 == 1 {
+            dst[pairs] = 0.5 * (top[w - 1] + bottom[w - 1]);
+        }
+    }
+    (out, bw, bh)
+}
+
+/// [`bin_2x2`] of a frame, as a frame of the same bit depth (a binned pixel
+/// reaches the saturation count only when its whole block does). The tip's
+/// dark-region search and the particles' candidate search share it.
+pub fn bin_frame(frame: &Frame) -> Frame {
+    let (px, w, h) = bin_2x2(frame.pixels(), frame.width(), frame.height());
+    match Frame::new(w, h, px, frame.bit_depth()) {
+        Ok(f) => f,
+        // Means of finite pixels are finite, and the size is at least 1x1.
+        Err(e) => unreachable!("a binned frame is a valid frame: {e}"),
+    }
 }
 
 /// Normalised 1-D Gaussian kernel of width `sigma`, radius ceil(3 sigma).
@@ -347,6 +449,19 @@ pub fn gaussian(src: &[f32], w: usize, h: usize, sigma: f64) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bin_2x2_averages_blocks_and_the_cut_blocks_at_odd_edges() {
+        // 5x3: blocks of 4, 2 (right column) and 2 (bottom row), 1 (corner).
+        let src: Vec<f32> = (0..15).map(|i| i as f32).collect();
+        let (out, bw, bh) = bin_2x2(&src, 5, 3);
+        assert_eq!((bw, bh), (3, 2));
+        assert_eq!(
+            out,
+            vec![3.0, 5.0, 6.5, 10.5, 12.5, 14.0],
+            "means of 0 1 5 6 | 2 3 7 8 | 4 9 | 10 11 | 12 13 | 14"
+        );
+    }
 
     #[test]
     fn box_and_gaussian_keep_constants_and_smooth_impulses() {
@@ -401,8 +516,55 @@ mod tests {
     }
 
     #[test]
+    fn box_mean_column_sums_do_not_drift_down_a_tall_frame() {
+        // 40 bright rows (1e6 counts) above 260 dim ones (1-2 counts): a
+        // running f32 column sum keeps the rounding of the bright rows
+        // (~ulp(3.5e7) = 4 counts) after they leave the window, swamping the
+        // dim means; re-summed every RESUM_ROWS rows it is exact again.
+        let (w, h, bright) = (11, 300, 40);
+        let src: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let texture = ((i * 7919) % 1009) as f32 / 1009.0;
+                if i / w < bright {
+                    1e6 + 777.0 * texture
+                } else {
+                    1.0 + texture
+                }
+            })
+            .collect();
+        const { assert!(RESUM_ROWS <= 32, "the check below starts 32 rows on") };
+        for r in [3usize, 17] {
+            let fast = box_mean(&src, w, h, r);
+            for y in bright + r + 32..h {
+                for x in 0..w {
+                    let (mut sum, mut n) = (0.0f64, 0usize);
+                    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+                        for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                            sum += src[yy * w + xx] as f64;
+                            n += 1;
+                        }
+                    }
+                    let want = sum / n as f64;
+                    let got = fast[y * w + x] as f64;
+                    assert!(
+                        (got - want).abs() < 1e-5 * want,
+                        "r {r} at ({x}, {y}): {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn local_maxima_equal_the_brute_force_window_maxima() {
-        let (w, h) = (23, 17);
+        // 23 wide: one chunk per row; 75 wide: chunks of 32 cut the rows, and
+        // the threshold 480 leaves whole chunks below it (skipped unread).
+        for (w, h) in [(23, 17), (75, 13)] {
+            brute_force_maxima_case(w, h);
+        }
+    }
+
+    fn brute_force_maxima_case(w: usize, h: usize) {
         // An irregular image with a plateau (ties resolved in raster order).
         let mut src: Vec<f32> = (0..w * h)
             .map(|i| ((i * 7919) % 1009) as f32 - 500.0)
@@ -411,7 +573,7 @@ mod tests {
             src[i] = 600.0;
         }
         for r in [0usize, 1, 2, 5, 12] {
-            for threshold in [-1000.0f32, 100.0] {
+            for threshold in [-1000.0f32, 100.0, 480.0] {
                 let mut want = Vec::new();
                 for y in 0..h {
                     for x in 0..w {

@@ -41,7 +41,7 @@ pub fn estimate_noise_sigma(frame: &Frame) -> f64 {
 /// bit patterns (for non-negative floats their order is the order of the
 /// values): two histogram passes instead of quickselect's data-dependent
 /// partitions, a third of the noise estimate's time on a 1024x1024 frame.
-fn select_non_negative(values: &[f32], rank: usize) -> f32 {
+pub(crate) fn select_non_negative(values: &[f32], rank: usize) -> f32 {
     let mut hist = vec![0u32; 1 << 16];
     for v in values {
         hist[(v.to_bits() >> 16) as usize] += 1;

@@ -43,12 +43,25 @@ impl PixelWindow {
             y: Vec::with_capacity(n),
             v: Vec::with_capacity(n),
         };
+        if n == 0 {
+            return out;
+        }
+        let (w, pixels) = (frame.width(), frame.pixels());
         for y in y0..=y1 {
-            for x in x0..=x1 {
-                let v = frame.at(x, y);
+            let row = &pixels[y * w + x0..=y * w + x1];
+            let dy = (y as f64 - origin.1) as f32;
+            let dx0 = (x0 as f64 - origin.0) as f32;
+            if row.iter().all(|&v| v < sat) {
+                // No saturated pixel (almost every row): whole-row copies.
+                out.v.extend_from_slice(row);
+                out.x.extend((0..row.len()).map(|k| dx0 + k as f32));
+                out.y.extend(std::iter::repeat_n(dy, row.len()));
+                continue;
+            }
+            for (k, &v) in row.iter().enumerate() {
                 if v < sat {
-                    out.x.push((x as f64 - origin.0) as f32);
-                    out.y.push((y as f64 - origin.1) as f32);
+                    out.x.push(dx0 + k as f32);
+                    out.y.push(dy);
                     out.v.push(v);
                 }
             }
@@ -368,6 +381,26 @@ mod tests {
         let q = SVector::<f64, 5>::from_column_slice(&[15.4, 14.7, 990.0, 300.0, 2.4]);
         let mut cols = Columns::<5>::new(win.len());
         compare(spot_normal(&win, &q, &mut cols), &win, &q, spot_model);
+    }
+
+    #[test]
+    fn square_lists_the_unsaturated_pixels_in_raster_order() {
+        let f = frame();
+        // Around the saturated pixel (4, 3), cut by the frame's top-left edge.
+        for (cx, cy, half) in [(4.4, 3.0, 6.0), (15.0, 15.0, 12.0), (29.6, 30.2, 2.5)] {
+            let win = PixelWindow::square(&f, cx, cy, half);
+            let mut want = Vec::new();
+            let lo = |c: f64| (c - half).floor().max(0.0) as usize;
+            let hi = |c: f64| ((c + half).ceil() as usize).min(30);
+            for y in lo(cy)..=hi(cy) {
+                for x in lo(cx)..=hi(cx) {
+                    if f.at(x, y) < f.max_count() {
+                        want.push((x as f64, y as f64, f.at(x, y) as f64));
+                    }
+                }
+            }
+            assert_eq!(win.pixels().collect::<Vec<_>>(), want, "({cx}, {cy})");
+        }
     }
 
     #[test]

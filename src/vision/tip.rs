@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 
 use super::frame::Frame;
 use super::least_squares::{Sample, levenberg_marquardt};
+use super::noise::select_non_negative;
 use crate::render::probe::{PlacedSilhouette, ProbeShape, ProbeSilhouette, normal_cdf};
 
 /// Tip detection parameters.
@@ -75,12 +76,18 @@ impl TipDetection {
 }
 
 /// Median of a sample of about 65 536 of the frame's pixels: the background
-/// level (the probe and particles cover a minority of the frame).
+/// level (the probe and particles cover a minority of the frame). Counts are
+/// non-negative, so the exact median comes from the radix select of the noise
+/// estimate (two histogram passes, a third of quickselect's time); a frame
+/// with a negative (or -0) value takes quickselect.
 fn background_median(frame: &Frame) -> f32 {
     let px = frame.pixels();
     let step = (px.len() / 65536).max(1);
     let mut sample: Vec<f32> = px.iter().step_by(step).copied().collect();
     let mid = sample.len() / 2;
+    if sample.iter().all(|v| v.is_sign_positive()) {
+        return select_non_negative(&sample, mid);
+    }
     *sample.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }
 
@@ -429,6 +436,20 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn background_median_equals_quickselect_for_either_sign() {
+        for offset in [0.0f32, -300.0] {
+            let px: Vec<f32> = (0..300 * 301)
+                .map(|i| ((i * 7919) % 1009) as f32 * 0.75 + offset)
+                .collect();
+            let frame = Frame::new(300, 301, px.clone(), 16).unwrap();
+            let step = (px.len() / 65536).max(1);
+            let mut sorted: Vec<f32> = px.iter().step_by(step).copied().collect();
+            sorted.sort_by(f32::total_cmp);
+            assert_eq!(background_median(&frame), sorted[sorted.len() / 2]);
+        }
+    }
 
     #[test]
     fn edge_band_equals_the_pixel_by_pixel_selection() {
