@@ -633,6 +633,17 @@ fn keep_separated(found: &mut Vec<Detection>, separation_px: f64) {
     found.retain(|_| *k.next().unwrap_or(&false));
 }
 
+/// The centres other than `centres[i]` closer than `reach` (px) to it.
+pub(crate) fn neighbours_within(centres: &[(f64, f64)], i: usize, reach: f64) -> Vec<(f64, f64)> {
+    let (x, y) = centres[i];
+    centres
+        .iter()
+        .enumerate()
+        .filter(|&(j, c)| j != i && (c.0 - x).hypot(c.1 - y) < reach)
+        .map(|(_, &c)| c)
+        .collect()
+}
+
 /// Refits every ring with a neighbour closer than 1.25 diameters on a window cut
 /// at the bisectors of the neighbours' found centres: a one-sphere model cannot
 /// explain a neighbour's core and ring, and touching is what an assembled
@@ -641,12 +652,7 @@ fn refine_touching(frame: &Frame, found: &mut [Detection], radius: f64, settings
     let reach = 1.25 * settings.diameter_px;
     let centres: Vec<(f64, f64)> = found.iter().map(|d| (d.x_px, d.y_px)).collect();
     for (i, d) in found.iter_mut().enumerate() {
-        let neighbours: Vec<(f64, f64)> = centres
-            .iter()
-            .enumerate()
-            .filter(|&(j, c)| j != i && (c.0 - d.x_px).hypot(c.1 - d.y_px) < reach)
-            .map(|(_, &c)| c)
-            .collect();
+        let neighbours = neighbours_within(&centres, i, reach);
         if neighbours.is_empty() {
             continue;
         }

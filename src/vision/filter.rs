@@ -497,14 +497,7 @@ mod tests {
             assert_eq!(in_place, fast, "in place, r {r}");
             for y in 0..h {
                 for x in 0..w {
-                    let (mut sum, mut n) = (0.0f64, 0usize);
-                    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-                        for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                            sum += src[yy * w + xx] as f64;
-                            n += 1;
-                        }
-                    }
-                    let want = sum / n as f64;
+                    let want = brute_box_mean(&src, w, h, r, x, y);
                     assert!(
                         (fast[y * w + x] as f64 - want).abs() < 1e-4 * (1.0 + want.abs()),
                         "r {r} at ({x}, {y}): {} vs {want}",
@@ -513,6 +506,18 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The mean of the (2r+1)^2 box around (x, y) clipped to the frame, in f64.
+    fn brute_box_mean(src: &[f32], w: usize, h: usize, r: usize, x: usize, y: usize) -> f64 {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
+            for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
+                sum += src[yy * w + xx] as f64;
+                n += 1;
+            }
+        }
+        sum / n as f64
     }
 
     #[test]
@@ -537,14 +542,7 @@ mod tests {
             let fast = box_mean(&src, w, h, r);
             for y in bright + r + 32..h {
                 for x in 0..w {
-                    let (mut sum, mut n) = (0.0f64, 0usize);
-                    for yy in y.saturating_sub(r)..=(y + r).min(h - 1) {
-                        for xx in x.saturating_sub(r)..=(x + r).min(w - 1) {
-                            sum += src[yy * w + xx] as f64;
-                            n += 1;
-                        }
-                    }
-                    let want = sum / n as f64;
+                    let want = brute_box_mean(&src, w, h, r, x, y);
                     let got = fast[y * w + x] as f64;
                     assert!(
                         (got - want).abs() < 1e-5 * want,

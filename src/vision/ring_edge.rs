@@ -579,12 +579,7 @@ pub fn recentre_on_ring_edges(
             // Beyond twice the band's outer radius a neighbour's half-plane
             // does not reach the band.
             let reach = 2.0 * SEARCH_OUTER_FRACTION * d.r_px;
-            let neighbours: Vec<(f64, f64)> = centres
-                .iter()
-                .enumerate()
-                .filter(|&(j, c)| j != i && (c.0 - d.x_px).hypot(c.1 - d.y_px) < reach)
-                .map(|(_, &c)| c)
-                .collect();
+            let neighbours = super::detect::neighbours_within(&centres, i, reach);
             match ring_edge_centre(frame, d.x_px, d.y_px, d.r_px, &neighbours, noise_sigma) {
                 Err(e) => RingEdgeOutcome::Failed(e),
                 Ok(f) => {
