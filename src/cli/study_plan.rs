@@ -200,6 +200,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Straight-line distance of the plan's (executed) assignment: above
+/// LB_push by what swaps and re-assignments cost; the push distance above
+/// it is detours and buffer pushes.
+fn executed_assignment_m(plan: &crate::plan::Plan, layout: &crate::plan::Layout) -> f64 {
+    let index = layout.index_by_id();
+    let sites: std::collections::HashMap<u32, Vector2<f64>> =
+        plan.sites.iter().map(|s| (s.id, s.centre_m)).collect();
+    plan.assignment
+        .iter()
+        .map(|(p, s)| (layout.particles[index[p]].centre_m - sites[s]).norm())
+        .sum()
+}
+
 /// Plans the instance fully and prints the push ratio and where the time went:
 /// the planner's own total, and the stages re-run one by one (assignment,
 /// order, LB_tip) from the public stage functions.
@@ -213,10 +226,12 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
         Ok(p) => (
             Some(p.summary.push_distance_m / p.summary.lb_push_m),
             format!(
-                "planned, {} pushes, push+tip ratio {:.3}",
+                "planned, {} pushes ({} to buffer spots or waypoints), push+tip ratio {:.3}, executed assignment {:.4} LB_push",
                 p.summary.pushes,
+                p.summary.buffer_pushes,
                 (p.summary.push_distance_m + p.summary.tip_travel_m)
-                    / (p.summary.lb_push_m + p.summary.lb_tip_m)
+                    / (p.summary.lb_push_m + p.summary.lb_tip_m),
+                executed_assignment_m(p, layout) / p.summary.lb_push_m
             ),
         ),
         Err(e) => (None, format!("refused: {e}")),
