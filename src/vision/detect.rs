@@ -367,8 +367,9 @@ fn neighbour_candidates(
         .iter()
         .map(|o| (o.x as f64, o.y as f64))
         .filter(|&(x, y)| {
-            let d = (x - c.x as f64).hypot(y - c.y as f64);
-            d >= near && d <= far
+            // Squared: libm's hypot for every pair was 1.6 % of a frame.
+            let d2 = (x - c.x as f64).powi(2) + (y - c.y as f64).powi(2);
+            d2 >= near * near && d2 <= far * far
         })
         .collect()
 }
@@ -639,7 +640,7 @@ pub(crate) fn neighbours_within(centres: &[(f64, f64)], i: usize, reach: f64) ->
     centres
         .iter()
         .enumerate()
-        .filter(|&(j, c)| j != i && (c.0 - x).hypot(c.1 - y) < reach)
+        .filter(|&(j, c)| j != i && (c.0 - x).powi(2) + (c.1 - y).powi(2) < reach * reach)
         .map(|(_, &c)| c)
         .collect()
 }
