@@ -51,6 +51,57 @@ pub struct NormalEquations<const N: usize> {
     pub rss: f64,
 }
 
+/// A least-squares problem evaluated in two parts, so that a trial point the
+/// fit rejects costs only its residuals: `rss(p)` evaluates at `p` and keeps
+/// what the normal equations need; `normal_equations()` then gives them at
+/// that last point.
+pub trait Evaluation<const N: usize> {
+    /// Weighted residual sum of squares at `p`.
+    fn rss(&mut self, p: &SVector<f64, N>) -> f64;
+    /// The normal equations at the point last passed to `rss`.
+    fn normal_equations(&mut self) -> NormalEquations<N>;
+}
+
+/// Weighted samples and a per-sample model: one pass gives rss and normal
+/// equations together (the model returns its value and gradient at once).
+struct SampleModel<'a, const N: usize, F> {
+    samples: &'a [Sample],
+    model_at: F,
+    last: Option<NormalEquations<N>>,
+}
+
+impl<const N: usize, F, M> Evaluation<N> for SampleModel<'_, N, F>
+where
+    F: Fn(&SVector<f64, N>) -> M,
+    M: Fn(f64, f64, &mut SVector<f64, N>) -> f64,
+{
+    fn rss(&mut self, p: &SVector<f64, N>) -> f64 {
+        let model = (self.model_at)(p);
+        let mut grad = SVector::<f64, N>::zeros();
+        let mut jtj = SMatrix::<f64, N, N>::zeros();
+        let mut jtr = SVector::<f64, N>::zeros();
+        let mut rss = 0.0;
+        for &(x, y, v, w) in self.samples {
+            let m = model(x, y, &mut grad);
+            let r = v - m;
+            rss += w * r * r;
+            jtr += grad * (w * r);
+            jtj.syger(w, &grad, &grad, 1.0);
+        }
+        // syger fills the lower triangle only (enough for the Cholesky step);
+        // the covariance is an inverse of the whole matrix.
+        jtj.fill_upper_triangle_with_lower_triangle();
+        self.last = Some(NormalEquations { jtj, jtr, rss });
+        rss
+    }
+
+    fn normal_equations(&mut self) -> NormalEquations<N> {
+        self.last
+            .take()
+            .expect("normal_equations follows an rss evaluation")
+    }
+}
+
 /// Minimises sum w (value - model)^2 from `init`. `model_at(p)` prepares the
 /// model at parameters `p` (work shared by every sample, such as a sine and
 /// cosine, is done there once per evaluation); the prepared model, called as
@@ -66,25 +117,12 @@ where
     F: Fn(&SVector<f64, N>) -> M,
     M: Fn(f64, f64, &mut SVector<f64, N>) -> f64,
 {
-    let mut grad = SVector::<f64, N>::zeros();
-    let normal = |p: &SVector<f64, N>| {
-        let model = model_at(p);
-        let mut jtj = SMatrix::<f64, N, N>::zeros();
-        let mut jtr = SVector::<f64, N>::zeros();
-        let mut rss = 0.0;
-        for &(x, y, v, w) in samples {
-            let m = model(x, y, &mut grad);
-            let r = v - m;
-            rss += w * r * r;
-            jtr += grad * (w * r);
-            jtj.syger(w, &grad, &grad, 1.0);
-        }
-        // syger fills the lower triangle only (enough for the Cholesky step);
-        // the covariance is an inverse of the whole matrix.
-        jtj.fill_upper_triangle_with_lower_triangle();
-        NormalEquations { jtj, jtr, rss }
+    let mut problem = SampleModel {
+        samples,
+        model_at,
+        last: None,
     };
-    levenberg_marquardt_with(samples.len(), init, max_iterations, &[], normal)
+    levenberg_marquardt_with(samples.len(), init, max_iterations, &[], &mut problem)
 }
 
 /// A Gauss-Newton step whose predicted rss decrease is below this many
@@ -107,9 +145,10 @@ const ROUNDING_DECREASE: f64 = 1e-2;
 /// fraction of its standard error ends the fit.
 const WATCHED_STEP: f64 = 0.02;
 
-/// [`levenberg_marquardt`] for a problem of `n_samples` observations given by
-/// its normal equations: `normal(p)` evaluates them at `p` (a batch evaluation
-/// over the whole window, see `pixel_window`).
+/// [`levenberg_marquardt`] for a problem of `n_samples` observations
+/// evaluated through [`Evaluation`] (a batch evaluation over the whole
+/// window, see `pixel_window`): the normal equations are asked for only at
+/// the points the fit keeps.
 ///
 /// Stops when the step predicted by the linearised model would lower the rss
 /// by less than [`CONVERGED_DECREASE`] residual variances (that step is taken
@@ -120,16 +159,13 @@ const WATCHED_STEP: f64 = 0.02;
 /// The watched rule ends fits whose nuisance parameters crawl along a flat
 /// valley (a wide core trading off against the background) for dozens of
 /// iterations while the centre no longer moves.
-pub fn levenberg_marquardt_with<const N: usize, F>(
+pub fn levenberg_marquardt_with<const N: usize>(
     n_samples: usize,
     init: SVector<f64, N>,
     max_iterations: usize,
     watched: &[usize],
-    mut normal: F,
-) -> Result<FitOutcome<N>, FitError>
-where
-    F: FnMut(&SVector<f64, N>) -> NormalEquations<N>,
-{
+    problem: &mut impl Evaluation<N>,
+) -> Result<FitOutcome<N>, FitError> {
     if n_samples <= N {
         return Err(FitError::TooFewSamples {
             got: n_samples,
@@ -137,10 +173,10 @@ where
         });
     }
     let mut p = init;
-    let mut at_p = normal(&p);
-    if !at_p.rss.is_finite() {
+    if !problem.rss(&p).is_finite() {
         return Err(FitError::NotFinite);
     }
+    let mut at_p = problem.normal_equations();
     let mut lambda = 1e-3;
     let mut iterations = 0;
     for _ in 0..max_iterations {
@@ -167,8 +203,9 @@ where
             {
                 return finish(n_samples, trial, at_p.jtj, at_p.rss, iterations);
             }
-            let at_trial = normal(&trial);
-            if at_trial.rss.is_finite() && at_trial.rss < at_p.rss {
+            let trial_rss = problem.rss(&trial);
+            if trial_rss.is_finite() && trial_rss < at_p.rss {
+                let at_trial = problem.normal_equations();
                 // A relative decrease of 1e-8 moves a parameter by ~1e-4 of its
                 // standard error: converged, and stopping here saves the rounds
                 // of rejected trials that would otherwise end the fit.

@@ -11,7 +11,7 @@ use thiserror::Error;
 
 use super::frame::Frame;
 use super::least_squares::{FitError, levenberg_marquardt_with};
-use super::pixel_window::{Columns, PixelWindow, ring_normal, spot_normal};
+use super::pixel_window::{PixelWindow, WindowModel};
 
 /// Core and ring must each exceed the residual noise by this factor.
 const RING_MIN_CONTRAST_SNR: f64 = 2.0;
@@ -221,10 +221,13 @@ fn fit_ring(
     };
     let init =
         SVector::<f64, 8>::from_column_slice(&[cx, cy, b, a, (0.45 * rr).max(1.0), bb, rr, 1.5]);
-    let mut cols = Columns::new(win.len());
-    let fit = levenberg_marquardt_with(win.len(), init, RING_MAX_ITERATIONS, &[0, 1, 6], |p| {
-        ring_normal(&win, p, &mut cols)
-    })?;
+    let fit = levenberg_marquardt_with(
+        win.len(),
+        init,
+        RING_MAX_ITERATIONS,
+        &[0, 1, 6],
+        &mut WindowModel::ring(&win),
+    )?;
     let p = fit.params;
     let noise = fit.residual_variance.sqrt().max(1e-12);
     if ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt() > (0.75 * r0).max(2.0) {
@@ -279,10 +282,13 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         })
         .map_or(b, |s| s.2);
     let init = SVector::<f64, 5>::from_column_slice(&[cx, cy, b, core - b, (0.5 * r0).max(0.8)]);
-    let mut cols = Columns::new(win.len());
-    let fit = levenberg_marquardt_with(win.len(), init, 30, &[0, 1, 4], |p| {
-        spot_normal(&win, p, &mut cols)
-    })?;
+    let fit = levenberg_marquardt_with(
+        win.len(),
+        init,
+        30,
+        &[0, 1, 4],
+        &mut WindowModel::spot(&win),
+    )?;
     let p = fit.params;
     let noise = fit.residual_variance.sqrt().max(1e-12);
     if ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt() > r0.max(2.0) {
