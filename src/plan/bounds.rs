@@ -158,7 +158,7 @@ pub fn path_assignment_bound(
 
 /// Alternations of best responses after the contracted prices
 /// ([`dual_bound::bound_from_prices`]).
-const LB_TIP_DUAL_ROUNDS: usize = 2;
+const LB_TIP_DUAL_ROUNDS: usize = 1;
 
 /// A dual bound on the relaxation without forbidden pairs. Its prices come
 /// from the contracted problem: most landings are a split push's, 1 um
