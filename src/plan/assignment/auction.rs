@@ -150,11 +150,25 @@ pub fn solve_within(sites: &[Vector2<f64>], particles: &[Vector2<f64>], rel_gap:
     }
 }
 
-/// A lower bound on the optimal total distance (metres) within about
-/// `rel_gap` of it, cheaper than the optimum ([`solve_within`]'s bound).
-/// Used for LB_tip, where a bound is what is asked.
-pub fn lower_bound_m(sites: &[Vector2<f64>], particles: &[Vector2<f64>], rel_gap: f64) -> f64 {
-    solve_within(sites, particles, rel_gap).lower_bound_m
+/// The particles' prices (metres, in the caller's order) when the auction
+/// stops at `rel_gap` as in [`solve_within`]: the column prices of a dual
+/// bound within about `rel_gap` of the optimum, for
+/// [`super::dual_bound::bound_from_prices`] to start from (LB_tip).
+pub fn particle_prices_m(
+    sites: &[Vector2<f64>],
+    particles: &[Vector2<f64>],
+    rel_gap: f64,
+) -> Vec<f64> {
+    let Some(mut a) = Auction::for_instance(sites, particles) else {
+        return vec![0.0; particles.len()];
+    };
+    a.run_phases(rel_gap);
+    let per_unit = 1.0 / (a.costs.inv_res * a.costs.k as f64);
+    let mut out = vec![0.0; particles.len()];
+    for (j, &p) in a.price.iter().enumerate() {
+        out[a.parts.slot_to_point[j]] = p as f64 * per_unit;
+    }
+    out
 }
 
 /// Auction state; sites and particles are indexed by their bucket slots.
@@ -479,7 +493,6 @@ impl Auction {
 mod tests {
     use super::super::test_support::random_points;
     use super::super::{assignment_cost, block_instance, dense_jv, dist};
-    use super::lower_bound_m;
     use super::*;
 
     fn check_against_dense(sites: &[Vector2<f64>], parts: &[Vector2<f64>], what: &str) {
@@ -528,7 +541,7 @@ mod tests {
             let b = dense_jv::solve(&sites, &parts, |s, p| dist(&sites[s], &parts[p]));
             let opt = assignment_cost(&sites, &parts, &b);
             for rel_gap in [1e-2, 1e-3, 0.0] {
-                let lb = lower_bound_m(&sites, &parts, rel_gap);
+                let lb = solve_within(&sites, &parts, rel_gap).lower_bound_m;
                 assert!(
                     lb <= opt * (1.0 + 1e-12),
                     "seed {seed} gap {rel_gap}: lb {lb} > opt {opt}"
@@ -545,7 +558,7 @@ mod tests {
         let parts = random_points(40, 50.0, 9);
         let b = dense_jv::solve(&sites, &parts, |s, p| dist(&sites[s], &parts[p]));
         let opt = assignment_cost(&sites, &parts, &b);
-        let lb = lower_bound_m(&sites, &parts, 1e-3);
+        let lb = solve_within(&sites, &parts, 1e-3).lower_bound_m;
         assert!(
             lb <= opt * (1.0 + 1e-12) && lb >= opt * 0.997,
             "lb {lb} opt {opt}"

@@ -21,10 +21,12 @@
 pub mod auction;
 pub(crate) mod buckets;
 pub mod dense_jv;
+pub mod dual_bound;
 pub mod greedy;
 pub mod instance;
 pub mod lp;
 pub mod sparse_ssp;
+pub(crate) mod weighted_nearest;
 pub mod with_parking;
 
 use nalgebra::Vector2;
