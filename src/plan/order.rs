@@ -20,7 +20,7 @@ use super::occupancy::Occupancy;
 use super::pattern::Site;
 use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
-use super::route::{Reach, find_route_within};
+use super::route::{Reach, find_route_within, route_length};
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 use std::cell::RefCell;
@@ -213,6 +213,9 @@ pub fn order_moves(
 
 /// Hand-overs to a nearer blocker per move.
 const MAX_NEARER_SWAPS: u8 = 8;
+
+/// Least length a shortcut must save, metres (less is rounding).
+const SHORTCUT_GAIN_M: f64 = 1e-9;
 
 /// Buffer pushes allowed to break covering cycles before the peel gives up.
 const MAX_CYCLE_BREAKS: usize = 8;
@@ -439,6 +442,9 @@ impl Scheduler<'_> {
                 }
             }
             if let Some(k) = chosen {
+                if let Some(route) = self.shortcut(k) {
+                    self.moves[k].route = route;
+                }
                 self.complete(k);
                 continue;
             }
@@ -551,12 +557,54 @@ impl Scheduler<'_> {
         if self.failed_routes.borrow().known(&key) {
             return None;
         }
-        let res = find_route_within(from, to, r, self.config, self.reach, waypoints, &free);
+        let res = find_route_within(
+            from,
+            to,
+            r,
+            self.config,
+            self.reach,
+            waypoints,
+            f64::INFINITY,
+            &free,
+        );
         if res.is_none() {
             let (lo, hi) = search_box(from, to, r, self.occ.max_radius_m, self.config);
             self.failed_routes.borrow_mut().remember(key, lo, hi);
         }
         res
+    }
+
+    /// A shorter route for move k, which goes now: free of every particle
+    /// where it is now, it need not miss the sites still empty. The route
+    /// was chosen to miss the sites ranked before k (the peel) or the
+    /// particles as they were (a reroute); a site still empty now is filled
+    /// after k, so passing it costs nothing, and what blocked a detour may
+    /// have moved since.
+    fn shortcut(&self, k: usize) -> Option<Vec<Vector2<f64>>> {
+        let m = &self.moves[k];
+        if m.route.len() < 2 {
+            return None;
+        }
+        let p = m.particle;
+        let from = self.occ.pos[p];
+        let free = |c: &Corridor| {
+            self.occ
+                .first_hit(c, p, self.config.clearance_m)
+                .is_none()
+                && self
+                    .obstacles
+                    .misses(c, |s| s != k && !self.moves[s].pending)
+        };
+        find_route_within(
+            from,
+            self.obstacles.site(k),
+            self.radius(p),
+            self.config,
+            self.reach,
+            m.route.len() - 1,
+            route_length(from, &m.route) - SHORTCUT_GAIN_M,
+            &free,
+        )
     }
 
     /// Reroutes move k around the particles where they are now (and the
