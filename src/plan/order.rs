@@ -114,7 +114,7 @@ struct Scheduler<'a> {
     /// [`Scheduler::swap_nearer`] hand-overs per move, capped so that two
     /// moves cannot hand a site back and forth for ever.
     nearer_swaps: Vec<u8>,
-    /// Early fills and buffer spots by added path are tried (see [`order_with`]).
+    /// Early fills and buffer spots by added path are tried (see [`order_moves`]).
     thrifty: bool,
 }
 
@@ -130,119 +130,109 @@ pub fn order_moves(
     banned: &[(usize, usize)],
     config: &PlanConfig,
 ) -> Result<Ordered, Refusal> {
-    let plain = || order_with(layout, sites, pairs, on_site, banned, config, false);
+    // `thrifty`: the repairs that save push distance (early fills, buffer
+    // spots by added path) are tried. They can leave a move boxed in where
+    // the plain repairs did not, so a refused thrifty order is ordered
+    // again without them.
+    let order = |thrifty: bool| -> Result<Ordered, Refusal> {
+        let mut role: Vec<Role> = layout
+            .particles
+            .iter()
+            .map(|q| {
+                if config.immovable.contains(&q.id) {
+                    Role::Placed
+                } else {
+                    Role::Idle
+                }
+            })
+            .collect();
+        let mut move_sites = Vec::new();
+        let mut moves = Vec::new();
+        let mut placed_pairs = Vec::new();
+        for &(p, s) in pairs {
+            let target = sites[s].centre_m;
+            if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
+                role[p] = Role::Placed;
+                placed_pairs.push((p, s));
+            } else {
+                role[p] = Role::Pending(moves.len());
+                move_sites.push(target);
+                moves.push(Move {
+                    particle: p,
+                    site_index: s,
+                    route: vec![target],
+                    rank: 0,
+                    pending: true,
+                    wait: 0,
+                    releases: Vec::new(),
+                    blocked: None,
+                });
+            }
+        }
+        let fixed: Vec<(Vector2<f64>, f64)> = (0..layout.particles.len())
+            .filter(|&q| role[q] == Role::Placed)
+            .map(|q| (layout.particles[q].centre_m, layout.particles[q].radius_m))
+            .collect();
+        let radii: Vec<f64> = moves
+            .iter()
+            .map(|m| layout.particles[m.particle].radius_m)
+            .collect();
+        let r = layout.max_radius_m();
+        // Sites are held at the largest radius: moves may trade particles.
+        let site_radii = vec![r; moves.len()];
+        let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
+        let n_moves = moves.len();
+        let mut sch = Scheduler {
+            config,
+            layout,
+            occ: Occupancy::new(layout),
+            role,
+            moves,
+            obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
+            site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
+            site_pts,
+            reach: Reach {
+                lo: Vector2::new(r, r),
+                hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
+            },
+            steps: Vec::new(),
+            buffer_pushes: 0,
+            tip: config.tip_start_m,
+            failed_routes: Default::default(),
+            failed_fills: Default::default(),
+            banned,
+            nearer_swaps: vec![0; n_moves],
+            thrifty,
+        };
+        sch.clear_sites();
+        let order = sch.peel_with_clearing(&radii)?;
+        for (k, m) in sch.moves.iter_mut().enumerate() {
+            m.rank = order.rank[k];
+            m.route = order.route[k].clone();
+        }
+        for k in 0..sch.moves.len() {
+            sch.compute_conflicts(k);
+        }
+        sch.run()?;
+        Ok(Ordered {
+            pairs: placed_pairs
+                .into_iter()
+                .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
+                .collect(),
+            steps: sch.steps,
+            buffer_pushes: sch.buffer_pushes,
+        })
+    };
     if pairs.len() > THRIFTY_MAX_MOVES {
-        return plain();
+        return order(false);
     }
-    order_with(layout, sites, pairs, on_site, banned, config, true).or_else(|_| plain())
+    order(true).or_else(|_| order(false))
 }
 
 /// Most moves for which the thrifty repairs are tried: at N = 3,000 they
 /// doubled the order's time (0.44 -> 0.9 s) for a push ratio 1.00393 ->
 /// 1.00391, and at N = 10,000 they boxed a move in (refused after 30 s).
 const THRIFTY_MAX_MOVES: usize = 1_000;
-
-/// [`order_moves`]; `thrifty`: the repairs that save push distance (early
-/// fills, buffer spots by added path) are tried. They can leave a move
-/// boxed in where the plain repairs did not, so a refused thrifty order is
-/// ordered again without them.
-fn order_with(
-    layout: &Layout,
-    sites: &[Site],
-    pairs: &[(usize, usize)],
-    on_site: &[usize],
-    banned: &[(usize, usize)],
-    config: &PlanConfig,
-    thrifty: bool,
-) -> Result<Ordered, Refusal> {
-    let mut role: Vec<Role> = layout
-        .particles
-        .iter()
-        .map(|q| {
-            if config.immovable.contains(&q.id) {
-                Role::Placed
-            } else {
-                Role::Idle
-            }
-        })
-        .collect();
-    let mut move_sites = Vec::new();
-    let mut moves = Vec::new();
-    let mut placed_pairs = Vec::new();
-    for &(p, s) in pairs {
-        let target = sites[s].centre_m;
-        if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
-            role[p] = Role::Placed;
-            placed_pairs.push((p, s));
-        } else {
-            role[p] = Role::Pending(moves.len());
-            move_sites.push(target);
-            moves.push(Move {
-                particle: p,
-                site_index: s,
-                route: vec![target],
-                rank: 0,
-                pending: true,
-                wait: 0,
-                releases: Vec::new(),
-                blocked: None,
-            });
-        }
-    }
-    let fixed: Vec<(Vector2<f64>, f64)> = (0..layout.particles.len())
-        .filter(|&q| role[q] == Role::Placed)
-        .map(|q| (layout.particles[q].centre_m, layout.particles[q].radius_m))
-        .collect();
-    let radii: Vec<f64> = moves
-        .iter()
-        .map(|m| layout.particles[m.particle].radius_m)
-        .collect();
-    let r = layout.max_radius_m();
-    // Sites are held at the largest radius: moves may trade particles.
-    let site_radii = vec![r; moves.len()];
-    let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
-    let n_moves = moves.len();
-    let mut sch = Scheduler {
-        config,
-        layout,
-        occ: Occupancy::new(layout),
-        role,
-        moves,
-        obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
-        site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
-        site_pts,
-        reach: Reach {
-            lo: Vector2::new(r, r),
-            hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
-        },
-        steps: Vec::new(),
-        buffer_pushes: 0,
-        tip: config.tip_start_m,
-        failed_routes: Default::default(),
-        failed_fills: Default::default(),
-        banned,
-        nearer_swaps: vec![0; n_moves],
-        thrifty,
-    };
-    sch.clear_sites();
-    let order = sch.peel_with_clearing(&radii)?;
-    for (k, m) in sch.moves.iter_mut().enumerate() {
-        m.rank = order.rank[k];
-        m.route = order.route[k].clone();
-    }
-    for k in 0..sch.moves.len() {
-        sch.compute_conflicts(k);
-    }
-    sch.run()?;
-    Ok(Ordered {
-        pairs: placed_pairs
-            .into_iter()
-            .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
-            .collect(),
-        steps: sch.steps,
-        buffer_pushes: sch.buffer_pushes,
-    })
-}
 
 /// Hand-overs to a nearer blocker per move.
 const MAX_NEARER_SWAPS: u8 = 8;
@@ -599,22 +589,10 @@ impl Scheduler<'_> {
     /// Route for move k's site with `particle` starting at `from`, missing
     /// the sites filled before it (by rank) or already filled, and, when
     /// `dynamic`, every other particle where it is now, with at most
-    /// `waypoints` waypoints. A detour search that found nothing is remembered
-    /// until something changes where it looked.
+    /// `waypoints` waypoints, shorter than `shorter_than_m` (infinite: any
+    /// length). A detour search that found nothing is remembered until
+    /// something changes where it looked (one cut short by the length is not).
     fn route_for(
-        &self,
-        k: usize,
-        particle: usize,
-        from: Vector2<f64>,
-        dynamic: bool,
-        waypoints: usize,
-    ) -> Option<Vec<Vector2<f64>>> {
-        self.route_shorter(k, particle, from, dynamic, waypoints, f64::INFINITY)
-    }
-
-    /// [`Self::route_for`] no longer than `shorter_than_m` (a search cut
-    /// short by the length is not remembered as failed).
-    fn route_shorter(
         &self,
         k: usize,
         particle: usize,
@@ -706,7 +684,7 @@ impl Scheduler<'_> {
     /// sites filled before it); true when its route changed.
     fn reroute(&mut self, k: usize) -> bool {
         let p = self.moves[k].particle;
-        match self.route_for(k, p, self.occ.pos[p], true, 2) {
+        match self.route_for(k, p, self.occ.pos[p], true, 2, f64::INFINITY) {
             Some(route) if route != self.moves[k].route => {
                 self.moves[k].route = route;
                 self.compute_conflicts(k);
@@ -739,7 +717,7 @@ impl Scheduler<'_> {
             let found = if self.failed_fills.known(&key) {
                 None
             } else {
-                self.route_shorter(j, p, from, false, fill.waypoints, cap)
+                self.route_for(j, p, from, false, fill.waypoints, cap)
             };
             match found {
                 Some(route) => routes.push(route),
@@ -799,7 +777,9 @@ impl Scheduler<'_> {
         }
         match self.role[q] {
             Role::Idle => {
-                let Some(route) = self.route_for(k, q, self.occ.pos[q], dynamic, waypoints) else {
+                let Some(route) =
+                    self.route_for(k, q, self.occ.pos[q], dynamic, waypoints, f64::INFINITY)
+                else {
                     return false;
                 };
                 self.moves[k].particle = q;
@@ -810,11 +790,14 @@ impl Scheduler<'_> {
                 true
             }
             Role::Pending(m) => {
-                let Some(route_k) = self.route_for(k, q, self.occ.pos[q], dynamic, waypoints)
+                let Some(route_k) =
+                    self.route_for(k, q, self.occ.pos[q], dynamic, waypoints, f64::INFINITY)
                 else {
                     return false;
                 };
-                let Some(route_m) = self.route_for(m, p, self.occ.pos[p], false, waypoints) else {
+                let Some(route_m) =
+                    self.route_for(m, p, self.occ.pos[p], false, waypoints, f64::INFINITY)
+                else {
                     return false;
                 };
                 self.moves[k].particle = q;
@@ -881,7 +864,7 @@ impl Scheduler<'_> {
             }
             let push = (spot - from).norm();
             let cap = best.as_ref().map_or(f64::INFINITY, |b| b.0 - push);
-            if let Some(route) = self.route_shorter(m, q, spot, false, 2, cap) {
+            if let Some(route) = self.route_for(m, q, spot, false, 2, cap) {
                 let total = push + route_length(spot, &route);
                 best = Some((total, spot, route));
             }
