@@ -111,6 +111,8 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
         if kind == LayoutKind::Uniform {
             // Regression floor under the measured figure (see docs/plan.md).
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
+            // Measured 52 since the ninth pass (32 before it).
+            assert!(push_ok >= 48, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
