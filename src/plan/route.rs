@@ -16,8 +16,14 @@ use nalgebra::Vector2;
 
 /// Ray directions cast from each end.
 const DIRECTIONS: usize = 32;
-/// Steps along a ray, each one particle radius long.
-const STEPS: usize = 16;
+/// Distances of the points along a ray, in particle radii: finer near the
+/// ends, where a short move blocked only behind its tip needs a small bend.
+const RAY_RADII: [f64; 19] = [
+    0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 14.0,
+    16.0,
+];
+/// Points along a ray.
+const STEPS: usize = RAY_RADII.len();
 /// Most leg tests spent on one-waypoint candidates before trying two.
 const MAX_ONE_WAYPOINT_TESTS: usize = 600;
 /// Most middle-leg tests spent on two-waypoint candidates.
@@ -50,10 +56,12 @@ pub fn find_route(
     reach: Reach,
     free: &dyn Fn(&Corridor) -> bool,
 ) -> Option<Vec<Vector2<f64>>> {
-    find_route_within(from, to, radius_m, config, reach, 2, free)
+    find_route_within(from, to, radius_m, config, reach, 2, f64::INFINITY, free)
 }
 
-/// [`find_route`] with at most `waypoints` (0, 1 or 2) waypoints.
+/// [`find_route`] with at most `waypoints` (0, 1 or 2) waypoints and a
+/// total length below `shorter_than_m` (infinite: any length).
+#[allow(clippy::too_many_arguments)]
 pub fn find_route_within(
     from: Vector2<f64>,
     to: Vector2<f64>,
@@ -61,9 +69,13 @@ pub fn find_route_within(
     config: &PlanConfig,
     reach: Reach,
     waypoints: usize,
+    shorter_than_m: f64,
     free: &dyn Fn(&Corridor) -> bool,
 ) -> Option<Vec<Vector2<f64>>> {
     let leg_free = |a: Vector2<f64>, b: Vector2<f64>| free(&Corridor::new(a, b, radius_m, config));
+    if (to - from).norm() >= shorter_than_m {
+        return None;
+    }
     if leg_free(from, to) {
         return Some(vec![to]);
     }
@@ -82,6 +94,7 @@ pub fn find_route_within(
         .points()
         .map(|(i, w)| (len(&w), true, i))
         .chain(first_rays.points().map(|(i, w)| (len(&w), false, i)))
+        .filter(|c| c.0 < shorter_than_m)
         .collect();
     one.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut tests = 0;
@@ -116,16 +129,18 @@ pub fn find_route_within(
         return None;
     }
     // Two waypoints: free first leg to w1, free last leg from w2, test the middle.
-    let first_ok = first_rays.open_points(|w| leg_free(from, w));
-    let last_ok = last_rays.open_points(|w| leg_free(w, to));
+    // Along a ray from either end, |from - w| + |w - to| never decreases,
+    // so a ray is walked only while a route through it can be short enough.
+    let short = |w: Vector2<f64>| len(&w) < shorter_than_m;
+    let first_ok = first_rays.open_points(short, |w| leg_free(from, w));
+    let last_ok = last_rays.open_points(short, |w| leg_free(w, to));
     let mut two: Vec<(f64, usize, usize)> = Vec::with_capacity(first_ok.len() * last_ok.len());
     for (i, w1) in first_ok.iter().enumerate() {
         for (j, w2) in last_ok.iter().enumerate() {
-            two.push((
-                (w1 - from).norm() + (w2 - w1).norm() + (to - w2).norm(),
-                i,
-                j,
-            ));
+            let len = (w1 - from).norm() + (w2 - w1).norm() + (to - w2).norm();
+            if len < shorter_than_m {
+                two.push((len, i, j));
+            }
         }
     }
     let keep = MAX_TWO_WAYPOINT_TESTS.min(two.len());
@@ -143,7 +158,7 @@ pub fn find_route_within(
 /// reach, metres: the last ray step, a particle radius, and the tip landing
 /// behind it.
 pub fn search_extent_m(radius_m: f64, config: &PlanConfig) -> f64 {
-    (STEPS as f64 + 1.0) * radius_m + config.tip_radius_m + config.standoff_m
+    (RAY_RADII[STEPS - 1] + 1.0) * radius_m + config.tip_radius_m + config.standoff_m
 }
 
 /// Points on rays cast from one end of a route (inside `reach`), with the
@@ -176,7 +191,7 @@ impl Rays {
 
     fn at(&self, ray: usize, step: usize) -> Vector2<f64> {
         let ang = std::f64::consts::TAU * ray as f64 / DIRECTIONS as f64;
-        self.centre + Vector2::new(ang.cos(), ang.sin()) * (self.step_m * step as f64)
+        self.centre + Vector2::new(ang.cos(), ang.sin()) * (self.step_m * RAY_RADII[step - 1])
     }
 
     /// The point of index `i` (`ray * STEPS + step - 1`).
@@ -207,13 +222,17 @@ impl Rays {
     }
 
     /// The points whose ray legs are free, each ray walked outwards until
-    /// its first blocked step.
-    fn open_points(&mut self, leg_free: impl Fn(Vector2<f64>) -> bool) -> Vec<Vector2<f64>> {
+    /// its first blocked step or its first point that `keep` rejects.
+    fn open_points(
+        &mut self,
+        keep: impl Fn(Vector2<f64>) -> bool,
+        leg_free: impl Fn(Vector2<f64>) -> bool,
+    ) -> Vec<Vector2<f64>> {
         let mut out = Vec::new();
         for a in 0..DIRECTIONS {
             for k in 1..=STEPS {
                 let i = a * STEPS + k - 1;
-                if !self.open(i, &leg_free) {
+                if !keep(self.at(a, k)) || !self.open(i, &leg_free) {
                     break;
                 }
                 out.push(self.at(a, k));
