@@ -130,103 +130,113 @@ pub fn order_moves(
     banned: &[(usize, usize)],
     config: &PlanConfig,
 ) -> Result<Ordered, Refusal> {
-    // `thrifty`: the repairs that save push distance (early fills, buffer
-    // spots by added path) are tried. They can leave a move boxed in where
-    // the plain repairs did not, so a refused thrifty order is ordered
-    // again without them.
-    let order = |thrifty: bool| -> Result<Ordered, Refusal> {
-        let mut role: Vec<Role> = layout
-            .particles
-            .iter()
-            .map(|q| {
-                if config.immovable.contains(&q.id) {
-                    Role::Placed
-                } else {
-                    Role::Idle
-                }
-            })
-            .collect();
-        let mut move_sites = Vec::new();
-        let mut moves = Vec::new();
-        let mut placed_pairs = Vec::new();
-        for &(p, s) in pairs {
-            let target = sites[s].centre_m;
-            if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
-                role[p] = Role::Placed;
-                placed_pairs.push((p, s));
-            } else {
-                role[p] = Role::Pending(moves.len());
-                move_sites.push(target);
-                moves.push(Move {
-                    particle: p,
-                    site_index: s,
-                    route: vec![target],
-                    rank: 0,
-                    pending: true,
-                    wait: 0,
-                    releases: Vec::new(),
-                    blocked: None,
-                });
-            }
-        }
-        let fixed: Vec<(Vector2<f64>, f64)> = (0..layout.particles.len())
-            .filter(|&q| role[q] == Role::Placed)
-            .map(|q| (layout.particles[q].centre_m, layout.particles[q].radius_m))
-            .collect();
-        let radii: Vec<f64> = moves
-            .iter()
-            .map(|m| layout.particles[m.particle].radius_m)
-            .collect();
-        let r = layout.max_radius_m();
-        // Sites are held at the largest radius: moves may trade particles.
-        let site_radii = vec![r; moves.len()];
-        let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
-        let n_moves = moves.len();
-        let mut sch = Scheduler {
-            config,
-            layout,
-            occ: Occupancy::new(layout),
-            role,
-            moves,
-            obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
-            site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
-            site_pts,
-            reach: Reach {
-                lo: Vector2::new(r, r),
-                hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
-            },
-            steps: Vec::new(),
-            buffer_pushes: 0,
-            tip: config.tip_start_m,
-            failed_routes: Default::default(),
-            failed_fills: Default::default(),
-            banned,
-            nearer_swaps: vec![0; n_moves],
-            thrifty,
-        };
-        sch.clear_sites();
-        let order = sch.peel_with_clearing(&radii)?;
-        for (k, m) in sch.moves.iter_mut().enumerate() {
-            m.rank = order.rank[k];
-            m.route = order.route[k].clone();
-        }
-        for k in 0..sch.moves.len() {
-            sch.compute_conflicts(k);
-        }
-        sch.run()?;
-        Ok(Ordered {
-            pairs: placed_pairs
-                .into_iter()
-                .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
-                .collect(),
-            steps: sch.steps,
-            buffer_pushes: sch.buffer_pushes,
-        })
-    };
+    // The repairs that save push distance (early fills, buffer spots by
+    // added path) can leave a move boxed in where the plain repairs did
+    // not, so a refused thrifty order is ordered again without them.
+    let order = |thrifty| order_once(layout, sites, pairs, on_site, banned, config, thrifty);
     if pairs.len() > THRIFTY_MAX_MOVES {
         return order(false);
     }
     order(true).or_else(|_| order(false))
+}
+
+/// One try of [`order_moves`], with the thrifty repairs or without.
+fn order_once(
+    layout: &Layout,
+    sites: &[Site],
+    pairs: &[(usize, usize)],
+    on_site: &[usize],
+    banned: &[(usize, usize)],
+    config: &PlanConfig,
+    thrifty: bool,
+) -> Result<Ordered, Refusal> {
+    let mut role: Vec<Role> = layout
+        .particles
+        .iter()
+        .map(|q| {
+            if config.immovable.contains(&q.id) {
+                Role::Placed
+            } else {
+                Role::Idle
+            }
+        })
+        .collect();
+    let mut move_sites = Vec::new();
+    let mut moves = Vec::new();
+    let mut placed_pairs = Vec::new();
+    for &(p, s) in pairs {
+        let target = sites[s].centre_m;
+        if on_site.contains(&p) || (layout.particles[p].centre_m - target).norm() <= 1e-12 {
+            role[p] = Role::Placed;
+            placed_pairs.push((p, s));
+        } else {
+            role[p] = Role::Pending(moves.len());
+            move_sites.push(target);
+            moves.push(Move {
+                particle: p,
+                site_index: s,
+                route: vec![target],
+                rank: 0,
+                pending: true,
+                wait: 0,
+                releases: Vec::new(),
+                blocked: None,
+            });
+        }
+    }
+    let fixed: Vec<(Vector2<f64>, f64)> = (0..layout.particles.len())
+        .filter(|&q| role[q] == Role::Placed)
+        .map(|q| (layout.particles[q].centre_m, layout.particles[q].radius_m))
+        .collect();
+    let radii: Vec<f64> = moves
+        .iter()
+        .map(|m| layout.particles[m.particle].radius_m)
+        .collect();
+    let r = layout.max_radius_m();
+    // Sites are held at the largest radius: moves may trade particles.
+    let site_radii = vec![r; moves.len()];
+    let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
+    let n_moves = moves.len();
+    let mut sch = Scheduler {
+        config,
+        layout,
+        occ: Occupancy::new(layout),
+        role,
+        moves,
+        obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
+        site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
+        site_pts,
+        reach: Reach {
+            lo: Vector2::new(r, r),
+            hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
+        },
+        steps: Vec::new(),
+        buffer_pushes: 0,
+        tip: config.tip_start_m,
+        failed_routes: Default::default(),
+        failed_fills: Default::default(),
+        banned,
+        nearer_swaps: vec![0; n_moves],
+        thrifty,
+    };
+    sch.clear_sites();
+    let order = sch.peel_with_clearing(&radii)?;
+    for (k, m) in sch.moves.iter_mut().enumerate() {
+        m.rank = order.rank[k];
+        m.route = order.route[k].clone();
+    }
+    for k in 0..sch.moves.len() {
+        sch.compute_conflicts(k);
+    }
+    sch.run()?;
+    Ok(Ordered {
+        pairs: placed_pairs
+            .into_iter()
+            .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
+            .collect(),
+        steps: sch.steps,
+        buffer_pushes: sch.buffer_pushes,
+    })
 }
 
 /// Most moves for which the thrifty repairs are tried: at N = 3,000 they
@@ -707,6 +717,8 @@ impl Scheduler<'_> {
         let waiters: Vec<usize> = (0..self.moves.len())
             .filter(|&j| self.moves[j].pending && self.moves[j].releases.contains(&m))
             .collect();
+        // Marked filled while the waiters' routes are searched, so that
+        // `route_for` makes them miss m's site; restored before m goes.
         self.moves[m].pending = false;
         let mut routes = Vec::with_capacity(waiters.len());
         for &j in &waiters {
