@@ -114,7 +114,7 @@ impl PixelWindow {
 
 /// Residuals and Jacobian columns of one evaluation (reused between evaluations).
 #[derive(Debug, Clone)]
-pub struct Columns<const N: usize> {
+struct Columns<const N: usize> {
     residual: Vec<f32>,
     jacobian: [Vec<f32>; N],
     /// r^T r of the evaluation, in f64.
