@@ -25,6 +25,7 @@ pub mod placement;
 pub mod plan_file;
 pub mod pushes;
 pub mod rebase;
+pub mod refine;
 pub mod route;
 pub mod synth_layout;
 pub mod tour;
@@ -37,6 +38,7 @@ pub use pattern::{Pattern, Site};
 pub use verify::{VerifyReport, verify_plan};
 
 use nalgebra::Vector2;
+use std::collections::HashMap;
 use std::time::Instant;
 
 /// Planner settings; defaults are the 10 um polystyrene sphere scene.
@@ -299,16 +301,19 @@ fn assign_and_order(
     let mut forbidden: Vec<(usize, usize)> = Vec::new();
     let mut tries = 0;
     loop {
-        let assigned = problem.assigned(&forbidden);
+        let assigned = problem.assigned(&forbidden, &refine::LearnedCosts::default());
         let t = Instant::now();
-        let ordered = order::order_moves(
-            layout,
-            sites,
-            &assigned.pairs,
-            &assigned.on_site,
-            &forbidden,
-            config,
-        );
+        let order = |assigned: &Assigned| {
+            order::order_moves(
+                layout,
+                sites,
+                &assigned.pairs,
+                &assigned.on_site,
+                &forbidden,
+                config,
+            )
+        };
+        let ordered = order(&assigned);
         tracing::debug!(
             "plan: order (try {}) {:.1} ms: {}",
             tries + 1,
@@ -318,6 +323,12 @@ fn assign_and_order(
                 .map_or_else(|r| r.reason.as_str(), |_| "ordered")
         );
         let refusal = match ordered {
+            Ok(ordered) if problem.is_small() => {
+                let assign = |costs: &refine::LearnedCosts| problem.assigned(&forbidden, costs);
+                let order_ok = |assigned: &Assigned| order(assigned).ok();
+                let first = (assigned, ordered);
+                return Ok(refine::refine(layout, sites, first, config, assign, order_ok));
+            }
             Ok(ordered) => return Ok((assigned, ordered)),
             Err(refusal) => refusal,
         };
@@ -339,6 +350,7 @@ fn assign_and_order(
 }
 
 /// The assignment the planner executes, and its lower bound.
+#[derive(Debug, Clone, PartialEq)]
 struct Assigned {
     /// (particle index, site index) pairs.
     pairs: Vec<(usize, usize)>,
@@ -439,20 +451,42 @@ impl FreeProblem {
         })
     }
 
+    /// True when the problem is small enough for the dense method (parking
+    /// costs, banned pairs, learned costs).
+    fn is_small(&self) -> bool {
+        self.site_pts.len() * self.part_pts.len() <= PARKING_AWARE_MAX_PAIRS
+    }
+
+    /// The (free particle, free site) indices of a (particle, site) pair.
+    fn free_pair(&self, (p, s): (usize, usize)) -> Option<(usize, usize)> {
+        let k = self.free_sites.iter().position(|&f| f == s)?;
+        let j = self.free_particles.iter().position(|&f| f == p)?;
+        Some((j, k))
+    }
+
     /// The assignment avoiding `forbidden` (particle index, site index)
-    /// pairs where it can (small instances only).
-    fn assigned(&self, forbidden: &[(usize, usize)]) -> Assigned {
+    /// pairs where it can, with the costs `learned` from earlier orders
+    /// added (small instances only).
+    fn assigned(&self, forbidden: &[(usize, usize)], learned: &refine::LearnedCosts) -> Assigned {
         let banned: Vec<(usize, usize)> = forbidden
             .iter()
-            .filter_map(|&(p, s)| {
-                let k = self.free_sites.iter().position(|&f| f == s)?;
-                let j = self.free_particles.iter().position(|&f| f == p)?;
-                Some((j, k))
+            .filter_map(|&pair| self.free_pair(pair))
+            .collect();
+        let pair_m: HashMap<(usize, usize), f64> = learned
+            .pair_m
+            .iter()
+            .filter_map(|(&pair, &c)| Some((self.free_pair(pair)?, c)))
+            .collect();
+        let park: Vec<f64> = (0..self.part_pts.len())
+            .map(|j| {
+                let learned = learned.park_m.get(&self.free_particles[j]).copied();
+                self.park.get(j).copied().unwrap_or(0.0) + learned.unwrap_or(0.0)
             })
             .collect();
-        let small = self.site_pts.len() * self.part_pts.len() <= PARKING_AWARE_MAX_PAIRS;
-        let chosen = if small && (!banned.is_empty() || self.park.iter().any(|&c| c > 0.0)) {
-            assignment::with_parking::solve(&self.site_pts, &self.part_pts, &self.park, &banned)
+        let chosen = if self.is_small()
+            && (!banned.is_empty() || !learned.is_empty() || park.iter().any(|&c| c > 0.0))
+        {
+            assignment::with_parking::solve(&self.site_pts, &self.part_pts, &park, &banned, &pair_m)
         } else {
             self.plain.clone()
         };
