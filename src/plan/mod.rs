@@ -327,7 +327,9 @@ fn assign_and_order(
                 let assign = |costs: &refine::LearnedCosts| problem.assigned(&forbidden, costs);
                 let order_ok = |assigned: &Assigned| order(assigned).ok();
                 let first = (assigned, ordered);
-                return Ok(refine::refine(layout, sites, first, config, assign, order_ok));
+                return Ok(refine::refine(
+                    layout, sites, first, config, assign, order_ok,
+                ));
             }
             Ok(ordered) => return Ok((assigned, ordered)),
             Err(refusal) => refusal,
