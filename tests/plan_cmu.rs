@@ -223,7 +223,7 @@ fn tip_tour_study_on_cmu() {
 fn push_excess_study_on_cmu() {
     let config = PlanConfig::default();
     let (mut assign_x, mut path_x, mut ratio) = (vec![], vec![], vec![]);
-    let (mut buffers, mut idle_m) = (0, 0.0);
+    let (mut buffers, mut idle_m, mut plan_ms) = (0, 0.0, vec![]);
     for seed in 0..100u64 {
         let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
         let Ok(plan) = plan_assembly(&layout, &sites, &config) else {
@@ -262,6 +262,7 @@ fn push_excess_study_on_cmu() {
         path_x.push((s.push_distance_m - executed) / s.lb_push_m);
         ratio.push(s.push_distance_m / s.lb_push_m);
         buffers += s.buffer_pushes;
+        plan_ms.push(s.planning_time_s * 1e3);
     }
     let show = |name: &str, mut v: Vec<f64>| {
         let mean = v.iter().sum::<f64>() / v.len() as f64;
@@ -273,6 +274,7 @@ fn push_excess_study_on_cmu() {
             v.len()
         );
     };
+    show("planning time per layout, ms", plan_ms);
     show("push ratio", ratio);
     show("executed assignment above LB_push (/ LB_push)", assign_x);
     show("path above the executed straight lines (/ LB_push)", path_x);
