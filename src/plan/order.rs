@@ -605,12 +605,13 @@ impl Scheduler<'_> {
         // 1.05 LB_push). The plain repairs buffer in the loop above: at
         // N = 10,000 the extra reroute searches doubled the order (23 ->
         // 44 s) for no gain (push ratio 1.010131 -> 1.010174).
-        for &(k, q) in blocked {
-            if self.thrifty
-                && let Role::Pending(m) = self.role[q]
-                && self.buffer_pending(m, &self.route_corridors(k))
-            {
-                return true;
+        if self.thrifty {
+            for &(k, q) in blocked {
+                if let Role::Pending(m) = self.role[q]
+                    && self.buffer_pending(m, &self.route_corridors(k))
+                {
+                    return true;
+                }
             }
         }
         for &(k, q) in blocked {
@@ -673,10 +674,27 @@ impl Scheduler<'_> {
             &free,
         );
         if res.is_none() && shorter_than_m == f64::INFINITY {
-            let (lo, hi) = search_box(from, to, r, self.occ.max_radius_m, self.config);
+            let (lo, hi) = self.search_box_of(particle, from, to);
             self.failed_routes.borrow_mut().remember(key, lo, hi);
         }
         res
+    }
+
+    /// The box a route search for `particle` from `from` to `to` looks in
+    /// (what must change there before a failed search is worth repeating).
+    fn search_box_of(
+        &self,
+        particle: usize,
+        from: Vector2<f64>,
+        to: Vector2<f64>,
+    ) -> (Vector2<f64>, Vector2<f64>) {
+        search_box(
+            from,
+            to,
+            self.radius(particle),
+            self.occ.max_radius_m,
+            self.config,
+        )
     }
 
     /// True when corridor `c` of `particle` on move k's route misses the
@@ -765,9 +783,10 @@ impl Scheduler<'_> {
     /// Fills move m's site now, before the moves that wait for it (their
     /// routes cross it): when m's own route is free of every particle (or,
     /// beside its site, a route within `fill` of it is) and each of them has
-    /// a route that misses the site, within `fill` of its route now. m's particle is in another move's way, usually beside its
-    /// site: pushed to a buffer spot instead, it came back the long way
-    /// (CMU: mean push ratio 1.0810 -> 1.0743 with [`DETOUR_FILL`] alone).
+    /// a route that misses the site, within `fill` of its route now. m's
+    /// particle is in another move's way, usually beside its site: pushed to
+    /// a buffer spot instead, it came back the long way (CMU: mean push
+    /// ratio 1.0810 -> 1.0743 with [`DETOUR_FILL`] alone).
     fn fill_early(&mut self, m: usize, fill: EarlyFill) -> bool {
         if !self.thrifty || !self.moves[m].pending {
             return false;
@@ -780,31 +799,21 @@ impl Scheduler<'_> {
             Some(_) => {
                 let p = self.moves[m].particle;
                 let from = self.occ.pos[p];
-                if route_length(from, &self.moves[m].route) > OWN_DETOUR_MAX_RADII * self.radius(p)
-                {
+                let len = route_length(from, &self.moves[m].route);
+                if len > OWN_DETOUR_MAX_RADII * self.radius(p) {
                     return false;
                 }
-                let cap =
-                    route_length(from, &self.moves[m].route) + fill.extra_radii * self.radius(p);
+                let cap = len + fill.extra_radii * self.radius(p);
                 let key = (m, from.x.to_bits(), from.y.to_bits(), cap.to_bits());
                 if self.failed_own_routes.known(&key) {
                     return false;
                 }
-                match self.route_for(m, p, from, true, fill.waypoints, cap) {
-                    Some(route) => Some(route),
-                    None => {
-                        let to = self.obstacles.site(m);
-                        let (lo, hi) = search_box(
-                            from,
-                            to,
-                            self.radius(p),
-                            self.occ.max_radius_m,
-                            self.config,
-                        );
-                        self.failed_own_routes.remember(key, lo, hi);
-                        return false;
-                    }
-                }
+                let Some(route) = self.route_for(m, p, from, true, fill.waypoints, cap) else {
+                    let (lo, hi) = self.search_box_of(p, from, self.obstacles.site(m));
+                    self.failed_own_routes.remember(key, lo, hi);
+                    return false;
+                };
+                Some(route)
             }
         };
         let waiters: Vec<usize> = (0..self.moves.len())
@@ -827,9 +836,7 @@ impl Scheduler<'_> {
             match found {
                 Some(route) => routes.push(route),
                 None => {
-                    let to = self.obstacles.site(j);
-                    let (lo, hi) =
-                        search_box(from, to, self.radius(p), self.occ.max_radius_m, self.config);
+                    let (lo, hi) = self.search_box_of(p, from, self.obstacles.site(j));
                     self.failed_fills.remember(key, lo, hi);
                     self.moves[m].pending = true;
                     return false;

@@ -8,7 +8,9 @@
 //! plain assignment with cost d(s, p) - park_cost(p) (shifted to stay
 //! non-negative). Solved with the dense method: the planner only calls this
 //! for the small instances where a site is covered (re-planning per push),
-//! or where a refused order banned some particle-site pairs.
+//! where a refused order banned some particle-site pairs, or where
+//! `plan::refine` adds the costs an earlier order paid beyond the straight
+//! lines.
 
 use super::{dense_jv, dist};
 use nalgebra::Vector2;
