@@ -78,6 +78,12 @@ pub enum SynthError {
     },
 }
 
+/// Relative margin on the adversarial core's pitch. Its neighbours sit at
+/// exactly the minimum gap, so without it the last bit of rounding in the
+/// inputs (`5.0 * 1e-6` from the CLI against a literal `5e-6`) decided
+/// whether every other core particle was rejected as too close.
+const CORE_PITCH_MARGIN: f64 = 1e-9;
+
 /// Generates a layout.
 pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     check_finite("field width_um", p.field_m[0] * 1e6, true)?;
@@ -130,20 +136,23 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     };
     if p.kind == LayoutKind::Adversarial {
         // Dense hexagonal core over the central third of the field.
-        let pitch = 2.0 * rmax + p.min_gap_m;
+        let pitch = (2.0 * rmax + p.min_gap_m) * (1.0 + CORE_PITCH_MARGIN);
         let (cx, cy) = (w / 2.0, h / 2.0);
         let (hw, hh) = (w / 3.0, h / 3.0);
         let mut row = 0;
         let mut y = cy - hh;
         while y <= cy + hh && pts.len() < p.n * 2 / 3 {
-            let mut x = cx - hw + if row % 2 == 1 { pitch / 2.0 } else { 0.0 };
+            let x0 = cx - hw + if row % 2 == 1 { pitch / 2.0 } else { 0.0 };
+            let mut x = x0;
+            let mut column = 0;
             while x <= cx + hw && pts.len() < p.n * 2 / 3 {
                 let r = radius(&mut rng);
                 try_add(Vector2::new(x, y), r, &mut pts);
-                x += pitch;
+                column += 1;
+                x = x0 + column as f64 * pitch;
             }
-            y += pitch * 3f64.sqrt() / 2.0;
             row += 1;
+            y = cy - hh + row as f64 * pitch * 3f64.sqrt() / 2.0;
         }
     }
     let centres: Vec<Vector2<f64>> = (0..4)
@@ -218,5 +227,38 @@ mod tests {
             synth_layout(&too_many),
             Err(SynthError::TooDense { .. })
         ));
+    }
+
+    /// The core is the same dense lattice whether the radius and gap come
+    /// as literals or as the CLI's products of um and 1e-6 (they differ in
+    /// the last bit; every other core particle used to be dropped).
+    #[test]
+    fn the_adversarial_core_is_dense_whatever_the_rounding_of_the_inputs() {
+        let literal = SynthParams::cmu_field(40, LayoutKind::Adversarial, 0);
+        let from_cli = SynthParams {
+            radius_m: 5.0 * 1e-6,
+            min_gap_m: 1.0 * 1e-6,
+            ..literal.clone()
+        };
+        assert_ne!(literal.radius_m, from_cli.radius_m, "the inputs differ");
+        for p in [literal, from_cli] {
+            let a = synth_layout(&p).unwrap();
+            // The core is the first 2n/3 particles: each has a neighbour at
+            // the lattice pitch, 2 r + gap.
+            let core = &a.particles[..p.n * 2 / 3];
+            let pitch = 2.0 * p.radius_m + p.min_gap_m;
+            for x in core {
+                let nearest = core
+                    .iter()
+                    .filter(|y| y.id != x.id)
+                    .map(|y| (x.centre_m - y.centre_m).norm())
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    (nearest - pitch).abs() < 1e-12,
+                    "particle {} has its nearest core neighbour at {nearest}",
+                    x.id
+                );
+            }
+        }
     }
 }
