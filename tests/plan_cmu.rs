@@ -108,6 +108,16 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
                 .iter()
                 .all(|r| r.contains("no collision-free order:") && r.len() > 40)
         );
+        if kind == LayoutKind::Adversarial {
+            // The dense core's inner particles are boxed in by 1 um gaps,
+            // narrower than the 2 um tip: the refusal says so.
+            assert!(
+                o.refused
+                    .iter()
+                    .all(|r| r.contains("cannot be pushed even 1 um in any direction")),
+                "a refusal does not name the locked particles"
+            );
+        }
         if kind == LayoutKind::Uniform {
             // Regression floor under the measured figure (see docs/plan.md).
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);

@@ -16,6 +16,7 @@ pub mod bounds;
 pub mod failed_routes;
 pub mod grid;
 pub mod layout;
+pub mod locked;
 pub mod occupancy;
 pub mod order;
 pub mod parking;
@@ -346,7 +347,11 @@ fn assign_and_order(
                 0 => String::new(),
                 n => format!(" (after {n} re-assignments of the stuck sites)"),
             };
-            return Err(PlanError::Blocked(format!("{}{retried}", refusal.reason)));
+            let locked = locked::locked_note(layout, config);
+            return Err(PlanError::Blocked(format!(
+                "{}{retried}{locked}",
+                refusal.reason
+            )));
         }
     }
 }
