@@ -233,6 +233,41 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     assert_eq!(summary["verified"], true);
     assert!(summary["push_ratio"].as_f64().unwrap() >= 1.0 - 1e-9);
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+    // The text summary gives the same ratios, to 3 decimals.
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        sites.to_str().unwrap(),
+        "--layout",
+        &easy,
+        "--at",
+        "100,120",
+    ]);
+    assert!(ok, "{text}");
+    let push_line = text
+        .lines()
+        .find(|l| l.starts_with("push distance"))
+        .unwrap();
+    let shown = push_line
+        .split("ratio ")
+        .nth(1)
+        .unwrap()
+        .trim_end_matches(')');
+    assert_eq!(
+        shown,
+        format!("{:.3}", summary["push_ratio"].as_f64().unwrap()),
+        "{push_line}"
+    );
+    let total_line = text
+        .lines()
+        .find(|l| l.starts_with("push + tip ratio"))
+        .unwrap();
+    let shown = total_line.split_whitespace().nth(4).unwrap();
+    assert_eq!(
+        shown,
+        format!("{:.3}", summary["total_ratio"].as_f64().unwrap()),
+        "{total_line}"
+    );
     let (ok, text) = nanopush(&[
         "verify-plan",
         plan.to_str().unwrap(),

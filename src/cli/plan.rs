@@ -152,7 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "push distance    {:.1} um (LB_push {:.1} um, ratio {:.3})",
             s.push_distance_m * 1e6,
             s.lb_push_m * 1e6,
-            summary["push_ratio"]
+            plan_file::ratio(s.push_distance_m, s.lb_push_m)
         );
         println!(
             "tip travel       {:.1} um (LB_tip {:.1} um)",
@@ -161,7 +161,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         println!(
             "push + tip ratio {:.3} to LB_push + LB_tip",
-            summary["total_ratio"]
+            plan_file::ratio(s.push_distance_m + s.tip_travel_m, s.lb_push_m + s.lb_tip_m)
         );
         println!("coarse moves     {}", s.coarse_moves);
         println!("predicted time   {:.1} s", s.predicted_time_s);
