@@ -61,93 +61,24 @@ fn easy_layout(dir: &Path) -> String {
 fn bad_input_is_a_clear_error_with_non_zero_exit() {
     let dir = tempfile::tempdir().unwrap();
     let easy = easy_layout(dir.path());
+    // `plan --text TEXT --layout easy MORE...`
+    let on_easy = |text: &str, more: &[&str]| -> Vec<String> {
+        let head = ["plan", "--text", text, "--layout", &easy];
+        head.iter().chain(more).map(|s| s.to_string()).collect()
+    };
+    let frame = [
+        "plan", "--text", "I", "--frame", "f.png", "--calib", "c.toml",
+    ];
     let cases: Vec<(Vec<String>, &str)> = vec![
+        (on_easy("C?", &[]), "unknown glyph"),
+        (on_easy(" ", &[]), "empty pattern"),
+        (on_easy("CMU", &[]), "only 4 particles"),
+        (on_easy("I", &["--pitch-um", "NaN"]), "pitch-um"),
+        (on_easy("I", &["--pitch-um", "5"]), "overlap"),
+        (on_easy("I", &["--at", "5,5"]), "outside the reachable area"),
+        (on_easy("MMMMMMMMMMMMMMMMMMMMM", &[]), "does not fit"),
         (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "C?".into(),
-                "--layout".into(),
-                easy.clone(),
-            ],
-            "unknown glyph",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                " ".into(),
-                "--layout".into(),
-                easy.clone(),
-            ],
-            "empty pattern",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "CMU".into(),
-                "--layout".into(),
-                easy.clone(),
-            ],
-            "only 4 particles",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "I".into(),
-                "--layout".into(),
-                easy.clone(),
-                "--pitch-um".into(),
-                "NaN".into(),
-            ],
-            "pitch-um",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "I".into(),
-                "--layout".into(),
-                easy.clone(),
-                "--pitch-um".into(),
-                "5".into(),
-            ],
-            "overlap",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "I".into(),
-                "--layout".into(),
-                easy.clone(),
-                "--at".into(),
-                "5,5".into(),
-            ],
-            "outside the reachable area",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "MMMMMMMMMMMMMMMMMMMMM".into(),
-                "--layout".into(),
-                easy.clone(),
-            ],
-            "does not fit",
-        ),
-        (
-            vec![
-                "plan".into(),
-                "--text".into(),
-                "I".into(),
-                "--frame".into(),
-                "f.png".into(),
-                "--calib".into(),
-                "c.toml".into(),
-            ],
+            frame.iter().map(|s| s.to_string()).collect(),
             "needs the vision module",
         ),
     ];
@@ -214,14 +145,13 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
         r#"{"sites": [{"x_um": 0, "y_um": 0}, {"x_um": 11, "y_um": 0}, {"x_um": 22, "y_um": 0}]}"#,
     )
     .unwrap();
-    let (ok, text) = nanopush(&[
-        "plan",
-        "--pattern",
-        sites.to_str().unwrap(),
-        "--layout",
-        &easy,
-        "--at",
-        "100,120",
+    // The three-site pattern on the easy layout, with more arguments.
+    let plan_sites = |more: &[&str]| {
+        let base = ["plan", "--pattern", sites.to_str().unwrap()];
+        let at = ["--layout", &easy, "--at", "100,120"];
+        nanopush(&[&base[..], &at[..], more].concat())
+    };
+    let (ok, text) = plan_sites(&[
         "--out",
         plan.to_str().unwrap(),
         "--overlay",
@@ -234,15 +164,7 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     assert!(summary["push_ratio"].as_f64().unwrap() >= 1.0 - 1e-9);
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
     // The text summary gives the same ratios, to 3 decimals.
-    let (ok, text) = nanopush(&[
-        "plan",
-        "--pattern",
-        sites.to_str().unwrap(),
-        "--layout",
-        &easy,
-        "--at",
-        "100,120",
-    ]);
+    let (ok, text) = plan_sites(&[]);
     assert!(ok, "{text}");
     let push_line = text
         .lines()
