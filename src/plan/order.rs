@@ -1088,9 +1088,16 @@ impl Scheduler<'_> {
         )
     }
 
-    /// Candidate spots around `centre` (see [`super::parking::ring`]).
+    /// Candidate spots around `centre` (see [`super::parking::ring_off_sites`]).
     fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
-        super::parking::ring(centre, 2.0 * r + 1e-6)
+        super::parking::ring_off_sites(
+            centre,
+            r,
+            &self.site_grid,
+            &self.site_pts,
+            self.occ.max_radius_m,
+            self.config.clearance_m,
+        )
     }
 
     /// Two-level buffer move: idle particle q has no free push to a spot
