@@ -1027,14 +1027,10 @@ impl Scheduler<'_> {
                     .first_hit(&self.corridor(q, from, *spot), q, cl)
                     .is_none()
         };
-        let off = self
-            .ring(from, r)
-            .into_iter()
-            .filter(move |s| self.off_sites(*s, r));
-        let on = self
-            .ring(from, r)
-            .into_iter()
-            .filter(move |s| !self.off_sites(*s, r));
+        let spots = self.ring(from, r, avoid);
+        let on = spots.clone();
+        let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
+        let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
         off.chain(on).filter(usable)
     }
 
@@ -1088,15 +1084,19 @@ impl Scheduler<'_> {
         )
     }
 
-    /// Candidate spots around `centre` (see [`super::parking::ring_off_sites`]).
-    fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
+    /// Candidate spots around `centre` for a disc of radius r, with the
+    /// nearest ones off the sites and clear of `avoid` (see
+    /// [`super::parking::ring_off_sites`]).
+    fn ring(&self, centre: Vector2<f64>, r: f64, avoid: &[Corridor]) -> Vec<Vector2<f64>> {
+        let cl = self.config.clearance_m;
         super::parking::ring_off_sites(
             centre,
             r,
             &self.site_grid,
             &self.site_pts,
             self.occ.max_radius_m,
-            self.config.clearance_m,
+            cl,
+            &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
         )
     }
 
@@ -1108,7 +1108,7 @@ impl Scheduler<'_> {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
-        for spot in self.ring(from, r) {
+        for spot in self.ring(from, r, avoid) {
             if !self.reach.contains(spot)
                 || !self.off_sites(spot, r)
                 || !self.occ.disc_free(spot, r, q, cl)

@@ -47,11 +47,14 @@ pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 
 /// Candidate spots around `centre` for a disc of `radius_m`: in each of 48
 /// directions the nearest point (within two pitches) where it keeps
-/// `clearance_m` (plus [`CLEARING_MARGIN_M`]) from every site, merged with
-/// [`ring`], nearest first. The ring's quarter-pitch steps alone (2.75 um
-/// for 10 um particles) pushed a particle that covered a site by a fraction
-/// of a micron 2.75 um off it: on CMU, idle particles pushed off the sites
-/// were the largest part of the excess above 1.05 LB_push (eleventh pass).
+/// `clearance_m` (plus [`CLEARING_MARGIN_M`]) from every site and `also`
+/// does not hold (the scheduler: the corridors the spot must leave free),
+/// merged with [`ring`], nearest first. The ring's quarter-pitch steps alone
+/// (2.75 um for 10 um particles) pushed a particle that covered a site or a
+/// corridor by a fraction of a micron 2.75 um off it: on CMU, idle
+/// particles pushed off the way were the largest part of the excess above
+/// 1.05 LB_push (eleventh pass).
+#[allow(clippy::too_many_arguments)]
 pub fn ring_off_sites(
     centre: Vector2<f64>,
     radius_m: f64,
@@ -59,6 +62,7 @@ pub fn ring_off_sites(
     site_pts: &[Vector2<f64>],
     site_radius_m: f64,
     clearance_m: f64,
+    also: &dyn Fn(Vector2<f64>) -> bool,
 ) -> Vec<Vector2<f64>> {
     let pitch = 2.0 * radius_m + 1e-6;
     let reach = radius_m + site_radius_m + clearance_m + CLEARING_MARGIN_M;
@@ -68,8 +72,7 @@ pub fn ring_off_sites(
     for a in 0..CLEARING_DIRECTIONS {
         let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
         let u = Vector2::new(ang.cos(), ang.sin());
-        // Along the ray, each site is covered on an interval of distances;
-        // the first distance outside all of them is the spot.
+        // Along the ray, each site is covered on an interval of distances.
         let mut covered: Vec<(f64, f64)> = near
             .iter()
             .filter_map(|&s| {
@@ -81,14 +84,28 @@ pub fn ring_off_sites(
             .filter(|&(_, hi)| hi > 0.0)
             .collect();
         covered.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut t = 0.0_f64;
-        for (lo, hi) in covered {
-            if lo > t {
+        let off_sites_from = |mut t: f64| {
+            for &(lo, hi) in &covered {
+                if lo > t {
+                    break;
+                }
+                t = t.max(hi);
+            }
+            t
+        };
+        // Off the sites, then out of `also` (marching, then bisecting its
+        // edge), until both hold at once.
+        let mut t = off_sites_from(0.0);
+        for _ in 0..4 {
+            if t > max_m || !also(centre + u * t) {
                 break;
             }
-            t = t.max(hi);
+            t = match exit_along(centre, u, t, pitch / 8.0, max_m, also) {
+                Some(out) => off_sites_from(out + CLEARING_MARGIN_M),
+                None => f64::INFINITY,
+            };
         }
-        if t > 0.0 && t <= max_m {
+        if t > 0.0 && t <= max_m && !also(centre + u * t) {
             spots.push((t, centre + u * t));
         }
     }
@@ -101,6 +118,36 @@ pub fn ring_off_sites(
     );
     spots.sort_by(|x, y| x.0.total_cmp(&y.0));
     spots.into_iter().map(|s| s.1).collect()
+}
+
+/// The first distance beyond `t` along `u` from `centre` (up to `max_m`)
+/// where `covered` fails: marched in steps of `step_m`, then its edge
+/// bisected to a nanometre.
+fn exit_along(
+    centre: Vector2<f64>,
+    u: Vector2<f64>,
+    mut t: f64,
+    step_m: f64,
+    max_m: f64,
+    covered: &dyn Fn(Vector2<f64>) -> bool,
+) -> Option<f64> {
+    let mut out = t;
+    while covered(centre + u * out) {
+        t = out;
+        out += step_m;
+        if out > max_m {
+            return None;
+        }
+    }
+    while out - t > 1e-9 {
+        let mid = 0.5 * (t + out);
+        if covered(centre + u * mid) {
+            t = mid;
+        } else {
+            out = mid;
+        }
+    }
+    Some(out)
 }
 
 /// Length of the shortest ring move that takes particle `index` (of
@@ -120,7 +167,16 @@ pub fn park_cost(
     max_m: f64,
 ) -> f64 {
     let from = particles[index];
-    for spot in ring_off_sites(from, radius_m, sites, site_pts, radius_m, clearance_m) {
+    let nothing_else = |_: Vector2<f64>| false;
+    for spot in ring_off_sites(
+        from,
+        radius_m,
+        sites,
+        site_pts,
+        radius_m,
+        clearance_m,
+        &nothing_else,
+    ) {
         if spot.x < lo.x || spot.y < lo.y || spot.x > hi.x || spot.y > hi.y {
             continue;
         }
