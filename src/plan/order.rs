@@ -1027,7 +1027,8 @@ impl Scheduler<'_> {
                     .first_hit(&self.corridor(q, from, *spot), q, cl)
                     .is_none()
         };
-        let spots = self.ring(from, r, avoid);
+        let nearest_out = if self.role[q] == Role::Idle { avoid } else { &[] };
+        let spots = self.ring(from, r, nearest_out);
         let on = spots.clone();
         let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
         let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
