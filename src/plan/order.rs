@@ -288,6 +288,15 @@ const DETOUR_FILL: EarlyFill = EarlyFill {
     waypoints: 2,
 };
 
+/// A thrifty order's swap whose routes need a waypoint is left until the
+/// reroutes and early fills have failed when it adds more than so many
+/// particle radii beyond what rerouting the blocked move adds (CMU seed 84:
+/// a swap took a particle 26 um round to its new site). CMU: 79 -> 88 of
+/// 100 layouts within 1.05 LB_push; N = 1,000 1.003011 -> 1.002560. With
+/// no slack CMU had 88 but N = 1,000 1.003304, with 2 radii 86 and
+/// 1.002943.
+const SWAP_OVER_REROUTE_RADII: f64 = 1.0;
+
 /// Buffer spots weighed for a particle still to move.
 const BUFFER_CANDIDATES: usize = 24;
 
@@ -566,7 +575,8 @@ impl Scheduler<'_> {
         // (worst 1.338 -> 1.308; a buffer push or a reroute does better).
         for waypoints in [0, 1] {
             for &(k, q) in blocked {
-                if self.swap_with(k, q, waypoints) {
+                let weighed = self.thrifty && waypoints == 1;
+                if self.swap_with(k, q, waypoints, weighed) {
                     return true;
                 }
             }
@@ -598,6 +608,11 @@ impl Scheduler<'_> {
             {
                 return true;
             }
+        }
+        // The detoured swaps that cost more than a reroute, now that no
+        // reroute or early fill was found.
+        if self.thrifty && blocked.iter().any(|&(k, q)| self.swap_with(k, q, 1, false)) {
+            return true;
         }
         // A thrifty order buffers a particle still to move only when no
         // blocked move could be rerouted or filled early: the buffer push
@@ -766,6 +781,17 @@ impl Scheduler<'_> {
         )
     }
 
+    /// What [`Self::reroute`] would add to move k's planned path (infinite
+    /// when it finds no route).
+    fn reroute_added(&self, k: usize) -> f64 {
+        let p = self.moves[k].particle;
+        let from = self.occ.pos[p];
+        self.route_for(k, p, from, true, 2, f64::INFINITY)
+            .map_or(f64::INFINITY, |route| {
+                route_length(from, &route) - route_length(from, &self.moves[k].route)
+            })
+    }
+
     /// Reroutes move k around the particles where they are now (and the
     /// sites filled before it); true when its route changed.
     fn reroute(&mut self, k: usize) -> bool {
@@ -860,18 +886,28 @@ impl Scheduler<'_> {
     /// an idle q takes over (k's particle becomes idle), a pending q trades
     /// sites with it; true when q has a route free of every particle now
     /// (so the swap makes progress) and the other changed move has a route
-    /// (with at most `waypoints` waypoints).
-    fn swap_with(&mut self, k: usize, q: usize, waypoints: usize) -> bool {
-        self.swap_if(k, q, |s, m, particle, taker| {
-            s.route_for(
-                m,
-                particle,
-                s.occ.pos[particle],
-                taker,
-                waypoints,
-                f64::INFINITY,
-            )
-        })
+    /// (with at most `waypoints` waypoints). When `weighed`, not when the
+    /// swap adds more to the two moves' paths than rerouting move k would,
+    /// plus [`SWAP_OVER_REROUTE_RADII`].
+    fn swap_with(&mut self, k: usize, q: usize, waypoints: usize, weighed: bool) -> bool {
+        self.swap_if(
+            k,
+            q,
+            |s, m, particle, taker| {
+                s.route_for(
+                    m,
+                    particle,
+                    s.occ.pos[particle],
+                    taker,
+                    waypoints,
+                    f64::INFINITY,
+                )
+            },
+            |s| match weighed {
+                true => s.reroute_added(k) + SWAP_OVER_REROUTE_RADII * s.occ.max_radius_m,
+                false => f64::INFINITY,
+            },
+        )
     }
 
     /// Hands move k to particle q when q is nearer k's site than k's
@@ -889,7 +925,12 @@ impl Scheduler<'_> {
         let p = self.moves[k].particle;
         let ok = (!capped || self.nearer_swaps[k] < MAX_NEARER_SWAPS)
             && (self.occ.pos[q] - site).norm() < (self.occ.pos[p] - site).norm()
-            && self.swap_if(k, q, |s, m, particle, _| s.straight_or_along(m, particle));
+            && self.swap_if(
+                k,
+                q,
+                |s, m, particle, _| s.straight_or_along(m, particle),
+                |_| f64::INFINITY,
+            );
         if ok {
             self.nearer_swaps[k] = self.nearer_swaps[k].saturating_add(1);
         }
@@ -897,14 +938,20 @@ impl Scheduler<'_> {
     }
 
     /// [`Self::swap_with`] with the routes from `route(self, move,
-    /// particle, taker)`, `taker` true for q's route for move k.
+    /// particle, taker)`, `taker` true for q's route for move k; not when
+    /// it lengthens the changed moves' routes (from where their particles
+    /// are now) by more than `max_added(self)`, asked only then.
     fn swap_if(
         &mut self,
         k: usize,
         q: usize,
         route: impl Fn(&Self, usize, usize, bool) -> Option<Vec<Vector2<f64>>>,
+        max_added: impl Fn(&Self) -> f64,
     ) -> bool {
         let p = self.moves[k].particle;
+        let length =
+            |particle: usize, route: &[Vector2<f64>]| route_length(self.occ.pos[particle], route);
+        let too_long = |added: f64| added > 0.0 && added > max_added(self);
         let banned =
             |particle: usize, m: usize| self.banned.contains(&(particle, self.moves[m].site_index));
         if banned(q, k) || matches!(self.role[q], Role::Pending(m) if banned(p, m)) {
@@ -915,6 +962,9 @@ impl Scheduler<'_> {
                 let Some(route) = route(self, k, q, true) else {
                     return false;
                 };
+                if too_long(length(q, &route) - length(p, &self.moves[k].route)) {
+                    return false;
+                }
                 self.moves[k].particle = q;
                 self.moves[k].route = route;
                 self.role[q] = Role::Pending(k);
@@ -929,6 +979,10 @@ impl Scheduler<'_> {
                 let Some(route_m) = route(self, m, p, false) else {
                     return false;
                 };
+                let before = length(p, &self.moves[k].route) + length(q, &self.moves[m].route);
+                if too_long(length(q, &route_k) + length(p, &route_m) - before) {
+                    return false;
+                }
                 self.moves[k].particle = q;
                 self.moves[k].route = route_k;
                 self.moves[m].particle = p;
@@ -1027,7 +1081,11 @@ impl Scheduler<'_> {
                     .first_hit(&self.corridor(q, from, *spot), q, cl)
                     .is_none()
         };
-        let nearest_out = if self.role[q] == Role::Idle { avoid } else { &[] };
+        let nearest_out = if self.role[q] == Role::Idle {
+            avoid
+        } else {
+            &[]
+        };
         let spots = self.ring(from, r, nearest_out);
         let on = spots.clone();
         let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));

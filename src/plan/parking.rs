@@ -228,4 +228,31 @@ mod tests {
         // It must end >= 10.1 from the site: at least 5.1 away, at most one ring step more.
         assert!((5.1..=5.1 + 2.75 + 1e-9).contains(&c), "cost {c}");
     }
+
+    #[test]
+    fn the_nearest_spots_leave_a_site_or_a_band_by_the_margin_only() {
+        let (r, cl) = (5e-6, 0.1e-6);
+        let sites = vec![Vector2::new(50e-6, 50e-6)];
+        let sg = Grid::new(sites.clone(), 10e-6);
+        // 9.5 um from the site: 0.6 um (plus the margin) from clearing it.
+        let from = Vector2::new(59.5e-6, 50e-6);
+        let none = |_: Vector2<f64>| false;
+        let spots = ring_off_sites(from, r, &sg, &sites, r, cl, &none);
+        let first = spots[0];
+        let need = 10.1e-6 - 9.5e-6 + CLEARING_MARGIN_M;
+        assert!(((first - from).norm() - need).abs() < 1e-9, "{first:?}");
+        assert!(!covers_site(first, r, &sg, &sites, r, cl));
+        // Nearest first, and the ring is still there.
+        assert!(
+            spots
+                .windows(2)
+                .all(|w| (w[0] - from).norm() <= (w[1] - from).norm() + 1e-12)
+        );
+        assert!(spots.len() >= 32 * 48);
+        // Also out of a band below y = 51.5 um: the spot leaves both.
+        let band = |p: Vector2<f64>| p.y < 51.5e-6;
+        let first = ring_off_sites(from, r, &sg, &sites, r, cl, &band)[0];
+        assert!(!band(first) && !covers_site(first, r, &sg, &sites, r, cl));
+        assert!((first - from).norm() < 2.0e-6, "{first:?}");
+    }
 }
