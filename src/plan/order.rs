@@ -334,19 +334,7 @@ impl Scheduler<'_> {
                         .covered_by(self.occ.pos[p], self.radius(p))
                         .iter()
                         .any(|&s| s != k);
-                    let covers_own_only = |s: &Vector2<f64>| {
-                        self.obstacles
-                            .covered_by(*s, self.radius(p))
-                            .iter()
-                            .all(|&c| c == k)
-                    };
-                    let spot = covers_other
-                        .then(|| {
-                            self.toward_site(k)
-                                .find(|s| covers_own_only(s) && self.spot_usable(p, *s, &[]))
-                                .or_else(|| self.buffer_spots(p, &[]).find(covers_own_only))
-                        })
-                        .flatten();
+                    let spot = covers_other.then(|| self.cycle_break_spot(k)).flatten();
                     match spot {
                         Some(spot) => {
                             self.push(p, spot, true);
@@ -1087,7 +1075,7 @@ impl Scheduler<'_> {
         } else {
             &[]
         };
-        let spots = self.ring(from, r, nearest_out);
+        let spots = self.ring(from, r, nearest_out, None);
         let on = spots.clone();
         let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
         let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
@@ -1106,6 +1094,22 @@ impl Scheduler<'_> {
                 .occ
                 .first_hit(&self.corridor(q, self.occ.pos[q], spot), q, cl)
                 .is_none()
+    }
+
+    /// Where move k's particle goes to break a covering cycle: a spot where
+    /// it covers no site but its own, free to push to now, that adds least
+    /// to its path; on its straight way to its site ([`Self::toward_site`])
+    /// first, else the ring's spots by added path (the nearest spot off
+    /// the other sites came first before, CMU seed 46: 6 um out and back).
+    fn cycle_break_spot(&self, k: usize) -> Option<Vector2<f64>> {
+        let p = self.moves[k].particle;
+        let (from, site, r) = (self.occ.pos[p], self.obstacles.site(k), self.radius(p));
+        let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm();
+        let mut ring = self.ring(from, r, &[], Some(self.moves[k].site_index));
+        ring.sort_by(|a, b| added(a).total_cmp(&added(b)));
+        self.toward_site(k).chain(ring).find(|s| {
+            self.obstacles.covered_by(*s, r).iter().all(|&c| c == k) && self.spot_usable(p, *s, &[])
+        })
     }
 
     /// Spots on the straight way of move k's particle to its site, nearest
@@ -1177,7 +1181,13 @@ impl Scheduler<'_> {
     /// Candidate spots around `centre` for a disc of radius r, with the
     /// nearest ones off the sites and clear of `avoid` (see
     /// [`super::parking::ring_off_sites`]).
-    fn ring(&self, centre: Vector2<f64>, r: f64, avoid: &[Corridor]) -> Vec<Vector2<f64>> {
+    fn ring(
+        &self,
+        centre: Vector2<f64>,
+        r: f64,
+        avoid: &[Corridor],
+        own: Option<usize>,
+    ) -> Vec<Vector2<f64>> {
         let cl = self.config.clearance_m;
         super::parking::ring_off_sites(
             centre,
@@ -1187,6 +1197,7 @@ impl Scheduler<'_> {
             self.occ.max_radius_m,
             cl,
             &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
+            own,
         )
     }
 
@@ -1198,7 +1209,7 @@ impl Scheduler<'_> {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
-        for spot in self.ring(from, r, avoid) {
+        for spot in self.ring(from, r, avoid, None) {
             if !self.reach.contains(spot)
                 || !self.off_sites(spot, r)
                 || !self.occ.disc_free(spot, r, q, cl)

@@ -49,7 +49,8 @@ pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 /// directions the nearest point (within two pitches) where it keeps
 /// `clearance_m` (plus [`CLEARING_MARGIN_M`]) from every site and `also`
 /// does not hold (the scheduler: the corridors the spot must leave free),
-/// merged with [`ring`], nearest first. The ring's quarter-pitch steps alone
+/// merged with [`ring`], nearest first. Site `own` (the particle's own,
+/// when it breaks a covering cycle) may stay covered. The ring's quarter-pitch steps alone
 /// (2.75 um for 10 um particles) pushed a particle that covered a site or a
 /// corridor by a fraction of a micron 2.75 um off it: on CMU, idle
 /// particles pushed off the way were the largest part of the excess above
@@ -63,6 +64,7 @@ pub fn ring_off_sites(
     site_radius_m: f64,
     clearance_m: f64,
     also: &dyn Fn(Vector2<f64>) -> bool,
+    own: Option<usize>,
 ) -> Vec<Vector2<f64>> {
     let pitch = 2.0 * radius_m + 1e-6;
     let reach = radius_m + site_radius_m + clearance_m + CLEARING_MARGIN_M;
@@ -75,6 +77,7 @@ pub fn ring_off_sites(
         // Along the ray, each site is covered on an interval of distances.
         let mut covered: Vec<(f64, f64)> = near
             .iter()
+            .filter(|&&s| Some(s) != own)
             .filter_map(|&s| {
                 let d = site_pts[s] - centre;
                 let b = d.dot(&u);
@@ -176,6 +179,7 @@ pub fn park_cost(
         radius_m,
         clearance_m,
         &nothing_else,
+        None,
     ) {
         if spot.x < lo.x || spot.y < lo.y || spot.x > hi.x || spot.y > hi.y {
             continue;
@@ -237,7 +241,7 @@ mod tests {
         // 9.5 um from the site: 0.6 um (plus the margin) from clearing it.
         let from = Vector2::new(59.5e-6, 50e-6);
         let none = |_: Vector2<f64>| false;
-        let spots = ring_off_sites(from, r, &sg, &sites, r, cl, &none);
+        let spots = ring_off_sites(from, r, &sg, &sites, r, cl, &none, None);
         let first = spots[0];
         let need = 10.1e-6 - 9.5e-6 + CLEARING_MARGIN_M;
         assert!(((first - from).norm() - need).abs() < 1e-9, "{first:?}");
@@ -251,7 +255,7 @@ mod tests {
         assert!(spots.len() >= 32 * 48);
         // Also out of a band below y = 51.5 um: the spot leaves both.
         let band = |p: Vector2<f64>| p.y < 51.5e-6;
-        let first = ring_off_sites(from, r, &sg, &sites, r, cl, &band)[0];
+        let first = ring_off_sites(from, r, &sg, &sites, r, cl, &band, None)[0];
         assert!(!band(first) && !covers_site(first, r, &sg, &sites, r, cl));
         assert!((first - from).norm() < 2.0e-6, "{first:?}");
     }
