@@ -326,26 +326,26 @@ impl Scheduler<'_> {
                 Ok(order) => return Ok(order),
                 Err(w) => w,
             };
-            let cleared = breaks < MAX_CYCLE_BREAKS
-                && walled.stuck.iter().any(|&k| {
+            // Of the particles that cover other sites, the one whose spot
+            // adds least to its path moves (the first one with a spot did
+            // before: often the one whose own site the other covers, so its
+            // way there was not free).
+            let best = walled
+                .stuck
+                .iter()
+                .filter(|&&k| {
                     let p = self.moves[k].particle;
-                    let covers_other = self
-                        .obstacles
+                    self.obstacles
                         .covered_by(self.occ.pos[p], self.radius(p))
                         .iter()
-                        .any(|&s| s != k);
-                    let spot = covers_other.then(|| self.cycle_break_spot(k)).flatten();
-                    match spot {
-                        Some(spot) => {
-                            self.push(p, spot, true);
-                            true
-                        }
-                        None => false,
-                    }
-                });
-            if !cleared {
+                        .any(|&s| s != k)
+                })
+                .filter_map(|&k| Some((k, self.cycle_break_spot(k)?)))
+                .min_by(|a, b| a.1.0.total_cmp(&b.1.0));
+            let Some((k, (_, spot))) = best.filter(|_| breaks < MAX_CYCLE_BREAKS) else {
                 return Err(self.refusal(walled.to_string(), &walled.stuck));
-            }
+            };
+            self.push(self.moves[k].particle, spot, true);
             breaks += 1;
         }
     }
@@ -1101,15 +1101,20 @@ impl Scheduler<'_> {
     /// to its path; on its straight way to its site ([`Self::toward_site`])
     /// first, else the ring's spots by added path (the nearest spot off
     /// the other sites came first before, CMU seed 46: 6 um out and back).
-    fn cycle_break_spot(&self, k: usize) -> Option<Vector2<f64>> {
+    /// Returns the path it adds and the spot.
+    fn cycle_break_spot(&self, k: usize) -> Option<(f64, Vector2<f64>)> {
         let p = self.moves[k].particle;
         let (from, site, r) = (self.occ.pos[p], self.obstacles.site(k), self.radius(p));
-        let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm();
+        let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm() - (site - from).norm();
         let mut ring = self.ring(from, r, &[], Some(self.moves[k].site_index));
         ring.sort_by(|a, b| added(a).total_cmp(&added(b)));
-        self.toward_site(k).chain(ring).find(|s| {
-            self.obstacles.covered_by(*s, r).iter().all(|&c| c == k) && self.spot_usable(p, *s, &[])
-        })
+        self.toward_site(k)
+            .chain(ring)
+            .find(|s| {
+                self.obstacles.covered_by(*s, r).iter().all(|&c| c == k)
+                    && self.spot_usable(p, *s, &[])
+            })
+            .map(|s| (added(&s), s))
     }
 
     /// Spots on the straight way of move k's particle to its site, nearest
