@@ -312,8 +312,8 @@ const MAX_CYCLE_BREAKS: usize = 8;
 impl Scheduler<'_> {
     /// Peels the sites; when it is stuck because particles cover each
     /// other's sites (a cycle), pushes one of them to a spot where it covers
-    /// no site but its own (on its way to its site if one there will do,
-    /// [`Self::toward_site`], else the nearest), and peels again.
+    /// no site but its own, the one whose spot adds least to its path
+    /// ([`Self::cycle_break_spot`]), and peels again.
     fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, Refusal> {
         let mut breaks = 0;
         loop {
