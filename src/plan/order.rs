@@ -288,6 +288,21 @@ const DETOUR_FILL: EarlyFill = EarlyFill {
     waypoints: 2,
 };
 
+/// A thrifty order's swap whose routes need a waypoint is left until the
+/// reroutes and early fills have failed when it adds more than so many
+/// particle radii beyond what rerouting the blocked move adds (CMU seed 84:
+/// a swap took a particle 26 um round to its new site). CMU: 79 -> 88 of
+/// 100 layouts within 1.05 LB_push; N = 1,000 1.003011 -> 1.002560. With
+/// no slack CMU had 88 but N = 1,000 1.003304, with 2 radii 86 and
+/// 1.002943.
+const SWAP_OVER_REROUTE_RADII: f64 = 1.0;
+
+/// How short of its site a particle breaking a covering cycle stops at
+/// most, metres: 0.5 um still covered the neighbouring sites (pitch 10.5 um,
+/// covered within 10.35 um) and gave nothing on CMU; 0.1 um gave 88 -> 91
+/// of 100 layouts within 1.05 LB_push.
+const TOWARD_SITE_GAP_M: f64 = 0.1e-6;
+
 /// Buffer spots weighed for a particle still to move.
 const BUFFER_CANDIDATES: usize = 24;
 
@@ -296,8 +311,9 @@ const MAX_CYCLE_BREAKS: usize = 8;
 
 impl Scheduler<'_> {
     /// Peels the sites; when it is stuck because particles cover each
-    /// other's sites (a cycle), pushes one of them to the nearest spot where
-    /// it covers no site but its own, and peels again.
+    /// other's sites (a cycle), pushes one of them to a spot where it covers
+    /// no site but its own, the one whose spot adds least to its path
+    /// ([`Self::cycle_break_spot`]), and peels again.
     fn peel_with_clearing(&mut self, radii: &[f64]) -> Result<FillOrder, Refusal> {
         let mut breaks = 0;
         loop {
@@ -310,35 +326,26 @@ impl Scheduler<'_> {
                 Ok(order) => return Ok(order),
                 Err(w) => w,
             };
-            let cleared = breaks < MAX_CYCLE_BREAKS
-                && walled.stuck.iter().any(|&k| {
+            // Of the particles that cover other sites, the one whose spot
+            // adds least to its path moves (the first one with a spot did
+            // before: often the one whose own site the other covers, so its
+            // way there was not free).
+            let best = walled
+                .stuck
+                .iter()
+                .filter(|&&k| {
                     let p = self.moves[k].particle;
-                    let covers_other = self
-                        .obstacles
+                    self.obstacles
                         .covered_by(self.occ.pos[p], self.radius(p))
                         .iter()
-                        .any(|&s| s != k);
-                    let spot = covers_other
-                        .then(|| {
-                            self.buffer_spots(p, &[]).find(|s| {
-                                self.obstacles
-                                    .covered_by(*s, self.radius(p))
-                                    .iter()
-                                    .all(|&c| c == k)
-                            })
-                        })
-                        .flatten();
-                    match spot {
-                        Some(spot) => {
-                            self.push(p, spot, true);
-                            true
-                        }
-                        None => false,
-                    }
-                });
-            if !cleared {
+                        .any(|&s| s != k)
+                })
+                .filter_map(|&k| Some((k, self.cycle_break_spot(k)?)))
+                .min_by(|a, b| a.1.0.total_cmp(&b.1.0));
+            let Some((k, (_, spot))) = best.filter(|_| breaks < MAX_CYCLE_BREAKS) else {
                 return Err(self.refusal(walled.to_string(), &walled.stuck));
-            }
+            };
+            self.push(self.moves[k].particle, spot, true);
             breaks += 1;
         }
     }
@@ -566,7 +573,8 @@ impl Scheduler<'_> {
         // (worst 1.338 -> 1.308; a buffer push or a reroute does better).
         for waypoints in [0, 1] {
             for &(k, q) in blocked {
-                if self.swap_with(k, q, waypoints) {
+                let weighed = self.thrifty && waypoints == 1;
+                if self.swap_with(k, q, waypoints, weighed) {
                     return true;
                 }
             }
@@ -598,6 +606,11 @@ impl Scheduler<'_> {
             {
                 return true;
             }
+        }
+        // The detoured swaps that cost more than a reroute, now that no
+        // reroute or early fill was found.
+        if self.thrifty && blocked.iter().any(|&(k, q)| self.swap_with(k, q, 1, false)) {
+            return true;
         }
         // A thrifty order buffers a particle still to move only when no
         // blocked move could be rerouted or filled early: the buffer push
@@ -766,6 +779,17 @@ impl Scheduler<'_> {
         )
     }
 
+    /// What [`Self::reroute`] would add to move k's planned path (infinite
+    /// when it finds no route).
+    fn reroute_added(&self, k: usize) -> f64 {
+        let p = self.moves[k].particle;
+        let from = self.occ.pos[p];
+        self.route_for(k, p, from, true, 2, f64::INFINITY)
+            .map_or(f64::INFINITY, |route| {
+                route_length(from, &route) - route_length(from, &self.moves[k].route)
+            })
+    }
+
     /// Reroutes move k around the particles where they are now (and the
     /// sites filled before it); true when its route changed.
     fn reroute(&mut self, k: usize) -> bool {
@@ -860,18 +884,28 @@ impl Scheduler<'_> {
     /// an idle q takes over (k's particle becomes idle), a pending q trades
     /// sites with it; true when q has a route free of every particle now
     /// (so the swap makes progress) and the other changed move has a route
-    /// (with at most `waypoints` waypoints).
-    fn swap_with(&mut self, k: usize, q: usize, waypoints: usize) -> bool {
-        self.swap_if(k, q, |s, m, particle, taker| {
-            s.route_for(
-                m,
-                particle,
-                s.occ.pos[particle],
-                taker,
-                waypoints,
-                f64::INFINITY,
-            )
-        })
+    /// (with at most `waypoints` waypoints). When `weighed`, not when the
+    /// swap adds more to the two moves' paths than rerouting move k would,
+    /// plus [`SWAP_OVER_REROUTE_RADII`].
+    fn swap_with(&mut self, k: usize, q: usize, waypoints: usize, weighed: bool) -> bool {
+        self.swap_if(
+            k,
+            q,
+            |s, m, particle, taker| {
+                s.route_for(
+                    m,
+                    particle,
+                    s.occ.pos[particle],
+                    taker,
+                    waypoints,
+                    f64::INFINITY,
+                )
+            },
+            |s| match weighed {
+                true => s.reroute_added(k) + SWAP_OVER_REROUTE_RADII * s.occ.max_radius_m,
+                false => f64::INFINITY,
+            },
+        )
     }
 
     /// Hands move k to particle q when q is nearer k's site than k's
@@ -889,7 +923,12 @@ impl Scheduler<'_> {
         let p = self.moves[k].particle;
         let ok = (!capped || self.nearer_swaps[k] < MAX_NEARER_SWAPS)
             && (self.occ.pos[q] - site).norm() < (self.occ.pos[p] - site).norm()
-            && self.swap_if(k, q, |s, m, particle, _| s.straight_or_along(m, particle));
+            && self.swap_if(
+                k,
+                q,
+                |s, m, particle, _| s.straight_or_along(m, particle),
+                |_| f64::INFINITY,
+            );
         if ok {
             self.nearer_swaps[k] = self.nearer_swaps[k].saturating_add(1);
         }
@@ -897,14 +936,20 @@ impl Scheduler<'_> {
     }
 
     /// [`Self::swap_with`] with the routes from `route(self, move,
-    /// particle, taker)`, `taker` true for q's route for move k.
+    /// particle, taker)`, `taker` true for q's route for move k; not when
+    /// it lengthens the changed moves' routes (from where their particles
+    /// are now) by more than `max_added(self)`, asked only then.
     fn swap_if(
         &mut self,
         k: usize,
         q: usize,
         route: impl Fn(&Self, usize, usize, bool) -> Option<Vec<Vector2<f64>>>,
+        max_added: impl Fn(&Self) -> f64,
     ) -> bool {
         let p = self.moves[k].particle;
+        let length =
+            |particle: usize, route: &[Vector2<f64>]| route_length(self.occ.pos[particle], route);
+        let too_long = |added: f64| added > 0.0 && added > max_added(self);
         let banned =
             |particle: usize, m: usize| self.banned.contains(&(particle, self.moves[m].site_index));
         if banned(q, k) || matches!(self.role[q], Role::Pending(m) if banned(p, m)) {
@@ -915,6 +960,9 @@ impl Scheduler<'_> {
                 let Some(route) = route(self, k, q, true) else {
                     return false;
                 };
+                if too_long(length(q, &route) - length(p, &self.moves[k].route)) {
+                    return false;
+                }
                 self.moves[k].particle = q;
                 self.moves[k].route = route;
                 self.role[q] = Role::Pending(k);
@@ -929,6 +977,10 @@ impl Scheduler<'_> {
                 let Some(route_m) = route(self, m, p, false) else {
                     return false;
                 };
+                let before = length(p, &self.moves[k].route) + length(q, &self.moves[m].route);
+                if too_long(length(q, &route_k) + length(p, &route_m) - before) {
+                    return false;
+                }
                 self.moves[k].particle = q;
                 self.moves[k].route = route_k;
                 self.moves[m].particle = p;
@@ -1017,25 +1069,68 @@ impl Scheduler<'_> {
     ) -> impl Iterator<Item = Vector2<f64>> + 's {
         let from = self.occ.pos[q];
         let r = self.radius(q);
-        let cl = self.config.clearance_m;
-        let usable = move |spot: &Vector2<f64>| {
-            self.reach.contains(*spot)
-                && self.occ.disc_free(*spot, r, q, cl)
-                && avoid.iter().all(|c| !c.hits(*spot, r, cl))
-                && self
-                    .occ
-                    .first_hit(&self.corridor(q, from, *spot), q, cl)
-                    .is_none()
+        let usable = move |spot: &Vector2<f64>| self.spot_usable(q, *spot, avoid);
+        let nearest_out = if self.role[q] == Role::Idle {
+            avoid
+        } else {
+            &[]
         };
-        let off = self
-            .ring(from, r)
-            .into_iter()
-            .filter(move |s| self.off_sites(*s, r));
-        let on = self
-            .ring(from, r)
-            .into_iter()
-            .filter(move |s| !self.off_sites(*s, r));
+        let spots = self.ring(from, r, nearest_out, None);
+        let on = spots.clone();
+        let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
+        let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
         off.chain(on).filter(usable)
+    }
+
+    /// True when particle q can be pushed from where it is to `spot` now
+    /// (free way, free spot, inside the field) and `spot` is clear of `avoid`.
+    fn spot_usable(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        self.reach.contains(spot)
+            && self.occ.disc_free(spot, r, q, cl)
+            && avoid.iter().all(|c| !c.hits(spot, r, cl))
+            && self
+                .occ
+                .first_hit(&self.corridor(q, self.occ.pos[q], spot), q, cl)
+                .is_none()
+    }
+
+    /// Where move k's particle goes to break a covering cycle: a spot where
+    /// it covers no site but its own, free to push to now, that adds least
+    /// to its path; on its straight way to its site ([`Self::toward_site`])
+    /// first, else the ring's spots by added path (the nearest spot off
+    /// the other sites came first before, CMU seed 46: 6 um out and back).
+    /// Returns the path it adds and the spot.
+    fn cycle_break_spot(&self, k: usize) -> Option<(f64, Vector2<f64>)> {
+        let p = self.moves[k].particle;
+        let (from, site, r) = (self.occ.pos[p], self.obstacles.site(k), self.radius(p));
+        let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm() - (site - from).norm();
+        let mut ring = self.ring(from, r, &[], Some(self.moves[k].site_index));
+        ring.sort_by(|a, b| added(a).total_cmp(&added(b)));
+        self.toward_site(k)
+            .chain(ring)
+            .find(|s| {
+                self.obstacles.covered_by(*s, r).iter().all(|&c| c == k)
+                    && self.spot_usable(p, *s, &[])
+            })
+            .map(|s| (added(&s), s))
+    }
+
+    /// Spots on the straight way of move k's particle to its site, nearest
+    /// the site first (the last within [`TOWARD_SITE_GAP_M`] of it): a push
+    /// there adds nothing to the move's path. A particle covering other
+    /// sites than its own (a covering cycle) was pushed to a ring spot
+    /// instead, CMU seed 76 10 um out and back (eleventh pass).
+    fn toward_site(&self, k: usize) -> impl Iterator<Item = Vector2<f64>> + '_ {
+        let from = self.occ.pos[self.moves[k].particle];
+        let site = self.obstacles.site(k);
+        let len = (site - from).norm();
+        let near = (1.0 - TOWARD_SITE_GAP_M / len.max(1e-12)).max(0.0);
+        [near, 0.75, 0.5, 0.25]
+            .into_iter()
+            .filter(move |&t| t <= near)
+            .map(move |t| from + (site - from) * t)
     }
 
     /// Pushes every idle particle that covers a site to a spot off the sites
@@ -1088,9 +1183,27 @@ impl Scheduler<'_> {
         )
     }
 
-    /// Candidate spots around `centre` (see [`super::parking::ring`]).
-    fn ring(&self, centre: Vector2<f64>, r: f64) -> Vec<Vector2<f64>> {
-        super::parking::ring(centre, 2.0 * r + 1e-6)
+    /// Candidate spots around `centre` for a disc of radius r, with the
+    /// nearest ones off the sites and clear of `avoid` (see
+    /// [`super::parking::ring_off_sites`]).
+    fn ring(
+        &self,
+        centre: Vector2<f64>,
+        r: f64,
+        avoid: &[Corridor],
+        own: Option<usize>,
+    ) -> Vec<Vector2<f64>> {
+        let cl = self.config.clearance_m;
+        super::parking::ring_off_sites(
+            centre,
+            r,
+            &self.site_grid,
+            &self.site_pts,
+            self.occ.max_radius_m,
+            cl,
+            &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
+            own,
+        )
     }
 
     /// Two-level buffer move: idle particle q has no free push to a spot
@@ -1101,7 +1214,7 @@ impl Scheduler<'_> {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
-        for spot in self.ring(from, r) {
+        for spot in self.ring(from, r, avoid, None) {
             if !self.reach.contains(spot)
                 || !self.off_sites(spot, r)
                 || !self.occ.disc_free(spot, r, q, cl)

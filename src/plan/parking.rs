@@ -38,6 +38,121 @@ pub fn ring(centre: Vector2<f64>, pitch_m: f64) -> Vec<Vector2<f64>> {
     spots
 }
 
+/// Directions of the nearest spots off the sites.
+const CLEARING_DIRECTIONS: usize = 48;
+
+/// Extra distance, beyond the clearance, a clearing spot keeps from every
+/// site (rounding, and a particle pushed there must not graze a site).
+pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
+
+/// Candidate spots around `centre` for a disc of `radius_m`: in each of 48
+/// directions the nearest point (within two pitches) where it keeps
+/// `clearance_m` (plus [`CLEARING_MARGIN_M`]) from every site and `also`
+/// does not hold (the scheduler: the corridors the spot must leave free),
+/// merged with [`ring`], nearest first. Site `own` (the particle's own,
+/// when it breaks a covering cycle) may stay covered. The ring's quarter-pitch steps alone
+/// (2.75 um for 10 um particles) pushed a particle that covered a site or a
+/// corridor by a fraction of a micron 2.75 um off it: on CMU, idle
+/// particles pushed off the way were the largest part of the excess above
+/// 1.05 LB_push (eleventh pass).
+#[allow(clippy::too_many_arguments)]
+pub fn ring_off_sites(
+    centre: Vector2<f64>,
+    radius_m: f64,
+    sites: &Grid,
+    site_pts: &[Vector2<f64>],
+    site_radius_m: f64,
+    clearance_m: f64,
+    also: &dyn Fn(Vector2<f64>) -> bool,
+    own: Option<usize>,
+) -> Vec<Vector2<f64>> {
+    let pitch = 2.0 * radius_m + 1e-6;
+    let reach = radius_m + site_radius_m + clearance_m + CLEARING_MARGIN_M;
+    let max_m = 2.0 * pitch;
+    let near = sites.within(centre, max_m + reach);
+    let mut spots: Vec<(f64, Vector2<f64>)> = Vec::with_capacity(32 * 48 + CLEARING_DIRECTIONS);
+    for a in 0..CLEARING_DIRECTIONS {
+        let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
+        let u = Vector2::new(ang.cos(), ang.sin());
+        // Along the ray, each site is covered on an interval of distances.
+        let mut covered: Vec<(f64, f64)> = near
+            .iter()
+            .filter(|&&s| Some(s) != own)
+            .filter_map(|&s| {
+                let d = site_pts[s] - centre;
+                let b = d.dot(&u);
+                let disc = b * b - (d.norm_squared() - reach * reach);
+                (disc > 0.0).then(|| (b - disc.sqrt(), b + disc.sqrt()))
+            })
+            .filter(|&(_, hi)| hi > 0.0)
+            .collect();
+        covered.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let off_sites_from = |mut t: f64| {
+            for &(lo, hi) in &covered {
+                if lo > t {
+                    break;
+                }
+                t = t.max(hi);
+            }
+            t
+        };
+        // Off the sites, then out of `also` (marching, then bisecting its
+        // edge), until both hold at once.
+        let mut t = off_sites_from(0.0);
+        for _ in 0..4 {
+            if t > max_m || !also(centre + u * t) {
+                break;
+            }
+            t = match exit_along(centre, u, t, pitch / 8.0, max_m, also) {
+                Some(out) => off_sites_from(out + CLEARING_MARGIN_M),
+                None => f64::INFINITY,
+            };
+        }
+        if t > 0.0 && t <= max_m && !also(centre + u * t) {
+            spots.push((t, centre + u * t));
+        }
+    }
+    // The ring's spots come in steps of 48 at a quarter pitch each.
+    spots.extend(
+        ring(centre, pitch)
+            .into_iter()
+            .enumerate()
+            .map(|(i, spot)| (pitch * (i / 48 + 1) as f64 / 4.0, spot)),
+    );
+    spots.sort_by(|x, y| x.0.total_cmp(&y.0));
+    spots.into_iter().map(|s| s.1).collect()
+}
+
+/// The first distance beyond `t` along `u` from `centre` (up to `max_m`)
+/// where `covered` fails: marched in steps of `step_m`, then its edge
+/// bisected to a nanometre.
+fn exit_along(
+    centre: Vector2<f64>,
+    u: Vector2<f64>,
+    mut t: f64,
+    step_m: f64,
+    max_m: f64,
+    covered: &dyn Fn(Vector2<f64>) -> bool,
+) -> Option<f64> {
+    let mut out = t;
+    while covered(centre + u * out) {
+        t = out;
+        out += step_m;
+        if out > max_m {
+            return None;
+        }
+    }
+    while out - t > 1e-9 {
+        let mid = 0.5 * (t + out);
+        if covered(centre + u * mid) {
+            t = mid;
+        } else {
+            out = mid;
+        }
+    }
+    Some(out)
+}
+
 /// Length of the shortest ring move that takes particle `index` (of
 /// `particles`, all of `radius_m`) off every site and off every other
 /// particle, staying in `[lo, hi]`; `max_m` when none is found.
@@ -55,7 +170,17 @@ pub fn park_cost(
     max_m: f64,
 ) -> f64 {
     let from = particles[index];
-    for spot in ring(from, 2.0 * radius_m + 1e-6) {
+    let nothing_else = |_: Vector2<f64>| false;
+    for spot in ring_off_sites(
+        from,
+        radius_m,
+        sites,
+        site_pts,
+        radius_m,
+        clearance_m,
+        &nothing_else,
+        None,
+    ) {
         if spot.x < lo.x || spot.y < lo.y || spot.x > hi.x || spot.y > hi.y {
             continue;
         }
@@ -106,5 +231,32 @@ mod tests {
         let c = park_cost(0, &parts, &pg, &sg, &sites, 5.0, 0.1, lo, hi, 1e9);
         // It must end >= 10.1 from the site: at least 5.1 away, at most one ring step more.
         assert!((5.1..=5.1 + 2.75 + 1e-9).contains(&c), "cost {c}");
+    }
+
+    #[test]
+    fn the_nearest_spots_leave_a_site_or_a_band_by_the_margin_only() {
+        let (r, cl) = (5e-6, 0.1e-6);
+        let sites = vec![Vector2::new(50e-6, 50e-6)];
+        let sg = Grid::new(sites.clone(), 10e-6);
+        // 9.5 um from the site: 0.6 um (plus the margin) from clearing it.
+        let from = Vector2::new(59.5e-6, 50e-6);
+        let none = |_: Vector2<f64>| false;
+        let spots = ring_off_sites(from, r, &sg, &sites, r, cl, &none, None);
+        let first = spots[0];
+        let need = 10.1e-6 - 9.5e-6 + CLEARING_MARGIN_M;
+        assert!(((first - from).norm() - need).abs() < 1e-9, "{first:?}");
+        assert!(!covers_site(first, r, &sg, &sites, r, cl));
+        // Nearest first, and the ring is still there.
+        assert!(
+            spots
+                .windows(2)
+                .all(|w| (w[0] - from).norm() <= (w[1] - from).norm() + 1e-12)
+        );
+        assert!(spots.len() >= 32 * 48);
+        // Also out of a band below y = 51.5 um: the spot leaves both.
+        let band = |p: Vector2<f64>| p.y < 51.5e-6;
+        let first = ring_off_sites(from, r, &sg, &sites, r, cl, &band, None)[0];
+        assert!(!band(first) && !covers_site(first, r, &sg, &sites, r, cl));
+        assert!((first - from).norm() < 2.0e-6, "{first:?}");
     }
 }
