@@ -523,23 +523,18 @@ fn park_costs(
     let lo = Vector2::new(r, r);
     let hi = Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r);
     let max = layout.field_m[0] + layout.field_m[1];
+    let discs = parking::SiteDiscs {
+        grid: &site_grid,
+        centres: site_pts,
+        radius_m: r,
+        clearance_m: config.clearance_m,
+    };
     free_particles
         .iter()
         .map(|&p| {
             let pr = layout.particles[p].radius_m;
-            if parking::covers_site(all[p], pr, &site_grid, site_pts, r, config.clearance_m) {
-                parking::park_cost(
-                    p,
-                    &all,
-                    &particle_grid,
-                    &site_grid,
-                    site_pts,
-                    r,
-                    config.clearance_m,
-                    lo,
-                    hi,
-                    max,
-                )
+            if discs.covered_by(all[p], pr) {
+                parking::park_cost(p, &all, &particle_grid, &discs, lo, hi, max)
             } else {
                 0.0
             }

@@ -1137,18 +1137,9 @@ impl Scheduler<'_> {
     /// before the moves start; one with no free parking push now is left to
     /// the repairs.
     fn clear_sites(&mut self) {
-        let r = self.occ.max_radius_m;
         let mut covering: Vec<usize> = (0..self.occ.pos.len())
             .filter(|&q| {
-                self.role[q] == Role::Idle
-                    && super::parking::covers_site(
-                        self.occ.pos[q],
-                        self.radius(q),
-                        &self.site_grid,
-                        &self.site_pts,
-                        r,
-                        self.config.clearance_m,
-                    )
+                self.role[q] == Role::Idle && !self.off_sites(self.occ.pos[q], self.radius(q))
             })
             .collect();
         for _round in 0..3 {
@@ -1173,14 +1164,17 @@ impl Scheduler<'_> {
 
     /// True when a disc of radius r at `spot` keeps clearance from every site.
     fn off_sites(&self, spot: Vector2<f64>, r: f64) -> bool {
-        !super::parking::covers_site(
-            spot,
-            r,
-            &self.site_grid,
-            &self.site_pts,
-            self.occ.max_radius_m,
-            self.config.clearance_m,
-        )
+        !self.site_discs().covered_by(spot, r)
+    }
+
+    /// The sites as discs of the largest radius, for the parking questions.
+    fn site_discs(&self) -> super::parking::SiteDiscs<'_> {
+        super::parking::SiteDiscs {
+            grid: &self.site_grid,
+            centres: &self.site_pts,
+            radius_m: self.occ.max_radius_m,
+            clearance_m: self.config.clearance_m,
+        }
     }
 
     /// Candidate spots around `centre` for a disc of radius r, with the
@@ -1197,10 +1191,7 @@ impl Scheduler<'_> {
         super::parking::ring_off_sites(
             centre,
             r,
-            &self.site_grid,
-            &self.site_pts,
-            self.occ.max_radius_m,
-            cl,
+            &self.site_discs(),
             &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
             own,
         )

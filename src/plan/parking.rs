@@ -4,24 +4,35 @@
 use super::grid::Grid;
 use nalgebra::Vector2;
 
-/// True if a disc at `centre_m` of `radius_m` comes closer than `clearance_m`
-/// to a site (sites hold particles of `site_radius_m`).
-pub fn covers_site(
-    centre_m: Vector2<f64>,
-    radius_m: f64,
-    sites: &Grid,
-    site_pts: &[Vector2<f64>],
-    site_radius_m: f64,
-    clearance_m: f64,
-) -> bool {
-    let reach = radius_m + site_radius_m + clearance_m;
-    let mut hit = false;
-    sites.for_each_within(centre_m, reach, |s| {
-        if (site_pts[s] - centre_m).norm() < reach {
-            hit = true;
-        }
-    });
-    hit
+/// The sites as discs to keep clear of: their centres (and a grid over
+/// them), the radius of the particles that will fill them, and the
+/// clearance. One value for the questions below, asked by the assignment's
+/// parking costs and by the scheduler.
+#[derive(Debug, Clone, Copy)]
+pub struct SiteDiscs<'a> {
+    /// Grid over `centres`.
+    pub grid: &'a Grid,
+    /// Site centres.
+    pub centres: &'a [Vector2<f64>],
+    /// Radius of the particles on the sites.
+    pub radius_m: f64,
+    /// Least free space kept from a site's particle.
+    pub clearance_m: f64,
+}
+
+impl SiteDiscs<'_> {
+    /// True if a disc at `centre_m` of `radius_m` comes closer than the
+    /// clearance to a site's particle.
+    pub fn covered_by(&self, centre_m: Vector2<f64>, radius_m: f64) -> bool {
+        let reach = radius_m + self.radius_m + self.clearance_m;
+        let mut hit = false;
+        self.grid.for_each_within(centre_m, reach, |s| {
+            if (self.centres[s] - centre_m).norm() < reach {
+                hit = true;
+            }
+        });
+        hit
+    }
 }
 
 /// Candidate spots around `centre`: 48 directions, distances from a quarter
@@ -46,8 +57,8 @@ const CLEARING_DIRECTIONS: usize = 48;
 pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 
 /// Candidate spots around `centre` for a disc of `radius_m`: in each of 48
-/// directions the nearest point (within two pitches) where it keeps
-/// `clearance_m` (plus [`CLEARING_MARGIN_M`]) from every site and `also`
+/// directions the nearest point (within two pitches) where it keeps the
+/// clearance (plus [`CLEARING_MARGIN_M`]) from every site and `also`
 /// does not hold (the scheduler: the corridors the spot must leave free),
 /// merged with [`ring`], nearest first. Site `own` (the particle's own,
 /// when it breaks a covering cycle) may stay covered. The ring's quarter-pitch steps alone
@@ -55,21 +66,18 @@ pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 /// corridor by a fraction of a micron 2.75 um off it: on CMU, idle
 /// particles pushed off the way were the largest part of the excess above
 /// 1.05 LB_push (eleventh pass).
-#[allow(clippy::too_many_arguments)]
 pub fn ring_off_sites(
     centre: Vector2<f64>,
     radius_m: f64,
-    sites: &Grid,
-    site_pts: &[Vector2<f64>],
-    site_radius_m: f64,
-    clearance_m: f64,
+    sites: &SiteDiscs,
     also: &dyn Fn(Vector2<f64>) -> bool,
     own: Option<usize>,
 ) -> Vec<Vector2<f64>> {
+    let site_pts = sites.centres;
     let pitch = 2.0 * radius_m + 1e-6;
-    let reach = radius_m + site_radius_m + clearance_m + CLEARING_MARGIN_M;
+    let reach = radius_m + sites.radius_m + sites.clearance_m + CLEARING_MARGIN_M;
     let max_m = 2.0 * pitch;
-    let near = sites.within(centre, max_m + reach);
+    let near = sites.grid.within(centre, max_m + reach);
     let mut spots: Vec<(f64, Vector2<f64>)> = Vec::with_capacity(32 * 48 + CLEARING_DIRECTIONS);
     for a in 0..CLEARING_DIRECTIONS {
         let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
@@ -154,37 +162,24 @@ fn exit_along(
 }
 
 /// Length of the shortest ring move that takes particle `index` (of
-/// `particles`, all of `radius_m`) off every site and off every other
+/// `particles`, all of the sites' radius) off every site and off every other
 /// particle, staying in `[lo, hi]`; `max_m` when none is found.
-#[allow(clippy::too_many_arguments)]
 pub fn park_cost(
     index: usize,
     particles: &[Vector2<f64>],
     particle_grid: &Grid,
-    sites: &Grid,
-    site_pts: &[Vector2<f64>],
-    radius_m: f64,
-    clearance_m: f64,
+    sites: &SiteDiscs,
     lo: Vector2<f64>,
     hi: Vector2<f64>,
     max_m: f64,
 ) -> f64 {
-    let from = particles[index];
+    let (from, radius_m, clearance_m) = (particles[index], sites.radius_m, sites.clearance_m);
     let nothing_else = |_: Vector2<f64>| false;
-    for spot in ring_off_sites(
-        from,
-        radius_m,
-        sites,
-        site_pts,
-        radius_m,
-        clearance_m,
-        &nothing_else,
-        None,
-    ) {
+    for spot in ring_off_sites(from, radius_m, sites, &nothing_else, None) {
         if spot.x < lo.x || spot.y < lo.y || spot.x > hi.x || spot.y > hi.y {
             continue;
         }
-        if covers_site(spot, radius_m, sites, site_pts, radius_m, clearance_m) {
+        if sites.covered_by(spot, radius_m) {
             continue;
         }
         let mut free = true;
@@ -208,27 +203,19 @@ mod tests {
     fn a_particle_on_a_site_pays_the_way_out_and_one_beside_it_pays_nothing() {
         let sites = vec![Vector2::new(50.0, 50.0)];
         let sg = Grid::new(sites.clone(), 10.0);
-        assert!(covers_site(
-            Vector2::new(55.0, 50.0),
-            5.0,
-            &sg,
-            &sites,
-            5.0,
-            0.1
-        ));
-        assert!(!covers_site(
-            Vector2::new(61.0, 50.0),
-            5.0,
-            &sg,
-            &sites,
-            5.0,
-            0.1
-        ));
+        let discs = SiteDiscs {
+            grid: &sg,
+            centres: &sites,
+            radius_m: 5.0,
+            clearance_m: 0.1,
+        };
+        assert!(discs.covered_by(Vector2::new(55.0, 50.0), 5.0));
+        assert!(!discs.covered_by(Vector2::new(61.0, 50.0), 5.0));
         let parts = vec![Vector2::new(55.0, 50.0)];
         let pg = Grid::new(parts.clone(), 10.0);
         let lo = Vector2::new(0.0, 0.0);
         let hi = Vector2::new(100.0, 100.0);
-        let c = park_cost(0, &parts, &pg, &sg, &sites, 5.0, 0.1, lo, hi, 1e9);
+        let c = park_cost(0, &parts, &pg, &discs, lo, hi, 1e9);
         // It must end >= 10.1 from the site: at least 5.1 away, at most one ring step more.
         assert!((5.1..=5.1 + 2.75 + 1e-9).contains(&c), "cost {c}");
     }
@@ -238,14 +225,20 @@ mod tests {
         let (r, cl) = (5e-6, 0.1e-6);
         let sites = vec![Vector2::new(50e-6, 50e-6)];
         let sg = Grid::new(sites.clone(), 10e-6);
+        let discs = SiteDiscs {
+            grid: &sg,
+            centres: &sites,
+            radius_m: r,
+            clearance_m: cl,
+        };
         // 9.5 um from the site: 0.6 um (plus the margin) from clearing it.
         let from = Vector2::new(59.5e-6, 50e-6);
         let none = |_: Vector2<f64>| false;
-        let spots = ring_off_sites(from, r, &sg, &sites, r, cl, &none, None);
+        let spots = ring_off_sites(from, r, &discs, &none, None);
         let first = spots[0];
         let need = 10.1e-6 - 9.5e-6 + CLEARING_MARGIN_M;
         assert!(((first - from).norm() - need).abs() < 1e-9, "{first:?}");
-        assert!(!covers_site(first, r, &sg, &sites, r, cl));
+        assert!(!discs.covered_by(first, r));
         // Nearest first, and the ring is still there.
         assert!(
             spots
@@ -255,8 +248,8 @@ mod tests {
         assert!(spots.len() >= 32 * 48);
         // Also out of a band below y = 51.5 um: the spot leaves both.
         let band = |p: Vector2<f64>| p.y < 51.5e-6;
-        let first = ring_off_sites(from, r, &sg, &sites, r, cl, &band, None)[0];
-        assert!(!band(first) && !covers_site(first, r, &sg, &sites, r, cl));
+        let first = ring_off_sites(from, r, &discs, &band, None)[0];
+        assert!(!band(first) && !discs.covered_by(first, r));
         assert!((first - from).norm() < 2.0e-6, "{first:?}");
     }
 }
