@@ -76,6 +76,15 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         (on_easy("I", &["--pitch-um", "NaN"]), "pitch-um"),
         (on_easy("I", &["--pitch-um", "5"]), "overlap"),
         (on_easy("I", &["--at", "5,5"]), "outside the reachable area"),
+        // Negative numbers reach the checks (not the argument parser).
+        (
+            on_easy("I", &["--pitch-um", "-3"]),
+            "must be finite and > 0",
+        ),
+        (
+            on_easy("I", &["--at", "-5,10"]),
+            "outside the reachable area",
+        ),
         (on_easy("MMMMMMMMMMMMMMMMMMMMM", &[]), "does not fit"),
         (
             frame.iter().map(|s| s.to_string()).collect(),
@@ -166,6 +175,9 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     // The text summary gives the same ratios, to 3 decimals.
     let (ok, text) = plan_sites(&[]);
     assert!(ok, "{text}");
+    // A negative rotation is an angle, not an unknown flag.
+    let (ok, rotated) = plan_sites(&["--rotation-deg", "-90"]);
+    assert!(ok && rotated.contains("verify-plan      ok"), "{rotated}");
     let push_line = text
         .lines()
         .find(|l| l.starts_with("push distance"))

@@ -33,16 +33,16 @@ pub struct Args {
     #[arg(long)]
     pub calib: Option<PathBuf>,
     /// Site pitch in um (default: particle diameter + 0.5 um).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub pitch_um: Option<f64>,
     /// Pattern rotation, degrees counter-clockwise.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub rotation_deg: f64,
     /// Pattern centre "X,Y" in um (default: placed to minimise push distance).
-    #[arg(long, value_parser = parse_xy)]
+    #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
     pub at: Option<(f64, f64)>,
     /// Contact angle of every push, degrees from the substrate normal.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub contact_angle_deg: f64,
     /// Tip disc radius in um.
     #[arg(long, default_value_t = 1.0)]

@@ -15,7 +15,7 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Contact angle [deg], overriding push.angle_deg.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub angle_deg: Option<f64>,
     /// Stage speed [um/s], overriding push.speed_um_s.
     #[arg(long)]
