@@ -901,9 +901,12 @@ impl Scheduler<'_> {
                     f64::INFINITY,
                 )
             },
-            |s| match weighed {
-                true => s.reroute_added(k) + SWAP_OVER_REROUTE_RADII * s.occ.max_radius_m,
-                false => f64::INFINITY,
+            |s| {
+                if weighed {
+                    s.reroute_added(k) + SWAP_OVER_REROUTE_RADII * s.occ.max_radius_m
+                } else {
+                    f64::INFINITY
+                }
             },
         )
     }
@@ -1083,17 +1086,27 @@ impl Scheduler<'_> {
     }
 
     /// True when particle q can be pushed from where it is to `spot` now
-    /// (free way, free spot, inside the field) and `spot` is clear of `avoid`.
+    /// (free way, and [`Self::spot_free`]).
     fn spot_usable(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
+        self.spot_free(q, spot, avoid)
+            && self
+                .occ
+                .first_hit(
+                    &self.corridor(q, self.occ.pos[q], spot),
+                    q,
+                    self.config.clearance_m,
+                )
+                .is_none()
+    }
+
+    /// True when `spot` is inside the field, free of other particles for
+    /// particle q, and clear of `avoid` (whatever lies on the way there).
+    fn spot_free(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
         let r = self.radius(q);
         let cl = self.config.clearance_m;
         self.reach.contains(spot)
             && self.occ.disc_free(spot, r, q, cl)
             && avoid.iter().all(|c| !c.hits(spot, r, cl))
-            && self
-                .occ
-                .first_hit(&self.corridor(q, self.occ.pos[q], spot), q, cl)
-                .is_none()
     }
 
     /// Where move k's particle goes to break a covering cycle: a spot where
@@ -1206,11 +1219,7 @@ impl Scheduler<'_> {
         let r = self.radius(q);
         let cl = self.config.clearance_m;
         for spot in self.ring(from, r, avoid, None) {
-            if !self.reach.contains(spot)
-                || !self.off_sites(spot, r)
-                || !self.occ.disc_free(spot, r, q, cl)
-                || avoid.iter().any(|c| c.hits(spot, r, cl))
-            {
+            if !self.off_sites(spot, r) || !self.spot_free(q, spot, avoid) {
                 continue;
             }
             let way = self.corridor(q, from, spot);

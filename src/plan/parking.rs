@@ -35,18 +35,17 @@ impl SiteDiscs<'_> {
     }
 }
 
-/// Candidate spots around `centre`: 48 directions, distances from a quarter
-/// to eight pitches (`pitch_m`) in quarter-pitch steps, nearest first.
-pub fn ring(centre: Vector2<f64>, pitch_m: f64) -> Vec<Vector2<f64>> {
-    let mut spots = Vec::with_capacity(32 * 48);
-    for step in 1..=32 {
+/// Candidate spots around `centre` with their distance from it: 48
+/// directions, distances from a quarter to eight pitches (`pitch_m`) in
+/// quarter-pitch steps, nearest first.
+fn ring(centre: Vector2<f64>, pitch_m: f64) -> impl Iterator<Item = (f64, Vector2<f64>)> {
+    (1..=32).flat_map(move |step| {
         let dist = pitch_m * step as f64 / 4.0;
-        for a in 0..48 {
+        (0..48).map(move |a| {
             let ang = std::f64::consts::TAU * a as f64 / 48.0;
-            spots.push(centre + Vector2::new(ang.cos(), ang.sin()) * dist);
-        }
-    }
-    spots
+            (dist, centre + Vector2::new(ang.cos(), ang.sin()) * dist)
+        })
+    })
 }
 
 /// Directions of the nearest spots off the sites.
@@ -61,8 +60,9 @@ pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 /// clearance (plus [`CLEARING_MARGIN_M`]) from every site and `also`
 /// does not hold (the scheduler: the corridors the spot must leave free),
 /// merged with [`ring`], nearest first. Site `own` (the particle's own,
-/// when it breaks a covering cycle) may stay covered. The ring's quarter-pitch steps alone
-/// (2.75 um for 10 um particles) pushed a particle that covered a site or a
+/// when it breaks a covering cycle) may stay covered. The ring's
+/// quarter-pitch steps alone (2.75 um for 10 um particles) pushed a
+/// particle that covered a site or a
 /// corridor by a fraction of a micron 2.75 um off it: on CMU, idle
 /// particles pushed off the way were the largest part of the excess above
 /// 1.05 LB_push (eleventh pass).
@@ -120,13 +120,7 @@ pub fn ring_off_sites(
             spots.push((t, centre + u * t));
         }
     }
-    // The ring's spots come in steps of 48 at a quarter pitch each.
-    spots.extend(
-        ring(centre, pitch)
-            .into_iter()
-            .enumerate()
-            .map(|(i, spot)| (pitch * (i / 48 + 1) as f64 / 4.0, spot)),
-    );
+    spots.extend(ring(centre, pitch));
     spots.sort_by(|x, y| x.0.total_cmp(&y.0));
     spots.into_iter().map(|s| s.1).collect()
 }
