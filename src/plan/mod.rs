@@ -329,7 +329,13 @@ fn assign_and_order(
                 let order_ok = |assigned: &Assigned| order(assigned).ok();
                 let first = (assigned, ordered);
                 return Ok(refine::refine(
-                    layout, sites, first, config, assign, order_ok,
+                    layout,
+                    sites,
+                    first,
+                    config,
+                    assign,
+                    order_ok,
+                    |a: &Assigned| &a.pairs,
                 ));
             }
             Ok(ordered) => return Ok((assigned, ordered)),

@@ -120,6 +120,9 @@ struct Scheduler<'a> {
     nearer_swaps: Vec<u8>,
     /// Early fills and buffer spots by added path are tried (see [`order_moves`]).
     thrifty: bool,
+    /// Every trade of sites is weighed against rerouting the blocked move
+    /// (see [`CAREFUL_MAX_MOVES`]).
+    careful: bool,
 }
 
 /// Orders the moves `pairs` (particle index, site index) into collision-free
@@ -223,6 +226,7 @@ fn order_once(
         banned,
         nearer_swaps: vec![0; n_moves],
         thrifty,
+        careful: thrifty && n_moves <= CAREFUL_MAX_MOVES,
     };
     sch.clear_sites();
     let order = sch.peel_with_clearing(&radii)?;
@@ -243,6 +247,17 @@ fn order_once(
         buffer_pushes: sch.buffer_pushes,
     })
 }
+
+/// Most moves for which a thrifty order also weighs its straight trades
+/// and capped hand-overs against rerouting the blocked move, as it weighs
+/// the detoured trades, and makes them unweighed only when no reroute or
+/// early fill is found. A trade runs straight, but it may lengthen the two
+/// moves more than a detour of one would: CMU seed 69 traded +9.2 um where
+/// its reroute cost less (1.058 -> 1.037 LB_push; 95 -> 96 of 100 layouts
+/// within 1.05). At N = 100 and 300 it changed no plan but made the order
+/// 1.8x and 3.3x slower, and at N = 1,000 it made the push ratio worse
+/// (1.002560 -> 1.003970) and the plan 3x slower.
+const CAREFUL_MAX_MOVES: usize = 64;
 
 /// Most moves for which the thrifty repairs are tried: at N = 3,000 they
 /// doubled the order's time (0.44 -> 0.9 s) for a push ratio 1.00393 ->
@@ -573,7 +588,7 @@ impl Scheduler<'_> {
         // (worst 1.338 -> 1.308; a buffer push or a reroute does better).
         for waypoints in [0, 1] {
             for &(k, q) in blocked {
-                let weighed = self.thrifty && waypoints == 1;
+                let weighed = self.thrifty && (waypoints == 1 || self.careful);
                 if self.swap_with(k, q, waypoints, weighed) {
                     return true;
                 }
@@ -583,7 +598,11 @@ impl Scheduler<'_> {
             // blocker on the way costs nothing in distance. At N = 1,000 this
             // took the order from 0.77 s to 0.06 s and the push ratio from
             // 1.025 to 1.004 (the detour searches it saves were both).
-            if waypoints == 0 && blocked.iter().any(|&(k, q)| self.swap_nearer(k, q, true)) {
+            if waypoints == 0
+                && blocked
+                    .iter()
+                    .any(|&(k, q)| self.swap_nearer(k, q, true, self.careful))
+            {
                 return true;
             }
         }
@@ -610,6 +629,15 @@ impl Scheduler<'_> {
         // The detoured swaps that cost more than a reroute, now that no
         // reroute or early fill was found.
         if self.thrifty && blocked.iter().any(|&(k, q)| self.swap_with(k, q, 1, false)) {
+            return true;
+        }
+        // A careful order's straight trades and capped hand-overs that cost
+        // more than a reroute, on the same terms.
+        if self.careful
+            && blocked.iter().any(|&(k, q)| {
+                self.swap_with(k, q, 0, false) || self.swap_nearer(k, q, true, false)
+            })
+        {
             return true;
         }
         // A thrifty order buffers a particle still to move only when no
@@ -639,7 +667,9 @@ impl Scheduler<'_> {
         // N = 10,000 the moves left stuck were 450-1,000 um from their
         // sites with 8 hand-overs spent, and each refusal cost a whole new
         // order (15 s, seven times).
-        blocked.iter().any(|&(k, q)| self.swap_nearer(k, q, false))
+        blocked
+            .iter()
+            .any(|&(k, q)| self.swap_nearer(k, q, false, false))
     }
 
     /// Route for move k's site with `particle` starting at `from`, missing
@@ -901,14 +931,19 @@ impl Scheduler<'_> {
                     f64::INFINITY,
                 )
             },
-            |s| {
-                if weighed {
-                    s.reroute_added(k) + SWAP_OVER_REROUTE_RADII * s.occ.max_radius_m
-                } else {
-                    f64::INFINITY
-                }
-            },
+            |s| s.trade_allowance(k, weighed),
         )
+    }
+
+    /// Most a trade for blocked move k may add to the two moves' paths:
+    /// when `weighed`, what rerouting k would add plus
+    /// [`SWAP_OVER_REROUTE_RADII`]; else no limit.
+    fn trade_allowance(&self, k: usize, weighed: bool) -> f64 {
+        if weighed {
+            self.reroute_added(k) + SWAP_OVER_REROUTE_RADII * self.occ.max_radius_m
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// Hands move k to particle q when q is nearer k's site than k's
@@ -920,8 +955,9 @@ impl Scheduler<'_> {
     /// ([`Self::straight_or_along`]): with straight ones only, a blocker on
     /// the first leg of a detour was buffered instead, 2,158 pushes out and
     /// back at N = 10,000 (a third of its excess push distance).
-    /// `capped`: at most [`MAX_NEARER_SWAPS`] per move.
-    fn swap_nearer(&mut self, k: usize, q: usize, capped: bool) -> bool {
+    /// `capped`: at most [`MAX_NEARER_SWAPS`] per move; `weighed`: see
+    /// [`Self::trade_allowance`].
+    fn swap_nearer(&mut self, k: usize, q: usize, capped: bool, weighed: bool) -> bool {
         let site = self.obstacles.site(k);
         let p = self.moves[k].particle;
         let ok = (!capped || self.nearer_swaps[k] < MAX_NEARER_SWAPS)
@@ -930,7 +966,7 @@ impl Scheduler<'_> {
                 k,
                 q,
                 |s, m, particle, _| s.straight_or_along(m, particle),
-                |_| f64::INFINITY,
+                |s| s.trade_allowance(k, weighed),
             );
         if ok {
             self.nearer_swaps[k] = self.nearer_swaps[k].saturating_add(1);

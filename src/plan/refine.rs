@@ -14,7 +14,7 @@
 use super::layout::Layout;
 use super::order::Ordered;
 use super::{PlanConfig, Step, summarise};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// Orders tried after the first (CMU, 100 layouts within 1.05 LB_push:
 /// none 62, 1 order 69, 3 orders 72, 5 the same as 3; planning time per
@@ -33,7 +33,13 @@ pub struct LearnedCosts {
 impl LearnedCosts {
     /// Adds what `ordered` paid beyond the straight lines of its pairs;
     /// false when it paid nothing (nothing to learn).
-    pub fn learn(&mut self, layout: &Layout, sites: &[super::Site], ordered: &Ordered) -> bool {
+    pub fn learn(
+        &mut self,
+        layout: &Layout,
+        sites: &[super::Site],
+        assigned: &[(usize, usize)],
+        ordered: &Ordered,
+    ) -> bool {
         let index = layout.index_by_id();
         let mut path = vec![0.0; layout.particles.len()];
         for step in &ordered.steps {
@@ -48,6 +54,7 @@ impl LearnedCosts {
             }
         }
         let mut learned = false;
+        let assigned_pairs = assigned;
         let mut assigned = vec![false; layout.particles.len()];
         for &(p, s) in &ordered.pairs {
             assigned[p] = true;
@@ -63,6 +70,66 @@ impl LearnedCosts {
             if !assigned[p] && len > 0.0 {
                 *self.park_m.entry(p).or_insert(0.0) += len;
                 learned = true;
+            }
+        }
+        learned | self.learn_trades(layout, sites, assigned_pairs, &ordered.pairs)
+    }
+
+    /// Charges every assigned pair whose site went to another particle
+    /// with what the trade added: the traded pairs run straight, so their
+    /// path excess teaches nothing, yet the trade made the executed
+    /// assignment longer than the one solved (CMU seed 46: 5.5 um). Trades
+    /// are grouped by the sites they link (a particle's assigned and
+    /// executed site); each group's added distance is charged to each of
+    /// its assigned pairs. False when nothing was traded at a cost.
+    fn learn_trades(
+        &mut self,
+        layout: &Layout,
+        sites: &[super::Site],
+        assigned: &[(usize, usize)],
+        executed: &[(usize, usize)],
+    ) -> bool {
+        let straight =
+            |p: usize, s: usize| (layout.particles[p].centre_m - sites[s].centre_m).norm();
+        let executed_site: HashMap<usize, usize> = executed.iter().copied().collect();
+        let executed_pairs: HashSet<(usize, usize)> = executed.iter().copied().collect();
+        // Union-find over sites: a particle links its two sites.
+        let mut group: Vec<usize> = (0..sites.len()).collect();
+        fn root(group: &mut [usize], mut s: usize) -> usize {
+            while group[s] != s {
+                group[s] = group[group[s]];
+                s = group[s];
+            }
+            s
+        }
+        for &(p, s) in assigned {
+            if let Some(&t) = executed_site.get(&p) {
+                let (a, b) = (root(&mut group, s), root(&mut group, t));
+                group[a] = b;
+            }
+        }
+        let mut added: HashMap<usize, f64> = HashMap::new();
+        for &(p, s) in assigned
+            .iter()
+            .filter(|pair| !executed_pairs.contains(pair))
+        {
+            *added.entry(root(&mut group, s)).or_insert(0.0) -= straight(p, s);
+        }
+        let assigned_pairs: HashSet<(usize, usize)> = assigned.iter().copied().collect();
+        for &(p, s) in executed
+            .iter()
+            .filter(|pair| !assigned_pairs.contains(pair))
+        {
+            *added.entry(root(&mut group, s)).or_insert(0.0) += straight(p, s);
+        }
+        let mut learned = false;
+        for &(p, s) in assigned {
+            match added.get(&root(&mut group, s)) {
+                Some(&extra) if extra > TRADE_ROUNDING_M => {
+                    *self.pair_m.entry((p, s)).or_insert(0.0) += extra;
+                    learned = true;
+                }
+                _ => {}
             }
         }
         learned
@@ -86,15 +153,16 @@ pub fn refine<A: Clone + PartialEq>(
     config: &PlanConfig,
     mut assign: impl FnMut(&LearnedCosts) -> A,
     mut order: impl FnMut(&A) -> Option<Ordered>,
+    pairs_of: impl Fn(&A) -> &[(usize, usize)],
 ) -> (A, Ordered) {
     let pushed = |o: &Ordered| summarise(&o.steps, config).push_distance_m;
     let mut costs = LearnedCosts::default();
     let mut best_len = pushed(&first.1);
     let mut tried = vec![first.0.clone()];
-    let mut last = first.1.clone();
+    let mut last = first.clone();
     let mut best = first;
     for _ in 0..MAX_SOLVES {
-        if tried.len() > REFINE_TRIES || !costs.learn(layout, sites, &last) {
+        if tried.len() > REFINE_TRIES || !costs.learn(layout, sites, pairs_of(&last.0), &last.1) {
             break;
         }
         let assigned = assign(&costs);
@@ -106,7 +174,7 @@ pub fn refine<A: Clone + PartialEq>(
             break;
         };
         let len = pushed(&ordered);
-        last = ordered.clone();
+        last = (assigned.clone(), ordered.clone());
         if len < best_len {
             best_len = len;
             best = (assigned, ordered);
@@ -114,6 +182,9 @@ pub fn refine<A: Clone + PartialEq>(
     }
     best
 }
+
+/// A trade adding less than this (metres) is rounding, not a cost.
+const TRADE_ROUNDING_M: f64 = 1e-12;
 
 /// Most assignments solved by one [`refine`] (repeats included).
 const MAX_SOLVES: usize = 3 * REFINE_TRIES;
@@ -170,7 +241,7 @@ mod tests {
     fn learning_charges_the_detour_to_its_pair_and_idle_pushes_to_parking() {
         let (layout, sites) = scene();
         let mut costs = LearnedCosts::default();
-        assert!(costs.learn(&layout, &sites, &detoured()));
+        assert!(costs.learn(&layout, &sites, &[(0, 0)], &detoured()));
         assert!((costs.pair_m[&(0, 0)] - 6.0).abs() < 1e-12);
         assert!((costs.park_m[&1] - 2.0).abs() < 1e-12);
         assert!(!costs.park_m.contains_key(&2), "particle 9 never moved");
@@ -180,7 +251,63 @@ mod tests {
             buffer_pushes: 0,
             pairs: vec![(0, 0)],
         };
-        assert!(!LearnedCosts::default().learn(&layout, &sites, &straight));
+        assert!(!LearnedCosts::default().learn(&layout, &sites, &[(0, 0)], &straight));
+    }
+
+    /// Sites at x = 10 and 60: particle 7 (x = 0) and 8 (x = 50) are
+    /// assigned 10 each; traded, they run 60 and 40 straight (+80), and
+    /// each assigned pair is charged the trade's 80. A hand-over of site 1
+    /// to idle particle 9 (x = 80, 20 straight) charges pair (8, 1) +10.
+    /// An even trade teaches nothing.
+    #[test]
+    fn learning_charges_a_trade_to_the_pairs_it_undid() {
+        let (layout, mut sites) = scene();
+        sites.push(Site {
+            id: 1,
+            centre_m: Vector2::new(60.0, 0.0),
+        });
+        let straight = |sites: &[Site], pairs: Vec<(usize, usize)>| Ordered {
+            steps: pairs
+                .iter()
+                .map(|&(p, s)| {
+                    let c = layout.particles[p].centre_m;
+                    let t = sites[s].centre_m;
+                    push(layout.particles[p].id, (c.x, c.y), (t.x, t.y))
+                })
+                .collect(),
+            buffer_pushes: 0,
+            pairs,
+        };
+        let assigned = [(0, 0), (1, 1)];
+        let mut costs = LearnedCosts::default();
+        assert!(costs.learn(
+            &layout,
+            &sites,
+            &assigned,
+            &straight(&sites, vec![(0, 1), (1, 0)])
+        ));
+        assert_eq!(costs.pair_m.len(), 2);
+        assert!((costs.pair_m[&(0, 0)] - 80.0).abs() < 1e-9);
+        assert!((costs.pair_m[&(1, 1)] - 80.0).abs() < 1e-9);
+        let mut costs = LearnedCosts::default();
+        assert!(costs.learn(
+            &layout,
+            &sites,
+            &assigned,
+            &straight(&sites, vec![(0, 0), (2, 1)])
+        ));
+        assert_eq!(costs.pair_m.len(), 1);
+        assert!((costs.pair_m[&(1, 1)] - 10.0).abs() < 1e-9);
+        // Sites at x = 60 and 70: 60 + 20 assigned, 70 + 10 traded.
+        sites[0].centre_m.x = 60.0;
+        sites[1].centre_m.x = 70.0;
+        let mut costs = LearnedCosts::default();
+        assert!(!costs.learn(
+            &layout,
+            &sites,
+            &assigned,
+            &straight(&sites, vec![(0, 1), (1, 0)])
+        ));
     }
 
     #[test]
@@ -216,6 +343,7 @@ mod tests {
             &config,
             assign,
             order,
+            |_| &[],
         );
         assert_eq!(tag, "shorter");
         assert_eq!(best.steps.len(), 3);
