@@ -253,7 +253,15 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
             .map(|(s, &p)| (p, s))
             .collect();
         let t = Instant::now();
-        let ordered = order::order_moves(layout, &site_list, &pairs, &[], &[], &config);
+        let ordered = order::order_moves(
+            layout,
+            &site_list,
+            &pairs,
+            &[],
+            &[],
+            &config,
+            order::Repairs::Thrifty,
+        );
         order_ms = t.elapsed().as_secs_f64() * 1e3;
         if let Ok(o) = ordered {
             let t = Instant::now();

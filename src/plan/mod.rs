@@ -304,7 +304,7 @@ fn assign_and_order(
     loop {
         let assigned = problem.assigned(&forbidden, &refine::LearnedCosts::default());
         let t = Instant::now();
-        let order = |assigned: &Assigned| {
+        let order = |assigned: &Assigned, repairs| {
             order::order_moves(
                 layout,
                 sites,
@@ -312,9 +312,10 @@ fn assign_and_order(
                 &assigned.on_site,
                 &forbidden,
                 config,
+                repairs,
             )
         };
-        let ordered = order(&assigned);
+        let ordered = order(&assigned, order::Repairs::Thrifty);
         tracing::debug!(
             "plan: order (try {}) {:.1} ms: {}",
             tries + 1,
@@ -326,9 +327,9 @@ fn assign_and_order(
         let refusal = match ordered {
             Ok(ordered) if problem.is_small() => {
                 let assign = |costs: &refine::LearnedCosts| problem.assigned(&forbidden, costs);
-                let order_ok = |assigned: &Assigned| order(assigned).ok();
+                let order_ok = |assigned: &Assigned| order(assigned, order::Repairs::Thrifty).ok();
                 let first = (assigned, ordered);
-                return Ok(refine::refine(
+                let best = refine::refine(
                     layout,
                     sites,
                     first,
@@ -336,7 +337,9 @@ fn assign_and_order(
                     assign,
                     order_ok,
                     |a: &Assigned| &a.pairs,
-                ));
+                );
+                let plain = |assigned: &Assigned| order(assigned, order::Repairs::Plain).ok();
+                return Ok(second_opinion(best, config, plain));
             }
             Ok(ordered) => return Ok((assigned, ordered)),
             Err(refusal) => refusal,
@@ -359,6 +362,32 @@ fn assign_and_order(
                 refusal.reason
             )));
         }
+    }
+}
+
+/// Push distance the planner aims at, as a multiple of LB_push (the
+/// acceptance target of CMU-sized plans).
+const PUSH_RATIO_GOAL: f64 = 1.05;
+
+/// `best` (a small instance's refined plan), or its assignment ordered
+/// with the plain repairs (`plain`) when that is shorter, asked only when
+/// `best` misses [`PUSH_RATIO_GOAL`]. The thrifty repairs save distance on
+/// most layouts, not all (CMU seed 11: 1.0502 thrifty, 1.0490 plain);
+/// ordering both on every layout took CMU's median planning time from 8.5
+/// to 14 ms, where the plans that miss the goal are 5 of 100.
+fn second_opinion(
+    best: (Assigned, order::Ordered),
+    config: &PlanConfig,
+    plain: impl Fn(&Assigned) -> Option<order::Ordered>,
+) -> (Assigned, order::Ordered) {
+    let pushed = |o: &order::Ordered| summarise(&o.steps, config).push_distance_m;
+    let (assigned, ordered) = best;
+    if pushed(&ordered) <= PUSH_RATIO_GOAL * assigned.lb_push_m {
+        return (assigned, ordered);
+    }
+    match plain(&assigned) {
+        Some(other) if pushed(&other) < pushed(&ordered) => (assigned, other),
+        _ => (assigned, ordered),
     }
 }
 
@@ -565,4 +594,51 @@ pub fn summarise(steps: &[Step], config: &PlanConfig) -> PlanSummary {
     s.predicted_time_s = s.push_distance_m / config.push_speed_m_per_s
         + s.tip_travel_m / config.travel_speed_m_per_s;
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ordered(push_m: f64) -> order::Ordered {
+        order::Ordered {
+            steps: vec![Step::Push {
+                particle: 0,
+                from_m: Vector2::zeros(),
+                to_m: Vector2::new(push_m, 0.0),
+                approach_m: Vector2::new(-1.0, 0.0),
+                contact_angle_rad: 0.0,
+            }],
+            buffer_pushes: 0,
+            pairs: vec![(0, 0)],
+        }
+    }
+
+    fn assigned() -> Assigned {
+        Assigned {
+            pairs: vec![(0, 0)],
+            on_site: Vec::new(),
+            lb_push_m: 10.0,
+        }
+    }
+
+    /// A plan within the goal is kept without a second order; one above it
+    /// gives way to a shorter plain order, not to a longer one.
+    #[test]
+    fn the_plain_order_is_asked_only_above_the_goal_and_kept_only_when_shorter() {
+        let config = PlanConfig::default();
+        let never = |_: &Assigned| -> Option<order::Ordered> { panic!("asked within the goal") };
+        let within = second_opinion((assigned(), ordered(10.4)), &config, never);
+        assert_eq!(within.1.steps, ordered(10.4).steps);
+        let shorter = second_opinion((assigned(), ordered(12.0)), &config, |_| {
+            Some(ordered(11.0))
+        });
+        assert_eq!(shorter.1.steps, ordered(11.0).steps);
+        let longer = second_opinion((assigned(), ordered(12.0)), &config, |_| {
+            Some(ordered(13.0))
+        });
+        assert_eq!(longer.1.steps, ordered(12.0).steps);
+        let refused = second_opinion((assigned(), ordered(12.0)), &config, |_| None);
+        assert_eq!(refused.1.steps, ordered(12.0).steps);
+    }
 }

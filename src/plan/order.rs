@@ -125,6 +125,16 @@ struct Scheduler<'a> {
     careful: bool,
 }
 
+/// Which repairs an order may make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Repairs {
+    /// The thrifty repairs (early fills, buffer spots by added path) up to
+    /// [`THRIFTY_MAX_MOVES`] moves; the plain ones after a refusal or above.
+    Thrifty,
+    /// The plain repairs only.
+    Plain,
+}
+
 /// Orders the moves `pairs` (particle index, site index) into collision-free
 /// pushes; particles in `on_site` (and immovable ones) are never pushed, and
 /// no repair hands a site to a particle it is `banned` from (pairs that got
@@ -136,12 +146,13 @@ pub fn order_moves(
     on_site: &[usize],
     banned: &[(usize, usize)],
     config: &PlanConfig,
+    repairs: Repairs,
 ) -> Result<Ordered, Refusal> {
-    // The repairs that save push distance (early fills, buffer spots by
-    // added path) can leave a move boxed in where the plain repairs did
-    // not, so a refused thrifty order is ordered again without them.
+    // The repairs that save push distance can leave a move boxed in where
+    // the plain repairs did not, so a refused thrifty order is ordered
+    // again without them.
     let order = |thrifty| order_once(layout, sites, pairs, on_site, banned, config, thrifty);
-    if pairs.len() > THRIFTY_MAX_MOVES {
+    if repairs == Repairs::Plain || pairs.len() > THRIFTY_MAX_MOVES {
         return order(false);
     }
     order(true).or_else(|_| order(false))
