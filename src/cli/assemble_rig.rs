@@ -22,6 +22,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, write_sites};
+use crate::exec::assemble::particles_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
@@ -29,8 +30,9 @@ use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
-use crate::plan::pattern::transform::{Reachable, place_optimised};
-use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
+use crate::plan::pattern::transform::Reachable;
+use crate::plan::placement::place_by_plan;
+use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
@@ -166,7 +168,15 @@ fn assemble(
         settings.field_m = [range[0].max_m, range[1].max_m];
         reachable_sites(rig, r, settings.clearance_m)
     };
-    let sites = sites_for(args, scene, &reachable, &first.particles)?;
+    let plan_config = settings.plan_config(scene);
+    let sites = sites_for(
+        args,
+        scene,
+        &reachable,
+        &first.particles,
+        &settings,
+        &plan_config,
+    )?;
     let spec = RunSpec {
         pattern: RunSpec::pattern_label(args.text.as_deref(), args.pattern.as_deref()),
         scene: args.scene.display().to_string(),
@@ -178,11 +188,7 @@ fn assemble(
     let inputs = AssemblyInputs {
         scene: scene.clone(),
         sites,
-        plan_config: PlanConfig {
-            push_speed_m_per_s: scene.push.speed_m_per_s,
-            travel_speed_m_per_s: settings.travel_speed_m_per_s,
-            ..PlanConfig::default()
-        },
+        plan_config,
         perception,
         settings: settings.clone(),
     };
@@ -291,11 +297,15 @@ fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reacha
     }
 }
 
+/// The pattern placed where the full plan on the first frame's particles
+/// is fastest, as on the simulated rig ([`place_by_plan`]).
 fn sites_for(
     args: &Args,
     scene: &Scene,
     reachable: &Reachable,
     seen: &[crate::exec::tracker::Observation],
+    settings: &AssemblySettings,
+    config: &PlanConfig,
 ) -> anyhow::Result<Vec<Site>> {
     let r = scene.particle_radius_m;
     let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
@@ -304,8 +314,12 @@ fn sites_for(
         (None, Some(path)) => crate::plan::pattern::site_list::read_pattern(path, pitch)?,
         (None, None) => bail!("give --text or --pattern"),
     };
-    let centres: Vec<_> = seen.iter().map(|p| Vector2::new(p.x_m, p.y_m)).collect();
-    place_optimised(&pattern, reachable, r, &centres)
+    let seen: Vec<_> = seen.iter().enumerate().collect();
+    let layout = Layout {
+        field_m: settings.field_m,
+        particles: particles_seen(&seen, r),
+    };
+    place_by_plan(&pattern, reachable, &layout, config)
         .context("placing the pattern among the particles of the first frame")
 }
 

@@ -64,6 +64,18 @@ pub struct AssemblySettings {
     pub keep_plan_shift_m: f64,
 }
 
+impl AssemblySettings {
+    /// The planner's settings for a run: the scene's pushing speed, the
+    /// executor's travel speed, defaults otherwise.
+    pub fn plan_config(&self, scene: &Scene) -> PlanConfig {
+        PlanConfig {
+            push_speed_m_per_s: scene.push.speed_m_per_s,
+            travel_speed_m_per_s: self.travel_speed_m_per_s,
+            ..PlanConfig::default()
+        }
+    }
+}
+
 impl Default for AssemblySettings {
     fn default() -> Self {
         Self {
@@ -1003,16 +1015,27 @@ pub fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Ve
                     .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
         })
         .collect();
-    kept.iter()
-        .map(|t| {
-            let nearest = kept
+    let seen: Vec<(usize, &super::tracker::Observation)> =
+        kept.iter().map(|t| (t.id, &t.last)).collect();
+    particles_seen(&seen, radius_m)
+}
+
+/// Particles `(id, observation)` with the scene's radius, capped at half the
+/// distance to the nearest neighbour (see [`planning_particles`]).
+pub fn particles_seen(
+    seen: &[(usize, &super::tracker::Observation)],
+    radius_m: f64,
+) -> Vec<Particle> {
+    seen.iter()
+        .map(|&(id, o)| {
+            let nearest = seen
                 .iter()
-                .filter(|u| u.id != t.id)
-                .map(|u| (t.last.x_m - u.last.x_m).hypot(t.last.y_m - u.last.y_m))
+                .filter(|&&(other, _)| other != id)
+                .map(|(_, u)| (o.x_m - u.x_m).hypot(o.y_m - u.y_m))
                 .fold(f64::INFINITY, f64::min);
             Particle {
-                id: t.id as u32,
-                centre_m: Vector2::new(t.last.x_m, t.last.y_m),
+                id: id as u32,
+                centre_m: Vector2::new(o.x_m, o.y_m),
                 radius_m: radius_m.min(0.5 * nearest * (1.0 - 1e-6)),
             }
         })
@@ -1039,5 +1062,35 @@ impl From<PushError> for ExecError {
             PushError::Journal(j) => ExecError::Journal(j),
             PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exec::tracker::Observation;
+
+    /// Two particles seen 9.99 um apart with the scene's 5 um radius get
+    /// radii just under 4.995 um (they cannot overlap); a lone one keeps 5 um.
+    #[test]
+    fn seen_particles_take_the_scene_radius_capped_by_the_nearest_neighbour() {
+        let at = |x_um: f64| Observation {
+            x_m: x_um * 1e-6,
+            y_m: 20e-6,
+            radius_m: 5.2e-6,
+        };
+        let (a, b, c) = (at(10.0), at(19.99), at(60.0));
+        let particles = particles_seen(&[(3, &a), (8, &b), (9, &c)], 5e-6);
+        let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
+        assert_eq!(ids, [3, 8, 9]);
+        for p in &particles[..2] {
+            assert!(p.radius_m < 4.995e-6 && p.radius_m > 4.99e-6, "{}", p.radius_m);
+        }
+        assert_eq!(particles[2].radius_m, 5e-6);
+        let layout = Layout {
+            field_m: [100e-6, 40e-6],
+            particles,
+        };
+        assert!(layout.validate().is_ok(), "the capped radii must not overlap");
     }
 }

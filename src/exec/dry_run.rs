@@ -4,7 +4,7 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, planning_particles,
+    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, particles_seen, planning_particles,
 };
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
@@ -13,7 +13,8 @@ use super::tracker::Tracker;
 use crate::model::Scene;
 use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
-use crate::plan::pattern::transform::{Reachable, place_optimised};
+use crate::plan::pattern::transform::Reachable;
+use crate::plan::placement::place_by_plan;
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -171,6 +172,7 @@ pub fn dry_run(
                 &sighting.particles,
                 field_m,
                 radius_m,
+                &plan_config(scene),
             )?);
         }
         let sites = sites.as_deref().unwrap_or_default();
@@ -233,12 +235,24 @@ pub fn dry_run(
     })
 }
 
-/// The sites: as recorded, or the pattern placed on the first frame's particles.
+/// The planner's settings without the tip: the scene's push speed (1 um/s
+/// without a scene).
+fn plan_config(scene: Option<&Scene>) -> PlanConfig {
+    PlanConfig {
+        on_site_tolerance_m: PLACED_TOLERANCE_M,
+        push_speed_m_per_s: scene.map_or(1e-6, |s| s.push.speed_m_per_s),
+        ..PlanConfig::default()
+    }
+}
+
+/// The sites: as recorded, or the pattern placed where the full plan on the
+/// first frame's particles is fastest, as the closed loop places it.
 fn target_sites(
     recording: &Recording,
     first: &[super::tracker::Observation],
     field_m: [f64; 2],
     radius_m: f64,
+    config: &PlanConfig,
 ) -> Result<Vec<Site>, DryRunError> {
     let spec = &recording.spec;
     if let Some(sites) = &spec.sites_um {
@@ -267,12 +281,16 @@ fn target_sites(
             first.len()
         )));
     }
-    let centres: Vec<_> = first.iter().map(|o| Vector2::new(o.x_m, o.y_m)).collect();
-    place_optimised(
+    let seen: Vec<_> = first.iter().enumerate().collect();
+    let layout = Layout {
+        field_m,
+        particles: particles_seen(&seen, radius_m),
+    };
+    place_by_plan(
         &pattern,
         &Reachable::for_field(field_m, radius_m),
-        radius_m,
-        &centres,
+        &layout,
+        config,
     )
     .map_err(|e| target(e.to_string()))
 }
@@ -293,10 +311,8 @@ fn next_command(
         particles: planning_particles(tracks, radius_m),
     };
     let config = PlanConfig {
-        on_site_tolerance_m: PLACED_TOLERANCE_M,
         tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),
-        push_speed_m_per_s: scene.map_or(1e-6, |s| s.push.speed_m_per_s),
-        ..PlanConfig::default()
+        ..plan_config(scene)
     };
     let plan = match plan_assembly(&layout, sites, &config) {
         Ok(p) => p,

@@ -14,7 +14,7 @@ use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::placement::place_by_plan;
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
+use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, Site};
 use crate::rig::RigError;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
@@ -185,18 +185,8 @@ fn sites_for(
         &pattern,
         &Reachable::for_field(layout.field_m, r),
         layout,
-        &plan_config_for(scene, &AssemblySettings::default()),
+        &AssemblySettings::default().plan_config(scene),
     )?)
-}
-
-/// The planner's settings for a run: the scene's pushing speed, the
-/// executor's travel speed, defaults otherwise.
-fn plan_config_for(scene: &Scene, settings: &AssemblySettings) -> PlanConfig {
-    PlanConfig {
-        push_speed_m_per_s: scene.push.speed_m_per_s,
-        travel_speed_m_per_s: settings.travel_speed_m_per_s,
-        ..PlanConfig::default()
-    }
 }
 
 /// The executor's inputs for a run on the simulated rig.
@@ -215,7 +205,7 @@ pub fn inputs_for(
     AssemblyInputs {
         scene: scene.clone(),
         sites,
-        plan_config: plan_config_for(scene, &settings),
+        plan_config: settings.plan_config(scene),
         perception: Perception {
             detect: DetectSettings {
                 diameter_px: 2.0 * scene.particle_radius_m / m_per_px,

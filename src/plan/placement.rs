@@ -17,9 +17,14 @@ use crate::plan::pattern::PatternError;
 /// and 1.30).
 pub const PLANNED_CANDIDATES: usize = 24;
 
+/// Largest pattern placed by planning in full: 24 plans of 300 sites take
+/// about 3 s (`nanopush study plan --sizes 300`: 0.12-0.14 s each), of
+/// 1,000 sites about 8 s; larger patterns are placed by the assignment.
+pub const PLAN_PLACEMENT_MAX_SITES: usize = 300;
+
 /// Sites of `pattern` inside `area` whose full plan on `layout` has the
 /// shortest predicted time; the assignment-ranked placement when no
-/// candidate plans.
+/// candidate plans, or above [`PLAN_PLACEMENT_MAX_SITES`].
 pub fn place_by_plan(
     pattern: &Pattern,
     area: &Reachable,
@@ -28,6 +33,9 @@ pub fn place_by_plan(
 ) -> Result<Vec<Site>, PatternError> {
     let r = layout.max_radius_m();
     let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    if pattern.offsets_m.len() > PLAN_PLACEMENT_MAX_SITES {
+        return place_optimised(pattern, area, r, &centres);
+    }
     let candidates = candidate_centres(pattern, area, r, &centres, PLANNED_CANDIDATES)?;
     let best = candidates
         .iter()
