@@ -1084,13 +1084,20 @@ mod tests {
         let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
         assert_eq!(ids, [3, 8, 9]);
         for p in &particles[..2] {
-            assert!(p.radius_m < 4.995e-6 && p.radius_m > 4.99e-6, "{}", p.radius_m);
+            assert!(
+                p.radius_m < 4.995e-6 && p.radius_m > 4.99e-6,
+                "{}",
+                p.radius_m
+            );
         }
         assert_eq!(particles[2].radius_m, 5e-6);
         let layout = Layout {
             field_m: [100e-6, 40e-6],
             particles,
         };
-        assert!(layout.validate().is_ok(), "the capped radii must not overlap");
+        assert!(
+            layout.validate().is_ok(),
+            "the capped radii must not overlap"
+        );
     }
 }
