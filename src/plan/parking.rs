@@ -189,6 +189,51 @@ pub fn park_cost(
     max_m
 }
 
+/// Least distance from `from` to a point at least `reach` from every centre
+/// in `centres` (0 when `from` is such a point): how far a particle must at
+/// least be pushed to end clear of the sites, whatever its path. Exact: the
+/// nearest such point lies on the boundary of the union of the discs, at
+/// the radial exit of one disc or where two circles cross.
+pub fn clearing_lower_bound(from: Vector2<f64>, centres: &[Vector2<f64>], reach: f64) -> f64 {
+    let clear = |p: Vector2<f64>| {
+        centres
+            .iter()
+            .all(|c| (p - c).norm() >= reach * (1.0 - 1e-12))
+    };
+    if clear(from) {
+        return 0.0;
+    }
+    let mut best = f64::INFINITY;
+    let mut consider = |p: Vector2<f64>| {
+        let d = (p - from).norm();
+        if d < best && clear(p) {
+            best = d;
+        }
+    };
+    for (i, a) in centres.iter().enumerate() {
+        let out = from - a;
+        let dir = if out.norm() > 0.0 {
+            out / out.norm()
+        } else {
+            Vector2::new(1.0, 0.0)
+        };
+        consider(a + dir * reach);
+        for b in &centres[i + 1..] {
+            let ab = b - a;
+            let d = ab.norm();
+            if d <= 0.0 || d >= 2.0 * reach {
+                continue;
+            }
+            let mid = a + ab * 0.5;
+            let h = (reach * reach - d * d / 4.0).sqrt();
+            let normal = Vector2::new(-ab.y, ab.x) / d;
+            consider(mid + normal * h);
+            consider(mid - normal * h);
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -245,5 +290,23 @@ mod tests {
         let first = ring_off_sites(from, r, &discs, &band, None)[0];
         assert!(!band(first) && !discs.covered_by(first, r));
         assert!((first - from).norm() < 2.0e-6, "{first:?}");
+    }
+
+    /// One disc: the radial exit. Two overlapping discs with the point
+    /// between them: out through a crossing of the circles, not a radial
+    /// exit (which lands inside the other disc). Outside: 0.
+    #[test]
+    fn the_clearing_bound_leaves_the_union_of_the_site_discs() {
+        let one = [Vector2::new(0.0, 0.0)];
+        let d = clearing_lower_bound(Vector2::new(3.0, 0.0), &one, 10.0);
+        assert!((d - 7.0).abs() < 1e-12, "{d}");
+        assert_eq!(
+            clearing_lower_bound(Vector2::new(12.0, 0.0), &one, 10.0),
+            0.0
+        );
+        let two = [Vector2::new(-6.0, 0.0), Vector2::new(6.0, 0.0)];
+        let d = clearing_lower_bound(Vector2::new(0.0, 0.0), &two, 10.0);
+        // The circles cross at (0, +-8).
+        assert!((d - 8.0).abs() < 1e-9, "{d}");
     }
 }
