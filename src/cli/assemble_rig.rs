@@ -22,7 +22,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, write_sites};
-use crate::exec::assemble::particles_seen;
+use crate::exec::assemble::layout_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
@@ -32,7 +32,7 @@ use crate::model::Scene;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::placement::place_by_plan;
-use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site};
+use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
@@ -314,11 +314,7 @@ fn sites_for(
         (None, Some(path)) => crate::plan::pattern::site_list::read_pattern(path, pitch)?,
         (None, None) => bail!("give --text or --pattern"),
     };
-    let seen: Vec<_> = seen.iter().enumerate().collect();
-    let layout = Layout {
-        field_m: settings.field_m,
-        particles: particles_seen(&seen, r),
-    };
+    let layout = layout_seen(settings.field_m, seen, r);
     place_by_plan(&pattern, reachable, &layout, config)
         .context("placing the pattern among the particles of the first frame")
 }

@@ -1020,6 +1020,20 @@ pub fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Ve
     particles_seen(&seen, radius_m)
 }
 
+/// The first frame's particles as a layout of `field_m` (ids by order
+/// seen), for placing the pattern before any track exists.
+pub fn layout_seen(
+    field_m: [f64; 2],
+    seen: &[super::tracker::Observation],
+    radius_m: f64,
+) -> Layout {
+    let seen: Vec<_> = seen.iter().enumerate().collect();
+    Layout {
+        field_m,
+        particles: particles_seen(&seen, radius_m),
+    }
+}
+
 /// Particles `(id, observation)` with the scene's radius, capped at half the
 /// distance to the nearest neighbour (see [`planning_particles`]).
 pub fn particles_seen(

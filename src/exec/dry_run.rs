@@ -4,7 +4,7 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, particles_seen, planning_particles,
+    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_seen, planning_particles,
 };
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
@@ -281,15 +281,10 @@ fn target_sites(
             first.len()
         )));
     }
-    let seen: Vec<_> = first.iter().enumerate().collect();
-    let layout = Layout {
-        field_m,
-        particles: particles_seen(&seen, radius_m),
-    };
     place_by_plan(
         &pattern,
         &Reachable::for_field(field_m, radius_m),
-        &layout,
+        &layout_seen(field_m, first, radius_m),
         config,
     )
     .map_err(|e| target(e.to_string()))

@@ -416,9 +416,10 @@ struct Assigned {
     lb_push_m: f64,
 }
 
-/// Largest free-sites x free-particles instance solved with parking costs
-/// (dense method); above it the plain assignment is used.
-const PARKING_AWARE_MAX_PAIRS: usize = 250_000;
+/// Largest sites x particles instance solved with parking costs (dense
+/// method); above it the plain assignment is used (also by the placement's
+/// clearing bound).
+pub(crate) const PARKING_AWARE_MAX_PAIRS: usize = 250_000;
 
 /// Largest free-sites x free-particles instance refined
 /// ([`refine::refine`]): each try is a dense assignment and an order. At

@@ -14,7 +14,7 @@
 use super::layout::Layout;
 use super::order::Ordered;
 use super::{PlanConfig, Step, summarise};
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 /// Orders tried after the first (CMU, 100 layouts within 1.05 LB_push:
 /// none 62, 1 order 69, 3 orders 72, 5 the same as 3; planning time per
@@ -54,10 +54,9 @@ impl LearnedCosts {
             }
         }
         let mut learned = false;
-        let assigned_pairs = assigned;
-        let mut assigned = vec![false; layout.particles.len()];
+        let mut has_site = vec![false; layout.particles.len()];
         for &(p, s) in &ordered.pairs {
-            assigned[p] = true;
+            has_site[p] = true;
             let straight = (layout.particles[p].centre_m - sites[s].centre_m).norm();
             // Rounding of split pushes is not an excess.
             let excess = path[p] - straight;
@@ -67,12 +66,12 @@ impl LearnedCosts {
             }
         }
         for (p, &len) in path.iter().enumerate() {
-            if !assigned[p] && len > 0.0 {
+            if !has_site[p] && len > 0.0 {
                 *self.park_m.entry(p).or_insert(0.0) += len;
                 learned = true;
             }
         }
-        learned | self.learn_trades(layout, sites, assigned_pairs, &ordered.pairs)
+        learned | self.learn_trades(layout, sites, assigned, &ordered.pairs)
     }
 
     /// Charges every assigned pair whose site went to another particle
@@ -91,8 +90,9 @@ impl LearnedCosts {
     ) -> bool {
         let straight =
             |p: usize, s: usize| (layout.particles[p].centre_m - sites[s].centre_m).norm();
-        let executed_site: HashMap<usize, usize> = executed.iter().copied().collect();
-        let executed_pairs: HashSet<(usize, usize)> = executed.iter().copied().collect();
+        let site_of =
+            |pairs: &[(usize, usize)]| -> HashMap<usize, usize> { pairs.iter().copied().collect() };
+        let (assigned_site, executed_site) = (site_of(assigned), site_of(executed));
         // Union-find over sites: a particle links its two sites.
         let mut group: Vec<usize> = (0..sites.len()).collect();
         fn root(group: &mut [usize], mut s: usize) -> usize {
@@ -108,18 +108,14 @@ impl LearnedCosts {
                 group[a] = b;
             }
         }
+        // Each group's executed straight lines minus its assigned ones.
         let mut added: HashMap<usize, f64> = HashMap::new();
-        for &(p, s) in assigned
-            .iter()
-            .filter(|pair| !executed_pairs.contains(pair))
-        {
+        let undone = |&&(p, s): &&(usize, usize)| executed_site.get(&p) != Some(&s);
+        for &(p, s) in assigned.iter().filter(undone) {
             *added.entry(root(&mut group, s)).or_insert(0.0) -= straight(p, s);
         }
-        let assigned_pairs: HashSet<(usize, usize)> = assigned.iter().copied().collect();
-        for &(p, s) in executed
-            .iter()
-            .filter(|pair| !assigned_pairs.contains(pair))
-        {
+        let made = |&&(p, s): &&(usize, usize)| assigned_site.get(&p) != Some(&s);
+        for &(p, s) in executed.iter().filter(made) {
             *added.entry(root(&mut group, s)).or_insert(0.0) += straight(p, s);
         }
         let mut learned = false;
@@ -279,35 +275,25 @@ mod tests {
             pairs,
         };
         let assigned = [(0, 0), (1, 1)];
-        let mut costs = LearnedCosts::default();
-        assert!(costs.learn(
-            &layout,
-            &sites,
-            &assigned,
-            &straight(&sites, vec![(0, 1), (1, 0)])
-        ));
+        // What one plan executing `pairs` straight teaches, and whether it did.
+        let learn = |sites: &[Site], pairs: Vec<(usize, usize)>| {
+            let mut costs = LearnedCosts::default();
+            let learned = costs.learn(&layout, sites, &assigned, &straight(sites, pairs));
+            (learned, costs)
+        };
+        let (learned, costs) = learn(&sites, vec![(0, 1), (1, 0)]);
+        assert!(learned);
         assert_eq!(costs.pair_m.len(), 2);
         assert!((costs.pair_m[&(0, 0)] - 80.0).abs() < 1e-9);
         assert!((costs.pair_m[&(1, 1)] - 80.0).abs() < 1e-9);
-        let mut costs = LearnedCosts::default();
-        assert!(costs.learn(
-            &layout,
-            &sites,
-            &assigned,
-            &straight(&sites, vec![(0, 0), (2, 1)])
-        ));
+        let (learned, costs) = learn(&sites, vec![(0, 0), (2, 1)]);
+        assert!(learned);
         assert_eq!(costs.pair_m.len(), 1);
         assert!((costs.pair_m[&(1, 1)] - 10.0).abs() < 1e-9);
         // Sites at x = 60 and 70: 60 + 20 assigned, 70 + 10 traded.
         sites[0].centre_m.x = 60.0;
         sites[1].centre_m.x = 70.0;
-        let mut costs = LearnedCosts::default();
-        assert!(!costs.learn(
-            &layout,
-            &sites,
-            &assigned,
-            &straight(&sites, vec![(0, 1), (1, 0)])
-        ));
+        assert!(!learn(&sites, vec![(0, 1), (1, 0)]).0);
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! distance is smallest.
 
 use super::{Pattern, PatternError, Site, bbox, numbered_sites};
+use crate::plan::PARKING_AWARE_MAX_PAIRS;
 use crate::plan::assignment::{AssignmentMethod, assign};
 use crate::plan::grid::Grid;
 use crate::plan::parking::clearing_bound;
@@ -86,10 +87,6 @@ pub fn place_at(
     Ok(sites_at(pattern, centre_m))
 }
 
-/// Largest sites x particles instance whose candidate centres are scored
-/// by the clearing bound (dense); above it by the plain assignment.
-const CLEARING_PLACEMENT_MAX_PAIRS: usize = 250_000;
-
 /// Places the pattern inside `area` where the total push distance is smallest:
 /// a grid of candidate centres scored by the sum of nearest-particle distances
 /// (a lower bound of the assignment), the best few scored exactly, by
@@ -106,7 +103,7 @@ pub fn place_optimised(
     if candidates.len() == 1 || pattern.offsets_m.len() > 2000 {
         return Ok(sites_at(pattern, candidates[0]));
     }
-    let dense = pattern.offsets_m.len() * particles.len() <= CLEARING_PLACEMENT_MAX_PAIRS;
+    let dense = pattern.offsets_m.len() * particles.len() <= PARKING_AWARE_MAX_PAIRS;
     let reach = vec![2.0 * radius_m; particles.len()];
     let exact = |c: Vector2<f64>| {
         let sites: Vec<Vector2<f64>> = pattern.offsets_m.iter().map(|o| c + o).collect();
