@@ -122,15 +122,16 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
         if kind == LayoutKind::Uniform {
             // Regression floor under the measured figure (see docs/plan.md).
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
-            // Measured 98 since the twelfth pass (95 after the eleventh, 72
-            // after the tenth, 52 after the ninth, 32 before it).
-            assert!(push_ok >= 98, "only {push_ok} of 100 meet push ratio 1.05");
+            // Measured 99 since the fourteenth pass (98 after the twelfth,
+            // 95 after the eleventh, 72 after the tenth, 52 after the ninth,
+            // 32 before it).
+            assert!(push_ok >= 99, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
 
 #[test]
-#[ignore = "targets not met: worst push ratio 1.071 (target 1.05, 98/100 meet it), push+tip ratio median 1.329 worst 1.474 (target 1.2, 4/100 meet it); 100/100 planned; see docs/plan.md"]
+#[ignore = "targets not met: worst push ratio 1.071 (target 1.05, 99/100 meet it), push+tip ratio median 1.329 worst 1.474 (target 1.2, 4/100 meet it); 100/100 planned; see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);

@@ -5,6 +5,7 @@
 //! a general k-d tree crate would add a dependency for no gain here.
 
 use nalgebra::Vector2;
+use std::ops::RangeInclusive;
 
 /// Uniform grid of point indices.
 #[derive(Debug, Clone)]
@@ -113,11 +114,8 @@ impl Grid {
         if self.points.is_empty() {
             return true;
         }
-        let (nx, ny) = (self.nx as i64, self.ny as i64);
-        for_each_cell_near_segment(self.origin, self.cell_m, a, b, reach_m, |cx, cy| {
-            if cx < 0 || cy < 0 || cx >= nx || cy >= ny {
-                return true;
-            }
+        let within = [0..=self.nx as i64 - 1, 0..=self.ny as i64 - 1];
+        for_each_cell_near_segment(self.origin, self.cell_m, a, b, reach_m, within, |cx, cy| {
             self.cells[cy as usize * self.nx + cx as usize]
                 .iter()
                 .all(|&i| f(i))
@@ -161,12 +159,16 @@ impl Grid {
 /// come within `reach_m` of the segment a-b, column by column, until `f`
 /// returns false; false when it stopped early. A long segment's bounding
 /// square holds many cells far from it; this visits about three per column.
+/// Only cells with `cx` in `within[0]` and `cy` in `within[1]` are
+/// visited: a grid of tiny cells (one point has no spread to size them by)
+/// would otherwise walk millions of empty cells along a long segment.
 pub fn for_each_cell_near_segment(
     origin: Vector2<f64>,
     cell_m: f64,
     a: Vector2<f64>,
     b: Vector2<f64>,
     reach_m: f64,
+    within: [RangeInclusive<i64>; 2],
     mut f: impl FnMut(i64, i64) -> bool,
 ) -> bool {
     if !(reach_m.is_finite() && a.iter().chain(b.iter()).all(|v| v.is_finite())) {
@@ -176,8 +178,8 @@ pub fn for_each_cell_near_segment(
     let reach_m = reach_m + cell_m * 1e-3;
     let cell = |v: f64, o: f64| ((v - o) / cell_m).floor() as i64;
     let d = b - a;
-    let x0 = cell(a.x.min(b.x) - reach_m, origin.x);
-    let x1 = cell(a.x.max(b.x) + reach_m, origin.x);
+    let x0 = cell(a.x.min(b.x) - reach_m, origin.x).max(*within[0].start());
+    let x1 = cell(a.x.max(b.x) + reach_m, origin.x).min(*within[0].end());
     for cx in x0..=x1 {
         // The part of the segment whose points lie within reach of this
         // column's slab; the cells it touches, widened by the reach.
@@ -195,8 +197,8 @@ pub fn for_each_cell_near_segment(
             continue;
         }
         let (ya, yb) = (a.y + d.y * t0, a.y + d.y * t1);
-        let y0 = cell(ya.min(yb) - reach_m, origin.y);
-        let y1 = cell(ya.max(yb) + reach_m, origin.y);
+        let y0 = cell(ya.min(yb) - reach_m, origin.y).max(*within[1].start());
+        let y1 = cell(ya.max(yb) + reach_m, origin.y).min(*within[1].end());
         for cy in y0..=y1 {
             if !f(cx, cy) {
                 return false;
@@ -230,6 +232,25 @@ mod tests {
             grid.within(q, 8.0).len(),
             brute.iter().filter(|b| b.0 <= 8.0).count()
         );
+    }
+
+    /// One point gives no spread to size the cells by, so they come out a
+    /// picometre wide; a long segment query must still end at once (it
+    /// walked billions of empty cells before it was bounded to the grid).
+    #[test]
+    fn segment_query_on_a_one_point_grid_ends_and_finds_it() {
+        let grid = Grid::new([Vector2::new(50e-6, 50e-6)], 0.0);
+        let mut seen = Vec::new();
+        grid.for_each_near_segment(
+            Vector2::new(0.0, 50e-6),
+            Vector2::new(100e-6, 50e-6),
+            10e-6,
+            |i| {
+                seen.push(i);
+                true
+            },
+        );
+        assert_eq!(seen, vec![0]);
     }
 
     #[test]

@@ -14,6 +14,7 @@
 pub mod assignment;
 pub mod bounds;
 pub mod failed_routes;
+pub mod fixed_detours;
 pub mod grid;
 pub mod layout;
 pub mod locked;
@@ -442,6 +443,9 @@ struct FreeProblem {
     plain: Vec<usize>,
     /// Parking cost of every free particle (empty on large instances).
     park: Vec<f64>,
+    /// (free particle, free site) -> the detour around the particles that
+    /// never move (refined instances only; [`fixed_detours`]).
+    detours: HashMap<(usize, usize), f64>,
     lb_push_m: f64,
 }
 
@@ -494,6 +498,18 @@ impl FreeProblem {
         } else {
             Vec::new()
         };
+        let detours = if config.method != AssignmentMethod::Greedy
+            && site_pts.len() * part_pts.len() <= REFINE_MAX_PAIRS
+        {
+            let fixed: Vec<usize> = (0..layout.particles.len())
+                .filter(|&p| {
+                    particle_taken[p] || config.immovable.contains(&layout.particles[p].id)
+                })
+                .collect();
+            fixed_detours::fixed_detours(layout, &fixed, &free_particles, &site_pts, config)
+        } else {
+            HashMap::new()
+        };
         let fixed: f64 = on_site_pairs
             .iter()
             .map(|&(p, s)| (layout.particles[p].centre_m - sites[s].centre_m).norm())
@@ -512,6 +528,7 @@ impl FreeProblem {
             part_pts,
             plain: plain.site_to_particle,
             park,
+            detours,
             lb_push_m: free_lb + fixed,
         })
     }
@@ -542,11 +559,12 @@ impl FreeProblem {
             .iter()
             .filter_map(|&pair| self.free_pair(pair))
             .collect();
-        let pair_m: HashMap<(usize, usize), f64> = learned
-            .pair_m
-            .iter()
-            .filter_map(|(&pair, &c)| Some((self.free_pair(pair)?, c)))
-            .collect();
+        let mut pair_m = self.detours.clone();
+        for (&pair, &c) in &learned.pair_m {
+            if let Some(free) = self.free_pair(pair) {
+                *pair_m.entry(free).or_insert(0.0) += c;
+            }
+        }
         let park: Vec<f64> = (0..self.part_pts.len())
             .map(|j| {
                 let learned = learned.park_m.get(&self.free_particles[j]).copied();
@@ -554,7 +572,7 @@ impl FreeProblem {
             })
             .collect();
         let chosen = if self.is_small()
-            && (!banned.is_empty() || !learned.is_empty() || park.iter().any(|&c| c > 0.0))
+            && (!banned.is_empty() || !pair_m.is_empty() || park.iter().any(|&c| c > 0.0))
         {
             assignment::with_parking::solve(&self.site_pts, &self.part_pts, &park, &banned, &pair_m)
         } else {

@@ -108,11 +108,20 @@ impl Occupancy {
     ) {
         let (a, b, r) = c.spine_m;
         let reach = r + self.max_radius_m + clearance;
-        for_each_cell_near_segment(Vector2::zeros(), self.cell_m, a, b, reach, |x, y| {
-            self.cells
-                .get(&(x, y))
-                .is_none_or(|v| v.iter().all(|&i| f(i)))
-        });
+        let anywhere = [i64::MIN..=i64::MAX, i64::MIN..=i64::MAX];
+        for_each_cell_near_segment(
+            Vector2::zeros(),
+            self.cell_m,
+            a,
+            b,
+            reach,
+            anywhere,
+            |x, y| {
+                self.cells
+                    .get(&(x, y))
+                    .is_none_or(|v| v.iter().all(|&i| f(i)))
+            },
+        );
     }
     /// First particle other than `except` that the corridor hits.
     pub fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {
