@@ -147,9 +147,12 @@ fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
 /// re-sequenced without collision constraints (only each particle's
 /// sequence kept), LB_tip, and the assignment bound as it was before self
 /// pairs were forbidden (start at the plan's first landing). Shows whether
-/// the collision constraints or the search make the gap to LB_tip.
+/// the collision constraints or the search make the gap to LB_tip. Since
+/// the thirteenth pass also the constrained optimum (`tour::exact`, a DP
+/// over the sets of moves done), which must lie between the constrained
+/// assignment bound and the search, and replay cleanly.
 #[test]
-#[ignore = "a study: prints the tip-tour figures of docs/plan.md (about 20 s in release)"]
+#[ignore = "a study: prints the tip-tour figures of docs/plan.md (about 30-40 min in release: the exact DP)"]
 fn tip_tour_study_on_cmu() {
     use nanopush::plan::assignment::{AssignmentMethod, assign};
     use nanopush::plan::pushes::{landing_point, tip_end};
@@ -179,6 +182,7 @@ fn tip_tour_study_on_cmu() {
             "seed {seed}: {st:?}"
         );
         let optimal_m = st.optimal_m.expect("CMU's moves fit the DP's set");
+        assert!(st.optimal_replays, "seed {seed}: the DP's order collides");
         assert!(
             optimal_m <= st.constrained_m + 1e-12 && optimal_m >= st.constrained_bound_m - 1e-12,
             "seed {seed}: the DP's tour outside [bound, search]: {st:?}"

@@ -68,8 +68,34 @@ struct Entry {
     cost: f64,
 }
 
-/// One layer: per set of moves done, its states (one per last move).
-type Layer = HashMap<u128, Vec<Entry>, BuildHasherDefault<SetHasher>>;
+/// One layer: per set of moves done, its states (one per last move), as a
+/// chain through one flat list (millions of sets: no list of their own each).
+#[derive(Default)]
+struct Layer {
+    /// Per set, the index of its first state in `states`.
+    heads: HashMap<u128, u32, BuildHasherDefault<SetHasher>>,
+    /// States, each with the index of the next state of its set (`u32::MAX`: none).
+    states: Vec<(Entry, u32)>,
+}
+
+impl Layer {
+    fn push(&mut self, set: u128, e: Entry) {
+        let at = self.states.len() as u32;
+        let head = self.heads.entry(set).or_insert(u32::MAX);
+        self.states.push((e, *head));
+        *head = at;
+    }
+
+    /// The states of the set whose chain starts at `head`.
+    fn chain(&self, head: u32) -> impl Iterator<Item = &Entry> + '_ {
+        let mut at = head;
+        std::iter::from_fn(move || {
+            let (e, next) = self.states.get(at as usize)?;
+            at = *next;
+            Some(e)
+        })
+    }
+}
 
 /// The least-travel valid order of `problem`'s moves, never longer than
 /// `incumbent` (a valid order); None when there are more than
@@ -93,68 +119,71 @@ pub fn optimal_path(
             sets_per_layer: vec![1],
         });
     }
-    let upper = problem.travel(incumbent);
-    let ways_in = ways_in(problem);
+    let upper = problem.travel(incumbent) * (1.0 + 1e-9);
+    let hops = Hops::new(problem);
     let mut layers: Vec<Layer> = Vec::with_capacity(n + 1);
     let mut first = Layer::default();
-    first.insert(
+    first.push(
         0,
-        vec![Entry {
+        Entry {
             last: u8::MAX,
             prev: u8::MAX,
             cost: 0.0,
-        }],
+        },
     );
     layers.push(first);
     let mut exact = true;
     let mut state = bl.states_after(&[]);
     for k in 0..n {
         let mut next = Layer::default();
-        for (&set, entries) in &layers[k] {
+        let layer = &layers[k];
+        for (&set, &head) in &layer.heads {
             state.iter_mut().for_each(|s| *s = 0);
             for m in (0..n).filter(|&m| set & bit(m) != 0) {
                 state[bl.particle_of(m)] += 1;
             }
-            let rest = budget.prune.then(|| RestBound::new(&ways_in, set));
+            let rest = budget.prune.then(|| RestBound::new(&hops, set));
             for m in (0..n).filter(|&m| set & bit(m) == 0) {
                 if !bl.allows_next(m, &state) {
                     continue;
                 }
-                let best = entries
-                    .iter()
+                let best = layer
+                    .chain(head)
                     .map(|e| (e.cost + problem.hop(last_of(e), m), e.last))
                     .min_by(|a, b| a.0.total_cmp(&b.0))
                     .expect("a kept set has a state");
-                if rest
-                    .as_ref()
-                    .is_some_and(|r| best.0 + r.after(m) > upper * (1.0 + 1e-9))
-                {
+                if rest.as_ref().is_some_and(|r| best.0 + r.after(m) > upper) {
                     continue;
                 }
-                next.entry(set | bit(m)).or_default().push(Entry {
-                    last: m as u8,
-                    prev: best.1,
-                    cost: best.0,
-                });
+                next.push(
+                    set | bit(m),
+                    Entry {
+                        last: m as u8,
+                        prev: best.1,
+                        cost: best.0,
+                    },
+                );
             }
         }
-        if count_states(&next) > budget.max_layer_states {
+        if next.states.len() > budget.max_layer_states {
             exact = false;
             next = cut_to_beam(next, budget.beam, incumbent, k + 1);
         }
         layers.push(next);
     }
-    let (&full, entries) = layers[n].iter().next()?;
+    let (&full, &head) = layers[n].heads.iter().next()?;
     debug_assert_eq!(full.count_ones() as usize, n);
-    let end = entries.iter().min_by(|a, b| a.cost.total_cmp(&b.cost))?;
+    let end = layers[n]
+        .chain(head)
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))?;
     let order = backtrack(&layers, full, *end);
     let travel_m = problem.travel(&order);
     Some(ExactTour {
         order,
         travel_m,
         exact,
-        states_per_layer: layers.iter().map(count_states).collect(),
-        sets_per_layer: layers.iter().map(|l| l.len()).collect(),
+        states_per_layer: layers.iter().map(|l| l.states.len()).collect(),
+        sets_per_layer: layers.iter().map(|l| l.heads.len()).collect(),
     })
 }
 
@@ -166,73 +195,104 @@ fn last_of(e: &Entry) -> Option<usize> {
     (e.last != u8::MAX).then_some(e.last as usize)
 }
 
-fn count_states(layer: &Layer) -> usize {
-    layer.values().map(Vec::len).sum()
+/// Per move, the moves that may run right before it and right after it,
+/// with the hop each way, shortest first (the start is not one: only the
+/// first move uses it).
+struct Hops {
+    ways_in: Vec<Vec<(f64, usize)>>,
+    ways_out: Vec<Vec<(f64, usize)>>,
 }
 
-/// Per move, the moves that may run right before it with the hop from each,
-/// shortest first (the start is not one: only the first move uses it).
-fn ways_in(problem: &PathProblem) -> Vec<Vec<(f64, usize)>> {
-    let bl = problem.blocking;
-    let n = bl.len();
-    (0..n)
-        .map(|j| {
-            let mut w: Vec<(f64, usize)> = (0..n)
-                .filter(|&i| i != j && bl.may_follow(i, j))
-                .map(|i| (problem.hop(Some(i), j), i))
-                .collect();
+impl Hops {
+    fn new(problem: &PathProblem) -> Self {
+        let bl = problem.blocking;
+        let n = bl.len();
+        let sorted = |mut w: Vec<(f64, usize)>| {
             w.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
             w
-        })
-        .collect()
+        };
+        let pairs = |j: usize| (0..n).filter(move |&i| i != j);
+        Hops {
+            ways_in: (0..n)
+                .map(|j| {
+                    let w = pairs(j).filter(|&i| bl.may_follow(i, j));
+                    sorted(w.map(|i| (problem.hop(Some(i), j), i)).collect())
+                })
+                .collect(),
+            ways_out: (0..n)
+                .map(|i| {
+                    let w = pairs(i).filter(|&j| bl.may_follow(i, j));
+                    sorted(w.map(|j| (problem.hop(Some(i), j), j)).collect())
+                })
+                .collect(),
+        }
+    }
 }
 
 /// A lower bound on the rest of any order from the set `done`, per next
-/// move: after the next move `m`, each other move `j` not done is entered
-/// from some move not done before `m` (`m` included), so it costs at least
-/// its shortest hop in from those. Returns the sum of those shortest hops
-/// over the moves not done, and each one's own (infinite when no move not
-/// done may precede it: it can then only be the next).
+/// move `m`. After `m`, each other move not done is entered from a move
+/// not done before `m` (`m` included): at least its shortest hop in from
+/// those. And each move not done but the final one leaves to another move
+/// not done: at least its shortest hop out to those, less the largest of
+/// them. The larger of the two sums.
 struct RestBound {
-    sum: f64,
-    unreachable: usize,
-    least: Vec<f64>,
+    /// Sum of the finite shortest hops in, and how many moves have none.
+    in_sum: f64,
+    in_none: usize,
+    /// Per move not done, its shortest hop in (infinite: none).
+    least_in: Vec<f64>,
+    /// The bound from the hops out (infinite when two moves have none).
+    out: f64,
 }
 
 impl RestBound {
-    fn new(ways_in: &[Vec<(f64, usize)>], done: u128) -> Self {
-        let mut least = vec![0.0; ways_in.len()];
-        let (mut sum, mut unreachable) = (0.0, 0);
-        for (j, w) in ways_in.iter().enumerate() {
-            if done & bit(j) != 0 {
-                continue;
-            }
-            let h = w
-                .iter()
+    fn new(hops: &Hops, done: u128) -> Self {
+        let least = |w: &Vec<(f64, usize)>| {
+            w.iter()
                 .find(|&&(_, i)| done & bit(i) == 0)
-                .map_or(f64::INFINITY, |&(h, _)| h);
-            least[j] = h;
-            if h.is_finite() {
-                sum += h;
+                .map_or(f64::INFINITY, |&(h, _)| h)
+        };
+        let n = hops.ways_in.len();
+        let mut least_in = vec![0.0; n];
+        let (mut in_sum, mut in_none) = (0.0, 0);
+        let (mut out_sum, mut out_none, mut out_max) = (0.0, 0, 0.0f64);
+        for j in (0..n).filter(|&j| done & bit(j) == 0) {
+            least_in[j] = least(&hops.ways_in[j]);
+            if least_in[j].is_finite() {
+                in_sum += least_in[j];
             } else {
-                unreachable += 1;
+                in_none += 1;
+            }
+            let o = least(&hops.ways_out[j]);
+            if o.is_finite() {
+                out_sum += o;
+                out_max = out_max.max(o);
+            } else {
+                out_none += 1;
             }
         }
+        let out = match out_none {
+            0 => out_sum - out_max,
+            1 => out_sum,
+            _ => f64::INFINITY,
+        };
         RestBound {
-            sum,
-            unreachable,
-            least,
+            in_sum,
+            in_none,
+            least_in,
+            out,
         }
     }
 
     /// The bound on the travel after `m` runs next.
     fn after(&self, m: usize) -> f64 {
-        let own_unreachable = usize::from(self.least[m].is_infinite());
-        match self.unreachable - own_unreachable {
-            0 if own_unreachable == 1 => self.sum,
-            0 => self.sum - self.least[m],
+        let own_none = usize::from(self.least_in[m].is_infinite());
+        let ins = match self.in_none - own_none {
+            0 if own_none == 1 => self.in_sum,
+            0 => self.in_sum - self.least_in[m],
             _ => f64::INFINITY,
-        }
+        };
+        ins.max(self.out)
     }
 }
 
@@ -242,8 +302,9 @@ fn cut_to_beam(layer: Layer, beam: usize, incumbent: &[usize], done: usize) -> L
     let keep_set: u128 = incumbent[..done].iter().fold(0, |s, &m| s | bit(m));
     let keep_last = incumbent[done - 1] as u8;
     let mut all: Vec<(u128, Entry)> = layer
-        .into_iter()
-        .flat_map(|(set, es)| es.into_iter().map(move |e| (set, e)))
+        .heads
+        .iter()
+        .flat_map(|(&set, &head)| layer.chain(head).map(move |&e| (set, e)))
         .collect();
     // Ties broken by the set and the last move: the same beam on any machine.
     all.sort_by(|a, b| {
@@ -255,7 +316,7 @@ fn cut_to_beam(layer: Layer, beam: usize, incumbent: &[usize], done: usize) -> L
     let mut out = Layer::default();
     for (k, (set, e)) in all.into_iter().enumerate() {
         if k < beam || (set == keep_set && e.last == keep_last) {
-            out.entry(set).or_default().push(e);
+            out.push(set, e);
         }
     }
     out
@@ -271,9 +332,9 @@ fn backtrack(layers: &[Layer], mut set: u128, end: Entry) -> Vec<usize> {
         if e.prev == u8::MAX {
             break;
         }
-        let k = set.count_ones() as usize;
-        e = *layers[k][&set]
-            .iter()
+        let layer = &layers[set.count_ones() as usize];
+        e = *layer
+            .chain(layer.heads[&set])
             .find(|x| x.last == e.prev)
             .expect("a state's predecessor is in the layer it was built from");
     }

@@ -98,6 +98,9 @@ pub struct TourStudy {
     pub optimal_m: Option<f64>,
     /// True when `optimal_m` is proven least (no layer of the DP was cut to a beam).
     pub exact: bool,
+    /// True when the DP's order replays free of collisions (it must: the
+    /// DP only tests the blocking masks).
+    pub optimal_replays: bool,
     /// States the DP kept, in total over its layers, and in its largest layer.
     pub dp_states: (usize, usize),
     /// Number of moves.
@@ -142,6 +145,9 @@ pub fn study(
         unconstrained_m,
         optimal_m: dp.as_ref().map(|d| d.travel_m),
         exact: dp.as_ref().is_some_and(|d| d.exact),
+        optimal_replays: dp
+            .as_ref()
+            .is_some_and(|d| collision_free(steps, &moves, layout, config, &d.order)),
         dp_states: dp.as_ref().map_or((0, 0), |d| {
             let s = &d.states_per_layer;
             (s.iter().sum(), s.iter().copied().max().unwrap_or(0))
