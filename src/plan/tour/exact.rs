@@ -1,20 +1,22 @@
 //! The shortest tip path through the moves under the collision constraints,
 //! solved exactly by dynamic programming over the sets of moves done.
 //!
-//! Why it can be exact: a particle's position is fixed by how many of its own
-//! moves have run ([`super::blocking::Blocking`]), so whether a move may run next depends only
-//! on the *set* of moves done, not on their order. The least travel to have
-//! done the set `S` with move `m` last is then `min over l in S \ {m}` of the
-//! least travel to `(S \ {m}, l)` plus the hop `l -> m` (Held-Karp for the
-//! sequential-ordering problem). Only sets reachable under
-//! [`super::blocking::Blocking::allows_next`] are expanded, layer by layer (layer k = the sets
-//! of k moves), and the precedences are dense, so far fewer than `2^n` sets
-//! occur.
+//! Why it can be exact: a particle's position is fixed by how many of its
+//! own moves have run ([`super::blocking::Blocking`]), so whether a move may
+//! run next depends only on the *set* of moves done, not on their order. The
+//! least travel to have done the set `S` with move `m` last is then the
+//! least over `l` in `S \ {m}` of the least travel to `(S \ {m}, l)` plus
+//! the hop `l -> m` (Held-Karp for the sequential-ordering problem). Only
+//! sets reachable under [`super::blocking::Blocking::allows_next`] are
+//! expanded, layer by layer (layer k = the sets of k moves); on CMU's 30-37
+//! moves that is 0.6-18 M sets of 2^31 or more (docs/plan.md, thirteenth
+//! pass).
 //!
 //! Why a bound prunes: a state whose travel plus a lower bound on the rest
-//! (each remaining move's cheapest way in from any move that may precede it)
-//! exceeds a known valid order's travel (the incumbent) is on no shorter
-//! path; dropping it keeps the answer exact.
+//! ([`RestBound`]: each move not done entered by its shortest hop from a
+//! move not done, or left by its shortest hop out) exceeds a known valid
+//! order's travel (the incumbent) is on no shorter path; dropping it keeps
+//! the answer exact.
 //!
 //! Why a beam: when a layer still holds more than a cap of states, only the
 //! cheapest are kept (and the incumbent's own prefix, so the answer is never
@@ -23,7 +25,8 @@
 //! not time, so a seed gives the same order on any machine.
 //!
 //! Used by the tour study (`tour::study`) to measure how far the local
-//! search ([`super::search`]) is from the constrained optimum.
+//! search ([`super::search`]) is from the constrained optimum: on CMU, not
+//! far (the product keeps the search; docs/plan.md).
 
 use super::search::PathProblem;
 use std::collections::HashMap;
