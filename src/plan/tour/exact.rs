@@ -13,7 +13,7 @@
 //! pass).
 //!
 //! Why a bound prunes: a state whose travel plus a lower bound on the rest
-//! ([`RestBound`]: each move not done entered by its shortest hop from a
+//! (`RestBound`: each move not done entered by its shortest hop from a
 //! move not done, or left by its shortest hop out) exceeds a known valid
 //! order's travel (the incumbent) is on no shorter path; dropping it keeps
 //! the answer exact.
