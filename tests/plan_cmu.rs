@@ -148,9 +148,12 @@ fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
 /// re-sequenced without collision constraints (only each particle's
 /// sequence kept), LB_tip, and the assignment bound as it was before self
 /// pairs were forbidden (start at the plan's first landing). Shows whether
-/// the collision constraints or the search make the gap to LB_tip.
+/// the collision constraints or the search make the gap to LB_tip. Since
+/// the thirteenth pass also the constrained optimum (`tour::exact`, a DP
+/// over the sets of moves done), which must lie between the constrained
+/// assignment bound and the search, and replay cleanly.
 #[test]
-#[ignore = "a study: prints the tip-tour figures of docs/plan.md (about 20 s in release)"]
+#[ignore = "a study: prints the tip-tour figures of docs/plan.md (about 30-40 min in release: the exact DP)"]
 fn tip_tour_study_on_cmu() {
     use nanopush::plan::assignment::{AssignmentMethod, assign};
     use nanopush::plan::pushes::{landing_point, tip_end};
@@ -158,6 +161,8 @@ fn tip_tour_study_on_cmu() {
     let config = PlanConfig::default();
     let (mut plan_r, mut free_r, mut lb_gain, mut total_old, mut total_new, mut cons_b) =
         (vec![], vec![], vec![], vec![], vec![], vec![]);
+    let (mut search_r, mut opt_r, mut total_opt, mut exact, mut dp_ms) =
+        (vec![], vec![], vec![], 0, vec![]);
     for seed in 0..100u64 {
         let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
         let Ok(plan) = plan_assembly(&layout, &sites, &config) else {
@@ -169,12 +174,22 @@ fn tip_tour_study_on_cmu() {
             .filter(|s| matches!(s, Step::Push { .. }))
             .cloned()
             .collect();
+        let t0 = std::time::Instant::now();
         let st = tour::study(&pushes, &layout, None, &config).expect("pushes split into moves");
+        let study_ms = t0.elapsed().as_secs_f64() * 1e3;
         let s = &plan.summary;
         assert!(
             st.constrained_m <= st.given_m + 1e-12,
             "seed {seed}: {st:?}"
         );
+        let optimal_m = st.optimal_m.expect("CMU's moves fit the DP's set");
+        assert!(st.optimal_replays, "seed {seed}: the DP's order collides");
+        assert!(
+            optimal_m <= st.constrained_m + 1e-12 && optimal_m >= st.constrained_bound_m - 1e-12,
+            "seed {seed}: the DP's tour outside [bound, search]: {st:?}"
+        );
+        exact += usize::from(st.exact);
+        dp_ms.push(study_ms);
         let lb = bounds::lb_tip(&pushes, None, &config);
         assert!(
             lb <= s.tip_travel_m + 1e-12,
@@ -203,6 +218,20 @@ fn tip_tour_study_on_cmu() {
         let unconstrained_tip = s.tip_travel_m - st.given_m + st.unconstrained_m;
         let intra_moves = s.tip_travel_m - st.given_m;
         cons_b.push((intra_moves + st.constrained_bound_m) / lb);
+        search_r.push((intra_moves + st.constrained_m) / lb);
+        opt_r.push((intra_moves + optimal_m) / lb);
+        total_opt.push((s.push_distance_m + intra_moves + optimal_m) / (s.lb_push_m + lb));
+        eprintln!(
+            "seed {seed}: {} moves, DP {} ({} states, {} in the largest layer), study {study_ms:.0} ms; tip / LB_tip: plan {:.3}, search {:.3}, DP {:.3}, bound {:.3}",
+            st.moves,
+            if st.exact { "exact" } else { "beam" },
+            st.dp_states.0,
+            st.dp_states.1,
+            s.tip_travel_m / lb,
+            (intra_moves + st.constrained_m) / lb,
+            (intra_moves + optimal_m) / lb,
+            (intra_moves + st.constrained_bound_m) / lb,
+        );
         plan_r.push(s.tip_travel_m / lb);
         free_r.push(unconstrained_tip / lb);
         lb_gain.push(lb / old_lb);
@@ -219,12 +248,21 @@ fn tip_tour_study_on_cmu() {
             v.len()
         );
     };
+    let n_layouts = plan_r.len();
     show("plan tip travel / LB_tip", plan_r);
+    show("constrained search tip travel / LB_tip", search_r);
+    show("constrained optimum (DP) tip travel / LB_tip", opt_r);
+    eprintln!("DP exact on {exact} of {n_layouts} layouts (the rest: beam, an upper bound)");
+    show("study time per layout, ms", dp_ms);
     show("unconstrained tour tip travel / LB_tip", free_r);
     show("LB_tip / LB_tip with self pairs", lb_gain);
     show("constrained assignment bound / LB_tip", cons_b);
     show("push+tip ratio against the old LB_tip", total_old);
     show("push+tip ratio against LB_tip", total_new);
+    show(
+        "push+tip ratio with the DP's tour, against LB_tip",
+        total_opt,
+    );
 }
 
 /// Where the push distance above LB_push goes on CMU: the executed

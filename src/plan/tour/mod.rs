@@ -13,6 +13,7 @@
 //! not replay cleanly is never returned.
 
 pub mod blocking;
+pub mod exact;
 pub mod search;
 
 use super::layout::Layout;
@@ -92,9 +93,26 @@ pub struct TourStudy {
     /// also the pairs forbidden where the second move would hit the first
     /// one's particle where it was just left (hops only, no standoffs).
     pub constrained_bound_m: f64,
+    /// Travel of the least-travel constrained order ([`exact::optimal_path`]
+    /// from the search's order), when the moves fit its set type.
+    pub optimal_m: Option<f64>,
+    /// True when `optimal_m` is proven least (no layer of the DP was cut to a beam).
+    pub exact: bool,
+    /// True when the DP's order replays free of collisions (it must: the
+    /// DP only tests the blocking masks).
+    pub optimal_replays: bool,
+    /// States the DP kept, in total over its layers, and in its largest layer.
+    pub dp_states: (usize, usize),
     /// Number of moves.
     pub moves: usize,
 }
+
+/// The study's DP budget: a layer above 5 M states is cut to the best 1 M.
+pub const STUDY_DP: exact::DpBudget = exact::DpBudget {
+    max_layer_states: 5_000_000,
+    beam: 1_000_000,
+    prune: true,
+};
 
 /// Measures [`TourStudy`] for `steps` (pushes in a collision-free order);
 /// None when the pushes do not split into moves.
@@ -111,7 +129,9 @@ pub fn study(
     let mut problem = PathProblem::new(&lands, &ends, tip_start, &blocking);
     let given = identity(moves.len());
     let given_m = problem.travel(&given);
-    let constrained_m = problem.travel(&shortest_path(&problem, given.clone(), budget()));
+    let searched = shortest_path(&problem, given.clone(), budget());
+    let constrained_m = problem.travel(&searched);
+    let dp = exact::optimal_path(&problem, &searched, STUDY_DP);
     problem.blocking = &free;
     let unconstrained_m = problem.travel(&shortest_path(&problem, given, budget()));
     let constrained_bound_m =
@@ -123,6 +143,15 @@ pub fn study(
         given_m,
         constrained_m,
         unconstrained_m,
+        optimal_m: dp.as_ref().map(|d| d.travel_m),
+        exact: dp.as_ref().is_some_and(|d| d.exact),
+        optimal_replays: dp
+            .as_ref()
+            .is_some_and(|d| collision_free(steps, &moves, layout, config, &d.order)),
+        dp_states: dp.as_ref().map_or((0, 0), |d| {
+            let s = &d.states_per_layer;
+            (s.iter().sum(), s.iter().copied().max().unwrap_or(0))
+        }),
         moves: moves.len(),
     })
 }
@@ -216,11 +245,11 @@ mod tests {
 
     const UM: f64 = 1e-6;
 
-    fn v(x: f64, y: f64) -> Vector2<f64> {
+    pub(super) fn v(x: f64, y: f64) -> Vector2<f64> {
         Vector2::new(x * UM, y * UM)
     }
 
-    fn layout(centres: &[Vector2<f64>]) -> Layout {
+    pub(super) fn layout(centres: &[Vector2<f64>]) -> Layout {
         Layout {
             field_m: [200.0 * UM, 200.0 * UM],
             particles: centres
@@ -235,7 +264,12 @@ mod tests {
         }
     }
 
-    fn push(particle: u32, from: Vector2<f64>, to: Vector2<f64>, cfg: &PlanConfig) -> Step {
+    pub(super) fn push(
+        particle: u32,
+        from: Vector2<f64>,
+        to: Vector2<f64>,
+        cfg: &PlanConfig,
+    ) -> Step {
         Step::Push {
             particle,
             from_m: from,
