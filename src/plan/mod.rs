@@ -506,7 +506,20 @@ impl FreeProblem {
                     particle_taken[p] || config.immovable.contains(&layout.particles[p].id)
                 })
                 .collect();
-            fixed_detours::fixed_detours(layout, &fixed, &free_particles, &site_pts, config)
+            let longest_m = plain
+                .site_to_particle
+                .iter()
+                .enumerate()
+                .map(|(k, &j)| (site_pts[k] - part_pts[j]).norm())
+                .fold(0.0, f64::max);
+            fixed_detours::fixed_detours(
+                layout,
+                &fixed,
+                &free_particles,
+                &site_pts,
+                longest_m,
+                config,
+            )
         } else {
             HashMap::new()
         };
