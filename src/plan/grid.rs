@@ -134,7 +134,7 @@ impl Grid {
             self.for_each_within(centre, radius, |i| {
                 found.push(((self.points[i] - centre).norm(), i))
             });
-            let covers_all = radius > (self.nx.max(self.ny) as f64 + 2.0) * self.cell_m * 1.5;
+            let covers_all = radius >= self.farthest_corner_m(centre);
             if found.len() >= k || covers_all {
                 found.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 found.truncate(k);
@@ -142,6 +142,20 @@ impl Grid {
             }
             radius *= 2.0;
         }
+    }
+
+    /// Distance from `centre` to the grid's farthest corner: a search of
+    /// that radius has seen every point. (Sized by the grid's own extent
+    /// instead, a search from far outside a small grid, such as one point
+    /// 30 um away, gave up empty after a few picometres.)
+    fn farthest_corner_m(&self, centre: Vector2<f64>) -> f64 {
+        let span = Vector2::new(self.nx as f64, self.ny as f64) * self.cell_m;
+        let far = |lo: f64, hi: f64, c: f64| (c - lo).abs().max((hi - c).abs());
+        Vector2::new(
+            far(self.origin.x, self.origin.x + span.x, centre.x),
+            far(self.origin.y, self.origin.y + span.y, centre.y),
+        )
+        .norm()
     }
 
     /// Number of points in the grid.
@@ -232,6 +246,15 @@ mod tests {
             grid.within(q, 8.0).len(),
             brute.iter().filter(|b| b.0 <= 8.0).count()
         );
+    }
+
+    /// A nearest query from far outside a one-point grid finds the point.
+    #[test]
+    fn nearest_from_far_outside_a_one_point_grid_finds_it() {
+        let grid = Grid::new([Vector2::new(20e-6, 50e-6)], 0.0);
+        let got = grid.nearest(Vector2::new(50e-6, 50e-6), 1);
+        assert_eq!(got.len(), 1);
+        assert!((got[0].0 - 30e-6).abs() < 1e-12);
     }
 
     /// One point gives no spread to size the cells by, so they come out a
