@@ -13,6 +13,7 @@
 
 pub mod assignment;
 pub mod bounds;
+pub mod cmu_scene;
 pub mod failed_routes;
 pub mod fixed_detours;
 pub mod grid;
@@ -162,6 +163,37 @@ pub struct Plan {
     pub summary: PlanSummary,
 }
 
+/// Refuses at once when a particle the executor gave up on (`immovable`)
+/// overlaps a site's disc: no plan can fill that site, and the order's
+/// search would only report it as walled in after its re-assignments.
+fn check_immovable_clear_of_sites(
+    layout: &Layout,
+    sites: &[Site],
+    config: &PlanConfig,
+) -> Result<(), PlanError> {
+    let radius = layout.max_radius_m();
+    for p in layout
+        .particles
+        .iter()
+        .filter(|p| config.immovable.contains(&p.id))
+    {
+        for s in sites {
+            let d = (p.centre_m - s.centre_m).norm();
+            if d < p.radius_m + radius - 1e-9 {
+                return Err(PlanError::Blocked(format!(
+                    "site {} at ({:.2}, {:.2}) um is covered by particle {} at {:.2} um from its centre, which cannot be moved (immovable): no plan can fill it",
+                    s.id,
+                    s.centre_m.x * 1e6,
+                    s.centre_m.y * 1e6,
+                    p.id,
+                    d * 1e6
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Why planning refused.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
@@ -242,6 +274,7 @@ pub fn plan_assembly(
         }
         .into());
     }
+    check_immovable_clear_of_sites(layout, sites, config)?;
     let (assigned, ordered) = assign_and_order(layout, sites, config)?;
     let lb_push = assigned.lb_push_m;
     let pairs = &ordered.pairs;
@@ -713,5 +746,43 @@ mod tests {
         assert_eq!(rounding.1.steps, ordered(12.0).steps);
         let refused = second_opinion((assigned(), ordered(12.0)), &config, |_, _| None);
         assert_eq!(refused.1.steps, ordered(12.0).steps);
+    }
+
+    /// A particle the executor gave up on, 9 um from a site's centre,
+    /// overlaps the disc a particle filling it would take: refused at once,
+    /// naming the site and the particle. At 11 um it does not, and the plan
+    /// goes on (this one fills the site with the other particle).
+    #[test]
+    fn an_immovable_particle_on_a_site_disc_is_refused_by_name() {
+        let particle = |id: u32, x_um: f64| Particle {
+            id,
+            centre_m: Vector2::new(x_um, 50.0) * 1e-6,
+            radius_m: 5e-6,
+        };
+        let sites = [Site {
+            id: 4,
+            centre_m: Vector2::new(50e-6, 50e-6),
+        }];
+        let config = PlanConfig {
+            immovable: vec![7],
+            ..PlanConfig::default()
+        };
+        for (x_um, refused) in [(59.0, true), (61.0, false)] {
+            let layout = Layout {
+                field_m: [100e-6, 100e-6],
+                particles: vec![particle(3, 20.0), particle(7, x_um)],
+            };
+            match plan_assembly(&layout, &sites, &config) {
+                Err(PlanError::Blocked(why)) if refused => {
+                    assert!(
+                        why.contains("site 4") && why.contains("particle 7"),
+                        "{why}"
+                    );
+                    assert!(why.contains("immovable"), "{why}");
+                }
+                Ok(plan) if !refused => assert_eq!(plan.assignment, vec![(3, 4)]),
+                other => panic!("particle 7 at x = {x_um} um: {other:?}"),
+            }
+        }
     }
 }
