@@ -7,31 +7,18 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nanopush::plan::assignment::block_instance;
 use nanopush::plan::assignment::{AssignmentMethod, assign};
+use nanopush::plan::cmu_scene::cmu_scene;
 use nanopush::plan::pattern::numbered_sites;
-use nanopush::plan::pattern::transform::{Reachable, place_optimised};
-use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use nanopush::plan::{Pattern, PlanConfig, plan_assembly};
+use nanopush::plan::synth_layout::LayoutKind;
+use nanopush::plan::{PlanConfig, plan_assembly};
 use std::time::Duration;
 
 fn cmu(c: &mut Criterion) {
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
     let config = PlanConfig::default();
     // The 100 uniform acceptance layouts (planned or refused, as they come).
-    let mut cases = Vec::new();
-    for seed in 0..100u64 {
-        let n = 40 + (seed as usize * 7) % 21;
-        let p = SynthParams::cmu_field(n, LayoutKind::Uniform, seed);
-        let layout = synth_layout(&p).unwrap();
-        let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-        let sites = place_optimised(
-            &pattern,
-            &Reachable::for_field(layout.field_m, 5e-6),
-            5e-6,
-            &pts,
-        )
-        .unwrap();
-        cases.push((layout, sites));
-    }
+    let cases: Vec<_> = (0..100u64)
+        .map(|seed| cmu_scene(LayoutKind::Uniform, seed).unwrap())
+        .collect();
     // The counter lives outside the routine, which criterion calls afresh
     // for every sample: inside, each sample began again at layout 0 and the
     // estimate weighed the first layouts most (fixed_detours' first

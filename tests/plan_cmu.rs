@@ -10,9 +10,8 @@
 //! measured figures (run with `--ignored` to see them).
 
 use nanopush::plan::parking;
-use nanopush::plan::pattern::transform::{Reachable, place_optimised};
-use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use nanopush::plan::{Layout, Pattern, PlanConfig, PlanError, Site, plan_assembly, verify_plan};
+use nanopush::plan::synth_layout::LayoutKind;
+use nanopush::plan::{Layout, PlanConfig, PlanError, Site, plan_assembly, verify_plan};
 
 struct Outcome {
     planned: usize,
@@ -39,16 +38,9 @@ impl Outcome {
     }
 }
 
-/// The acceptance scene of `seed`: a CMU field of 40-60 particles and the
-/// "CMU" sites placed on it where the pushes are shortest.
+/// The acceptance scene of `seed` ([`nanopush::plan::cmu_scene`]).
 fn cmu_scene(kind: LayoutKind, seed: u64) -> (Layout, Vec<Site>) {
-    let pattern = Pattern::from_text("CMU", 10.5e-6).unwrap();
-    let p = SynthParams::cmu_field(40 + (seed as usize * 7) % 21, kind, seed);
-    let layout = synth_layout(&p).unwrap();
-    let area = Reachable::for_field(layout.field_m, 5e-6);
-    let pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
-    let sites = place_optimised(&pattern, &area, 5e-6, &pts).unwrap();
-    (layout, sites)
+    nanopush::plan::cmu_scene::cmu_scene(kind, seed).expect("the scene builds")
 }
 
 fn run_cmu(kind: LayoutKind, seeds: std::ops::Range<u64>) -> Outcome {
@@ -120,18 +112,20 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
             );
         }
         if kind == LayoutKind::Uniform {
-            // Regression floor under the measured figure (see docs/plan.md).
-            assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
-            // Measured 99 since the fourteenth pass (98 after the twelfth,
-            // 95 after the eleventh, 72 after the tenth, 52 after the ninth,
-            // 32 before it).
-            assert!(push_ok >= 99, "only {push_ok} of 100 meet push ratio 1.05");
+            // Regression floors under the measured figures (see docs/plan.md).
+            // Since the fourteenth pass the scenes span 40-60 particles as
+            // the issue asks; before, `40 + 7 seed mod 21` gave only 40, 47
+            // or 54, where 100 were planned and 99 met 1.05. On the 40-60
+            // scenes: 99 planned (seed 66, 58 particles, refused), 88
+            // within 1.05.
+            assert!(o.planned >= 99, "only {} of 100 planned", o.planned);
+            assert!(push_ok >= 88, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
 
 #[test]
-#[ignore = "targets not met: worst push ratio 1.051 (target 1.05, 99/100 meet it), push+tip ratio median 1.329 worst 1.474 (target 1.2, 3/100 meet it); 100/100 planned; see docs/plan.md"]
+#[ignore = "targets not met: 99/100 planned (seed 66 refused), worst push ratio 1.172 (target 1.05, 88/100 meet it), push+tip ratio median 1.345 worst 1.452 (target 1.2, 0/100 meet it); see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);
@@ -396,9 +390,21 @@ fn replan_after_every_push(seed: u64, immovable_idle: bool) -> (usize, Vec<Strin
         );
         if immovable_idle && round == 0 {
             // Freeze one particle the plan does not use, as the executor does
-            // when it gives up on one.
+            // when it gives up on one; one clear of every site's disc (one
+            // on a disc makes the pattern infeasible, refused by name:
+            // plan::tests::an_immovable_particle_on_a_site_disc_is_refused_by_name).
             let used: Vec<u32> = plan.assignment.iter().map(|a| a.0).collect();
-            if let Some(q) = layout.particles.iter().find(|q| !used.contains(&q.id)) {
+            let clear_of_sites = |q: &&nanopush::plan::Particle| {
+                sites
+                    .iter()
+                    .all(|s| (s.centre_m - q.centre_m).norm() >= 2.0 * q.radius_m)
+            };
+            if let Some(q) = layout
+                .particles
+                .iter()
+                .filter(clear_of_sites)
+                .find(|q| !used.contains(&q.id))
+            {
                 config.immovable.push(q.id);
             }
         }
