@@ -10,8 +10,8 @@
 //! against the other pairs.
 
 use super::PlanConfig;
-use super::grid::Grid;
 use super::layout::Layout;
+use super::peel::SiteObstacles;
 use super::pushes::Corridor;
 use super::route::{Reach, find_route, route_length};
 use nalgebra::Vector2;
@@ -39,23 +39,12 @@ pub fn fixed_detours(
         return out;
     }
     let particles = &layout.particles;
-    let grid = Grid::new(
-        fixed.iter().map(|&f| particles[f].centre_m),
-        2.0 * layout.max_radius_m(),
-    );
-    let reach_m = layout.max_radius_m() + config.clearance_m;
-    let free = |c: &Corridor| {
-        let (a, b, r) = c.spine_m;
-        grid.for_each_near_segment(a, b, r + reach_m, |k| {
-            let q = &particles[fixed[k]];
-            !c.hits(q.centre_m, q.radius_m, config.clearance_m)
-        })
-    };
-    let r = layout.max_radius_m();
-    let reach = Reach {
-        lo: Vector2::new(r, r),
-        hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
-    };
+    let discs = fixed
+        .iter()
+        .map(|&f| (particles[f].centre_m, particles[f].radius_m));
+    let obstacles = SiteObstacles::new(Vec::new(), Vec::new(), discs.collect(), config);
+    let free = |c: &Corridor| obstacles.misses(c, |_| false);
+    let reach = Reach::of_layout(layout);
     let no_route_m = layout.field_m[0] + layout.field_m[1];
     for (j, &p) in free_particles.iter().enumerate() {
         let (from, radius) = (particles[p].centre_m, particles[p].radius_m);

@@ -249,10 +249,7 @@ fn order_once(
         obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
         site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
         site_pts,
-        reach: Reach {
-            lo: Vector2::new(r, r),
-            hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
-        },
+        reach: Reach::of_layout(layout),
         steps: Vec::new(),
         buffer_pushes: 0,
         tip: config.tip_start_m,

@@ -114,16 +114,16 @@ impl LearnedCosts {
         // Each group's executed straight lines minus its assigned ones.
         let mut added: HashMap<usize, f64> = HashMap::new();
         let undone = |&&(p, s): &&(usize, usize)| executed_site.get(&p) != Some(&s);
+        // And how many assigned pairs each group undid, to share it out.
+        let mut undone_in: HashMap<usize, f64> = HashMap::new();
         for &(p, s) in assigned.iter().filter(undone) {
-            *added.entry(root(&mut group, s)).or_insert(0.0) -= straight(p, s);
+            let g = root(&mut group, s);
+            *added.entry(g).or_insert(0.0) -= straight(p, s);
+            *undone_in.entry(g).or_insert(0.0) += 1.0;
         }
         let made = |&&(p, s): &&(usize, usize)| assigned_site.get(&p) != Some(&s);
         for &(p, s) in executed.iter().filter(made) {
             *added.entry(root(&mut group, s)).or_insert(0.0) += straight(p, s);
-        }
-        let mut undone_in: HashMap<usize, f64> = HashMap::new();
-        for &(_, s) in assigned.iter().filter(undone) {
-            *undone_in.entry(root(&mut group, s)).or_insert(0.0) += 1.0;
         }
         let mut learned = false;
         for &(p, s) in assigned {

@@ -11,6 +11,7 @@
 //! leg; rays keep the search bounded (a few hundred corridor tests).
 
 use super::PlanConfig;
+use super::layout::Layout;
 use super::pushes::Corridor;
 use nalgebra::Vector2;
 
@@ -39,6 +40,15 @@ pub struct Reach {
 }
 
 impl Reach {
+    /// The layout's field shrunk by its largest particle radius.
+    pub fn of_layout(layout: &Layout) -> Self {
+        let r = layout.max_radius_m();
+        Reach {
+            lo: Vector2::new(r, r),
+            hi: Vector2::new(layout.field_m[0] - r, layout.field_m[1] - r),
+        }
+    }
+
     /// True when `p` lies inside.
     pub fn contains(&self, p: Vector2<f64>) -> bool {
         p.x >= self.lo.x && p.y >= self.lo.y && p.x <= self.hi.x && p.y <= self.hi.y
