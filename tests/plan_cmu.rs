@@ -118,15 +118,16 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
             // or 54, where 100 were planned and 99 met 1.05. On the 40-60
             // scenes: 99 planned (seed 66, 58 particles, refused), 88
             // within 1.05; 89 since cycle breaks keep the peel's margin;
-            // 100 and 90 since a refused order is tried with wide spots.
+            // 100 and 90 since a refused order is tried with wide spots;
+            // 92 since the finished order takes shortcuts.
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
-            assert!(push_ok >= 90, "only {push_ok} of 100 meet push ratio 1.05");
+            assert!(push_ok >= 92, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
 
 #[test]
-#[ignore = "targets not met: worst push ratio 1.143 (target 1.05, 90/100 meet it), push+tip ratio median 1.351 worst 1.453 (target 1.2, 0/100 meet it); 100/100 planned; see docs/plan.md"]
+#[ignore = "targets not met: worst push ratio 1.096 (target 1.05, 92/100 meet it), push+tip ratio median 1.345 worst 1.453 (target 1.2, 0/100 meet it); 100/100 planned; see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);

@@ -30,6 +30,7 @@ pub mod pushes;
 pub mod rebase;
 pub mod refine;
 pub mod route;
+pub mod shortcuts;
 pub mod synth_layout;
 pub mod tour;
 pub mod verify;

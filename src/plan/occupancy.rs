@@ -81,6 +81,26 @@ impl Occupancy {
         let k = self.key(p);
         self.cells.entry(k).or_default().push(i);
     }
+    /// Replays one push of a finished plan: moves particle i from `from` to
+    /// `to` when it is at `from` and the push's corridor keeps
+    /// `clearance_m` from every other particle where it is now (the
+    /// scheduler's own test); false, nothing moved, otherwise.
+    pub fn replay_push(
+        &mut self,
+        i: usize,
+        (from, to): (Vector2<f64>, Vector2<f64>),
+        config: &super::PlanConfig,
+    ) -> bool {
+        if (self.pos[i] - from).norm() > 1e-12 {
+            return false;
+        }
+        let corridor = Corridor::new(from, to, self.radius[i], config);
+        if self.first_hit(&corridor, i, config.clearance_m).is_some() {
+            return false;
+        }
+        self.set(i, to);
+        true
+    }
     /// Calls f on particles in cells near the square of half-side r around c until f returns false.
     pub fn for_each_near(&self, c: Vector2<f64>, r: f64, mut f: impl FnMut(usize) -> bool) {
         let (x0, y0) = self.key(c - Vector2::new(r, r));

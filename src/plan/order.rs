@@ -21,6 +21,7 @@ use super::pattern::Site;
 use super::peel::{FillOrder, SiteObstacles, peel};
 use super::pushes::{Corridor, approach_point, landing_point, max_push_len, split_long, tip_end};
 use super::route::{Reach, find_route_within, route_length};
+use super::shortcuts::take_shortcuts;
 use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 use std::cell::RefCell;
@@ -273,13 +274,15 @@ fn order_once(
         sch.compute_conflicts(k);
     }
     sch.run()?;
+    let (steps, fewer) = take_shortcuts(sch.steps, layout, &sch.site_pts, config);
     Ok(Ordered {
         pairs: placed_pairs
             .into_iter()
             .chain(sch.moves.iter().map(|m| (m.particle, m.site_index)))
             .collect(),
-        steps: sch.steps,
-        buffer_pushes: sch.buffer_pushes,
+        steps,
+        // The pushes a shortcut removed were buffer or waypoint pushes.
+        buffer_pushes: sch.buffer_pushes.saturating_sub(fewer),
     })
 }
 

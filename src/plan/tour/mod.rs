@@ -18,7 +18,7 @@ pub mod search;
 
 use super::layout::Layout;
 use super::occupancy::Occupancy;
-use super::pushes::{Corridor, landing_point, tip_end};
+use super::pushes::{landing_point, tip_end};
 use super::{PlanConfig, Step};
 use blocking::Blocking;
 use nalgebra::Vector2;
@@ -224,14 +224,9 @@ fn collision_free(
             let Step::Push { from_m, to_m, .. } = steps[i] else {
                 return false;
             };
-            if (occ.pos[p] - from_m).norm() > 1e-12 {
+            if !occ.replay_push(p, (from_m, to_m), config) {
                 return false;
             }
-            let c = Corridor::new(from_m, to_m, occ.radius[p], config);
-            if occ.first_hit(&c, p, config.clearance_m).is_some() {
-                return false;
-            }
-            occ.set(p, to_m);
         }
     }
     true

@@ -1,0 +1,604 @@
+//! Shortcuts through an ordered plan, each kept only when the plan still
+//! replays clear (every corridor keeps the clearance, as in the order):
+//! - a particle the order pushed along a bent path (parked off a site, then
+//!   pushed off another move's way again; buffered, then brought back;
+//!   routed through a waypoint) is pushed straight from its start to its
+//!   end instead, at the time of its first push or of its last;
+//! - else each bend of its path moves towards the straight line between
+//!   its neighbours;
+//! - a particle that ends on no site (parked off the sites, or pushed off
+//!   another move's way) has its last push pulled in: it stops at the
+//!   nearest point of that push still off every site.
+//!
+//! The order decides each push with what it knows at that step; only the
+//! finished plan shows that a particle's second push undid half of its
+//! first (CMU seed 58 of the 40-60 scenes: a particle parked 0.22 um off a
+//! site, later 2.25 um further, 0.16 um more than one push to its end), or
+//! that a spot kept clear of a corridor no later push used.
+
+use super::grid::Grid;
+use super::layout::Layout;
+use super::parking::{CLEARING_MARGIN_M, SiteDiscs};
+use super::pushes::{Corridor, approach_point, max_push_len, split_long};
+use super::{PlanConfig, Step};
+use nalgebra::Vector2;
+use std::collections::HashMap;
+
+/// Least saving a shortcut is tried for: the collinear pieces of a long
+/// push save nothing.
+const MIN_SAVING_M: f64 = 1e-8;
+
+/// Most pushes of a plan whose shortcuts are tried: each try replays the
+/// whole plan, so the cost grows with pushes times bent paths. CMU plans
+/// have 30-100 pushes; at N = 1,000 (2,831 pushes) the shortcuts took the
+/// push ratio from 1.002560 to 1.002169 and the full plan from 318 to
+/// 626 ms, for a target already met.
+pub const MAX_PUSHES: usize = 2_000;
+
+/// `steps` (pushes only, in order) with every bent path that can be
+/// straightened so, each tried once, largest saving first, then every
+/// parked particle's last push pulled in (`site_pts`: every site); and how
+/// many pushes fewer it has.
+pub fn take_shortcuts(
+    steps: Vec<Step>,
+    layout: &Layout,
+    site_pts: &[Vector2<f64>],
+    config: &PlanConfig,
+) -> (Vec<Step>, usize) {
+    if steps.len() > MAX_PUSHES {
+        return (steps, 0);
+    }
+    let before = steps.len();
+    let mut steps = steps;
+    for _ in 0..ROUNDS {
+        let length = push_length(&steps);
+        steps = straighten(steps, layout, config);
+        steps = tighten_bends(steps, layout, config);
+        steps = pull_in_parking(steps, layout, site_pts, config);
+        if push_length(&steps) > length - MIN_SAVING_M {
+            break;
+        }
+    }
+    let fewer = before.saturating_sub(steps.len());
+    (steps, fewer)
+}
+
+/// Most rounds of the three passes: one can free room for another.
+const ROUNDS: usize = 3;
+
+/// Total length of the pushes of `steps`.
+fn push_length(steps: &[Step]) -> f64 {
+    steps
+        .iter()
+        .map(|s| match s {
+            Step::Push { from_m, to_m, .. } => (to_m - from_m).norm(),
+            _ => 0.0,
+        })
+        .sum()
+}
+
+/// `steps` with every bent path that can be straightened so (at its first
+/// push or its last), largest saving first.
+fn straighten(mut steps: Vec<Step>, layout: &Layout, config: &PlanConfig) -> Vec<Step> {
+    for (particle, _) in bent_paths(&steps) {
+        let Some(path) = PathOf::find(&steps, particle) else {
+            continue;
+        };
+        for at in [path.first, path.last] {
+            let candidate = path.straightened(&steps, at, layout, config);
+            if clear_for(&candidate, layout, config, particle) {
+                steps = candidate;
+                break;
+            }
+        }
+    }
+    steps
+}
+
+/// Bisection steps when pulling a bend or a parked particle's push in.
+const PULL_IN_STEPS: usize = 7;
+
+/// Radius of the particle `id` (the largest when it is not in `layout`).
+fn radius_of(layout: &Layout, id: u32) -> f64 {
+    layout
+        .particles
+        .iter()
+        .find(|p| p.id == id)
+        .map_or(layout.max_radius_m(), |p| p.radius_m)
+}
+
+/// A push step of `particle` from `from` to `to`, its approach behind it.
+fn push_step(
+    particle: u32,
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    radius_m: f64,
+    config: &PlanConfig,
+) -> Step {
+    Step::Push {
+        particle,
+        from_m: from,
+        to_m: to,
+        approach_m: approach_point(from, to, radius_m, config),
+        contact_angle_rad: config.contact_angle_rad,
+    }
+}
+
+/// [`PULL_IN_STEPS`] bisections between `valid` (a fraction
+/// whose candidate replays clear) and `invalid`: the fraction nearest
+/// `invalid` found clear, with its candidate; None when only `valid` is.
+fn bisect(
+    (mut valid, mut invalid): (f64, f64),
+    candidate: impl Fn(f64) -> Vec<Step>,
+    layout: &Layout,
+    config: &PlanConfig,
+    particle: u32,
+) -> Option<Vec<Step>> {
+    let mut best = None;
+    for _ in 0..PULL_IN_STEPS {
+        let mid = 0.5 * (valid + invalid);
+        let steps = candidate(mid);
+        if clear_for(&steps, layout, config, particle) {
+            valid = mid;
+            best = Some(steps);
+        } else {
+            invalid = mid;
+        }
+    }
+    best
+}
+
+/// `steps` with each bend of a particle's path (where one of its pushes
+/// ends and its next begins: a waypoint, a buffer spot) moved towards the
+/// straight line between the bend's neighbours, as far as the plan still
+/// replays clear: the route search picks waypoints from a coarse set.
+fn tighten_bends(mut steps: Vec<Step>, layout: &Layout, config: &PlanConfig) -> Vec<Step> {
+    for (particle, _) in bent_paths(&steps) {
+        let radius = radius_of(layout, particle);
+        let own: Vec<usize> = (0..steps.len())
+            .filter(|&k| matches!(steps[k], Step::Push { particle: id, .. } if id == particle))
+            .collect();
+        for pair in own.windows(2) {
+            let (i, j) = (pair[0], pair[1]);
+            let (
+                Step::Push {
+                    from_m: p, to_m: v, ..
+                },
+                Step::Push { to_m: n, .. },
+            ) = (&steps[i], &steps[j])
+            else {
+                continue;
+            };
+            let (p, v, n) = (*p, *v, *n);
+            if (v - p).norm() + (n - v).norm() - (n - p).norm() < MIN_SAVING_M {
+                continue;
+            }
+            let pn = n - p;
+            let along = if pn.norm_squared() > 0.0 {
+                ((v - p).dot(&pn) / pn.norm_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let straight = p + pn * along;
+            let candidate = |t: f64| {
+                let bend = v + (straight - v) * t;
+                let mut out = steps.clone();
+                out[i] = push_step(particle, p, bend, radius, config);
+                out[j] = push_step(particle, bend, n, radius, config);
+                out
+            };
+            let full = candidate(1.0);
+            if clear_for(&full, layout, config, particle) {
+                steps = full;
+            } else if let Some(tighter) = bisect((0.0, 1.0), candidate, layout, config, particle) {
+                steps = tighter;
+            }
+        }
+    }
+    steps
+}
+
+/// `steps` with each push that leaves a particle on no site (its last)
+/// shortened to the nearest end found that keeps the parking margin from
+/// every site ([`SiteDiscs`] with [`CLEARING_MARGIN_M`], as the order's
+/// spots) and replays clear: the nearest fraction of the push off the
+/// sites, or else by bisection towards the full push.
+fn pull_in_parking(
+    mut steps: Vec<Step>,
+    layout: &Layout,
+    site_pts: &[Vector2<f64>],
+    config: &PlanConfig,
+) -> Vec<Step> {
+    let r = layout.max_radius_m();
+    let grid = Grid::new(site_pts.iter().copied(), 2.0 * r);
+    let discs = SiteDiscs {
+        grid: &grid,
+        centres: site_pts,
+        radius_m: r,
+        clearance_m: config.clearance_m + CLEARING_MARGIN_M,
+    };
+    let mut last: HashMap<u32, usize> = HashMap::new();
+    for (k, step) in steps.iter().enumerate() {
+        if let Step::Push { particle, .. } = *step {
+            last.insert(particle, k);
+        }
+    }
+    let mut parked: Vec<usize> = last.into_values().collect();
+    // Last first: dropping a push leaves the earlier indices as they are.
+    parked.sort_unstable_by(|a, b| b.cmp(a));
+    for k in parked {
+        let Step::Push {
+            particle,
+            from_m,
+            to_m,
+            ..
+        } = steps[k]
+        else {
+            continue;
+        };
+        if site_pts.iter().any(|s| (s - to_m).norm() < 1e-9) {
+            continue;
+        }
+        let radius = radius_of(layout, particle);
+        let at = |t: f64| from_m + (to_m - from_m) * t;
+        // The nearest fraction (in 32nds) from which the rest of the push
+        // stays off the sites.
+        let mut t_off = 1.0;
+        for n in (0..32).rev() {
+            let t = n as f64 / 32.0;
+            if discs.covered_by(at(t), radius) {
+                break;
+            }
+            t_off = t;
+        }
+        if (1.0 - t_off) * (to_m - from_m).norm() < MIN_SAVING_M {
+            continue;
+        }
+        // A push pulled in to nothing is dropped.
+        let with_end = |t: f64| {
+            let mut candidate = steps.clone();
+            if t * (to_m - from_m).norm() < MIN_SAVING_M {
+                candidate.remove(k);
+            } else {
+                candidate[k] = push_step(particle, from_m, at(t), radius, config);
+            }
+            candidate
+        };
+        let first = with_end(t_off);
+        if clear_for(&first, layout, config, particle) {
+            steps = first;
+        } else if let Some(shorter) = bisect((1.0, t_off), with_end, layout, config, particle) {
+            steps = shorter;
+        }
+    }
+    steps
+}
+
+/// Particle ids whose pushes add up to more than their straight line,
+/// largest excess first.
+fn bent_paths(steps: &[Step]) -> Vec<(u32, f64)> {
+    let mut path: HashMap<u32, (Vector2<f64>, Vector2<f64>, f64)> = HashMap::new();
+    for step in steps {
+        if let Step::Push {
+            particle,
+            from_m,
+            to_m,
+            ..
+        } = *step
+        {
+            let e = path.entry(particle).or_insert((from_m, from_m, 0.0));
+            e.1 = to_m;
+            e.2 += (to_m - from_m).norm();
+        }
+    }
+    let mut bent: Vec<(u32, f64)> = path
+        .into_iter()
+        .map(|(id, (start, end, len))| (id, len - (end - start).norm()))
+        .filter(|&(_, saving)| saving > MIN_SAVING_M)
+        .collect();
+    bent.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    bent
+}
+
+/// One particle's pushes in a plan: where they start and end, and the
+/// indices of its first and last.
+struct PathOf {
+    particle: u32,
+    start: Vector2<f64>,
+    end: Vector2<f64>,
+    first: usize,
+    last: usize,
+}
+
+impl PathOf {
+    fn find(steps: &[Step], particle: u32) -> Option<Self> {
+        let mut found: Option<PathOf> = None;
+        for (k, step) in steps.iter().enumerate() {
+            if let Step::Push {
+                particle: id,
+                from_m,
+                to_m,
+                ..
+            } = *step
+                && id == particle
+            {
+                let p = found.get_or_insert(PathOf {
+                    particle,
+                    start: from_m,
+                    end: to_m,
+                    first: k,
+                    last: k,
+                });
+                p.end = to_m;
+                p.last = k;
+            }
+        }
+        found
+    }
+
+    /// `steps` without this particle's pushes, and its straight push
+    /// (split to fit the nanostage) where step `at` was.
+    fn straightened(
+        &self,
+        steps: &[Step],
+        at: usize,
+        layout: &Layout,
+        config: &PlanConfig,
+    ) -> Vec<Step> {
+        let r = radius_of(layout, self.particle);
+        let straight = split_long(self.start, self.end, max_push_len(r, config))
+            .into_iter()
+            .map(|(a, b)| push_step(self.particle, a, b, r, config));
+        let mut out = Vec::with_capacity(steps.len());
+        let mut straight = Some(straight);
+        for (k, step) in steps.iter().enumerate() {
+            if k == at {
+                out.extend(straight.take().into_iter().flatten());
+            }
+            match step {
+                Step::Push { particle, .. } if *particle == self.particle => {}
+                other => out.push(other.clone()),
+            }
+        }
+        out
+    }
+}
+
+/// True when the pushes of `steps` that involve `particle` (its own, and
+/// every other push while it lies where it does then) start where their
+/// particle is and keep the clearance: the whole replay's answer for a plan that
+/// replayed clear before only `particle`'s pushes changed, since the
+/// positions of every other pair at every push are the same. Linear in the
+/// pushes, plus the particles for each push of `particle`.
+fn clear_for(steps: &[Step], layout: &Layout, config: &PlanConfig, particle: u32) -> bool {
+    let index = layout.index_by_id();
+    let Some(&x) = index.get(&particle) else {
+        return false;
+    };
+    let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let clearance = config.clearance_m;
+    steps.iter().all(|step| {
+        let Step::Push {
+            particle: id,
+            from_m,
+            to_m,
+            ..
+        } = *step
+        else {
+            return true;
+        };
+        let Some(&i) = index.get(&id) else {
+            return false;
+        };
+        let corridor = Corridor::new(from_m, to_m, layout.particles[i].radius_m, config);
+        let clear = if i == x {
+            (pos[x] - from_m).norm() <= 1e-12
+                && (0..pos.len()).all(|j| {
+                    j == x || !corridor.hits(pos[j], layout.particles[j].radius_m, clearance)
+                })
+        } else {
+            !corridor.hits(pos[x], layout.particles[x].radius_m, clearance)
+        };
+        pos[i] = to_m;
+        clear
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::layout::{Layout, Particle};
+    use crate::plan::occupancy::Occupancy;
+
+    /// True when every push of `steps`, replayed from `layout`, starts where
+    /// its particle is and its corridor (particle and tip) keeps the clearance
+    /// from every other particle where it is then: the order's own test.
+    fn replays_clear(steps: &[Step], layout: &Layout, config: &PlanConfig) -> bool {
+        let index = layout.index_by_id();
+        let mut occ = Occupancy::new(layout);
+        steps.iter().all(|step| {
+            let Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } = *step
+            else {
+                return true;
+            };
+            index
+                .get(&particle)
+                .is_some_and(|&i| occ.replay_push(i, (from_m, to_m), config))
+        })
+    }
+
+    fn push(particle: u32, from: (f64, f64), to: (f64, f64), config: &PlanConfig) -> Step {
+        let (a, b) = (
+            Vector2::new(from.0, from.1) * 1e-6,
+            Vector2::new(to.0, to.1) * 1e-6,
+        );
+        Step::Push {
+            particle,
+            from_m: a,
+            to_m: b,
+            approach_m: approach_point(a, b, 5e-6, config),
+            contact_angle_rad: config.contact_angle_rad,
+        }
+    }
+
+    fn layout(centres: &[(f64, f64)]) -> Layout {
+        Layout {
+            field_m: [200e-6, 200e-6],
+            particles: centres
+                .iter()
+                .enumerate()
+                .map(|(k, &(x, y))| Particle {
+                    id: k as u32,
+                    centre_m: Vector2::new(x, y) * 1e-6,
+                    radius_m: 5e-6,
+                })
+                .collect(),
+        }
+    }
+
+    fn um(points: &[(f64, f64)]) -> Vec<Vector2<f64>> {
+        points
+            .iter()
+            .map(|&(x, y)| Vector2::new(x, y) * 1e-6)
+            .collect()
+    }
+
+    #[test]
+    fn a_bent_path_in_open_space_goes_straight() {
+        let config = PlanConfig::default();
+        let layout = layout(&[(50.0, 50.0), (150.0, 150.0)]);
+        let steps = vec![
+            push(0, (50.0, 50.0), (60.0, 50.0), &config),
+            push(1, (150.0, 150.0), (150.0, 140.0), &config),
+            push(0, (60.0, 50.0), (60.0, 60.0), &config),
+        ];
+        let sites = um(&[(60.0, 60.0), (150.0, 140.0)]);
+        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        assert_eq!(fewer, 1);
+        assert!(replays_clear(&out, &layout, &config));
+        let expected = 200f64.sqrt() + 10.0;
+        assert!((push_length(&out) * 1e6 - expected).abs() < 1e-9);
+        match out[0] {
+            Step::Push { particle, to_m, .. } => {
+                assert_eq!(particle, 0);
+                assert!((to_m - Vector2::new(60e-6, 60e-6)).norm() < 1e-15);
+            }
+            _ => panic!("not a push"),
+        }
+    }
+
+    #[test]
+    fn a_detour_around_a_particle_stays_bent_but_tighter() {
+        let config = PlanConfig::default();
+        // Particle 1 sits on the straight line from (20, 50) to (80, 50).
+        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let steps = vec![
+            push(0, (20.0, 50.0), (50.0, 65.0), &config),
+            push(0, (50.0, 65.0), (80.0, 50.0), &config),
+        ];
+        assert!(replays_clear(&steps, &layout, &config));
+        let sites = um(&[(80.0, 50.0)]);
+        let (out, fewer) = take_shortcuts(steps.clone(), &layout, &sites, &config);
+        assert_eq!(fewer, 0);
+        assert!(replays_clear(&out, &layout, &config));
+        // The bend moves towards the line, not onto it: the two particles
+        // need 10 um between centres plus the clearance.
+        let Step::Push { to_m: bend, .. } = out[0] else {
+            panic!("not a push")
+        };
+        let y = bend.y * 1e6;
+        assert!(y > 60.0 && y < 62.0, "{y}");
+        assert!(push_length(&out) < push_length(&steps));
+    }
+
+    #[test]
+    fn a_buffered_particle_waits_where_it_is_when_that_is_clear() {
+        let config = PlanConfig::default();
+        // Particle 0 steps aside and back while particle 1 passes well clear
+        // of it: staying put until the last push is clear too, and shorter.
+        let layout = layout(&[(20.0, 20.0), (100.0, 100.0)]);
+        let steps = vec![
+            push(0, (20.0, 20.0), (20.0, 40.0), &config),
+            push(1, (100.0, 100.0), (100.0, 150.0), &config),
+            push(0, (20.0, 40.0), (20.0, 20.5), &config),
+        ];
+        let sites = um(&[(20.0, 20.5), (100.0, 150.0)]);
+        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        assert_eq!(fewer, 1);
+        assert!((push_length(&out) * 1e6 - 50.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_replay_that_hits_a_particle_is_not_clear() {
+        let config = PlanConfig::default();
+        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let steps = vec![push(0, (20.0, 50.0), (80.0, 50.0), &config)];
+        assert!(!replays_clear(&steps, &layout, &config));
+        let wrong_start = vec![push(0, (21.0, 50.0), (20.0, 80.0), &config)];
+        assert!(!replays_clear(&wrong_start, &layout, &config));
+    }
+
+    #[test]
+    fn a_parked_particle_stops_where_it_is_off_the_sites() {
+        let config = PlanConfig::default();
+        // Particle 1 covers the site at (50, 50) (3 um off its centre) and
+        // was parked 20 um away; 10.15 um plus the margin is enough.
+        let layout = layout(&[(20.0, 50.0), (53.0, 50.0)]);
+        let steps = vec![
+            push(1, (53.0, 50.0), (73.0, 50.0), &config),
+            push(0, (20.0, 50.0), (50.0, 50.0), &config),
+        ];
+        let sites = um(&[(50.0, 50.0)]);
+        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        assert_eq!(fewer, 0);
+        assert!(replays_clear(&out, &layout, &config));
+        let Step::Push { to_m, .. } = out[0] else {
+            panic!("not a push")
+        };
+        let off = (to_m.x * 1e6 - 50.0) - 10.0 - config.clearance_m * 1e6;
+        // Within one 32nd of the 20 um push beyond the least distance.
+        assert!((0.0..=20.0 / 32.0).contains(&off), "{off}");
+    }
+
+    #[test]
+    fn a_particle_pushed_off_a_way_no_push_uses_stays_put() {
+        let config = PlanConfig::default();
+        // Particle 1 was pushed aside for nothing: particle 0 passes far
+        // from it. The push is dropped.
+        let layout = layout(&[(20.0, 50.0), (50.0, 150.0)]);
+        let steps = vec![
+            push(1, (50.0, 150.0), (50.0, 170.0), &config),
+            push(0, (20.0, 50.0), (80.0, 50.0), &config),
+        ];
+        let sites = um(&[(80.0, 50.0)]);
+        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        assert_eq!(fewer, 1);
+        assert_eq!(out.len(), 1);
+        assert!(replays_clear(&out, &layout, &config));
+    }
+
+    #[test]
+    fn a_particle_pushed_off_a_way_keeps_clear_of_it() {
+        let config = PlanConfig::default();
+        // Particle 1 sits on particle 0's line and is pushed 20 um aside:
+        // pulled in, it stops just clear of the corridor (about 10.15 um).
+        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let steps = vec![
+            push(1, (50.0, 50.0), (50.0, 70.0), &config),
+            push(0, (20.0, 50.0), (80.0, 50.0), &config),
+        ];
+        let sites = um(&[(80.0, 50.0)]);
+        let (out, _) = take_shortcuts(steps, &layout, &sites, &config);
+        assert!(replays_clear(&out, &layout, &config));
+        let Step::Push { to_m, .. } = out[0] else {
+            panic!("not a push")
+        };
+        let y = to_m.y * 1e6;
+        assert!(y > 60.0 && y < 62.0, "{y}");
+    }
+}
