@@ -111,6 +111,14 @@ impl Corridor {
     }
 }
 
+/// How far from the segment `from`-`to` a push's corridor reaches at most
+/// (the tip lands a standoff and a tip diameter behind the particle's
+/// back): a disc farther than this plus its radius and the clearance is
+/// missed, with no corridor built.
+pub fn corridor_reach(radius_m: f64, config: &PlanConfig) -> f64 {
+    radius_m + 2.0 * config.tip_radius_m + config.standoff_m
+}
+
 /// Distance from `p` to the segment a-b, metres.
 pub fn segment_distance(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     let ab = b - a;
