@@ -51,12 +51,13 @@ pub fn take_shortcuts(
         return (steps, 0);
     }
     let before = steps.len();
+    let parking = Parking::new(site_pts, layout, config);
     let mut steps = steps;
     for _ in 0..ROUNDS {
         let length = push_length(&steps);
-        steps = straighten(steps, layout, config);
+        steps = straighten(steps, layout, &parking, config);
         steps = tighten_bends(steps, layout, config);
-        steps = pull_in_parking(steps, layout, site_pts, config);
+        steps = pull_in_parking(steps, layout, &parking, config);
         if push_length(&steps) > length - MIN_SAVING_M {
             break;
         }
@@ -67,6 +68,69 @@ pub fn take_shortcuts(
 
 /// Most rounds of the three passes: one can free room for another.
 const ROUNDS: usize = 3;
+
+/// The sites as a parked particle must leave them: with the order's
+/// parking margin ([`SiteDiscs`] with [`CLEARING_MARGIN_M`]).
+struct Parking<'a> {
+    grid: Grid,
+    site_pts: &'a [Vector2<f64>],
+    radius_m: f64,
+    clearance_m: f64,
+}
+
+impl<'a> Parking<'a> {
+    fn new(site_pts: &'a [Vector2<f64>], layout: &Layout, config: &PlanConfig) -> Self {
+        let radius_m = layout.max_radius_m();
+        Parking {
+            grid: Grid::new(site_pts.iter().copied(), 2.0 * radius_m),
+            site_pts,
+            radius_m,
+            clearance_m: config.clearance_m + CLEARING_MARGIN_M,
+        }
+    }
+
+    fn discs(&self) -> SiteDiscs<'_> {
+        SiteDiscs {
+            grid: &self.grid,
+            centres: self.site_pts,
+            radius_m: self.radius_m,
+            clearance_m: self.clearance_m,
+        }
+    }
+
+    /// True when a particle at `p` has ended on a site.
+    fn on_site(&self, p: Vector2<f64>) -> bool {
+        self.grid
+            .nearest(p, 1)
+            .first()
+            .is_some_and(|&(d, _)| d < 1e-9)
+    }
+
+    /// Ends off the sites for a particle of `radius_m` leaving `from`,
+    /// nearer than `shorter_than`, nearest first: `from` itself when it is
+    /// off them, then the first [`SPOTS_TRIED`] spots of [`ring_off_sites`]
+    /// (in each of 48 directions the nearest point off the sites and out of
+    /// `swept`, then a ring) off the sites and out of `swept`.
+    fn ends(
+        &self,
+        from: Vector2<f64>,
+        radius_m: f64,
+        shorter_than: f64,
+        swept: &dyn Fn(Vector2<f64>) -> bool,
+    ) -> Vec<Vector2<f64>> {
+        let discs = self.discs();
+        let stay = (!discs.covered_by(from, radius_m)).then_some(from);
+        let spots = ring_off_sites(from, radius_m, &discs, swept, None)
+            .into_iter()
+            .filter(|&spot| {
+                (spot - from).norm() < shorter_than - MIN_SAVING_M
+                    && !discs.covered_by(spot, radius_m)
+                    && !swept(spot)
+            })
+            .take(SPOTS_TRIED);
+        stay.into_iter().chain(spots).collect()
+    }
+}
 
 /// Total length of the pushes of `steps`.
 fn push_length(steps: &[Step]) -> f64 {
@@ -80,18 +144,55 @@ fn push_length(steps: &[Step]) -> f64 {
 }
 
 /// `steps` with every bent path that can be straightened so (at its first
-/// push or its last), largest saving first.
-fn straighten(mut steps: Vec<Step>, layout: &Layout, config: &PlanConfig) -> Vec<Step> {
-    for (particle, _) in bent_paths(&steps) {
+/// push or its last), largest saving first; a particle that ends on no
+/// site may end at any spot off the sites nearer than its path's length
+/// (CMU seed 3 of the 40-60 scenes: a particle pushed off a site, then
+/// later off a corridor, 2.5 um where 0.25 um leaves the site).
+fn straighten(
+    mut steps: Vec<Step>,
+    layout: &Layout,
+    parking: &Parking,
+    config: &PlanConfig,
+) -> Vec<Step> {
+    let index = layout.index_by_id();
+    for (particle, excess) in bent_paths(&steps) {
         let Some(path) = PathOf::find(&steps, particle) else {
             continue;
         };
-        for at in [path.first, path.last] {
-            let candidate = path.straightened(&steps, at, layout, config);
-            if clear_for(&candidate, layout, config, particle) {
-                steps = candidate;
-                break;
+        let x = index[&particle];
+        let length = (path.end - path.start).norm() + excess;
+        let parked = !parking.on_site(path.end);
+        let checks = [path.first, path.last].map(|at| {
+            let unchanged_before = at == path.first;
+            let c = SinglePushCheck::new(
+                &steps,
+                (x, path.start),
+                at,
+                unchanged_before,
+                layout,
+                &index,
+                config,
+            );
+            (at, c)
+        });
+        // (length, which check, end), shortest first: the path's own end,
+        // then for a parked particle any spot off the sites.
+        let mut tries: Vec<(f64, usize, Vector2<f64>)> = Vec::new();
+        for (which, (_, check)) in checks.iter().enumerate() {
+            tries.push((length - excess, which, path.end));
+            if parked {
+                let swept = |p: Vector2<f64>| check.swept_later(p, config);
+                for end in parking.ends(path.start, check.radius, length, &swept) {
+                    tries.push(((end - path.start).norm(), which, end));
+                }
             }
+        }
+        tries.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let found = tries
+            .into_iter()
+            .find(|&(_, which, end)| checks[which].1.allows(end, config));
+        if let Some((_, which, end)) = found {
+            steps = path.straightened(&steps, checks[which].0, end, layout, config);
         }
     }
     steps
@@ -211,17 +312,10 @@ const SPOTS_TRIED: usize = 48;
 fn pull_in_parking(
     mut steps: Vec<Step>,
     layout: &Layout,
-    site_pts: &[Vector2<f64>],
+    parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {
-    let r = layout.max_radius_m();
-    let grid = Grid::new(site_pts.iter().copied(), 2.0 * r);
-    let discs = SiteDiscs {
-        grid: &grid,
-        centres: site_pts,
-        radius_m: r,
-        clearance_m: config.clearance_m + CLEARING_MARGIN_M,
-    };
+    let discs = parking.discs();
     let index = layout.index_by_id();
     let mut last: HashMap<u32, usize> = HashMap::new();
     for (k, step) in steps.iter().enumerate() {
@@ -242,37 +336,37 @@ fn pull_in_parking(
         else {
             continue;
         };
-        if site_pts.iter().any(|s| (s - to_m).norm() < 1e-9) {
+        if parking.on_site(to_m) {
             continue;
         }
-        let check = LastPushCheck::new(&steps, k, layout, &index);
+        let x = index[&particle];
+        let check = SinglePushCheck::new(&steps, (x, from_m), k, true, layout, &index, config);
         let len = (to_m - from_m).norm();
         let shorter = |spot: Vector2<f64>| (spot - from_m).norm() < len - MIN_SAVING_M;
-        let nothing = |_: Vector2<f64>| false;
-        let mut spots = ring_off_sites(from_m, check.radius, &discs, &nothing, None)
-            .into_iter()
-            .filter(|&spot| shorter(spot) && !discs.covered_by(spot, check.radius))
-            .take(SPOTS_TRIED);
         let at = |t: f64| from_m + (to_m - from_m) * t;
-        let end = spots.find(|&spot| check.allows(spot, config)).or_else(|| {
-            // The nearest fraction (in 32nds) from which the rest of the
-            // push stays off the sites.
-            let mut t_off = 1.0;
-            for n in (0..32).rev() {
-                let t = n as f64 / 32.0;
-                if discs.covered_by(at(t), check.radius) {
-                    break;
+        let spots = parking.ends(from_m, check.radius, len, &|p| check.swept_later(p, config));
+        let end = spots
+            .into_iter()
+            .find(|&spot| check.allows(spot, config))
+            .or_else(|| {
+                // The nearest fraction (in 32nds) from which the rest of the
+                // push stays off the sites.
+                let mut t_off = 1.0;
+                for n in (0..32).rev() {
+                    let t = n as f64 / 32.0;
+                    if discs.covered_by(at(t), check.radius) {
+                        break;
+                    }
+                    t_off = t;
                 }
-                t_off = t;
-            }
-            if !shorter(at(t_off)) {
-                return None;
-            }
-            if check.allows(at(t_off), config) {
-                return Some(at(t_off));
-            }
-            bisect((1.0, t_off), |t| check.allows(at(t), config)).map(at)
-        });
+                if !shorter(at(t_off)) {
+                    return None;
+                }
+                if check.allows(at(t_off), config) {
+                    return Some(at(t_off));
+                }
+                bisect((1.0, t_off), |t| check.allows(at(t), config)).map(at)
+            });
         match end {
             Some(end) if (end - from_m).norm() < MIN_SAVING_M => {
                 steps.remove(k);
@@ -284,67 +378,106 @@ fn pull_in_parking(
     steps
 }
 
-/// What a new end of a particle's last push must keep clear of: the other
-/// particles where they are when it is pushed, and the later pushes'
-/// corridors (the particle then lies at the end for good; nothing before
-/// the push changes).
-struct LastPushCheck {
+/// What a particle's one push, put where step `at` is in place of all its
+/// own pushes, must keep clear of: the other particles where they are at
+/// `at`, and their later pushes' corridors (it then lies at its end for
+/// good). When its earlier pushes are dropped, it also stays at its start
+/// until `at`: the other particles' pushes before `at` must miss it there.
+struct SinglePushCheck {
     from: Vector2<f64>,
     radius: f64,
+    /// The pushes before `at` miss the particle at its start.
+    clear_before: bool,
     /// Centres and radii of the other particles at the push.
     others: Vec<(Vector2<f64>, f64)>,
     /// The other particles' later pushes: start, end, radius.
     later: Vec<(Vector2<f64>, Vector2<f64>, f64)>,
 }
 
-impl LastPushCheck {
-    /// For the push at `k` (its particle's last).
-    fn new(steps: &[Step], k: usize, layout: &Layout, index: &HashMap<u32, usize>) -> Self {
-        let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
-        let push_of = |step: &Step| match *step {
+impl SinglePushCheck {
+    /// For particle `particle` (index in `layout`) leaving `from` where
+    /// step `at` is; `unchanged_before`: its pushes before `at` stay, so
+    /// nothing before `at` changes.
+    fn new(
+        steps: &[Step],
+        (particle, from): (usize, Vector2<f64>),
+        at: usize,
+        unchanged_before: bool,
+        layout: &Layout,
+        index: &HashMap<u32, usize>,
+        config: &PlanConfig,
+    ) -> Self {
+        let radius_of = |i: usize| layout.particles[i].radius_m;
+        let radius = radius_of(particle);
+        let others_push = |step: &Step| match *step {
             Step::Push {
-                particle,
+                particle: id,
                 from_m,
                 to_m,
                 ..
-            } => index.get(&particle).map(|&i| (i, from_m, to_m)),
+            } => index
+                .get(&id)
+                .filter(|&&i| i != particle)
+                .map(|&i| (from_m, to_m, radius_of(i), i)),
             _ => None,
         };
-        for (i, _, to) in steps[..k].iter().filter_map(push_of) {
-            pos[i] = to;
+        let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
+        let mut clear_before = true;
+        for (a, b, r, i) in steps[..at].iter().filter_map(others_push) {
+            clear_before = clear_before
+                && (unchanged_before || !corridor_hits((a, b, r), from, radius, config));
+            pos[i] = b;
         }
-        let (x, from, _) = push_of(&steps[k]).expect("a push of a layout particle");
-        let radius_of = |i: usize| layout.particles[i].radius_m;
-        LastPushCheck {
+        SinglePushCheck {
             from,
-            radius: radius_of(x),
+            radius,
+            clear_before,
             others: (0..pos.len())
-                .filter(|&i| i != x)
+                .filter(|&i| i != particle)
                 .map(|i| (pos[i], radius_of(i)))
                 .collect(),
-            later: steps[k + 1..]
+            later: steps[at..]
                 .iter()
-                .filter_map(push_of)
-                .map(|(i, a, b)| (a, b, radius_of(i)))
+                .filter_map(others_push)
+                .map(|(a, b, r, _)| (a, b, r))
                 .collect(),
         }
     }
 
-    /// True when ending the push at `end` (not pushing at all, at its
-    /// start) keeps the clearance from every particle at every push.
-    fn allows(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
-        let clearance = config.clearance_m;
-        if (end - self.from).norm() >= MIN_SAVING_M {
-            let own = Corridor::new(self.from, end, self.radius, config);
-            if self.others.iter().any(|&(c, r)| own.hits(c, r, clearance)) {
-                return false;
-            }
-        }
-        self.later.iter().all(|&(a, b, r)| {
-            segment_distance(end, a, b) >= corridor_reach(r, config) + clearance + self.radius
-                || !Corridor::new(a, b, r, config).hits(end, self.radius, clearance)
-        })
+    /// True when a later push of another particle sweeps over `end`.
+    fn swept_later(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
+        self.later
+            .iter()
+            .any(|&push| corridor_hits(push, end, self.radius, config))
     }
+
+    /// True when pushing the particle to `end` (not at all, at its start)
+    /// keeps the clearance from every particle at every push.
+    fn allows(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
+        if !self.clear_before || self.swept_later(end, config) {
+            return false;
+        }
+        let own = (self.from, end, self.radius);
+        (end - self.from).norm() < MIN_SAVING_M
+            || self
+                .others
+                .iter()
+                .all(|&(c, r)| !corridor_hits(own, c, r, config))
+    }
+}
+
+/// True when the corridor of pushing a particle of radius `r` from `a` to
+/// `b` comes within the clearance of a disc of `radius` at `centre`
+/// (built only when the disc is within [`corridor_reach`]).
+fn corridor_hits(
+    (a, b, r): (Vector2<f64>, Vector2<f64>, f64),
+    centre: Vector2<f64>,
+    radius: f64,
+    config: &PlanConfig,
+) -> bool {
+    let clearance = config.clearance_m;
+    segment_distance(centre, a, b) < corridor_reach(r, config) + clearance + radius
+        && Corridor::new(a, b, r, config).hits(centre, radius, clearance)
 }
 
 /// Particle ids whose pushes add up to more than their straight line,
@@ -409,17 +542,24 @@ impl PathOf {
         found
     }
 
-    /// `steps` without this particle's pushes, and its straight push
-    /// (split to fit the nanostage) where step `at` was.
+    /// `steps` without this particle's pushes, and its straight push to
+    /// `end` (split to fit the nanostage; none when `end` is its start)
+    /// where step `at` was.
     fn straightened(
         &self,
         steps: &[Step],
         at: usize,
+        end: Vector2<f64>,
         layout: &Layout,
         config: &PlanConfig,
     ) -> Vec<Step> {
         let r = radius_of(layout, self.particle);
-        let straight = split_long(self.start, self.end, max_push_len(r, config))
+        let pieces = if (end - self.start).norm() < MIN_SAVING_M {
+            Vec::new()
+        } else {
+            split_long(self.start, end, max_push_len(r, config))
+        };
+        let straight = pieces
             .into_iter()
             .map(|(a, b)| push_step(self.particle, a, b, r, config));
         let mut out = Vec::with_capacity(steps.len());
@@ -702,5 +842,36 @@ mod tests {
         let least = 10.0 + (config.clearance_m + CLEARING_MARGIN_M) * 1e6 - 3.0;
         assert!(len >= least - 1e-6 && len < least + 0.5, "{len}");
         assert!((to_m - Vector2::new(50e-6, 50e-6)).norm() * 1e6 >= least + 3.0 - 1e-6);
+    }
+
+    #[test]
+    fn a_particle_pushed_off_a_site_then_off_a_way_goes_once_where_neither_needs_it() {
+        let config = PlanConfig::default();
+        // Particle 1 covers the site at (50, 50); the order pushed it just
+        // off, then up and right off particle 0's later way (y = 62):
+        // 19.4 um. One push at the start, off the site and below the way,
+        // is about 11.8 um.
+        let layout = layout(&[(20.0, 62.0), (50.0, 58.0)]);
+        let steps = vec![
+            push(1, (50.0, 58.0), (50.0, 60.3), &config),
+            push(1, (50.0, 60.3), (62.0, 72.5), &config),
+            push(0, (20.0, 62.0), (80.0, 62.0), &config),
+        ];
+        let sites = um(&[(50.0, 50.0), (80.0, 62.0)]);
+        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        assert_eq!(fewer, 1);
+        assert!(replays_clear(&out, &layout, &config));
+        let Step::Push {
+            particle,
+            from_m,
+            to_m,
+            ..
+        } = out[0]
+        else {
+            panic!("not a push")
+        };
+        assert_eq!(particle, 1);
+        let len = (to_m - from_m).norm() * 1e6;
+        assert!(len < 13.0, "{len}");
     }
 }
