@@ -3,12 +3,14 @@
 //! - a particle the order pushed along a bent path (parked off a site, then
 //!   pushed off another move's way again; buffered, then brought back;
 //!   routed through a waypoint) is pushed straight from its start to its
-//!   end instead, at the time of its first push or of its last;
+//!   end instead, at the time of its first push or of its last; one that
+//!   ends on no site, to any nearer spot off the sites;
 //! - else each bend of its path moves towards the straight line between
 //!   its neighbours;
 //! - a particle that ends on no site (parked off the sites, or pushed off
 //!   another move's way) has its last push pulled in: it stops at the
-//!   nearest point of that push still off every site.
+//!   nearest spot off every site found clear (in 48 directions, then on
+//!   the push's own line), or stays put.
 //!
 //! The order decides each push with what it knows at that step; only the
 //! finished plan shows that a particle's second push undid half of its
@@ -37,10 +39,9 @@ const MIN_SAVING_M: f64 = 1e-8;
 /// 626 ms, for a target already met.
 pub const MAX_PUSHES: usize = 2_000;
 
-/// `steps` (pushes only, in order) with every bent path that can be
-/// straightened so, each tried once, largest saving first, then every
-/// parked particle's last push pulled in (`site_pts`: every site); and how
-/// many pushes fewer it has.
+/// `steps` (pushes only, in order) after up to [`ROUNDS`] rounds of
+/// straightened paths, tightened bends and parked particles' last pushes
+/// pulled in (`site_pts`: every site); and how many pushes fewer it has.
 pub fn take_shortcuts(
     steps: Vec<Step>,
     layout: &Layout,
