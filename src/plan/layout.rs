@@ -172,6 +172,24 @@ impl Layout {
             .collect()
     }
 
+    /// Particles of 5 um radius at `centres_um` (ids 0, 1, ...) in a
+    /// 200 x 200 um field: the unit tests' scenes.
+    #[cfg(test)]
+    pub(crate) fn of_test_centres_um(centres_um: &[(f64, f64)]) -> Self {
+        Layout {
+            field_m: [200e-6, 200e-6],
+            particles: centres_um
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y))| Particle {
+                    id: i as u32,
+                    centre_m: Vector2::new(x, y) * 1e-6,
+                    radius_m: 5e-6,
+                })
+                .collect(),
+        }
+    }
+
     /// Largest particle radius (0 for an empty layout).
     pub fn max_radius_m(&self) -> f64 {
         self.particles

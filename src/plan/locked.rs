@@ -74,22 +74,6 @@ pub fn locked_note(layout: &Layout, config: &PlanConfig) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::layout::Particle;
-
-    fn layout_of(centres_um: &[(f64, f64)]) -> Layout {
-        Layout {
-            field_m: [200e-6, 200e-6],
-            particles: centres_um
-                .iter()
-                .enumerate()
-                .map(|(i, &(x, y))| Particle {
-                    id: i as u32,
-                    centre_m: Vector2::new(x, y) * 1e-6,
-                    radius_m: 5e-6,
-                })
-                .collect(),
-        }
-    }
 
     /// A hexagonal block at 1 um gaps: the tip (2 um across) fits behind
     /// none of the inner particles; a lone particle and a wide lattice are free.
@@ -109,7 +93,7 @@ mod tests {
                 })
                 .collect()
         };
-        let dense = layout_of(&hex(11.0));
+        let dense = Layout::of_test_centres_um(&hex(11.0));
         let locked = locked_particles(&dense, &config);
         // The 9 inner particles (rows and columns 1-3) have six neighbours.
         for row in 1..4 {
@@ -123,7 +107,7 @@ mod tests {
             note.contains(&format!("{} of 25 particles", locked.len())),
             "{note}"
         );
-        assert!(locked_particles(&layout_of(&hex(14.0)), &config).is_empty());
-        assert!(locked_note(&layout_of(&[(100.0, 100.0)]), &config).is_empty());
+        assert!(locked_particles(&Layout::of_test_centres_um(&hex(14.0)), &config).is_empty());
+        assert!(locked_note(&Layout::of_test_centres_um(&[(100.0, 100.0)]), &config).is_empty());
     }
 }

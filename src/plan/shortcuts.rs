@@ -53,12 +53,13 @@ pub fn take_shortcuts(
     }
     let before = steps.len();
     let parking = Parking::new(site_pts, layout, config);
+    let index = layout.index_by_id();
     let mut steps = steps;
     for _ in 0..ROUNDS {
         let length = push_length(&steps);
-        steps = straighten(steps, layout, &parking, config);
-        steps = tighten_bends(steps, layout, config);
-        steps = pull_in_parking(steps, layout, &parking, config);
+        steps = straighten(steps, layout, &index, &parking, config);
+        steps = tighten_bends(steps, layout, &index, config);
+        steps = pull_in_parking(steps, layout, &index, &parking, config);
         if push_length(&steps) > length - MIN_SAVING_M {
             break;
         }
@@ -152,10 +153,10 @@ fn push_length(steps: &[Step]) -> f64 {
 fn straighten(
     mut steps: Vec<Step>,
     layout: &Layout,
+    index: &HashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {
-    let index = layout.index_by_id();
     for (particle, excess) in bent_paths(&steps) {
         let Some(path) = PathOf::find(&steps, particle) else {
             continue;
@@ -171,7 +172,7 @@ fn straighten(
                 at,
                 unchanged_before,
                 layout,
-                &index,
+                index,
                 config,
             );
             (at, c)
@@ -193,7 +194,8 @@ fn straighten(
             .into_iter()
             .find(|&(_, which, end)| checks[which].1.allows(end, config));
         if let Some((_, which, end)) = found {
-            steps = path.straightened(&steps, checks[which].0, end, layout, config);
+            let radius = checks[which].1.radius;
+            steps = path.straightened(&steps, checks[which].0, end, radius, config);
         }
     }
     steps
@@ -201,15 +203,6 @@ fn straighten(
 
 /// Bisection steps when pulling a bend or a parked particle's push in.
 const PULL_IN_STEPS: usize = 7;
-
-/// Radius of the particle `id` (the largest when it is not in `layout`).
-fn radius_of(layout: &Layout, id: u32) -> f64 {
-    layout
-        .particles
-        .iter()
-        .find(|p| p.id == id)
-        .map_or(layout.max_radius_m(), |p| p.radius_m)
-}
 
 /// A push step of `particle` from `from` to `to`, its approach behind it.
 fn push_step(
@@ -249,9 +242,15 @@ fn bisect((mut valid, mut invalid): (f64, f64), ok: impl Fn(f64) -> bool) -> Opt
 /// ends and its next begins: a waypoint, a buffer spot) moved towards the
 /// straight line between the bend's neighbours, as far as the plan still
 /// replays clear: the route search picks waypoints from a coarse set.
-fn tighten_bends(mut steps: Vec<Step>, layout: &Layout, config: &PlanConfig) -> Vec<Step> {
+fn tighten_bends(
+    mut steps: Vec<Step>,
+    layout: &Layout,
+    index: &HashMap<u32, usize>,
+    config: &PlanConfig,
+) -> Vec<Step> {
     for (particle, _) in bent_paths(&steps) {
-        let radius = radius_of(layout, particle);
+        let x = index[&particle];
+        let radius = layout.particles[x].radius_m;
         let own: Vec<usize> = (0..steps.len())
             .filter(|&k| matches!(steps[k], Step::Push { particle: id, .. } if id == particle))
             .collect();
@@ -285,10 +284,10 @@ fn tighten_bends(mut steps: Vec<Step>, layout: &Layout, config: &PlanConfig) -> 
                 out
             };
             let full = candidate(1.0);
-            if clear_for(&full, layout, config, particle) {
+            if clear_for(&full, layout, index, config, x) {
                 steps = full;
             } else if let Some(t) = bisect((0.0, 1.0), |t| {
-                clear_for(&candidate(t), layout, config, particle)
+                clear_for(&candidate(t), layout, index, config, x)
             }) {
                 steps = candidate(t);
             }
@@ -313,11 +312,11 @@ const SPOTS_TRIED: usize = 48;
 fn pull_in_parking(
     mut steps: Vec<Step>,
     layout: &Layout,
+    index: &HashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {
     let discs = parking.discs();
-    let index = layout.index_by_id();
     let mut last: HashMap<u32, usize> = HashMap::new();
     for (k, step) in steps.iter().enumerate() {
         if let Step::Push { particle, .. } = *step {
@@ -341,7 +340,7 @@ fn pull_in_parking(
             continue;
         }
         let x = index[&particle];
-        let check = SinglePushCheck::new(&steps, (x, from_m), k, true, layout, &index, config);
+        let check = SinglePushCheck::new(&steps, (x, from_m), k, true, layout, index, config);
         let len = (to_m - from_m).norm();
         let shorter = |spot: Vector2<f64>| (spot - from_m).norm() < len - MIN_SAVING_M;
         let at = |t: f64| from_m + (to_m - from_m) * t;
@@ -543,18 +542,17 @@ impl PathOf {
         found
     }
 
-    /// `steps` without this particle's pushes, and its straight push to
-    /// `end` (split to fit the nanostage; none when `end` is its start)
-    /// where step `at` was.
+    /// `steps` without this particle's pushes (radius `r`), and its
+    /// straight push to `end` (split to fit the nanostage; none when `end`
+    /// is its start) where step `at` was.
     fn straightened(
         &self,
         steps: &[Step],
         at: usize,
         end: Vector2<f64>,
-        layout: &Layout,
+        r: f64,
         config: &PlanConfig,
     ) -> Vec<Step> {
-        let r = radius_of(layout, self.particle);
         let pieces = if (end - self.start).norm() < MIN_SAVING_M {
             Vec::new()
         } else {
@@ -578,19 +576,22 @@ impl PathOf {
     }
 }
 
-/// True when the pushes of `steps` that involve `particle` (its own, and
-/// every other push while it lies where it does then) start where their
-/// particle is and keep the clearance: the whole replay's answer for a plan that
-/// replayed clear before only `particle`'s pushes changed, since the
-/// positions of every other pair at every push are the same. Linear in the
-/// pushes, plus the particles for each push of `particle`.
-fn clear_for(steps: &[Step], layout: &Layout, config: &PlanConfig, particle: u32) -> bool {
-    let index = layout.index_by_id();
-    let Some(&x) = index.get(&particle) else {
-        return false;
-    };
+/// True when the pushes of `steps` that involve particle `x` (its index in
+/// `layout`: its own pushes, and every other push while it lies where it
+/// does then) start where their particle is and keep the clearance: the
+/// whole replay's answer for a plan that replayed clear before only `x`'s
+/// pushes changed, since the positions of every other pair at every push
+/// are the same. Linear in the pushes, plus the particles for each push of
+/// `x`.
+fn clear_for(
+    steps: &[Step],
+    layout: &Layout,
+    index: &HashMap<u32, usize>,
+    config: &PlanConfig,
+    x: usize,
+) -> bool {
     let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
-    let clearance = config.clearance_m;
+    let radius = |j: usize| layout.particles[j].radius_m;
     steps.iter().all(|step| {
         let Step::Push {
             particle: id,
@@ -604,20 +605,12 @@ fn clear_for(steps: &[Step], layout: &Layout, config: &PlanConfig, particle: u32
         let Some(&i) = index.get(&id) else {
             return false;
         };
-        let r = layout.particles[i].radius_m;
-        let reach = corridor_reach(r, config) + clearance;
-        let near = |j: usize| {
-            segment_distance(pos[j], from_m, to_m) < reach + layout.particles[j].radius_m
-        };
-        let hits = |corridor: &Corridor, j: usize| {
-            corridor.hits(pos[j], layout.particles[j].radius_m, clearance)
-        };
+        let push = (from_m, to_m, radius(i));
         let clear = if i == x {
-            let corridor = Corridor::new(from_m, to_m, r, config);
             (pos[x] - from_m).norm() <= 1e-12
-                && (0..pos.len()).all(|j| j == x || !near(j) || !hits(&corridor, j))
+                && (0..pos.len()).all(|j| j == x || !corridor_hits(push, pos[j], radius(j), config))
         } else {
-            !near(x) || !hits(&Corridor::new(from_m, to_m, r, config), x)
+            !corridor_hits(push, pos[x], radius(x), config)
         };
         pos[i] = to_m;
         clear
@@ -627,7 +620,7 @@ fn clear_for(steps: &[Step], layout: &Layout, config: &PlanConfig, particle: u32
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plan::layout::{Layout, Particle};
+    use crate::plan::layout::Layout;
     use crate::plan::occupancy::Occupancy;
 
     /// True when every push of `steps`, replayed from `layout`, starts where
@@ -666,21 +659,6 @@ mod tests {
         }
     }
 
-    fn layout(centres: &[(f64, f64)]) -> Layout {
-        Layout {
-            field_m: [200e-6, 200e-6],
-            particles: centres
-                .iter()
-                .enumerate()
-                .map(|(k, &(x, y))| Particle {
-                    id: k as u32,
-                    centre_m: Vector2::new(x, y) * 1e-6,
-                    radius_m: 5e-6,
-                })
-                .collect(),
-        }
-    }
-
     fn um(points: &[(f64, f64)]) -> Vec<Vector2<f64>> {
         points
             .iter()
@@ -691,7 +669,7 @@ mod tests {
     #[test]
     fn a_bent_path_in_open_space_goes_straight() {
         let config = PlanConfig::default();
-        let layout = layout(&[(50.0, 50.0), (150.0, 150.0)]);
+        let layout = Layout::of_test_centres_um(&[(50.0, 50.0), (150.0, 150.0)]);
         let steps = vec![
             push(0, (50.0, 50.0), (60.0, 50.0), &config),
             push(1, (150.0, 150.0), (150.0, 140.0), &config),
@@ -716,7 +694,7 @@ mod tests {
     fn a_detour_around_a_particle_stays_bent_but_tighter() {
         let config = PlanConfig::default();
         // Particle 1 sits on the straight line from (20, 50) to (80, 50).
-        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
             push(0, (20.0, 50.0), (50.0, 65.0), &config),
             push(0, (50.0, 65.0), (80.0, 50.0), &config),
@@ -741,7 +719,7 @@ mod tests {
         let config = PlanConfig::default();
         // Particle 0 steps aside and back while particle 1 passes well clear
         // of it: staying put until the last push is clear too, and shorter.
-        let layout = layout(&[(20.0, 20.0), (100.0, 100.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 20.0), (100.0, 100.0)]);
         let steps = vec![
             push(0, (20.0, 20.0), (20.0, 40.0), &config),
             push(1, (100.0, 100.0), (100.0, 150.0), &config),
@@ -756,7 +734,7 @@ mod tests {
     #[test]
     fn a_replay_that_hits_a_particle_is_not_clear() {
         let config = PlanConfig::default();
-        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![push(0, (20.0, 50.0), (80.0, 50.0), &config)];
         assert!(!replays_clear(&steps, &layout, &config));
         let wrong_start = vec![push(0, (21.0, 50.0), (20.0, 80.0), &config)];
@@ -768,7 +746,7 @@ mod tests {
         let config = PlanConfig::default();
         // Particle 1 covers the site at (50, 50) (3 um off its centre) and
         // was parked 20 um away; 10.15 um plus the margin is enough.
-        let layout = layout(&[(20.0, 50.0), (53.0, 50.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (53.0, 50.0)]);
         let steps = vec![
             push(1, (53.0, 50.0), (73.0, 50.0), &config),
             push(0, (20.0, 50.0), (50.0, 50.0), &config),
@@ -790,7 +768,7 @@ mod tests {
         let config = PlanConfig::default();
         // Particle 1 was pushed aside for nothing: particle 0 passes far
         // from it. The push is dropped.
-        let layout = layout(&[(20.0, 50.0), (50.0, 150.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 150.0)]);
         let steps = vec![
             push(1, (50.0, 150.0), (50.0, 170.0), &config),
             push(0, (20.0, 50.0), (80.0, 50.0), &config),
@@ -807,7 +785,7 @@ mod tests {
         let config = PlanConfig::default();
         // Particle 1 sits on particle 0's line and is pushed 20 um aside:
         // pulled in, it stops just clear of the corridor (about 10.15 um).
-        let layout = layout(&[(20.0, 50.0), (50.0, 50.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
             push(1, (50.0, 50.0), (50.0, 70.0), &config),
             push(0, (20.0, 50.0), (80.0, 50.0), &config),
@@ -827,7 +805,7 @@ mod tests {
         let config = PlanConfig::default();
         // Particle 1 lies 3 um above the site at (50, 50) and was parked
         // 20 um to the left; straight up, 7.2 um, clears the site.
-        let layout = layout(&[(50.0, 20.0), (50.0, 53.0)]);
+        let layout = Layout::of_test_centres_um(&[(50.0, 20.0), (50.0, 53.0)]);
         let steps = vec![
             push(1, (50.0, 53.0), (30.0, 53.0), &config),
             push(0, (50.0, 20.0), (50.0, 50.0), &config),
@@ -852,7 +830,7 @@ mod tests {
         // off, then up and right off particle 0's later way (y = 62):
         // 19.4 um. One push at the start, off the site and below the way,
         // is about 11.8 um.
-        let layout = layout(&[(20.0, 62.0), (50.0, 58.0)]);
+        let layout = Layout::of_test_centres_um(&[(20.0, 62.0), (50.0, 58.0)]);
         let steps = vec![
             push(1, (50.0, 58.0), (50.0, 60.3), &config),
             push(1, (50.0, 60.3), (62.0, 72.5), &config),
