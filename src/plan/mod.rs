@@ -128,6 +128,22 @@ pub enum Step {
     },
 }
 
+impl Step {
+    /// A push's particle id, and its centre before and after (metres); None
+    /// for other steps.
+    pub fn push_move(&self) -> Option<(u32, Vector2<f64>, Vector2<f64>)> {
+        match *self {
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } => Some((particle, from_m, to_m)),
+            _ => None,
+        }
+    }
+}
+
 /// Figures of a plan (all SI).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PlanSummary {

@@ -421,13 +421,7 @@ fn pull_in_parking(
     // Last first: dropping a push leaves the earlier indices as they are.
     parked.sort_unstable_by(|a, b| b.cmp(a));
     for k in parked {
-        let Step::Push {
-            particle,
-            from_m,
-            to_m,
-            ..
-        } = steps[k]
-        else {
+        let Some((particle, from_m, to_m)) = steps[k].push_move() else {
             continue;
         };
         if parking.on_site(to_m) {
@@ -553,17 +547,10 @@ impl SinglePushCheck {
     ) -> Self {
         let radius_of = |i: usize| layout.particles[i].radius_m;
         let radius = radius_of(particle);
-        let others_push = |step: &Step| match *step {
-            Step::Push {
-                particle: id,
-                from_m,
-                to_m,
-                ..
-            } => index
-                .get(&id)
-                .filter(|&&i| i != particle)
-                .map(|&i| (from_m, to_m, radius_of(i), i)),
-            _ => None,
+        let others_push = |step: &Step| {
+            let (id, from_m, to_m) = step.push_move()?;
+            let i = *index.get(&id).filter(|&&i| i != particle)?;
+            Some((from_m, to_m, radius_of(i), i))
         };
         let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
         let mut clear_before = true;
@@ -629,13 +616,7 @@ fn corridor_hits(
 fn bent_paths(steps: &[Step]) -> Vec<(u32, f64)> {
     let mut path: HashMap<u32, (Vector2<f64>, Vector2<f64>, f64)> = HashMap::new();
     for step in steps {
-        if let Step::Push {
-            particle,
-            from_m,
-            to_m,
-            ..
-        } = *step
-        {
+        if let Some((particle, from_m, to_m)) = step.push_move() {
             let e = path.entry(particle).or_insert((from_m, from_m, 0.0));
             e.1 = to_m;
             e.2 += (to_m - from_m).norm();
@@ -664,12 +645,7 @@ impl PathOf {
     fn find(steps: &[Step], particle: u32) -> Option<Self> {
         let mut found: Option<PathOf> = None;
         for (k, step) in steps.iter().enumerate() {
-            if let Step::Push {
-                particle: id,
-                from_m,
-                to_m,
-                ..
-            } = *step
+            if let Some((id, from_m, to_m)) = step.push_move()
                 && id == particle
             {
                 let p = found.get_or_insert(PathOf {
@@ -737,13 +713,7 @@ fn clear_for(
     let mut pos: Vec<Vector2<f64>> = layout.particles.iter().map(|p| p.centre_m).collect();
     let radius = |j: usize| layout.particles[j].radius_m;
     steps.iter().all(|step| {
-        let Step::Push {
-            particle: id,
-            from_m,
-            to_m,
-            ..
-        } = *step
-        else {
+        let Some((id, from_m, to_m)) = step.push_move() else {
             return true;
         };
         let Some(&i) = index.get(&id) else {
@@ -770,97 +740,87 @@ mod tests {
     /// True when every push of `steps`, replayed from `layout`, starts where
     /// its particle is and its corridor (particle and tip) keeps the clearance
     /// from every other particle where it is then: the order's own test.
-    fn replays_clear(steps: &[Step], layout: &Layout, config: &PlanConfig) -> bool {
+    fn replays_clear(steps: &[Step], layout: &Layout) -> bool {
+        let config = PlanConfig::default();
         let index = layout.index_by_id();
         let mut occ = Occupancy::new(layout);
         steps.iter().all(|step| {
-            let Step::Push {
-                particle,
-                from_m,
-                to_m,
-                ..
-            } = *step
-            else {
-                return true;
-            };
-            index
-                .get(&particle)
-                .is_some_and(|&i| occ.replay_push(i, (from_m, to_m), config))
+            step.push_move().is_none_or(|(particle, from_m, to_m)| {
+                index
+                    .get(&particle)
+                    .is_some_and(|&i| occ.replay_push(i, (from_m, to_m), &config))
+            })
         })
     }
 
-    fn push(particle: u32, from: (f64, f64), to: (f64, f64), config: &PlanConfig) -> Step {
+    /// A push of `particle` of 5 um radius from `from` to `to` (um).
+    fn push(particle: u32, from: (f64, f64), to: (f64, f64)) -> Step {
         let (a, b) = (
             Vector2::new(from.0, from.1) * 1e-6,
             Vector2::new(to.0, to.1) * 1e-6,
         );
-        Step::Push {
-            particle,
-            from_m: a,
-            to_m: b,
-            approach_m: approach_point(a, b, 5e-6, config),
-            contact_angle_rad: config.contact_angle_rad,
-        }
+        push_step(particle, a, b, 5e-6, &PlanConfig::default())
     }
 
-    fn um(points: &[(f64, f64)]) -> Vec<Vector2<f64>> {
-        points
+    /// `steps` (which must replay clear) after the shortcuts, with the
+    /// sites at `sites` (um), checked to replay clear; and how many pushes
+    /// fewer they have.
+    fn shortened(layout: &Layout, steps: Vec<Step>, sites: &[(f64, f64)]) -> (Vec<Step>, usize) {
+        assert!(
+            replays_clear(&steps, layout),
+            "the plan given does not replay clear"
+        );
+        let sites: Vec<Vector2<f64>> = sites
             .iter()
             .map(|&(x, y)| Vector2::new(x, y) * 1e-6)
-            .collect()
+            .collect();
+        let (out, fewer) = take_shortcuts(steps, layout, &sites, &PlanConfig::default());
+        assert!(replays_clear(&out, layout), "the shortened plan does not");
+        (out, fewer)
+    }
+
+    /// Particle, start and end (um) of the push at `k`.
+    fn push_at(steps: &[Step], k: usize) -> (u32, Vector2<f64>, Vector2<f64>) {
+        let (particle, from_m, to_m) = steps[k].push_move().expect("a push");
+        (particle, from_m * 1e6, to_m * 1e6)
     }
 
     #[test]
     fn a_bent_path_in_open_space_goes_straight() {
-        let config = PlanConfig::default();
         let layout = Layout::of_test_centres_um(&[(50.0, 50.0), (150.0, 150.0)]);
         let steps = vec![
-            push(0, (50.0, 50.0), (60.0, 50.0), &config),
-            push(1, (150.0, 150.0), (150.0, 140.0), &config),
-            push(0, (60.0, 50.0), (60.0, 60.0), &config),
+            push(0, (50.0, 50.0), (60.0, 50.0)),
+            push(1, (150.0, 150.0), (150.0, 140.0)),
+            push(0, (60.0, 50.0), (60.0, 60.0)),
         ];
-        let sites = um(&[(60.0, 60.0), (150.0, 140.0)]);
-        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps, &[(60.0, 60.0), (150.0, 140.0)]);
         assert_eq!(fewer, 1);
-        assert!(replays_clear(&out, &layout, &config));
         let expected = 200f64.sqrt() + 10.0;
         assert!((push_length(&out) * 1e6 - expected).abs() < 1e-9);
-        match out[0] {
-            Step::Push { particle, to_m, .. } => {
-                assert_eq!(particle, 0);
-                assert!((to_m - Vector2::new(60e-6, 60e-6)).norm() < 1e-15);
-            }
-            _ => panic!("not a push"),
-        }
+        let (particle, _, to) = push_at(&out, 0);
+        assert_eq!(particle, 0);
+        assert!((to - Vector2::new(60.0, 60.0)).norm() < 1e-9);
     }
 
     #[test]
     fn a_detour_around_a_particle_stays_bent_but_tighter() {
-        let config = PlanConfig::default();
         // Particle 1 sits on the straight line from (20, 50) to (80, 50).
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
-            push(0, (20.0, 50.0), (50.0, 65.0), &config),
-            push(0, (50.0, 65.0), (80.0, 50.0), &config),
+            push(0, (20.0, 50.0), (50.0, 65.0)),
+            push(0, (50.0, 65.0), (80.0, 50.0)),
         ];
-        assert!(replays_clear(&steps, &layout, &config));
-        let sites = um(&[(80.0, 50.0)]);
-        let (out, fewer) = take_shortcuts(steps.clone(), &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps.clone(), &[(80.0, 50.0)]);
         assert_eq!(fewer, 0);
-        assert!(replays_clear(&out, &layout, &config));
         // The bend moves towards the line, not onto it: the two particles
         // need 10 um between centres plus the clearance.
-        let Step::Push { to_m: bend, .. } = out[0] else {
-            panic!("not a push")
-        };
-        let y = bend.y * 1e6;
+        let y = push_at(&out, 0).2.y;
         assert!(y > 60.0 && y < 62.0, "{y}");
         assert!(push_length(&out) < push_length(&steps));
     }
 
     #[test]
     fn a_bend_off_centre_slides_round_the_particle_to_the_shortest_way() {
-        let config = PlanConfig::default();
         // Particle 1 sits on the straight line from (20, 50) to (80, 50);
         // the bend starts off centre, at (30, 75). Pulled towards the line
         // alone it stops where its second leg touches particle 1; slid, it
@@ -869,14 +829,11 @@ mod tests {
         // 10 um between centres plus the clearance.
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
-            push(0, (20.0, 50.0), (30.0, 75.0), &config),
-            push(0, (30.0, 75.0), (80.0, 50.0), &config),
+            push(0, (20.0, 50.0), (30.0, 75.0)),
+            push(0, (30.0, 75.0), (80.0, 50.0)),
         ];
-        assert!(replays_clear(&steps, &layout, &config));
-        let sites = um(&[(80.0, 50.0)]);
-        let (out, _) = take_shortcuts(steps, &layout, &sites, &config);
-        assert!(replays_clear(&out, &layout, &config));
-        let rho = 10.0 + config.clearance_m * 1e6;
+        let (out, _) = shortened(&layout, steps, &[(80.0, 50.0)]);
+        let rho = 10.0 + PlanConfig::default().clearance_m * 1e6;
         let h = 30.0 * rho / (900.0 - rho * rho).sqrt();
         let shortest = 2.0 * (900.0 + h * h).sqrt();
         let len = push_length(&out) * 1e6;
@@ -888,141 +845,108 @@ mod tests {
 
     #[test]
     fn a_buffered_particle_waits_where_it_is_when_that_is_clear() {
-        let config = PlanConfig::default();
         // Particle 0 steps aside and back while particle 1 passes well clear
         // of it: staying put until the last push is clear too, and shorter.
         let layout = Layout::of_test_centres_um(&[(20.0, 20.0), (100.0, 100.0)]);
         let steps = vec![
-            push(0, (20.0, 20.0), (20.0, 40.0), &config),
-            push(1, (100.0, 100.0), (100.0, 150.0), &config),
-            push(0, (20.0, 40.0), (20.0, 20.5), &config),
+            push(0, (20.0, 20.0), (20.0, 40.0)),
+            push(1, (100.0, 100.0), (100.0, 150.0)),
+            push(0, (20.0, 40.0), (20.0, 20.5)),
         ];
-        let sites = um(&[(20.0, 20.5), (100.0, 150.0)]);
-        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps, &[(20.0, 20.5), (100.0, 150.0)]);
         assert_eq!(fewer, 1);
         assert!((push_length(&out) * 1e6 - 50.5).abs() < 1e-9);
     }
 
     #[test]
     fn a_replay_that_hits_a_particle_is_not_clear() {
-        let config = PlanConfig::default();
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
-        let steps = vec![push(0, (20.0, 50.0), (80.0, 50.0), &config)];
-        assert!(!replays_clear(&steps, &layout, &config));
-        let wrong_start = vec![push(0, (21.0, 50.0), (20.0, 80.0), &config)];
-        assert!(!replays_clear(&wrong_start, &layout, &config));
+        let steps = vec![push(0, (20.0, 50.0), (80.0, 50.0))];
+        assert!(!replays_clear(&steps, &layout));
+        let wrong_start = vec![push(0, (21.0, 50.0), (20.0, 80.0))];
+        assert!(!replays_clear(&wrong_start, &layout));
     }
 
     #[test]
     fn a_parked_particle_stops_where_it_is_off_the_sites() {
-        let config = PlanConfig::default();
         // Particle 1 covers the site at (50, 50) (3 um off its centre) and
         // was parked 20 um away; 10.15 um plus the margin is enough.
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (53.0, 50.0)]);
         let steps = vec![
-            push(1, (53.0, 50.0), (73.0, 50.0), &config),
-            push(0, (20.0, 50.0), (50.0, 50.0), &config),
+            push(1, (53.0, 50.0), (73.0, 50.0)),
+            push(0, (20.0, 50.0), (50.0, 50.0)),
         ];
-        let sites = um(&[(50.0, 50.0)]);
-        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps, &[(50.0, 50.0)]);
         assert_eq!(fewer, 0);
-        assert!(replays_clear(&out, &layout, &config));
-        let Step::Push { to_m, .. } = out[0] else {
-            panic!("not a push")
-        };
-        let off = (to_m.x * 1e6 - 50.0) - 10.0 - config.clearance_m * 1e6;
+        let clearance = PlanConfig::default().clearance_m * 1e6;
+        let off = (push_at(&out, 0).2.x - 50.0) - 10.0 - clearance;
         // Within one 32nd of the 20 um push beyond the least distance.
         assert!((0.0..=20.0 / 32.0).contains(&off), "{off}");
     }
 
     #[test]
     fn a_particle_pushed_off_a_way_no_push_uses_stays_put() {
-        let config = PlanConfig::default();
         // Particle 1 was pushed aside for nothing: particle 0 passes far
         // from it. The push is dropped.
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 150.0)]);
         let steps = vec![
-            push(1, (50.0, 150.0), (50.0, 170.0), &config),
-            push(0, (20.0, 50.0), (80.0, 50.0), &config),
+            push(1, (50.0, 150.0), (50.0, 170.0)),
+            push(0, (20.0, 50.0), (80.0, 50.0)),
         ];
-        let sites = um(&[(80.0, 50.0)]);
-        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps, &[(80.0, 50.0)]);
         assert_eq!(fewer, 1);
         assert_eq!(out.len(), 1);
-        assert!(replays_clear(&out, &layout, &config));
     }
 
     #[test]
     fn a_particle_pushed_off_a_way_keeps_clear_of_it() {
-        let config = PlanConfig::default();
         // Particle 1 sits on particle 0's line and is pushed 20 um aside:
         // pulled in, it stops just clear of the corridor (about 10.15 um).
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
-            push(1, (50.0, 50.0), (50.0, 70.0), &config),
-            push(0, (20.0, 50.0), (80.0, 50.0), &config),
+            push(1, (50.0, 50.0), (50.0, 70.0)),
+            push(0, (20.0, 50.0), (80.0, 50.0)),
         ];
-        let sites = um(&[(80.0, 50.0)]);
-        let (out, _) = take_shortcuts(steps, &layout, &sites, &config);
-        assert!(replays_clear(&out, &layout, &config));
-        let Step::Push { to_m, .. } = out[0] else {
-            panic!("not a push")
-        };
-        let y = to_m.y * 1e6;
+        let (out, _) = shortened(&layout, steps, &[(80.0, 50.0)]);
+        let y = push_at(&out, 0).2.y;
         assert!(y > 60.0 && y < 62.0, "{y}");
     }
 
     #[test]
     fn a_parked_particle_takes_a_nearer_way_off_the_sites() {
-        let config = PlanConfig::default();
         // Particle 1 lies 3 um above the site at (50, 50) and was parked
         // 20 um to the left; straight up, 7.2 um, clears the site.
         let layout = Layout::of_test_centres_um(&[(50.0, 20.0), (50.0, 53.0)]);
         let steps = vec![
-            push(1, (50.0, 53.0), (30.0, 53.0), &config),
-            push(0, (50.0, 20.0), (50.0, 50.0), &config),
+            push(1, (50.0, 53.0), (30.0, 53.0)),
+            push(0, (50.0, 20.0), (50.0, 50.0)),
         ];
-        let sites = um(&[(50.0, 50.0)]);
-        let (out, _) = take_shortcuts(steps, &layout, &sites, &config);
-        assert!(replays_clear(&out, &layout, &config));
-        let Step::Push { from_m, to_m, .. } = out[0] else {
-            panic!("not a push")
-        };
-        let len = (to_m - from_m).norm() * 1e6;
+        let (out, _) = shortened(&layout, steps, &[(50.0, 50.0)]);
+        let (_, from, to) = push_at(&out, 0);
+        let len = (to - from).norm();
         // Least: 10.15 um clearance plus the margin, less the 3 um.
-        let least = 10.0 + (config.clearance_m + CLEARING_MARGIN_M) * 1e6 - 3.0;
+        let least = 10.0 + (PlanConfig::default().clearance_m + CLEARING_MARGIN_M) * 1e6 - 3.0;
         assert!(len >= least - 1e-6 && len < least + 0.5, "{len}");
-        assert!((to_m - Vector2::new(50e-6, 50e-6)).norm() * 1e6 >= least + 3.0 - 1e-6);
+        assert!((to - Vector2::new(50.0, 50.0)).norm() >= least + 3.0 - 1e-6);
     }
 
     #[test]
     fn a_particle_pushed_off_a_site_then_off_a_way_goes_once_where_neither_needs_it() {
-        let config = PlanConfig::default();
         // Particle 1 covers the site at (50, 50); the order pushed it just
         // off, then up and right off particle 0's later way (y = 62):
         // 19.4 um. One push at the start, off the site and below the way,
         // is about 11.8 um.
         let layout = Layout::of_test_centres_um(&[(20.0, 62.0), (50.0, 58.0)]);
         let steps = vec![
-            push(1, (50.0, 58.0), (50.0, 60.3), &config),
-            push(1, (50.0, 60.3), (62.0, 72.5), &config),
-            push(0, (20.0, 62.0), (80.0, 62.0), &config),
+            push(1, (50.0, 58.0), (50.0, 60.3)),
+            push(1, (50.0, 60.3), (62.0, 72.5)),
+            push(0, (20.0, 62.0), (80.0, 62.0)),
         ];
-        let sites = um(&[(50.0, 50.0), (80.0, 62.0)]);
-        let (out, fewer) = take_shortcuts(steps, &layout, &sites, &config);
+        let (out, fewer) = shortened(&layout, steps, &[(50.0, 50.0), (80.0, 62.0)]);
         assert_eq!(fewer, 1);
-        assert!(replays_clear(&out, &layout, &config));
-        let Step::Push {
-            particle,
-            from_m,
-            to_m,
-            ..
-        } = out[0]
-        else {
-            panic!("not a push")
-        };
+        let (particle, from, to) = push_at(&out, 0);
         assert_eq!(particle, 1);
-        let len = (to_m - from_m).norm() * 1e6;
+        let len = (to - from).norm();
         assert!(len < 13.0, "{len}");
     }
 }
