@@ -323,20 +323,10 @@ fn next_command(
     let pushes: Vec<(u32, PlannedPush)> = plan
         .steps
         .iter()
-        .filter_map(|s| match s {
-            Step::Push {
-                particle,
-                from_m,
-                to_m,
-                ..
-            } => Some((
-                *particle,
-                PlannedPush {
-                    from: [from_m.x, from_m.y],
-                    to: [to_m.x, to_m.y],
-                },
-            )),
-            _ => None,
+        .filter_map(Step::push_move)
+        .map(|(particle, from_m, to_m)| {
+            let (from, to) = ([from_m.x, from_m.y], [to_m.x, to_m.y]);
+            (particle, PlannedPush { from, to })
         })
         .collect();
     let Some(&(particle, first)) = pushes.first() else {

@@ -509,15 +509,14 @@ impl FreeProblem {
             layout.particles.iter().map(|p| p.centre_m),
             layout.max_radius_m() * 2.0,
         );
+        let immovable = |p: usize| config.immovable.contains(&layout.particles[p].id);
         let mut particle_taken = vec![false; layout.particles.len()];
         let mut on_site_pairs = Vec::new();
         let mut free_sites = Vec::new();
         for (si, s) in sites.iter().enumerate() {
             match grid.nearest(s.centre_m, 1).first() {
                 Some(&(d, p))
-                    if d <= config.on_site_tolerance_m
-                        && !particle_taken[p]
-                        && !config.immovable.contains(&layout.particles[p].id) =>
+                    if d <= config.on_site_tolerance_m && !particle_taken[p] && !immovable(p) =>
                 {
                     particle_taken[p] = true;
                     on_site_pairs.push((p, si));
@@ -526,7 +525,7 @@ impl FreeProblem {
             }
         }
         let free_particles: Vec<usize> = (0..layout.particles.len())
-            .filter(|&p| !particle_taken[p] && !config.immovable.contains(&layout.particles[p].id))
+            .filter(|&p| !particle_taken[p] && !immovable(p))
             .collect();
         if free_particles.len() < free_sites.len() {
             return Err(assignment::AssignmentError::TooFewParticles {
@@ -552,9 +551,7 @@ impl FreeProblem {
             && site_pts.len() * part_pts.len() <= REFINE_MAX_PAIRS
         {
             let fixed: Vec<usize> = (0..layout.particles.len())
-                .filter(|&p| {
-                    particle_taken[p] || config.immovable.contains(&layout.particles[p].id)
-                })
+                .filter(|&p| particle_taken[p] || immovable(p))
                 .collect();
             let longest_m = plain
                 .site_to_particle

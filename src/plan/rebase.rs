@@ -166,15 +166,7 @@ mod tests {
     /// The layout after the plan's first push, as the camera would see it:
     /// the pushed particle `miss_um` short of its target.
     fn after_first_push(start: &Layout, plan: &Plan, miss_um: f64) -> Layout {
-        let Step::Push {
-            particle,
-            from_m,
-            to_m,
-            ..
-        } = first_push(plan)
-        else {
-            unreachable!()
-        };
+        let (particle, from_m, to_m) = first_push(plan).push_move().unwrap();
         let dir = (to_m - from_m).normalize();
         let mut now = start.clone();
         for p in &mut now.particles {

@@ -42,16 +42,8 @@ impl LearnedCosts {
     ) -> bool {
         let index = layout.index_by_id();
         let mut path = vec![0.0; layout.particles.len()];
-        for step in &ordered.steps {
-            if let Step::Push {
-                particle,
-                from_m,
-                to_m,
-                ..
-            } = step
-            {
-                path[index[particle]] += (to_m - from_m).norm();
-            }
+        for (particle, from_m, to_m) in ordered.steps.iter().filter_map(Step::push_move) {
+            path[index[&particle]] += (to_m - from_m).norm();
         }
         let mut learned = false;
         let mut has_site = vec![false; layout.particles.len()];
