@@ -120,15 +120,16 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
             // within 1.05; 89 since cycle breaks keep the peel's margin;
             // 100 and 90 since a refused order is tried with wide spots;
             // 92 since the finished order takes shortcuts; 96 since its
-            // bends slide and parked pushes turn (sixteenth pass).
+            // bends slide and parked pushes turn, 98 since a push bends
+            // round an idle particle instead of pushing it (sixteenth pass).
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
-            assert!(push_ok >= 96, "only {push_ok} of 100 meet push ratio 1.05");
+            assert!(push_ok >= 98, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
 
 #[test]
-#[ignore = "targets not met: worst push ratio 1.061 (target 1.05, 96/100 meet it), push+tip ratio median 1.348 worst 1.456 (target 1.2, 0/100 meet it); 100/100 planned; see docs/plan.md"]
+#[ignore = "targets not met: worst push ratio 1.055 (target 1.05, 98/100 meet it), push+tip ratio median 1.332 worst 1.450 (target 1.2, 0/100 meet it); 100/100 planned; see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);
