@@ -265,6 +265,7 @@ fn tighten_bends(
     index: &HashMap<u32, usize>,
     config: &PlanConfig,
 ) -> Vec<Step> {
+    let wide = with_room(config);
     for (particle, _) in bent_paths(&steps) {
         let x = index[&particle];
         let radius = layout.particles[x].radius_m;
@@ -302,11 +303,28 @@ fn tighten_bends(
             }) {
                 steps = candidate(t);
             }
-            let clear = |s: &[Step]| clear_for(s, layout, index, config, x);
+            let clear = |s: &[Step]| clear_for(s, layout, index, &wide, x);
             steps = slide_bend(steps, (i, j), radius, clear, config);
         }
     }
     steps
+}
+
+/// Room beyond the clearance that a slid bend, or a push bent round a
+/// particle left in place, keeps from every particle: they end where the
+/// room runs out, and the closed loop re-plans from where the particles
+/// are seen after each push, tens of nanometres off the plan (CMU seed 33
+/// of `nanopush study assemble`: with bent pushes at the bare clearance,
+/// the plan in hand stopped verifying mid-run and the re-plan from there
+/// was refused).
+const EXECUTION_ROOM_M: f64 = 0.05e-6;
+
+/// `config` with [`EXECUTION_ROOM_M`] added to its clearance.
+fn with_room(config: &PlanConfig) -> PlanConfig {
+    PlanConfig {
+        clearance_m: config.clearance_m + EXECUTION_ROOM_M,
+        ..config.clone()
+    }
 }
 
 /// Step sizes of [`slide_bend`]'s pattern search, metres.
@@ -510,14 +528,6 @@ fn turned_nearer(
 const BEND_ALONG: [f64; 5] = [0.2, 0.35, 0.5, 0.65, 0.8];
 const BEND_ASIDE_M: [f64; 6] = [0.5e-6, 1e-6, 2e-6, 3e-6, 4e-6, 6e-6];
 
-/// Room beyond the clearance a bent push keeps from the particle that
-/// stays, and every push from the bent particle: the closed loop re-plans
-/// from where the particles are seen after each push, tens of nanometres
-/// off the plan (CMU seed 33 of `nanopush study assemble`: with the bends
-/// at the bare clearance the plan in hand stopped verifying mid-run and
-/// the re-plan from there was refused).
-const STAY_MARGIN_M: f64 = 0.05e-6;
-
 /// `steps` where a particle pushed once, from a spot off the sites to no
 /// site (off another's way), stays put instead, and the one later push its
 /// stay would block bends round it (a bend from a coarse set, then slid),
@@ -533,10 +543,7 @@ fn bend_round_idle(
     config: &PlanConfig,
 ) -> Vec<Step> {
     let radius = |i: usize| layout.particles[i].radius_m;
-    let kept_wide = PlanConfig {
-        clearance_m: config.clearance_m + STAY_MARGIN_M,
-        ..config.clone()
-    };
+    let wide = with_room(config);
     let mut pushes_of: HashMap<u32, usize> = HashMap::new();
     for (id, _, _) in steps.iter().filter_map(Step::push_move) {
         *pushes_of.entry(id).or_insert(0) += 1;
@@ -594,7 +601,7 @@ fn bend_round_idle(
             .collect();
         bends.sort_by(|u, v| u.0.total_cmp(&v.0));
         let clear = |s: &[Step]| {
-            clear_for(s, layout, index, &kept_wide, x) && clear_for(s, layout, index, &kept_wide, q)
+            clear_for(s, layout, index, &wide, x) && clear_for(s, layout, index, &wide, q)
         };
         let found = bends.into_iter().find_map(|(_, w)| {
             let mut bent = without.clone();
@@ -919,14 +926,14 @@ mod tests {
         // alone it stops where its second leg touches particle 1; slid, it
         // ends where both legs touch: the shortest one-bend way round,
         // 2 sqrt(30^2 + h^2) with h = 30 rho / sqrt(30^2 - rho^2), rho the
-        // 10 um between centres plus the clearance.
+        // 10 um between centres plus the clearance and the execution room.
         let layout = Layout::of_test_centres_um(&[(20.0, 50.0), (50.0, 50.0)]);
         let steps = vec![
             push(0, (20.0, 50.0), (30.0, 75.0)),
             push(0, (30.0, 75.0), (80.0, 50.0)),
         ];
         let (out, _) = shortened(&layout, steps, &[(80.0, 50.0)]);
-        let rho = 10.0 + PlanConfig::default().clearance_m * 1e6;
+        let rho = 10.0 + (PlanConfig::default().clearance_m + EXECUTION_ROOM_M) * 1e6;
         let h = 30.0 * rho / (900.0 - rho * rho).sqrt();
         let shortest = 2.0 * (900.0 + h * h).sqrt();
         let len = push_length(&out) * 1e6;
