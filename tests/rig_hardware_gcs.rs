@@ -201,6 +201,12 @@ fn the_camera_sees_the_frames_the_simulated_microscope_writes() {
         }),
     };
     let frame = render_frame(&scene, &RenderSettings::with_snr(30.0, 12), 7).unwrap();
+    // A file's time comes from the kernel's coarse clock, up to a tick
+    // behind the precise one: a frame written within a tick of the stage
+    // settling can carry an earlier time, and the rig rightly discards it
+    // as exposed before the stage came to rest (this test once failed so
+    // in CI). A camera program writes later frames; this one writes one.
+    std::thread::sleep(Duration::from_millis(30));
     let before = rig.now_s();
     save_png(&frame, &b.frames.join("frame_000001.png")).unwrap();
     let timed = rig.grab().unwrap().expect("the written frame");
