@@ -50,7 +50,7 @@ fn ring(centre: Vector2<f64>, pitch_m: f64) -> impl Iterator<Item = (f64, Vector
 }
 
 /// Directions of the nearest spots off the sites.
-const CLEARING_DIRECTIONS: usize = 48;
+pub const CLEARING_DIRECTIONS: usize = 48;
 
 /// Extra distance, beyond the clearance, a clearing spot keeps from every
 /// site (rounding, and a particle pushed there must not graze a site).
@@ -74,94 +74,81 @@ pub fn ring_off_sites(
     also: &dyn Fn(Vector2<f64>) -> bool,
     own: Option<usize>,
 ) -> Vec<Vector2<f64>> {
-    let (near, max_m) = sites_in_reach(centre, radius_m, sites);
-    let mut spots: Vec<(f64, Vector2<f64>)> = Vec::with_capacity(32 * 48 + CLEARING_DIRECTIONS);
-    for a in 0..CLEARING_DIRECTIONS {
+    let directions = (0..CLEARING_DIRECTIONS).map(|a| {
         let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
-        let u = Vector2::new(ang.cos(), ang.sin());
-        if let Some(t) = off_sites_along(centre, u, (radius_m, max_m), sites, &near, also, own) {
-            spots.push((t, centre + u * t));
-        }
-    }
-    spots.extend(ring(centre, 2.0 * radius_m + 1e-6));
+        Vector2::new(ang.cos(), ang.sin())
+    });
+    let mut spots: Vec<(f64, Vector2<f64>)> = Vec::with_capacity(32 * 48 + CLEARING_DIRECTIONS);
+    spots.extend(spots_off_sites_along(
+        centre, directions, radius_m, sites, also, own,
+    ));
+    spots.extend(ring(centre, pitch_of(radius_m)));
     spots.sort_by(|x, y| x.0.total_cmp(&y.0));
     spots.into_iter().map(|s| s.1).collect()
 }
 
-/// The nearest spot along the unit direction `u` from `centre` (within
-/// two pitches) where a disc of `radius_m` keeps the clearance (plus
-/// [`CLEARING_MARGIN_M`]) from every site except `own` and `also` does not
-/// hold: [`ring_off_sites`]'s rule for one direction, for callers that
-/// turn a direction finer than its 48.
-pub fn spot_off_sites_along(
+/// Centre-to-centre distance of neighbouring spots for particles of
+/// `radius_m`: a diameter and a micron.
+fn pitch_of(radius_m: f64) -> f64 {
+    2.0 * radius_m + 1e-6
+}
+
+/// Along each unit direction of `directions` from `centre` (within two
+/// pitches), the nearest spot where a disc of `radius_m` keeps the
+/// clearance (plus [`CLEARING_MARGIN_M`]) from every site except `own` and
+/// `also` does not hold, with its distance; directions with none are left
+/// out. [`ring_off_sites`]'s rule, also for callers that turn a direction
+/// finer than its 48.
+pub fn spots_off_sites_along(
     centre: Vector2<f64>,
-    u: Vector2<f64>,
+    directions: impl IntoIterator<Item = Vector2<f64>>,
     radius_m: f64,
     sites: &SiteDiscs,
     also: &dyn Fn(Vector2<f64>) -> bool,
     own: Option<usize>,
-) -> Option<Vector2<f64>> {
-    let (near, max_m) = sites_in_reach(centre, radius_m, sites);
-    off_sites_along(centre, u, (radius_m, max_m), sites, &near, also, own).map(|t| centre + u * t)
-}
-
-/// The sites a disc of `radius_m` could cover within two pitches of
-/// `centre` (how far a spot off the sites is looked for), and that distance.
-fn sites_in_reach(centre: Vector2<f64>, radius_m: f64, sites: &SiteDiscs) -> (Vec<usize>, f64) {
-    let max_m = 2.0 * (2.0 * radius_m + 1e-6);
+) -> Vec<(f64, Vector2<f64>)> {
+    let pitch = pitch_of(radius_m);
+    let max_m = 2.0 * pitch;
     let reach = radius_m + sites.radius_m + sites.clearance_m + CLEARING_MARGIN_M;
-    (sites.grid.within(centre, max_m + reach), max_m)
-}
-
-/// Distance along `u` from `centre`, up to `max_m`, to the nearest spot
-/// where a disc of `radius_m` is off the sites `near` (but `own`), with the
-/// margin, and out of `also`; None when there is none that near.
-fn off_sites_along(
-    centre: Vector2<f64>,
-    u: Vector2<f64>,
-    (radius_m, max_m): (f64, f64),
-    sites: &SiteDiscs,
-    near: &[usize],
-    also: &dyn Fn(Vector2<f64>) -> bool,
-    own: Option<usize>,
-) -> Option<f64> {
-    let pitch = 2.0 * radius_m + 1e-6;
-    let reach = radius_m + sites.radius_m + sites.clearance_m + CLEARING_MARGIN_M;
-    // Along the ray, each site is covered on an interval of distances.
-    let mut covered: Vec<(f64, f64)> = near
-        .iter()
-        .filter(|&&s| Some(s) != own)
-        .filter_map(|&s| {
-            let d = sites.centres[s] - centre;
-            let b = d.dot(&u);
-            let disc = b * b - (d.norm_squared() - reach * reach);
-            (disc > 0.0).then(|| (b - disc.sqrt(), b + disc.sqrt()))
-        })
-        .filter(|&(_, hi)| hi > 0.0)
-        .collect();
-    covered.sort_by(|x, y| x.0.total_cmp(&y.0));
-    let off_sites_from = |mut t: f64| {
-        for &(lo, hi) in &covered {
-            if lo > t {
+    let near = sites.grid.within(centre, max_m + reach);
+    let along = |u: Vector2<f64>| {
+        // Along the ray, each site is covered on an interval of distances.
+        let mut covered: Vec<(f64, f64)> = near
+            .iter()
+            .filter(|&&s| Some(s) != own)
+            .filter_map(|&s| {
+                let d = sites.centres[s] - centre;
+                let b = d.dot(&u);
+                let disc = b * b - (d.norm_squared() - reach * reach);
+                (disc > 0.0).then(|| (b - disc.sqrt(), b + disc.sqrt()))
+            })
+            .filter(|&(_, hi)| hi > 0.0)
+            .collect();
+        covered.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let off_sites_from = |mut t: f64| {
+            for &(lo, hi) in &covered {
+                if lo > t {
+                    break;
+                }
+                t = t.max(hi);
+            }
+            t
+        };
+        // Off the sites, then out of `also` (marching, then bisecting its
+        // edge), until both hold at once.
+        let mut t = off_sites_from(0.0);
+        for _ in 0..4 {
+            if t > max_m || !also(centre + u * t) {
                 break;
             }
-            t = t.max(hi);
+            t = match exit_along(centre, u, t, pitch / 8.0, max_m, also) {
+                Some(out) => off_sites_from(out + CLEARING_MARGIN_M),
+                None => f64::INFINITY,
+            };
         }
-        t
+        (t > 0.0 && t <= max_m && !also(centre + u * t)).then(|| (t, centre + u * t))
     };
-    // Off the sites, then out of `also` (marching, then bisecting its
-    // edge), until both hold at once.
-    let mut t = off_sites_from(0.0);
-    for _ in 0..4 {
-        if t > max_m || !also(centre + u * t) {
-            break;
-        }
-        t = match exit_along(centre, u, t, pitch / 8.0, max_m, also) {
-            Some(out) => off_sites_from(out + CLEARING_MARGIN_M),
-            None => f64::INFINITY,
-        };
-    }
-    (t > 0.0 && t <= max_m && !also(centre + u * t)).then_some(t)
+    directions.into_iter().filter_map(along).collect()
 }
 
 /// The first distance beyond `t` along `u` from `centre` (up to `max_m`)

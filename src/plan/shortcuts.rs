@@ -6,11 +6,14 @@
 //!   end instead, at the time of its first push or of its last; one that
 //!   ends on no site, to any nearer spot off the sites;
 //! - else each bend of its path moves towards the straight line between
-//!   its neighbours;
+//!   its neighbours, then slides along what stops it;
 //! - a particle that ends on no site (parked off the sites, or pushed off
 //!   another move's way) has its last push pulled in: it stops at the
 //!   nearest spot off every site found clear (in 48 directions, then on
-//!   the push's own line), or stays put.
+//!   the push's own line, then turned between the directions), or stays
+//!   put;
+//! - a particle pushed once off another's way stays put when the one
+//!   later push it would block can bend round it for less.
 //!
 //! The order decides each push with what it knows at that step; only the
 //! finished plan shows that a particle's second push undid half of its
@@ -20,7 +23,9 @@
 
 use super::grid::Grid;
 use super::layout::Layout;
-use super::parking::{CLEARING_MARGIN_M, SiteDiscs, ring_off_sites, spot_off_sites_along};
+use super::parking::{
+    CLEARING_DIRECTIONS, CLEARING_MARGIN_M, SiteDiscs, ring_off_sites, spots_off_sites_along,
+};
 use super::pushes::{
     Corridor, approach_point, corridor_reach, max_push_len, segment_distance, split_long,
 };
@@ -147,10 +152,8 @@ impl<'a> Parking<'a> {
 fn push_length(steps: &[Step]) -> f64 {
     steps
         .iter()
-        .map(|s| match s {
-            Step::Push { from_m, to_m, .. } => (to_m - from_m).norm(),
-            _ => 0.0,
-        })
+        .filter_map(Step::push_move)
+        .map(|(_, from_m, to_m)| (to_m - from_m).norm())
         .sum()
 }
 
@@ -238,6 +241,22 @@ fn push_step(
     }
 }
 
+/// `steps` with the pushes `i` and `j` of `particle` (of `radius_m`),
+/// from `p` to `n`, meeting at `bend` instead.
+fn with_bend(
+    steps: &[Step],
+    (i, j): (usize, usize),
+    (particle, p, n): (u32, Vector2<f64>, Vector2<f64>),
+    bend: Vector2<f64>,
+    radius_m: f64,
+    config: &PlanConfig,
+) -> Vec<Step> {
+    let mut out = steps.to_vec();
+    out[i] = push_step(particle, p, bend, radius_m, config);
+    out[j] = push_step(particle, bend, n, radius_m, config);
+    out
+}
+
 /// [`PULL_IN_STEPS`] bisections between the fractions `valid` (`ok`) and
 /// `invalid`: the fraction nearest `invalid` found `ok`; None when only
 /// `valid` is.
@@ -290,10 +309,7 @@ fn tighten_bends(
             let straight = p + pn * along;
             let candidate = |t: f64| {
                 let bend = v + (straight - v) * t;
-                let mut out = steps.clone();
-                out[i] = push_step(particle, p, bend, radius, config);
-                out[j] = push_step(particle, bend, n, radius, config);
-                out
+                with_bend(&steps, (i, j), (particle, p, n), bend, radius, config)
             };
             let full = candidate(1.0);
             if clear_for(&full, layout, index, config, x) {
@@ -383,9 +399,7 @@ fn slide_bend(
                 .collect();
             tries.sort_by(|a, b| a.0.total_cmp(&b.0));
             let moved = tries.into_iter().find_map(|(_, b)| {
-                let mut out = steps.clone();
-                out[i] = push_step(particle, p, b, radius_m, config);
-                out[j] = push_step(particle, b, n, radius_m, config);
+                let out = with_bend(&steps, (i, j), (particle, p, n), b, radius_m, config);
                 clear(&out).then_some(out)
             });
             match moved {
@@ -503,21 +517,17 @@ fn turned_nearer(
     if way.norm() < MIN_SAVING_M {
         return end;
     }
-    let discs = parking.discs();
     let heading = way.y.atan2(way.x);
-    let turn = std::f64::consts::TAU / (48 * TURN_STEPS) as f64;
+    let turn = std::f64::consts::TAU / (CLEARING_DIRECTIONS * TURN_STEPS) as f64;
+    let directions = (1..=TURN_STEPS as i32)
+        .flat_map(|k| [-k, k])
+        .map(|k| heading + turn * f64::from(k))
+        .map(|angle| Vector2::new(angle.cos(), angle.sin()));
+    let spots = spots_off_sites_along(from, directions, radius_m, &parking.discs(), swept, None);
     let mut best = (way.norm(), end);
-    for k in 1..=TURN_STEPS as i32 {
-        for side in [-1, 1] {
-            let angle = heading + turn * f64::from(side * k);
-            let u = Vector2::new(angle.cos(), angle.sin());
-            let Some(spot) = spot_off_sites_along(from, u, radius_m, &discs, swept, None) else {
-                continue;
-            };
-            let len = (spot - from).norm();
-            if len < best.0 - MIN_SAVING_M && ok(spot) {
-                best = (len, spot);
-            }
+    for (len, spot) in spots {
+        if len < best.0 - MIN_SAVING_M && ok(spot) {
+            best = (len, spot);
         }
     }
     best.1
@@ -603,10 +613,11 @@ fn bend_round_idle(
         let clear = |s: &[Step]| {
             clear_for(s, layout, index, &wide, x) && clear_for(s, layout, index, &wide, q)
         };
+        // Push j in two pieces, then bent where they meet.
+        let mut split = without;
+        split.insert(j + 1, split[j].clone());
         let found = bends.into_iter().find_map(|(_, w)| {
-            let mut bent = without.clone();
-            bent[j] = push_step(pid, a, w, rx, config);
-            bent.insert(j + 1, push_step(pid, w, b, rx, config));
+            let bent = with_bend(&split, (j, j + 1), (pid, a, b), w, rx, config);
             clear(&bent).then_some(bent)
         });
         if let Some(bent) = found {
