@@ -367,10 +367,11 @@ fn kill_and_resume(kill_after: usize) {
 }
 
 /// Killed at six points of the run (during a push, before a check, after
-/// placements) and resumed: every run completes without loss.
+/// placements) and resumed: every run completes without loss. The run
+/// writes 67 journal lines (its placement since the seventeenth pass).
 #[test]
 fn killed_anywhere_and_resumed_the_run_completes() {
-    for kill_after in [20, 30, 40, 50, 60, 70] {
+    for kill_after in [10, 20, 30, 40, 50, 60] {
         kill_and_resume(kill_after);
     }
 }

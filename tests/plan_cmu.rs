@@ -121,15 +121,17 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
             // 100 and 90 since a refused order is tried with wide spots;
             // 92 since the finished order takes shortcuts; 96 since its
             // bends slide and parked pushes turn, 98 since a push bends
-            // round an idle particle instead of pushing it (sixteenth pass).
+            // round an idle particle instead of pushing it (sixteenth pass),
+            // 99 since the pattern is placed where the plan pushes least
+            // (seventeenth pass; the scenes changed with it).
             assert!(o.planned >= 100, "only {} of 100 planned", o.planned);
-            assert!(push_ok >= 98, "only {push_ok} of 100 meet push ratio 1.05");
+            assert!(push_ok >= 99, "only {push_ok} of 100 meet push ratio 1.05");
         }
     }
 }
 
 #[test]
-#[ignore = "targets not met: worst push ratio 1.056 (target 1.05, 98/100 meet it), push+tip ratio median 1.328 worst 1.459 (target 1.2, 0/100 meet it); 100/100 planned; see docs/plan.md"]
+#[ignore = "targets not met: worst push ratio 1.0533 (target 1.05, 99/100 meet it), push+tip ratio median 1.315 worst 1.542 (target 1.2, 3/100 meet it); 100/100 planned; see docs/plan.md"]
 fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
     let o = run_cmu(LayoutKind::Uniform, 0..100);
     assert_eq!(o.planned, 100, "refused: {:?}", o.refused);
@@ -315,7 +317,9 @@ fn push_excess_study_on_cmu() {
         let lb = lb_push_with_clearing(&layout, &sites);
         assert!(
             lb >= s.lb_push_m * (1.0 - 1e-9) && s.push_distance_m >= lb * (1.0 - 1e-9),
-            "seed {seed}: the clearing bound {lb} is not between LB_push and the plan"
+            "seed {seed}: the clearing bound {lb} is not between LB_push {} and the plan's push {}",
+            s.lb_push_m,
+            s.push_distance_m
         );
         clearing_lb.push(lb / s.lb_push_m);
         over_clearing.push(s.push_distance_m / lb);
@@ -363,7 +367,12 @@ fn lb_push_with_clearing(layout: &Layout, sites: &[Site]) -> f64 {
     let part_pts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
     let r = layout.max_radius_m();
     let reach: Vec<f64> = layout.particles.iter().map(|p| r + p.radius_m).collect();
-    parking::clearing_bound(&site_pts, &part_pts, &reach)
+    parking::clearing_bound(
+        &site_pts,
+        &part_pts,
+        &reach,
+        PlanConfig::default().on_site_tolerance_m,
+    )
 }
 
 /// The executor's loop: plan, execute only the first push (landing a little

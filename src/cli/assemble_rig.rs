@@ -31,7 +31,7 @@ use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::place_by_plan;
+use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
 use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
@@ -315,8 +315,14 @@ fn sites_for(
         (None, None) => bail!("give --text or --pattern"),
     };
     let layout = layout_seen(settings.field_m, seen, r);
-    place_by_plan(&pattern, reachable, &layout, config)
-        .context("placing the pattern among the particles of the first frame")
+    place_by_plan(
+        &pattern,
+        reachable,
+        &layout,
+        config,
+        PlacementGoal::LeastTime,
+    )
+    .context("placing the pattern among the particles of the first frame")
 }
 
 /// One line per message, bytes outside printable ASCII escaped (`\n` ends each command).

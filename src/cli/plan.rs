@@ -6,8 +6,9 @@ use std::path::PathBuf;
 
 mod nanopush_plan_api {
     pub use crate::plan::layout::Layout;
-    pub use crate::plan::pattern::transform::{Reachable, place_at, place_optimised, rotate};
+    pub use crate::plan::pattern::transform::{Reachable, place_at, rotate};
     pub use crate::plan::pattern::{Pattern, site_list};
+    pub use crate::plan::placement::{PlacementGoal, place_by_plan};
     pub use crate::plan::{
         AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
         verify,
@@ -38,7 +39,8 @@ pub struct Args {
     /// Pattern rotation, degrees counter-clockwise.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub rotation_deg: f64,
-    /// Pattern centre "X,Y" in um (default: placed to minimise push distance).
+    /// Pattern centre "X,Y" in um (default: where the plan pushes least, of
+    /// the two best placements by the push distance's lower bound).
     #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
     pub at: Option<(f64, f64)>,
     /// Contact angle of every push, degrees from the substrate normal.
@@ -102,6 +104,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let pattern = rotate(&pattern, args.rotation_deg.to_radians())?;
     pattern.check_no_overlap(2.0 * radius)?;
     let area = Reachable::for_field(layout.field_m, radius);
+    let config = PlanConfig {
+        contact_angle_rad: args.contact_angle_deg.to_radians(),
+        tip_radius_m: args.tip_radius_um * 1e-6,
+        push_speed_m_per_s: args.speed_um_s * 1e-6,
+        method: args.method,
+        ..PlanConfig::default()
+    };
     let sites = match args.at {
         Some((x, y)) => place_at(
             &pattern,
@@ -109,23 +118,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &area,
             radius,
         )?,
-        None => place_optimised(
-            &pattern,
-            &area,
-            radius,
-            &layout
-                .particles
-                .iter()
-                .map(|p| p.centre_m)
-                .collect::<Vec<_>>(),
-        )?,
-    };
-    let config = PlanConfig {
-        contact_angle_rad: args.contact_angle_deg.to_radians(),
-        tip_radius_m: args.tip_radius_um * 1e-6,
-        push_speed_m_per_s: args.speed_um_s * 1e-6,
-        method: args.method,
-        ..PlanConfig::default()
+        None => place_by_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)?,
     };
     let plan = plan_assembly(&layout, &sites, &config)?;
     if let Some(out) = &args.out {

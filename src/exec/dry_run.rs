@@ -14,7 +14,7 @@ use crate::model::Scene;
 use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::place_by_plan;
+use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -286,6 +286,7 @@ fn target_sites(
         &Reachable::for_field(field_m, radius_m),
         &layout_seen(field_m, first, radius_m),
         config,
+        PlacementGoal::LeastTime,
     )
     .map_err(|e| target(e.to_string()))
 }

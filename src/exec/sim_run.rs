@@ -12,7 +12,7 @@ use crate::plan::pattern::PatternError;
 use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::place_by_plan;
+use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, Site};
 use crate::rig::RigError;
@@ -186,6 +186,7 @@ fn sites_for(
         &Reachable::for_field(layout.field_m, r),
         layout,
         &AssemblySettings::default().plan_config(scene),
+        PlacementGoal::LeastTime,
     )?)
 }
 

@@ -84,7 +84,7 @@ impl Default for PlanConfig {
             push_speed_m_per_s: 1e-6,
             travel_speed_m_per_s: 10e-6,
             nanostage_range_m: 100e-6,
-            on_site_tolerance_m: 0.25e-6,
+            on_site_tolerance_m: DEFAULT_ON_SITE_TOLERANCE_M,
             method: AssignmentMethod::Fast,
             tip_start_m: None,
             immovable: Vec::new(),
@@ -96,6 +96,9 @@ impl Default for PlanConfig {
 /// 0.5 um keeps touching-looking letters while leaving room for the 0.1 um
 /// clearance, and makes "CMU" in the 3x5 font fit a 120 um field.
 pub const DEFAULT_SITE_GAP_M: f64 = 0.5e-6;
+
+/// A particle this close to a site is already on it and stays there.
+pub const DEFAULT_ON_SITE_TOLERANCE_M: f64 = 0.25e-6;
 
 /// One step of a plan.
 #[derive(Debug, Clone, PartialEq)]
@@ -510,19 +513,14 @@ impl FreeProblem {
             layout.max_radius_m() * 2.0,
         );
         let immovable = |p: usize| config.immovable.contains(&layout.particles[p].id);
+        let centres: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
+        let (on_site_pairs, free_sites) =
+            parking::pin_on_sites(&centres, &grid, config.on_site_tolerance_m, |p| {
+                !immovable(p)
+            });
         let mut particle_taken = vec![false; layout.particles.len()];
-        let mut on_site_pairs = Vec::new();
-        let mut free_sites = Vec::new();
-        for (si, s) in sites.iter().enumerate() {
-            match grid.nearest(s.centre_m, 1).first() {
-                Some(&(d, p))
-                    if d <= config.on_site_tolerance_m && !particle_taken[p] && !immovable(p) =>
-                {
-                    particle_taken[p] = true;
-                    on_site_pairs.push((p, si));
-                }
-                _ => free_sites.push(si),
-            }
+        for &(p, _) in &on_site_pairs {
+            particle_taken[p] = true;
         }
         let free_particles: Vec<usize> = (0..layout.particles.len())
             .filter(|&p| !particle_taken[p] && !immovable(p))

@@ -265,21 +265,64 @@ pub fn clearing_lower_bound(from: Vector2<f64>, centres: &[Vector2<f64>], reach:
 /// particle left without a site pays its [`clearing_lower_bound`]
 /// (`reach_m[p]`: its radius plus the sites' particles'). Tighter than the
 /// plain assignment (LB_push) when particles start on the sites' discs.
+/// Particles within `on_site_tolerance_m` of a site stay there, as in the
+/// planner ([`pin_on_sites`]), so the bound is never below its LB_push.
 /// Dense: O(n^3), for small instances.
-pub fn clearing_bound(sites: &[Vector2<f64>], particles: &[Vector2<f64>], reach_m: &[f64]) -> f64 {
+pub fn clearing_bound(
+    sites: &[Vector2<f64>],
+    particles: &[Vector2<f64>],
+    reach_m: &[f64],
+    on_site_tolerance_m: f64,
+) -> f64 {
     let park: Vec<f64> = particles
         .iter()
         .zip(reach_m)
         .map(|(&p, &reach)| clearing_lower_bound(p, sites, reach))
         .collect();
-    let chosen = with_parking::solve(sites, particles, &park, &[], &Default::default());
-    let mut unassigned_park: f64 = park.iter().sum();
-    let mut straight = 0.0;
-    for (s, &p) in chosen.iter().enumerate() {
-        unassigned_park -= park[p];
-        straight += (sites[s] - particles[p]).norm();
+    let grid = Grid::new(
+        particles.iter().copied(),
+        reach_m.iter().fold(1e-9, |a, &b| a.max(b)),
+    );
+    let (pinned, free_sites) = pin_on_sites(sites, &grid, on_site_tolerance_m, |_| true);
+    let mut free = vec![true; particles.len()];
+    let mut total = 0.0;
+    for &(p, s) in &pinned {
+        free[p] = false;
+        total += (sites[s] - particles[p]).norm();
     }
-    straight + unassigned_park
+    let free_particles: Vec<usize> = (0..particles.len()).filter(|&p| free[p]).collect();
+    let site_pts: Vec<_> = free_sites.iter().map(|&s| sites[s]).collect();
+    let part_pts: Vec<_> = free_particles.iter().map(|&p| particles[p]).collect();
+    let free_park: Vec<f64> = free_particles.iter().map(|&p| park[p]).collect();
+    let chosen = with_parking::solve(&site_pts, &part_pts, &free_park, &[], &Default::default());
+    total += free_park.iter().sum::<f64>();
+    for (s, &p) in chosen.iter().enumerate() {
+        total += (site_pts[s] - part_pts[p]).norm() - free_park[p];
+    }
+    total
+}
+
+/// The particles already on a site, which stay there (issue 4): each
+/// site's nearest particle when it lies within `tolerance_m` and is
+/// `movable` and not pinned to an earlier site. Returns the (particle,
+/// site) pairs pinned and the sites left free, in order.
+pub fn pin_on_sites(
+    sites: &[Vector2<f64>],
+    particles: &Grid,
+    tolerance_m: f64,
+    movable: impl Fn(usize) -> bool,
+) -> (Vec<(usize, usize)>, Vec<usize>) {
+    let mut taken = std::collections::HashSet::new();
+    let (mut pinned, mut free) = (Vec::new(), Vec::new());
+    for (si, &s) in sites.iter().enumerate() {
+        match particles.nearest(s, 1).first() {
+            Some(&(d, p)) if d <= tolerance_m && movable(p) && taken.insert(p) => {
+                pinned.push((p, si));
+            }
+            _ => free.push(si),
+        }
+    }
+    (pinned, free)
 }
 
 #[cfg(test)]
