@@ -437,15 +437,28 @@ fn pull_in_parking(
         let Some(end) = nearer_parking_end(&steps, k, layout, index, parking, config) else {
             continue;
         };
-        let (particle, from_m, _) = steps[k].push_move().expect("a push");
-        if (end - from_m).norm() < MIN_SAVING_M {
-            steps.remove(k);
-        } else {
-            let r = layout.particles[index[&particle]].radius_m;
-            steps[k] = push_step(particle, from_m, end, r, config);
-        }
+        end_push_at(&mut steps, k, end, layout, index, config);
     }
     steps
+}
+
+/// Ends the push `k` of `steps` at `end`, or drops it when `end` is where
+/// it starts.
+fn end_push_at(
+    steps: &mut Vec<Step>,
+    k: usize,
+    end: Vector2<f64>,
+    layout: &Layout,
+    index: &HashMap<u32, usize>,
+    config: &PlanConfig,
+) {
+    let (particle, from_m, _) = steps[k].push_move().expect("a push");
+    if (end - from_m).norm() < MIN_SAVING_M {
+        steps.remove(k);
+    } else {
+        let r = layout.particles[index[&particle]].radius_m;
+        steps[k] = push_step(particle, from_m, end, r, config);
+    }
 }
 
 /// Indices of the pushes that leave a particle on no site for good (its
@@ -582,12 +595,7 @@ fn park_after_blocker(
             if (end - from).norm() > len - REORDER_GAIN_M {
                 return None;
             }
-            let r = layout.particles[x].radius_m;
-            if (end - from).norm() < MIN_SAVING_M {
-                hoisted.remove(at);
-            } else {
-                hoisted[at] = push_step(particle, from, end, r, config);
-            }
+            end_push_at(&mut hoisted, at, end, layout, index, config);
             clear_for(&hoisted, layout, index, config, x).then_some(hoisted)
         });
         if let Some(shorter) = found {
