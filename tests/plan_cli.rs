@@ -258,3 +258,63 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     ]);
     assert!(!ok && text.contains("too dense"), "{text}");
 }
+
+/// Without `--at`, `nanopush plan` places the pattern where the plan
+/// pushes least ([`place_by_plan`] with `LeastPush`, as the CMU acceptance
+/// scenes are placed): the same push distance as the library on the layout
+/// the file holds, and no more than at the bound's best centre alone. The
+/// summary reports the time with the placement.
+#[test]
+fn plan_without_at_places_where_the_plan_pushes_least() {
+    use nanopush::plan::pattern::transform::{Reachable, place_optimised, rotate};
+    use nanopush::plan::placement::{PlacementGoal, place_by_plan};
+    use nanopush::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, plan_assembly};
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) =
+        nanopush::plan::cmu_scene::cmu_scene(nanopush::plan::synth_layout::LayoutKind::Uniform, 95)
+            .unwrap();
+    let path = dir.path().join("layout.json");
+    scene.write(&path).unwrap();
+    // What the file holds (micrometres, so the last bit may differ).
+    let layout = Layout::read(&path).unwrap();
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--text",
+        "CMU",
+        "--layout",
+        path.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let push_um = summary["push_distance_um"].as_f64().unwrap();
+    let config = PlanConfig::default();
+    // The pattern as the command builds it from the layout's radius.
+    let r = layout.max_radius_m();
+    let pattern = Pattern::from_text("CMU", 2.0 * r + DEFAULT_SITE_GAP_M).unwrap();
+    let pattern = rotate(&pattern, 0.0).unwrap();
+    let area = Reachable::for_field(layout.field_m, r);
+    let push_at = |sites: &[nanopush::plan::Site]| {
+        plan_assembly(&layout, sites, &config)
+            .unwrap()
+            .summary
+            .push_distance_m
+            * 1e6
+    };
+    let chosen =
+        place_by_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush).unwrap();
+    assert!(
+        (push_um - push_at(&chosen)).abs() < 1e-6,
+        "{push_um} vs {}",
+        push_at(&chosen)
+    );
+    let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
+    let by_bound = place_optimised(&pattern, &area, 5e-6, &centres).unwrap();
+    assert!(
+        push_um <= push_at(&by_bound) + 1e-6,
+        "{push_um} > {}",
+        push_at(&by_bound)
+    );
+    let total_s = summary["placement_and_planning_time_s"].as_f64().unwrap();
+    assert!(total_s >= summary["planning_time_s"].as_f64().unwrap());
+}

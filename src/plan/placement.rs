@@ -11,7 +11,7 @@
 //! planner then refuses with the reason).
 
 use super::pattern::transform::{Reachable, candidate_centres, ranked_centres, sites_at};
-use super::{Layout, Pattern, PlanConfig, Site, plan_assembly};
+use super::{Layout, Pattern, Plan, PlanConfig, Site, plan_assembly};
 use crate::plan::pattern::PatternError;
 
 /// What a placement planned in full is judged by.
@@ -52,11 +52,23 @@ pub fn place_by_plan(
     config: &PlanConfig,
     goal: PlacementGoal,
 ) -> Result<Vec<Site>, PatternError> {
+    place_and_plan(pattern, area, layout, config, goal).map(|(sites, _)| sites)
+}
+
+/// [`place_by_plan`], with the chosen placement's plan when one was made
+/// (so a caller that wants it does not plan it again).
+pub fn place_and_plan(
+    pattern: &Pattern,
+    area: &Reachable,
+    layout: &Layout,
+    config: &PlanConfig,
+    goal: PlacementGoal,
+) -> Result<(Vec<Site>, Option<Plan>), PatternError> {
     let r = layout.max_radius_m();
     let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
     let ranked = ranked_centres(pattern, area, r, &centres)?;
     if pattern.offsets_m.len() > PLAN_PLACEMENT_MAX_SITES {
-        return Ok(sites_at(pattern, ranked[0]));
+        return Ok((sites_at(pattern, ranked[0]), None));
     }
     let mut candidates: Vec<_> = ranked.iter().take(BOUND_CANDIDATES).copied().collect();
     if goal == PlacementGoal::LeastTime {
@@ -72,15 +84,18 @@ pub fn place_by_plan(
         .iter()
         .filter_map(|&c| {
             let sites = sites_at(pattern, c);
-            let s = plan_assembly(layout, &sites, config).ok()?.summary;
+            let plan = plan_assembly(layout, &sites, config).ok()?;
             let measure = match goal {
-                PlacementGoal::LeastPush => s.push_distance_m,
-                PlacementGoal::LeastTime => s.predicted_time_s,
+                PlacementGoal::LeastPush => plan.summary.push_distance_m,
+                PlacementGoal::LeastTime => plan.summary.predicted_time_s,
             };
-            Some((measure, sites))
+            Some((measure, sites, plan))
         })
         .min_by(|a, b| a.0.total_cmp(&b.0));
-    Ok(best.map_or_else(|| sites_at(pattern, ranked[0]), |x| x.1))
+    Ok(match best {
+        Some((_, sites, plan)) => (sites, Some(plan)),
+        None => (sites_at(pattern, ranked[0]), None),
+    })
 }
 
 #[cfg(test)]
