@@ -104,15 +104,18 @@ pub fn place_optimised(
 }
 
 /// Candidate centres, best first by the exact measure of [`place_optimised`]
-/// (the polished best first, then the coarse grid's best scored).
+/// (the polished best first, then the coarse grid's best scored; on
+/// instances above [`POLISH_MAX_PAIRS`] the grid's best scored only).
 pub fn ranked_centres(
     pattern: &Pattern,
     area: &Reachable,
     radius_m: f64,
     particles: &[Vector2<f64>],
 ) -> Result<Vec<Vector2<f64>>, PatternError> {
-    let dense = pattern.offsets_m.len() * particles.len() <= PARKING_AWARE_MAX_PAIRS;
-    let count = if dense {
+    let pairs = pattern.offsets_m.len() * particles.len();
+    let dense = pairs <= PARKING_AWARE_MAX_PAIRS;
+    let polish = pairs <= POLISH_MAX_PAIRS;
+    let count = if polish {
         SCORED_CENTRES
     } else {
         SCORED_CENTRES_LARGE
@@ -133,7 +136,7 @@ pub fn ranked_centres(
     };
     let mut scored: Vec<(f64, Vector2<f64>)> = candidates.iter().map(|&c| (exact(c), c)).collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    if dense {
+    if polish {
         let (cmin, cmax) = centre_range(pattern, area, radius_m)?;
         let mut step = (cmax - cmin).max() / (2.0 * GRID_STEPS as f64);
         let (mut cost, mut centre) = scored[0];
@@ -159,10 +162,16 @@ pub fn ranked_centres(
 
 /// Centres of the coarse grid scored exactly before the polish.
 const SCORED_CENTRES: usize = 16;
-/// Centres scored on instances too large for the clearing bound, each by
-/// a full assignment, unpolished: `nanopush plan` of 1,024 sites among
-/// 2,048 particles without `--at` takes 1.2 s with 4, took 4.1 s with 16.
+/// Centres scored, unpolished, on larger instances (each score is a full
+/// assignment, with the clearing bound up to 250,000 pairs): `nanopush
+/// plan` without `--at` of 1,024 sites among 2,048 particles takes 1.2 s
+/// with 4, took 4.1 s with 16; of 300 sites among 800, 7.5 s with 16 and
+/// the polish.
 const SCORED_CENTRES_LARGE: usize = 4;
+/// Largest sites x particles instance scored at [`SCORED_CENTRES`] and
+/// polished: 100 sites among 300 particles (30,000 pairs) take 0.5 s;
+/// CMU among 60 particles, 1,860 pairs.
+const POLISH_MAX_PAIRS: usize = 50_000;
 /// The polish's last step: finer than this changes the bound by a few nm.
 const POLISH_STEP_M: f64 = 0.25e-6;
 /// The coarse grid has `GRID_STEPS + 1` centres along each axis.
