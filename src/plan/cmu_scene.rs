@@ -1,7 +1,8 @@
 //! The CMU acceptance scenes of issue 4: a seeded layout of 40-60 particles
 //! (10 um, gaps >= 1 um, 120 x 100 um) with the "CMU" sites placed where
-//! the plan pushes least (as `nanopush plan` places them without `--at`). The acceptance tests and the benchmark
-//! take them from here, so both measure the same 100 layouts.
+//! the plan pushes least (as `nanopush plan` places them without `--at`).
+//! The acceptance tests and the benchmark take them from here, so both
+//! measure the same 100 layouts.
 
 use super::PlanConfig;
 use super::Site;

@@ -1,10 +1,11 @@
 //! Where to put the pattern when the plan itself is the measure.
 //!
-//! [`place_optimised`](super::pattern::transform::place_optimised) ranks centres by a lower bound of the push distance
-//! (the assignment, with the particles left on the sites' discs paying
-//! their way out). Two placements with near-equal bounds can differ a lot
-//! in the pushes they really need: buffer pushes for particles covering the
-//! sites, detours around walled-in sites, or no collision-free order at all.
+//! [`place_optimised`](super::pattern::transform::place_optimised) ranks
+//! centres by a lower bound of the push distance (the assignment, with the
+//! particles left on the sites' discs paying their way out). Two
+//! placements with near-equal bounds can differ a lot in the pushes they
+//! really need: buffer pushes for particles covering the sites, detours
+//! around walled-in sites, or no collision-free order at all.
 //! [`place_by_plan`] plans the best few centres in full and keeps the one
 //! with the least push distance or the shortest predicted time; a placement
 //! the planner refuses is only taken when every one is refused (the

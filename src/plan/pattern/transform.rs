@@ -87,12 +87,15 @@ pub fn place_at(
     Ok(sites_at(pattern, centre_m))
 }
 
-/// Places the pattern inside `area` where the total push distance is smallest:
-/// a grid of candidate centres scored by the sum of nearest-particle distances
-/// (a lower bound of the assignment), the best few scored exactly, by
-/// [`clearing_bound`] (particles left on the sites' discs pay their way
-/// out: CMU seed 17's sites had a bound of 1.0415 LB_push, so no plan
-/// could meet 1.05) or, on large instances, by the plain assignment.
+/// Places the pattern inside `area` where a lower bound of the total push
+/// distance is smallest ([`ranked_centres`]' first): a grid of candidate
+/// centres scored by the sum of nearest-particle distances (a lower bound
+/// of the assignment), the best few scored exactly, by [`clearing_bound`]
+/// (particles left on the sites' discs pay their way out: CMU seed 17's
+/// sites had a bound of 1.0415 LB_push, so no plan could meet 1.05) or, on
+/// large instances, by the plain assignment, and on small ones the best
+/// polished. A bound is not a plan: `placement::place_by_plan` plans the
+/// best two in full.
 pub fn place_optimised(
     pattern: &Pattern,
     area: &Reachable,
@@ -105,7 +108,7 @@ pub fn place_optimised(
 
 /// Candidate centres, best first by the exact measure of [`place_optimised`]
 /// (the polished best first, then the coarse grid's best scored; on
-/// instances above [`POLISH_MAX_PAIRS`] the grid's best scored only).
+/// instances above `POLISH_MAX_PAIRS` the grid's best scored only).
 pub fn ranked_centres(
     pattern: &Pattern,
     area: &Reachable,
