@@ -18,6 +18,7 @@ demo: deps
 lint: deps
 	$(CARGO) fmt --check
 	$(CARGO) clippy --all-targets -- -D warnings
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --quiet
 
 # Benches are compiled by clippy --all-targets; they are run by `make bench`, not here.
 test: lint

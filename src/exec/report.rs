@@ -25,7 +25,7 @@ pub const REPORT_SCHEMA: &str = "nanopush.assembly-report/1";
 pub struct AssemblyReport {
     /// Always [`REPORT_SCHEMA`].
     pub schema: String,
-    /// "done", or "stopped: <reason>".
+    /// `"done"`, or `"stopped: <reason>"`.
     pub outcome: String,
     /// Target sites.
     pub sites: usize,
@@ -160,7 +160,7 @@ pub struct JournalCounts {
     pub sites_to_fill: Option<usize>,
     /// The last entry's time.
     pub last_t_s: f64,
-    /// "done", or "stopped: <reason>" of the last end entry; None while running.
+    /// `"done"`, or `"stopped: <reason>"` of the last end entry; None while running.
     pub outcome: Option<String>,
 }
 

@@ -22,13 +22,13 @@ pub const ANGLE_GRID: usize = 25;
 /// What the model advises for one push.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PushAdvice {
-    /// Contact angle to use [rad].
+    /// Contact angle to use (rad).
     pub contact_angle_rad: f64,
-    /// Push duration: predicted onset plus travel [s].
+    /// Push duration: predicted onset plus travel (s).
     pub duration_s: f64,
-    /// Predicted onset of motion [s].
+    /// Predicted onset of motion (s).
     pub onset_s: f64,
-    /// Critical force of the predicted mode [N].
+    /// Critical force of the predicted mode (N).
     pub critical_force_n: f64,
     /// Predicted motion mode.
     pub mode: Mode,

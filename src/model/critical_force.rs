@@ -26,7 +26,7 @@ pub enum AreaFidelity {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case", tag = "kind", content = "force_n")]
 pub enum Critical {
-    /// The mode starts when the pushing force reaches this value [N].
+    /// The mode starts when the pushing force reaches this value (N).
     Force(f64),
     /// The drive of this mode never exceeds its resistance (F* = +inf).
     Locked,
@@ -61,7 +61,7 @@ pub struct CriticalSetup {
     pub friction: FrictionParams,
     /// Angles and lengths.
     pub geometry: PushGeometry,
-    /// Extra compressive substrate load (capillary meniscus) [N].
+    /// Extra compressive substrate load (capillary meniscus) (N).
     pub extra_substrate_load_n: f64,
     /// Area fidelity.
     pub fidelity: AreaFidelity,

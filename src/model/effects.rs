@@ -42,9 +42,9 @@ pub struct ActiveEffect {
 pub struct ChargeBuildUp {
     /// Fractional W rise at saturation.
     pub gain: f64,
-    /// Time constant [s].
+    /// Time constant (s).
     pub time_constant_s: f64,
-    /// Session time before the push [s].
+    /// Session time before the push (s).
     pub session_time_s: f64,
 }
 
@@ -58,19 +58,19 @@ impl ChargeBuildUp {
 /// The decided effects of one push.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Effects {
-    /// Capillary meniscus force on the substrate contact [N].
+    /// Capillary meniscus force on the substrate contact (N).
     pub capillary_force_n: Option<f64>,
     /// Charge build-up on the tip contact.
     pub charge: Option<ChargeBuildUp>,
     /// Piezo drift along the push [m/s].
     pub drift_m_per_s: Option<f64>,
-    /// Substrate tilt [rad].
+    /// Substrate tilt (rad).
     pub tilt_rad: Option<f64>,
-    /// Spinning arm [m].
+    /// Spinning arm (m).
     pub spin_offset_m: Option<f64>,
     /// Tip riding over is simulated.
     pub tip_ride_over: bool,
-    /// Free travel before touching the nearest neighbour [m].
+    /// Free travel before touching the nearest neighbour (m).
     pub neighbour_gap_m: Option<f64>,
     /// The active effects with reasons (for the report).
     pub active: Vec<ActiveEffect>,

@@ -52,19 +52,19 @@ pub struct PushResult {
     pub outcome: Outcome,
     /// Onset time of motion, `None` when nothing moved.
     pub onset_s: Option<f64>,
-    /// Pushing force at onset [N].
+    /// Pushing force at onset (N).
     pub force_at_onset_n: Option<f64>,
-    /// Time the push ended (duration or terminal event) [s].
+    /// Time the push ended (duration or terminal event) (s).
     pub end_s: f64,
-    /// Particle displacement at the end [m].
+    /// Particle displacement at the end (m).
     pub displacement_m: f64,
-    /// Stage travel at the end [m].
+    /// Stage travel at the end (m).
     pub stage_travel_m: f64,
-    /// Pushing force at the end [N].
+    /// Pushing force at the end (N).
     pub force_at_end_n: f64,
     /// Critical forces at onset (or at the end when nothing moved).
     pub critical: CriticalForces,
-    /// Pushing-force angle psi [rad].
+    /// Pushing-force angle psi (rad).
     pub force_angle_rad: f64,
     /// Pushing-force ramp before onset [N/m of stage travel].
     pub force_per_travel_n_per_m: f64,

@@ -30,18 +30,18 @@ pub const MAX_TIP_TWIST_RAD: f64 = std::f64::consts::FRAC_PI_3;
 /// The commanded push.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PushParams {
-    /// Contact angle phi [rad], inside (0, 90 deg).
+    /// Contact angle phi (rad), inside (0, 90 deg).
     pub contact_angle_rad: f64,
     /// Stage speed V [m/s].
     pub speed_m_per_s: f64,
-    /// Push duration [s].
+    /// Push duration (s).
     pub duration_s: f64,
 }
 
 /// Numerical settings (the study varies them).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SolverSettings {
-    /// Width to which event times are bracketed [s]. Default 1e-6 s.
+    /// Width to which event times are bracketed (s). Default 1e-6 s.
     pub event_tolerance_s: f64,
     /// Number of sampling intervals over the run. Default 32.
     pub samples: usize,
@@ -68,19 +68,19 @@ impl Default for SolverSettings {
 /// One row of the time series.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SeriesRow {
-    /// Time [s].
+    /// Time (s).
     pub t_s: f64,
-    /// Stage travel [m].
+    /// Stage travel (m).
     pub stage_m: f64,
-    /// Tip apex lateral position [m].
+    /// Tip apex lateral position (m).
     pub tip_m: f64,
-    /// Particle displacement [m].
+    /// Particle displacement (m).
     pub particle_m: f64,
-    /// Pushing force F_T [N].
+    /// Pushing force F_T (N).
     pub force_n: f64,
-    /// Critical rolling force (inf when locked) [N].
+    /// Critical rolling force (inf when locked) (N).
     pub critical_rolling_n: f64,
-    /// Critical sliding force (inf when locked) [N].
+    /// Critical sliding force (inf when locked) (N).
     pub critical_sliding_n: f64,
 }
 

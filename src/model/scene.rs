@@ -172,13 +172,13 @@ pub struct MotionParams {
 pub struct Environment {
     /// Relative humidity [%].
     pub relative_humidity_percent: f64,
-    /// Water contact angle of the surfaces [rad].
+    /// Water contact angle of the surfaces (rad).
     pub water_contact_angle_rad: f64,
-    /// Session time elapsed before this push [s].
+    /// Session time elapsed before this push (s).
     pub session_time_s: f64,
     /// Fractional rise of the tip-particle work of adhesion at full charge.
     pub charge_adhesion_gain: f64,
-    /// Time constant of the charge build-up [s].
+    /// Time constant of the charge build-up (s).
     pub charge_time_constant_s: f64,
     /// Piezo drift along the push direction [m/s].
     pub drift_m_per_s: f64,
@@ -207,17 +207,17 @@ pub struct Scene {
     pub motion: MotionParams,
     /// Environment.
     pub environment: Environment,
-    /// Substrate tilt along the push direction [rad] (positive: downhill).
+    /// Substrate tilt along the push direction (rad) (positive: downhill).
     pub substrate_tilt_rad: f64,
     /// Default push.
     pub push: PushParams,
-    /// Push-line offset from the particle centre [m] (spinning arm).
+    /// Push-line offset from the particle centre (m) (spinning arm).
     pub push_offset_m: f64,
     /// Whether the contact angle is held (tip riding over not simulated).
     pub hold_contact_angle: bool,
-    /// Allowed contact-angle range for advice [rad].
+    /// Allowed contact-angle range for advice (rad).
     pub angle_range_rad: (f64, f64),
-    /// Centre distances of particles ahead on the push line [m].
+    /// Centre distances of particles ahead on the push line (m).
     pub neighbour_distances_m: Vec<f64>,
 }
 

@@ -22,13 +22,13 @@ pub struct StudyRow {
     pub setting: String,
     /// Outcome under this setting.
     pub outcome: String,
-    /// Onset [s] (None: nothing moved).
+    /// Onset (s) (None: nothing moved).
     pub onset_s: Option<f64>,
-    /// |onset - reference onset| [s] (None when either is missing).
+    /// |onset - reference onset| (s) (None when either is missing).
     pub onset_error_s: Option<f64>,
-    /// |displacement - reference| [um].
+    /// |displacement - reference| (um).
     pub displacement_error_um: f64,
-    /// Median wall time per push [us].
+    /// Median wall time per push (us).
     pub wall_us: f64,
 }
 

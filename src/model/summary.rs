@@ -16,33 +16,33 @@ pub struct PushSummary {
     pub schema: String,
     /// Scene name.
     pub scene: String,
-    /// Contact angle [deg].
+    /// Contact angle (deg).
     pub angle_deg: f64,
     /// Stage speed [um/s].
     pub speed_um_s: f64,
-    /// Push duration [s].
+    /// Push duration (s).
     pub duration_s: f64,
     /// Final motion mode.
     pub mode: String,
     /// How the push ended.
     pub outcome: String,
-    /// Onset of motion, null when nothing moved [s].
+    /// Onset of motion, null when nothing moved (s).
     pub onset_s: Option<f64>,
-    /// Pushing force at onset [uN].
+    /// Pushing force at onset (uN).
     pub force_at_onset_uN: Option<f64>,
-    /// Particle displacement at the end [um].
+    /// Particle displacement at the end (um).
     pub displacement_um: f64,
-    /// Critical rolling force at onset (or end), null when locked [uN].
+    /// Critical rolling force at onset (or end), null when locked (uN).
     pub critical_rolling_uN: Option<f64>,
-    /// Critical sliding force at onset (or end), null when locked [uN].
+    /// Critical sliding force at onset (or end), null when locked (uN).
     pub critical_sliding_uN: Option<f64>,
-    /// Pushing-force angle psi [deg].
+    /// Pushing-force angle psi (deg).
     pub force_angle_deg: f64,
     /// Force ramp before onset [N/m].
     pub force_ramp_n_per_m: f64,
     /// Margin against the tip riding over (null when not simulated).
     pub ride_over_margin: Option<f64>,
-    /// End of the push (duration or terminal event) [s].
+    /// End of the push (duration or terminal event) (s).
     pub end_s: f64,
     /// Simulated effects and why.
     pub active_effects: Vec<ActiveEffect>,

@@ -19,8 +19,8 @@ const DIRECTIONS: usize = 72;
 /// the particle lies, not a path blocked further on.
 const PROBE_M: f64 = 1e-6;
 
-/// Indices of the particles with no free push of [`PROBE_M`] in any of
-/// [`DIRECTIONS`] directions (the corridor test of the planner: tip landing,
+/// Indices of the particles with no free push of `PROBE_M` in any of
+/// `DIRECTIONS` directions (the corridor test of the planner: tip landing,
 /// tip and particle paths clear of every other particle by the clearance).
 pub fn locked_particles(layout: &Layout, config: &PlanConfig) -> Vec<usize> {
     let particles = &layout.particles;

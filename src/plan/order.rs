@@ -137,7 +137,7 @@ struct Scheduler<'a> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Repairs {
     /// The thrifty repairs (early fills, buffer spots by added path) up to
-    /// [`THRIFTY_MAX_MOVES`] moves; the plain ones after a refusal or above.
+    /// `THRIFTY_MAX_MOVES` moves; the plain ones after a refusal or above.
     Thrifty,
     /// The plain repairs only.
     Plain,

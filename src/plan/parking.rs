@@ -60,7 +60,7 @@ pub const CLEARING_MARGIN_M: f64 = 0.05e-6;
 /// directions the nearest point (within two pitches) where it keeps the
 /// clearance (plus [`CLEARING_MARGIN_M`]) from every site and `also`
 /// does not hold (the scheduler: the corridors the spot must leave free),
-/// merged with [`ring`], nearest first. Site `own` (the particle's own,
+/// merged with `ring`, nearest first. Site `own` (the particle's own,
 /// when it breaks a covering cycle) may stay covered. The ring's
 /// quarter-pitch steps alone (2.75 um for 10 um particles) pushed a
 /// particle that covered a site or a

@@ -44,7 +44,7 @@ const MIN_SAVING_M: f64 = 1e-8;
 /// 626 ms, for a target already met.
 pub const MAX_PUSHES: usize = 2_000;
 
-/// `steps` (pushes only, in order) after up to [`ROUNDS`] rounds of
+/// `steps` (pushes only, in order) after up to `ROUNDS` rounds of
 /// straightened paths, tightened bends, parked particles' last pushes
 /// pulled in and pushes bent round particles that then stay put
 /// (`site_pts`: every site); and how many pushes fewer it has.

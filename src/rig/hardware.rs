@@ -360,7 +360,7 @@ impl Camera for HardwareRig {
     /// The next frame exposed after the stage last came to rest: a frame
     /// from before (a camera program's backlog, or one exposed while the
     /// stage was still moving) shows particles where they no longer are and
-    /// is discarded. After [`STALE_FRAME_PATIENCE`] of stale frames, `Ok(None)`.
+    /// is discarded. After `STALE_FRAME_PATIENCE` of stale frames, `Ok(None)`.
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
         let started = std::time::Instant::now();
         loop {

@@ -151,11 +151,11 @@ const WATCHED_STEP: f64 = 0.02;
 /// the points the fit keeps.
 ///
 /// Stops when the step predicted by the linearised model would lower the rss
-/// by less than [`CONVERGED_DECREASE`] residual variances (that step is taken
+/// by less than `CONVERGED_DECREASE` residual variances (that step is taken
 /// without a further evaluation), when an accepted step lowers the rss by a
 /// relative 1e-8, when an accepted step moves every `watched` parameter (the
 /// ones the caller reports; none when empty) by less than
-/// [`WATCHED_STEP`] of its standard error, or when no trial step lowers the rss.
+/// `WATCHED_STEP` of its standard error, or when no trial step lowers the rss.
 /// The watched rule ends fits whose nuisance parameters crawl along a flat
 /// valley (a wide core trading off against the background) for dozens of
 /// iterations while the centre no longer moves.

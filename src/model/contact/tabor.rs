@@ -2,7 +2,7 @@
 
 use super::ContactModel;
 
-/// Equilibrium separation z0 used when the scene does not set one [m].
+/// Equilibrium separation z0 used when the scene does not set one (m).
 pub const DEFAULT_EQUILIBRIUM_SEPARATION_M: f64 = 0.3e-9;
 
 /// mu_T = (R W^2 / (E*^2 z0^3))^(1/3).

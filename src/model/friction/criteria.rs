@@ -8,9 +8,9 @@
 pub struct FrictionParams {
     /// mu: sliding friction coefficient.
     pub sliding_coefficient: f64,
-    /// tau: interfacial shear strength [Pa].
+    /// tau: interfacial shear strength (Pa).
     pub shear_strength_pa: f64,
-    /// mu_r: rolling friction coefficient [m].
+    /// mu_r: rolling friction coefficient (m).
     pub rolling_coefficient_m: f64,
     /// tau_r: rolling shear strength [N/m].
     pub rolling_shear_n_per_m: f64,
@@ -19,9 +19,9 @@ pub struct FrictionParams {
 /// Angles and lengths of the push.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PushGeometry {
-    /// psi: pushing-force angle from the substrate normal [rad].
+    /// psi: pushing-force angle from the substrate normal (rad).
     pub psi_rad: f64,
-    /// phi: tip-particle contact-normal angle [rad].
+    /// phi: tip-particle contact-normal angle (rad).
     pub phi_rad: f64,
     /// R_p: particle radius.
     pub particle_radius_m: f64,

@@ -21,7 +21,7 @@
 //! the lowest assigned price lowers its price or lures a site away, so that
 //! at the end free particles are never dearer than assigned ones.
 //!
-//! Search: particles sit in [`Buckets`] with the minimum price of every cell
+//! Search: particles sit in `Buckets` with the minimum price of every cell
 //! and block, sites with the largest value of every cell and block; blocks
 //! are visited best bound first and everything whose bound cannot improve
 //! the runner-up is skipped. Written by hand: no Rust crate solves sparse or
@@ -117,7 +117,7 @@ pub fn solve_with_stats(
 /// An assignment within a proven gap of the optimum.
 #[derive(Debug, Clone, PartialEq)]
 pub struct WithinGap {
-    /// `site_to_particle[s]`: the particle of site `s`.
+    /// `site_to_particle(s)`: the particle of site `s`.
     pub site_to_particle: Vec<usize>,
     /// A lower bound of the optimal total distance, metres (see [`solve_within`]).
     pub lower_bound_m: f64,

@@ -9,7 +9,7 @@
 //! depends on them. Alternating the two best responses (`u_t = min_j d + p_j`,
 //! then `p_j = max_t u_t - d`, then `u` again) never lowers it: each step
 //! keeps the pair feasible and moves one side to its best value given the
-//! other. Every `u_t` is a spatial query ([`WeightedPoints`]), never a row of
+//! other. Every `u_t` is a spatial query (`WeightedPoints`), never a row of
 //! the cost matrix.
 
 use super::weighted_nearest::{QueryBuffer, WeightedPoints};

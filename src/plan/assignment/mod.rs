@@ -59,7 +59,7 @@ pub enum AssignmentMethod {
 /// Result of an assignment: for every site, the index of its particle.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Assignment {
-    /// `site_to_particle[s]` is the particle index assigned to site `s`.
+    /// `site_to_particle(s)` is the particle index assigned to site `s`.
     pub site_to_particle: Vec<usize>,
     /// Sum of straight-line distances, metres.
     pub cost_m: f64,
