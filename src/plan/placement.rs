@@ -73,13 +73,12 @@ pub fn place_and_plan(
     }
     let mut candidates: Vec<_> = ranked.iter().take(BOUND_CANDIDATES).copied().collect();
     if goal == PlacementGoal::LeastTime {
-        candidates.extend(candidate_centres(
-            pattern,
-            area,
-            r,
-            &centres,
-            TIME_CANDIDATES,
-        )?);
+        // The grid's best by the bound is among the proxy's best: plan it once.
+        for c in candidate_centres(pattern, area, r, &centres, TIME_CANDIDATES)? {
+            if !candidates.contains(&c) {
+                candidates.push(c);
+            }
+        }
     }
     let best = candidates
         .iter()

@@ -577,16 +577,12 @@ fn park_after_blocker(
             .collect();
         blockers.sort_unstable();
         let found = blockers.into_iter().find_map(|id| {
-            let (theirs, rest): (Vec<Step>, Vec<Step>) = steps
-                .iter()
-                .cloned()
-                .partition(|s| s.push_move().is_some_and(|(p, _, _)| p == id));
-            let moved = theirs.len();
-            // Their pushes all come after k, so the first k of the rest are
-            // the plan's first k.
-            let mut hoisted: Vec<Step> = rest[..k].to_vec();
-            hoisted.extend(theirs);
-            hoisted.extend_from_slice(&rest[k..]);
+            // Their pushes all come after k: they go just before it.
+            let theirs = |s: &&Step| s.push_move().is_some_and(|(p, _, _)| p == id);
+            let mut hoisted: Vec<Step> = steps[..k].to_vec();
+            hoisted.extend(steps[k..].iter().filter(theirs).cloned());
+            let moved = hoisted.len() - k;
+            hoisted.extend(steps[k..].iter().filter(|s| !theirs(s)).cloned());
             if !clear_for(&hoisted, layout, index, config, index[&id]) {
                 return None;
             }
