@@ -122,6 +122,15 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         &easy,
     ]);
     assert!(!ok && text.contains("overlap"), "{text}");
+    // A missing file is named with its cause, and the cause said once.
+    let missing = dir.path().join("missing.json");
+    let (ok, text) = nanopush(&["plan", "--text", "I", "--layout", missing.to_str().unwrap()]);
+    assert!(!ok && text.contains("missing.json"), "{text}");
+    assert_eq!(
+        text.matches("No such file or directory").count(),
+        1,
+        "{text}"
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@ mod calibrate;
 mod demo;
 mod detect;
 mod dry_run;
+mod error_message;
 mod plan;
 mod rig_probe;
 mod rig_sim_gcs;
@@ -94,7 +95,7 @@ pub fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", error_message::error_message(&err));
             ExitCode::FAILURE
         }
     }

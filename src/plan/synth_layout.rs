@@ -62,7 +62,7 @@ pub enum SynthError {
     Bad(#[from] super::layout::LayoutError),
     /// Could not place all particles.
     #[error(
-        "could place only {placed} of {n} particles with gap {gap_um} um in {w_um} x {h_um} um: too dense"
+        "could place only {placed} of {n} particles with gap {gap_um:.3} um in {w_um:.1} x {h_um:.1} um: too dense (ask for fewer particles, a larger field or a smaller gap)"
     )]
     TooDense {
         /// Placed.
