@@ -1,0 +1,219 @@
+//! Buffer spots off the sites and out of the blocked moves' ways, and the
+//! pushes that take a blocker there.
+
+use super::Role;
+use super::Scheduler;
+use crate::plan::pushes::Corridor;
+use crate::plan::route::route_length;
+use nalgebra::Vector2;
+
+/// Buffer spots weighed for a particle still to move.
+const BUFFER_CANDIDATES: usize = 24;
+
+impl Scheduler<'_> {
+    /// Pushes idle particle q to a buffer spot clear of `avoid`; true on success.
+    pub(super) fn buffer_idle(&mut self, q: usize, avoid: &[Corridor]) -> bool {
+        let spot = self.buffer_spots(q, avoid).next();
+        match spot {
+            Some(spot) => {
+                self.push(q, spot, true);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Pushes move m's particle (in someone's way) to a buffer spot clear of
+    /// `avoid` from which m still has a route, the spot that adds least to
+    /// m's path (push there plus route on, against the straight move);
+    /// true on success. Nearest spot first cost CMU's worst layouts a
+    /// particle pushed away from beside its site and back.
+    pub(super) fn buffer_pending(&mut self, m: usize, avoid: &[Corridor]) -> bool {
+        let q = self.moves[m].particle;
+        let from = self.occ.pos[q];
+        let site = self.obstacles.site(m);
+        let r = self.radius(q);
+        let spots: Vec<Vector2<f64>> = self
+            .buffer_spots(q, avoid)
+            .take(BUFFER_CANDIDATES)
+            .collect();
+        // Spots off the sites first (the order of `buffer_spots`), each
+        // group by the least length a route through it can have.
+        let mut by_bound: Vec<(bool, f64, Vector2<f64>)> = spots
+            .into_iter()
+            .map(|s| {
+                (
+                    !self.off_sites(s, r),
+                    (s - from).norm() + (site - s).norm(),
+                    s,
+                )
+            })
+            .collect();
+        if self.thrifty {
+            by_bound.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        }
+        let mut best: Option<(f64, Vector2<f64>, Vec<Vector2<f64>>)> = None;
+        for (on_site, bound, spot) in by_bound {
+            if let Some(b) = &best
+                && (on_site || bound >= b.0 || !self.thrifty)
+            {
+                break;
+            }
+            let push = (spot - from).norm();
+            let cap = best.as_ref().map_or(f64::INFINITY, |b| b.0 - push);
+            if let Some(route) = self.route_for(m, q, spot, false, 2, cap) {
+                let total = push + route_length(spot, &route);
+                best = Some((total, spot, route));
+            }
+        }
+        let Some((_, spot, route)) = best else {
+            return false;
+        };
+        self.push(q, spot, true);
+        self.moves[m].route = route;
+        self.compute_conflicts(m);
+        true
+    }
+
+    /// Free spots near particle q, reachable now in one push and clear of
+    /// `avoid`: off every site first, nearest first; then spots on sites.
+    /// Lazy: callers take the first few, and each spot costs a corridor test.
+    pub(super) fn buffer_spots<'s>(
+        &'s self,
+        q: usize,
+        avoid: &'s [Corridor],
+    ) -> impl Iterator<Item = Vector2<f64>> + 's {
+        let from = self.occ.pos[q];
+        let r = self.radius(q);
+        let usable = move |spot: &Vector2<f64>| self.spot_usable(q, *spot, avoid);
+        let nearest_out = if self.role[q] == Role::Idle {
+            avoid
+        } else {
+            &[]
+        };
+        let spots = self.ring(from, r, nearest_out, None);
+        let on = spots.clone();
+        let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
+        let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
+        off.chain(on).filter(usable)
+    }
+
+    /// True when particle q can be pushed from where it is to `spot` now
+    /// (free way, and [`Self::spot_free`]).
+    pub(super) fn spot_usable(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
+        self.spot_free(q, spot, avoid)
+            && self
+                .occ
+                .first_hit(
+                    &self.corridor(q, self.occ.pos[q], spot),
+                    q,
+                    self.config.clearance_m,
+                )
+                .is_none()
+    }
+
+    /// True when `spot` is inside the field, free of other particles for
+    /// particle q, and clear of `avoid` (whatever lies on the way there).
+    fn spot_free(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        self.reach.contains(spot)
+            && self.occ.disc_free(spot, r, q, cl)
+            && avoid.iter().all(|c| !c.hits(spot, r, cl))
+    }
+
+    /// True when a disc of radius r at `spot` keeps clearance from every site.
+    pub(super) fn off_sites(&self, spot: Vector2<f64>, r: f64) -> bool {
+        !self.site_discs().covered_by(spot, r)
+    }
+
+    /// The sites as discs of the largest radius, for the parking questions.
+    fn site_discs(&self) -> crate::plan::parking::SiteDiscs<'_> {
+        crate::plan::parking::SiteDiscs {
+            grid: &self.site_grid,
+            centres: &self.site_pts,
+            radius_m: self.occ.max_radius_m,
+            clearance_m: self.config.clearance_m,
+        }
+    }
+
+    /// The sites as the peel sees them
+    /// ([`SiteObstacles::covered_by`](crate::plan::peel::SiteObstacles::covered_by)):
+    /// a filled site's particle may lie anywhere within the on-site tolerance, so a
+    /// spot off the sites keeps that too. A cycle break's spots kept only
+    /// the clearance (10.15 um from a site for 10 um particles, the peel
+    /// asks 10.35): the nearest spot off the other sites still covered
+    /// them, and the break fell back to quarter-pitch ring spots or none
+    /// (CMU seed 82 of the 40-60 scenes: 1.1716 -> 1.0403).
+    pub(super) fn peel_site_discs(&self) -> crate::plan::parking::SiteDiscs<'_> {
+        let mut discs = self.site_discs();
+        discs.clearance_m += self.config.on_site_tolerance_m;
+        discs
+    }
+
+    /// Candidate spots around `centre` for a disc of radius r, with the
+    /// nearest ones off the sites and clear of `avoid` (see
+    /// [`crate::plan::parking::ring_off_sites`]).
+    pub(super) fn ring(
+        &self,
+        centre: Vector2<f64>,
+        r: f64,
+        avoid: &[Corridor],
+        own: Option<usize>,
+    ) -> Vec<Vector2<f64>> {
+        let cl = self.config.clearance_m;
+        let discs = if self.wide_spots {
+            self.peel_site_discs()
+        } else {
+            self.site_discs()
+        };
+        crate::plan::parking::ring_off_sites(
+            centre,
+            r,
+            &discs,
+            &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
+            own,
+        )
+    }
+
+    /// Two-level buffer move: idle particle q has no free push to a spot
+    /// clear of `avoid`, but some spot's way is blocked only by idle
+    /// particles that can each be buffered directly; those go first, then q.
+    /// True when at least the first of them moved.
+    pub(super) fn clear_way_then_buffer(&mut self, q: usize, avoid: &[Corridor]) -> bool {
+        let from = self.occ.pos[q];
+        let r = self.radius(q);
+        let cl = self.config.clearance_m;
+        for spot in self.ring(from, r, avoid, None) {
+            if !self.off_sites(spot, r) || !self.spot_free(q, spot, avoid) {
+                continue;
+            }
+            let way = self.corridor(q, from, spot);
+            let hits = self.occ.all_hits(&way, q, cl);
+            if hits.is_empty() || hits.len() > 2 || hits.iter().any(|&h| self.role[h] != Role::Idle)
+            {
+                continue;
+            }
+            let mut moved = false;
+            for &h in &hits {
+                let mut keep_clear = avoid.to_vec();
+                keep_clear.push(way.clone());
+                let spot = self.buffer_spots(h, &keep_clear).next();
+                match spot {
+                    Some(t) => {
+                        self.push(h, t, true);
+                        moved = true;
+                    }
+                    None => break,
+                }
+            }
+            if moved {
+                if self.occ.first_hit(&way, q, cl).is_none() && self.occ.disc_free(spot, r, q, cl) {
+                    self.push(q, spot, true);
+                }
+                return true;
+            }
+        }
+        false
+    }
+}
