@@ -5,14 +5,16 @@ use nanopush_plan_api::*;
 use std::path::PathBuf;
 
 mod nanopush_plan_api {
+    pub use crate::calib::affine::AffineCalibration;
+    pub use crate::exec::frame_layout::layout_from_frame;
     pub use crate::plan::layout::Layout;
     pub use crate::plan::pattern::transform::{Reachable, place_at, rotate};
     pub use crate::plan::pattern::{Pattern, site_list};
     pub use crate::plan::placement::{PlacementGoal, place_and_plan};
     pub use crate::plan::{
-        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
-        verify,
+        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, plan_assembly, plan_file, verify,
     };
+    pub use crate::vision::frame_input::{Channel, load_frame};
 }
 
 /// Arguments of `nanopush plan`.
@@ -33,6 +35,14 @@ pub struct Args {
     /// Pixel-to-stage calibration (TOML) for --frame.
     #[arg(long)]
     pub calib: Option<PathBuf>,
+    /// Particle radius in um, for --frame: the detector's size hint and the
+    /// radius of every particle found.
+    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    pub radius_um: f64,
+    /// With --frame: write the particles found as a layout file (what
+    /// `verify-plan --layout` replays the plan on).
+    #[arg(long, requires = "frame")]
+    pub save_layout: Option<PathBuf>,
     /// Site pitch in um (default: particle diameter + 0.5 um).
     #[arg(long, allow_negative_numbers = true)]
     pub pitch_um: Option<f64>,
@@ -78,16 +88,51 @@ fn parse_xy(s: &str) -> Result<(f64, f64), String> {
     Ok((x, y))
 }
 
+/// The particles to plan with: the layout file's, or those found in the
+/// frame (written to `--save-layout` when asked), with the tip seen there.
+fn particles(args: &Args) -> anyhow::Result<Particles> {
+    let Some(frame_path) = &args.frame else {
+        let path = args.layout.as_ref().context("give --layout or --frame")?;
+        return Ok(Particles {
+            layout: Layout::read(path)?,
+            tip_start_m: None,
+            cut_by_edge: Vec::new(),
+        });
+    };
+    let calib = args.calib.as_ref().context("--frame needs --calib")?;
+    let calibration = AffineCalibration::load(calib)?;
+    let frame = load_frame(frame_path, Channel::Luminance)?;
+    let found = layout_from_frame(frame, &calibration, args.radius_um * 1e-6)
+        .with_context(|| format!("frame {}", frame_path.display()))?;
+    if let Some(path) = &args.save_layout {
+        found.layout.write(path)?;
+    }
+    Ok(Particles {
+        layout: found.layout,
+        tip_start_m: found.tip_m,
+        cut_by_edge: found.cut_by_edge,
+    })
+}
+
+/// What `nanopush plan` plans with.
+struct Particles {
+    layout: Layout,
+    /// The tip seen in the frame.
+    tip_start_m: Option<nalgebra::Vector2<f64>>,
+    /// Particles the frame's edge cuts: obstacles, never pushed.
+    cut_by_edge: Vec<u32>,
+}
+
 /// Plans and prints the summary; writes the plan and overlay when asked.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    if args.frame.is_some() {
-        return Err(PlanError::NeedsVision.into());
-    }
-    let layout_path = args.layout.as_ref().context("--layout is required")?;
-    let layout = Layout::read(layout_path)?;
+    let Particles {
+        layout,
+        tip_start_m,
+        cut_by_edge,
+    } = particles(&args)?;
     let radius = layout.max_radius_m();
     if radius <= 0.0 {
-        bail!("layout {} has no particle", layout_path.display());
+        bail!("no particle to plan with");
     }
     let pitch_m = match args.pitch_um {
         Some(p) if !p.is_finite() || p <= 0.0 => {
@@ -109,6 +154,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tip_radius_m: args.tip_radius_um * 1e-6,
         push_speed_m_per_s: args.speed_um_s * 1e-6,
         method: args.method,
+        tip_start_m,
+        immovable: cut_by_edge.clone(),
         ..PlanConfig::default()
     };
     let placing = std::time::Instant::now();
@@ -136,10 +183,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     summary["sites"] = plan.sites.len().into();
     summary["verified"] = report.ok.into();
     summary["placement_and_planning_time_s"] = placing_s.into();
+    if args.frame.is_some() {
+        summary["particles_found"] = (layout.particles.len() - cut_by_edge.len()).into();
+        summary["particles_cut_by_edge"] = cut_by_edge.len().into();
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
     } else {
         let s = &plan.summary;
+        if args.frame.is_some() {
+            println!(
+                "particles found  {} (+{} cut by the frame's edge: obstacles, not pushed)",
+                layout.particles.len() - cut_by_edge.len(),
+                cut_by_edge.len()
+            );
+        }
         println!("sites            {}", plan.sites.len());
         println!(
             "pushes           {} ({} buffer/detour)",

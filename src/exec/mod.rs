@@ -5,6 +5,7 @@ pub mod artifacts;
 pub mod assemble;
 pub mod dry_run;
 pub mod events;
+pub mod frame_layout;
 pub mod journal;
 pub mod observe;
 pub mod push_check;

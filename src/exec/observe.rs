@@ -6,7 +6,7 @@ use super::tracker::Observation;
 use crate::calib::affine::AffineCalibration;
 use crate::rig::RigError;
 use crate::rig::camera::Camera;
-use crate::vision::detect::{DetectSettings, detect_particles_excluding};
+use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
@@ -26,6 +26,10 @@ pub struct Sighting {
     pub t_s: f64,
     /// Particles seen, on the sample (metres).
     pub particles: Vec<Observation>,
+    /// Particles whose ring the frame's edge cuts (the size hint's radius):
+    /// there, but their centres not measured, so not among `particles`; a
+    /// plan made from this frame alone must still keep clear of them.
+    pub cut_by_edge: Vec<Observation>,
     /// Tip apex on the sample, metres, when found.
     pub tip_m: Option<[f64; 2]>,
     /// Frames dropped before this one was had.
@@ -127,19 +131,26 @@ impl Perception {
         let detections =
             detect_particles_excluding(&timed.frame, &self.detect, &|x, y| !clear_of_probe(x, y))
                 .map_err(|e| ObserveError::Detect(e.to_string()))?;
-        let particles = detections
+        let on_sample_at = |x_px: f64, y_px: f64, r_px: f64| {
+            let [x_m, y_m] = on_sample(x_px, y_px);
+            Observation {
+                x_m,
+                y_m,
+                radius_m: r_px * calibration.m_per_px(),
+            }
+        };
+        let (cut, whole): (Vec<&Detection>, Vec<&Detection>) = detections
             .iter()
-            .filter(|d| !d.edge_clipped)
             .filter(|d| clear_of_probe(d.x_px, d.y_px))
+            .partition(|d| d.edge_clipped);
+        let particles = whole
+            .iter()
             .filter(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
-            .map(|d| {
-                let [x_m, y_m] = on_sample(d.x_px, d.y_px);
-                Observation {
-                    x_m,
-                    y_m,
-                    radius_m: d.r_px * calibration.m_per_px(),
-                }
-            })
+            .map(|d| on_sample_at(d.x_px, d.y_px, d.r_px))
+            .collect();
+        let cut_by_edge = cut
+            .iter()
+            .map(|d| on_sample_at(d.x_px, d.y_px, expected_r_px))
             .collect();
         let margin = self.detect.diameter_px;
         let (w, h) = (timed.frame.width() as f64, timed.frame.height() as f64);
@@ -160,6 +171,7 @@ impl Perception {
             frame: timed.frame,
             t_s: timed.t_s,
             particles,
+            cut_by_edge,
             tip_m,
             dropped,
             view_m: [lo, hi],

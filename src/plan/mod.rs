@@ -232,9 +232,6 @@ pub enum PlanError {
     /// No collision-free order was found.
     #[error("no collision-free order: {0}")]
     Blocked(String),
-    /// Planning from a frame needs the vision module.
-    #[error("planning from a frame needs the vision module (not merged yet); use --layout")]
-    NeedsVision,
 }
 
 impl PlanConfig {

@@ -1,0 +1,99 @@
+//! The particles and the tip one microscope frame shows, as a layout to plan
+//! on: what `nanopush plan --frame FRAME --calib FILE` plans from.
+//!
+//! The same perception as the closed loop and the dry-run
+//! ([`Perception::sight`]: the size hint from the particle radius, rings cut
+//! by the frame edge or by the probe left out) and the same layout of what
+//! it saw ([`layout_seen`]: ids in the order found, the field up to the far
+//! corner of the view, stage coordinates), so a plan made here is the plan
+//! the loop would start from. One frame is all this plan sees, so the
+//! particles the frame's edge cuts (there, their centres not measured) join
+//! the layout as particles it never pushes.
+
+use super::assemble::layout_seen;
+use super::observe::{ObserveError, Perception};
+use crate::calib::affine::AffineCalibration;
+use crate::plan::layout::{Layout, LayoutError};
+use crate::rig::RigError;
+use crate::rig::camera::{Camera, TimedFrame};
+use crate::vision::detect::DetectSettings;
+use crate::vision::frame::Frame;
+use crate::vision::tip::TipSettings;
+use nalgebra::Vector2;
+
+/// What one frame shows, on the sample.
+#[derive(Debug, Clone)]
+pub struct FrameLayout {
+    /// The particles seen whole, then those the frame's edge cuts, in stage
+    /// coordinates.
+    pub layout: Layout,
+    /// Ids of the particles the frame's edge cuts: obstacles, never pushed
+    /// (the planner's `immovable`).
+    pub cut_by_edge: Vec<u32>,
+    /// The probe's apex, when found: where the tip tour starts.
+    pub tip_m: Option<Vector2<f64>>,
+}
+
+/// Why a frame gave no layout.
+#[derive(Debug, thiserror::Error)]
+pub enum FrameLayoutError {
+    /// The particle radius is not a positive length.
+    #[error("particle radius {0} um must be finite and > 0")]
+    Radius(f64),
+    /// Detection failed on the frame.
+    #[error(transparent)]
+    Observe(#[from] ObserveError),
+    /// What was seen is not a layout (a particle below the stage origin, say).
+    #[error(
+        "the particles seen are not a layout: {0} (a layout's coordinates start at the stage origin: does the calibration map the frame onto the stage?)"
+    )]
+    Layout(#[from] LayoutError),
+}
+
+/// The particles (of radius `radius_m`) and the tip in `frame`, placed on
+/// the sample by `calibration`.
+pub fn layout_from_frame(
+    frame: Frame,
+    calibration: &AffineCalibration,
+    radius_m: f64,
+) -> Result<FrameLayout, FrameLayoutError> {
+    if !(radius_m.is_finite() && radius_m > 0.0) {
+        return Err(FrameLayoutError::Radius(radius_m * 1e6));
+    }
+    let perception = Perception {
+        detect: DetectSettings {
+            diameter_px: 2.0 * radius_m / calibration.m_per_px(),
+            ..DetectSettings::default()
+        },
+        tip: TipSettings::default(),
+        max_grabs: 1,
+    };
+    let mut still = Still(Some(TimedFrame { t_s: 0.0, frame }));
+    let sighting = perception.sight(&mut still, calibration, [0.0, 0.0])?;
+    let seen: Vec<_> = sighting
+        .particles
+        .iter()
+        .chain(&sighting.cut_by_edge)
+        .cloned()
+        .collect();
+    let layout = layout_seen(sighting.view_m[1], &seen, radius_m);
+    layout.validate()?;
+    let cut_by_edge = layout.particles[sighting.particles.len()..]
+        .iter()
+        .map(|p| p.id)
+        .collect();
+    Ok(FrameLayout {
+        layout,
+        cut_by_edge,
+        tip_m: sighting.tip_m.map(|[x, y]| Vector2::new(x, y)),
+    })
+}
+
+/// A camera that gives one frame, then none.
+struct Still(Option<TimedFrame>);
+
+impl Camera for Still {
+    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        Ok(self.0.take())
+    }
+}
