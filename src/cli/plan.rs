@@ -183,6 +183,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     summary["sites"] = plan.sites.len().into();
     summary["verified"] = report.ok.into();
     summary["placement_and_planning_time_s"] = placing_s.into();
+    summary["standoff_um"] = (plan.standoff_m * 1e6).into();
     if args.frame.is_some() {
         summary["particles_found"] = (layout.particles.len() - cut_by_edge.len()).into();
         summary["particles_cut_by_edge"] = cut_by_edge.len().into();
@@ -218,6 +219,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "push + tip ratio {:.3} to LB_push + LB_tip",
             plan_file::ratio(s.push_distance_m + s.tip_travel_m, s.lb_push_m + s.lb_tip_m)
         );
+        if plan.standoff_m < config.standoff_m {
+            println!(
+                "tip landing      {} um behind contact ({} um left particles the tip could not get behind)",
+                plan.standoff_m * 1e6,
+                config.standoff_m * 1e6
+            );
+        }
         println!("coarse moves     {}", s.coarse_moves);
         println!("predicted time   {:.1} s", s.predicted_time_s);
         println!("planning time    {:.2} ms", s.planning_time_s * 1e3);

@@ -54,6 +54,11 @@ pub struct PlanConfig {
     pub clearance_m: f64,
     /// The tip lands this far behind the contact point and moves in (default 1 um).
     pub standoff_m: f64,
+    /// Nearest the tip may land behind the contact point when the standoff
+    /// leaves particles it cannot push (default 0.25 um): a refused plan is
+    /// tried again at half the standoff, down to this (see
+    /// [`plan_assembly`]). Equal to `standoff_m`: never.
+    pub min_standoff_m: f64,
     /// Contact angle of the push, from the substrate normal as the scene gives it (default 0).
     pub contact_angle_rad: f64,
     /// Stage speed while pushing (default 1 um/s, the paper's V).
@@ -80,6 +85,7 @@ impl Default for PlanConfig {
             tip_radius_m: 1e-6,
             clearance_m: 0.1e-6,
             standoff_m: 1e-6,
+            min_standoff_m: 0.25e-6,
             contact_angle_rad: 0.0,
             push_speed_m_per_s: 1e-6,
             travel_speed_m_per_s: 10e-6,
@@ -181,6 +187,9 @@ pub struct Plan {
     pub steps: Vec<Step>,
     /// Figures.
     pub summary: PlanSummary,
+    /// How far behind the contact point its tip lands: the configured
+    /// standoff, or a nearer one when only that planned.
+    pub standoff_m: f64,
 }
 
 /// Refuses at once when a particle the executor gave up on (`immovable`)
@@ -241,6 +250,7 @@ impl PlanConfig {
             ("tip_radius_um", self.tip_radius_m, true),
             ("clearance_um", self.clearance_m, false),
             ("standoff_um", self.standoff_m, false),
+            ("min_standoff_um", self.min_standoff_m, false),
             ("push_speed_um_s", self.push_speed_m_per_s, true),
             ("travel_speed_um_s", self.travel_speed_m_per_s, true),
             ("nanostage_range_um", self.nanostage_range_m, true),
@@ -264,7 +274,60 @@ impl PlanConfig {
 
 /// Plans the assembly of `sites` from the particles of `layout`: the entry
 /// point the executor calls again after every push.
+///
+/// A refused plan whose particles the tip cannot reach behind is tried
+/// again with the tip landing nearer them: half the standoff, down to
+/// `min_standoff_m`, each time landing nearer frees a particle. A dense
+/// cluster at 1 um gaps has room for the 2 um tip between three
+/// neighbours, 6.35 um from each centre, but not 1 um behind the contact
+/// point (7 um): CMU's 20 adversarial layouts were all refused at 1 um,
+/// where landing 0.5 um behind plans 9. The executor's stroke lands the
+/// tip 0.5 um from the particle, nearer than either.
 pub fn plan_assembly(
+    layout: &Layout,
+    sites: &[Site],
+    config: &PlanConfig,
+) -> Result<Plan, PlanError> {
+    let first = plan_at_standoff(layout, sites, config);
+    let Err(PlanError::Blocked(_)) = first else {
+        return first;
+    };
+    let mut locked = locked::locked_particles(layout, config).len();
+    let mut tried = vec![config.standoff_m];
+    let mut last = first;
+    let mut standoff = config.standoff_m;
+    while locked > 0 && standoff > config.min_standoff_m {
+        standoff = (standoff / 2.0).max(config.min_standoff_m);
+        let nearer = PlanConfig {
+            standoff_m: standoff,
+            ..config.clone()
+        };
+        let now_locked = locked::locked_particles(layout, &nearer).len();
+        if now_locked == locked {
+            continue;
+        }
+        locked = now_locked;
+        tried.push(standoff);
+        last = plan_at_standoff(layout, sites, &nearer);
+        if !matches!(last, Err(PlanError::Blocked(_))) {
+            return last;
+        }
+    }
+    match last {
+        Err(PlanError::Blocked(reason)) if tried.len() > 1 => {
+            let um: Vec<String> = tried.iter().map(|s| format!("{}", s * 1e6)).collect();
+            Err(PlanError::Blocked(format!(
+                "{reason} (with the tip landing {} um behind the contact point)",
+                um.join(", ")
+            )))
+        }
+        other => other,
+    }
+}
+
+/// [`plan_assembly`] with the tip landing `config.standoff_m` behind the
+/// contact point.
+fn plan_at_standoff(
     layout: &Layout,
     sites: &[Site],
     config: &PlanConfig,
@@ -332,6 +395,7 @@ pub fn plan_assembly(
             .collect(),
         steps,
         summary,
+        standoff_m: config.standoff_m,
     })
 }
 

@@ -147,11 +147,11 @@ fn summary_j(s: &PlanSummary) -> SummaryJ {
     }
 }
 
-/// Geometry block of a config.
-pub fn geometry_of(config: &PlanConfig) -> PlanGeometry {
+/// Geometry block of `plan`, made with `config`.
+pub fn geometry_of(plan: &Plan, config: &PlanConfig) -> PlanGeometry {
     PlanGeometry {
         tip_radius_um: config.tip_radius_m * 1e6,
-        standoff_um: config.standoff_m * 1e6,
+        standoff_um: plan.standoff_m * 1e6,
         nanostage_range_um: config.nanostage_range_m * 1e6,
     }
 }
@@ -160,7 +160,7 @@ pub fn geometry_of(config: &PlanConfig) -> PlanGeometry {
 pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
     let file = PlanJ {
         schema: PLAN_SCHEMA.into(),
-        geometry: geometry_of(config),
+        geometry: geometry_of(plan, config),
         sites: plan
             .sites
             .iter()
@@ -285,6 +285,7 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
             assignment,
             steps,
             summary,
+            standoff_m: g.standoff_um * 1e-6,
         },
         g,
     ))

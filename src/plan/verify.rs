@@ -205,12 +205,13 @@ pub fn verify_plan_with(
     rep
 }
 
-/// Replays a plan made with `config` (the executor's entry point).
+/// Replays a plan made with `config` (the executor's entry point), its tip
+/// landing where the plan says (`Plan::standoff_m`).
 pub fn verify_plan(plan: &Plan, layout: &Layout, config: &super::PlanConfig) -> VerifyReport {
     verify_plan_with(
         plan,
         layout,
-        &super::plan_file::geometry_of(config),
+        &super::plan_file::geometry_of(plan, config),
         config.on_site_tolerance_m.max(1e-9),
     )
 }
