@@ -3,12 +3,14 @@
 //!
 //! The same perception as the closed loop and the dry-run
 //! ([`Perception::sight`]: the size hint from the particle radius, rings cut
-//! by the frame edge or by the probe left out) and the same layout of what
-//! it saw ([`layout_seen`]: ids in the order found, the field up to the far
-//! corner of the view, stage coordinates), so a plan made here is the plan
-//! the loop would start from. One frame is all this plan sees, so the
-//! particles the frame's edge cuts (there, their centres not measured) join
-//! the layout as particles it never pushes.
+//! by the probe left out, those cut by the frame's edge set apart) and the
+//! same layout of what it saw ([`layout_seen`]: ids in the order found, the
+//! field up to the far corner of the view, stage coordinates), so a plan
+//! made here is the plan the loop would start from. One frame is all this
+//! plan sees, so the particles the frame's edge cuts (there, their centres
+//! not measured) join the layout as particles it never pushes; one whose
+//! centre falls below the stage origin makes it no layout (an error, not a
+//! particle dropped).
 
 use super::assemble::layout_seen;
 use super::observe::{ObserveError, Perception};
