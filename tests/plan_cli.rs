@@ -454,3 +454,41 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
         "tour starts at {start:?}"
     );
 }
+
+/// `nanopush plan --frame` on a real bright-field frame (trackpy-examples,
+/// fixtures/recordings/real-brightfield, its assumed calibration): the 5
+/// particles the dry-run sees in it, and a plan of the recording's 3 sites
+/// that verifies on the layout it writes.
+#[test]
+fn plan_from_a_real_frame_finds_its_five_particles() {
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/recordings/real-brightfield");
+    let dir = tempfile::tempdir().unwrap();
+    let found = dir.path().join("found.json");
+    let plan = dir.path().join("plan.json");
+    let path = |p: &Path| p.to_str().unwrap().to_string();
+    let frame = fixture.join("frames").join("bf_0000.png");
+    let args = [
+        "plan".to_string(),
+        "--pattern".into(),
+        path(&fixture.join("pattern.toml")),
+        "--frame".into(),
+        path(&frame),
+        "--calib".into(),
+        path(&fixture.join("calibration.toml")),
+        "--save-layout".into(),
+        path(&found),
+        "--out".into(),
+        path(&plan),
+        "--json".into(),
+    ];
+    let (ok, text) = nanopush(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(ok, "{text}");
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["particles_found"], 5, "{text}");
+    assert_eq!(summary["sites"], 3, "{text}");
+    assert_eq!(summary["verified"], true, "{text}");
+    assert_eq!(centres_um(&found).len(), 5);
+    let (ok, text) = nanopush(&["verify-plan", &path(&plan), "--layout", &path(&found)]);
+    assert!(ok, "{text}");
+}
