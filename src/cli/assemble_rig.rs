@@ -37,9 +37,7 @@ use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
 use crate::rig::stage::{CoarseStage, NanoStage};
-use crate::vision::detect::DetectSettings;
 use crate::vision::frame_input::save_png;
-use crate::vision::tip::TipSettings;
 use anyhow::{Context, bail};
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
@@ -242,14 +240,7 @@ fn assemble(
 
 /// Frame analysis for this rig's camera: the particles' size in its pixels.
 fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
-    Perception {
-        detect: DetectSettings {
-            diameter_px: 2.0 * scene.particle_radius_m / rig.calibration().m_per_px(),
-            ..DetectSettings::default()
-        },
-        tip: TipSettings::default(),
-        max_grabs: 5,
-    }
+    Perception::for_particles(scene.particle_radius_m, rig.calibration().m_per_px(), 5)
 }
 
 /// The run's field on a rig with a coarse stage: what the first frame shows

@@ -18,8 +18,6 @@ use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
-use crate::vision::detect::DetectSettings;
-use crate::vision::tip::TipSettings;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
@@ -136,14 +134,7 @@ pub fn dry_run(
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
     let calibration = recording.calibration;
-    let perception = Perception {
-        detect: DetectSettings {
-            diameter_px: 2.0 * radius_m / calibration.m_per_px(),
-            ..DetectSettings::default()
-        },
-        tip: TipSettings::default(),
-        max_grabs: 1,
-    };
+    let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
     let mut camera = Replay { recording, next: 0 };
     let mut tracker = Tracker::new(TRACK_GATE_M);
     let mut sites: Option<Vec<Site>> = None;

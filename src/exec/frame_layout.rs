@@ -18,9 +18,7 @@ use crate::calib::affine::AffineCalibration;
 use crate::plan::layout::{Layout, LayoutError};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
-use crate::vision::detect::DetectSettings;
 use crate::vision::frame::Frame;
-use crate::vision::tip::TipSettings;
 use nalgebra::Vector2;
 
 /// What one frame shows, on the sample.
@@ -62,14 +60,7 @@ pub fn layout_from_frame(
     if !(radius_m.is_finite() && radius_m > 0.0) {
         return Err(FrameLayoutError::Radius(radius_m * 1e6));
     }
-    let perception = Perception {
-        detect: DetectSettings {
-            diameter_px: 2.0 * radius_m / calibration.m_per_px(),
-            ..DetectSettings::default()
-        },
-        tip: TipSettings::default(),
-        max_grabs: 1,
-    };
+    let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
     let mut still = Still(Some(TimedFrame { t_s: 0.0, frame }));
     let sighting = perception.sight(&mut still, calibration, [0.0, 0.0])?;
     let seen: Vec<_> = sighting

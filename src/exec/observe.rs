@@ -96,6 +96,20 @@ pub struct Perception {
 }
 
 impl Perception {
+    /// Detection sized for particles of `radius_m` seen at `m_per_px` (the
+    /// size hint that keeps the probe's outline and debris out), the
+    /// default tip search, and `max_grabs` tries for a frame.
+    pub fn for_particles(radius_m: f64, m_per_px: f64, max_grabs: usize) -> Self {
+        Perception {
+            detect: DetectSettings {
+                diameter_px: 2.0 * radius_m / m_per_px,
+                ..DetectSettings::default()
+            },
+            tip: TipSettings::default(),
+            max_grabs,
+        }
+    }
+
     /// Grabs a frame and finds the particles and the tip on the sample.
     pub fn sight(
         &self,

@@ -19,8 +19,6 @@ use crate::rig::RigError;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
 use crate::rig::sim::stage::TimedContact;
-use crate::vision::detect::DetectSettings;
-use crate::vision::tip::TipSettings;
 use std::path::{Path, PathBuf};
 
 /// Field of the simulated rig's random layouts, micrometres.
@@ -207,14 +205,7 @@ pub fn inputs_for(
         scene: scene.clone(),
         sites,
         plan_config: settings.plan_config(scene),
-        perception: Perception {
-            detect: DetectSettings {
-                diameter_px: 2.0 * scene.particle_radius_m / m_per_px,
-                ..DetectSettings::default()
-            },
-            tip: TipSettings::default(),
-            max_grabs: 5,
-        },
+        perception: Perception::for_particles(scene.particle_radius_m, m_per_px, 5),
         settings,
     }
 }
