@@ -177,6 +177,8 @@ pub fn search_extent_m(radius_m: f64, config: &PlanConfig) -> f64 {
 struct Rays {
     centre: Vector2<f64>,
     step_m: f64,
+    /// Unit vector of each ray (computed once: every point asked for one).
+    directions: [Vector2<f64>; DIRECTIONS],
     /// Per ray and step (index `ray * STEPS + step - 1`): tested free or blocked.
     tested: Vec<Option<bool>>,
     /// Per ray: the first step known blocked (or out of reach).
@@ -188,6 +190,10 @@ impl Rays {
         let mut rays = Rays {
             centre,
             step_m,
+            directions: std::array::from_fn(|a| {
+                let ang = std::f64::consts::TAU * a as f64 / DIRECTIONS as f64;
+                Vector2::new(ang.cos(), ang.sin())
+            }),
             tested: vec![None; DIRECTIONS * STEPS],
             closed_from: [STEPS + 1; DIRECTIONS],
         };
@@ -200,8 +206,7 @@ impl Rays {
     }
 
     fn at(&self, ray: usize, step: usize) -> Vector2<f64> {
-        let ang = std::f64::consts::TAU * ray as f64 / DIRECTIONS as f64;
-        self.centre + Vector2::new(ang.cos(), ang.sin()) * (self.step_m * RAY_RADII[step - 1])
+        self.centre + self.directions[ray] * (self.step_m * RAY_RADII[step - 1])
     }
 
     /// The point of index `i` (`ray * STEPS + step - 1`).
