@@ -280,9 +280,10 @@ impl PlanConfig {
 /// `min_standoff_m`, each time landing nearer frees a particle. A dense
 /// cluster at 1 um gaps has room for the 2 um tip between three
 /// neighbours, 6.35 um from each centre, but not 1 um behind the contact
-/// point (7 um): CMU's 20 adversarial layouts were all refused at 1 um,
-/// where landing 0.5 um behind plans 9. The executor's stroke lands the
-/// tip 0.5 um from the particle, nearer than either.
+/// point (7 um): CMU's 20 adversarial layouts were all refused at 1 um;
+/// landing 0.5 um behind, 14 plan. The executor's stroke lands the tip
+/// apex 0.5 um from the particle, nearer than the planner's tip disc at
+/// either standoff.
 pub fn plan_assembly(
     layout: &Layout,
     sites: &[Site],
@@ -315,7 +316,11 @@ pub fn plan_assembly(
     }
     match last {
         Err(PlanError::Blocked(reason)) if tried.len() > 1 => {
-            let um: Vec<String> = tried.iter().map(|s| format!("{}", s * 1e6)).collect();
+            // In um to the nanometre: 1, 0.5, 0.25.
+            let um: Vec<String> = tried
+                .iter()
+                .map(|s| format!("{}", (s * 1e9).round() / 1e3))
+                .collect();
             Err(PlanError::Blocked(format!(
                 "{reason} (with the tip landing {} um behind the contact point)",
                 um.join(", ")
