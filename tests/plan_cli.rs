@@ -359,17 +359,18 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
         &truth,
     ]);
     assert!(ok, "{text}");
-    let (ok, text) = nanopush(&[
-        "synth",
-        "frame",
-        "--layout",
-        &truth,
-        "--um-per-px",
-        "0.5",
-        "--out",
-        &frame,
-    ]);
-    assert!(ok, "{text}");
+    // The layout drawn at 0.5 um a pixel, with `probe` drawn too.
+    let synth_frame = |out: &str, probe: &[&str]| {
+        let head = ["synth", "frame", "--layout", &truth, "--um-per-px", "0.5"];
+        let args: Vec<&str> = head
+            .into_iter()
+            .chain(["--out", out])
+            .chain(probe.iter().copied())
+            .collect();
+        let (ok, text) = nanopush(&args);
+        assert!(ok, "{text}");
+    };
+    synth_frame(&frame, &[]);
     std::fs::write(
         &calib,
         "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n",
@@ -421,23 +422,17 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
     // The probe drawn with its apex at (30, 70) um, its body down to the
     // frame's edge: the tour starts at the apex.
     let tipped = at("tipped.png");
-    let (ok, text) = nanopush(&[
-        "synth",
-        "frame",
-        "--layout",
-        &truth,
-        "--um-per-px",
-        "0.5",
-        "--out",
+    synth_frame(
         &tipped,
-        "--tip-x-px",
-        "60",
-        "--tip-y-px",
-        "140",
-        "--tip-angle-deg",
-        "270",
-    ]);
-    assert!(ok, "{text}");
+        &[
+            "--tip-x-px",
+            "60",
+            "--tip-y-px",
+            "140",
+            "--tip-angle-deg",
+            "270",
+        ],
+    );
     let args = plan_args(&tipped);
     let (ok, text) = nanopush(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(ok, "{text}");

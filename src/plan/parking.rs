@@ -36,16 +36,14 @@ impl SiteDiscs<'_> {
     }
 }
 
-/// Candidate spots around `centre` with their distance from it: 48
-/// directions, distances from a quarter to eight pitches (`pitch_m`) in
-/// quarter-pitch steps, nearest first.
-fn ring(centre: Vector2<f64>, pitch_m: f64) -> impl Iterator<Item = (f64, Vector2<f64>)> {
-    // The 48 directions once, not once a step: their sines and cosines
-    // were a tenth of CMU's planning time.
-    let directions: [Vector2<f64>; 48] = std::array::from_fn(|a| {
-        let ang = std::f64::consts::TAU * a as f64 / 48.0;
-        Vector2::new(ang.cos(), ang.sin())
-    });
+/// Candidate spots around `centre` with their distance from it: along the
+/// unit `directions`, distances from a quarter to eight pitches (`pitch_m`)
+/// in quarter-pitch steps, nearest first.
+fn ring(
+    centre: Vector2<f64>,
+    pitch_m: f64,
+    directions: [Vector2<f64>; CLEARING_DIRECTIONS],
+) -> impl Iterator<Item = (f64, Vector2<f64>)> {
     (1..=32).flat_map(move |step| {
         let dist = pitch_m * step as f64 / 4.0;
         directions
@@ -79,7 +77,9 @@ pub fn ring_off_sites(
     also: &dyn Fn(Vector2<f64>) -> bool,
     own: Option<usize>,
 ) -> Vec<Vector2<f64>> {
-    let directions = (0..CLEARING_DIRECTIONS).map(|a| {
+    // The unit directions once for both: their sines and cosines, taken at
+    // every step of the ring, were a tenth of CMU's planning time.
+    let directions: [Vector2<f64>; CLEARING_DIRECTIONS] = std::array::from_fn(|a| {
         let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
         Vector2::new(ang.cos(), ang.sin())
     });
@@ -87,7 +87,7 @@ pub fn ring_off_sites(
     spots.extend(spots_off_sites_along(
         centre, directions, radius_m, sites, also, own,
     ));
-    spots.extend(ring(centre, pitch_of(radius_m)));
+    spots.extend(ring(centre, pitch_of(radius_m), directions));
     spots.sort_by(|x, y| x.0.total_cmp(&y.0));
     spots.into_iter().map(|s| s.1).collect()
 }
