@@ -452,8 +452,10 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
 
 /// `nanopush plan --frame` on a real bright-field frame (trackpy-examples,
 /// fixtures/recordings/real-brightfield, its assumed calibration): the 5
-/// particles the dry-run sees in it, and a plan of the recording's 3 sites
-/// that verifies on the layout it writes.
+/// particles the dry-run sees in it, a plan of the recording's 3 sites
+/// that verifies on the layout it writes, and an overlay drawn over the
+/// frame with every site where the calibration puts it (image y down,
+/// stage y up: a flipped or unscaled drawing puts them elsewhere).
 #[test]
 fn plan_from_a_real_frame_finds_its_five_particles() {
     let fixture =
@@ -461,6 +463,7 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
     let dir = tempfile::tempdir().unwrap();
     let found = dir.path().join("found.json");
     let plan = dir.path().join("plan.json");
+    let overlay = dir.path().join("plan.png");
     let path = |p: &Path| p.to_str().unwrap().to_string();
     let frame = fixture.join("frames").join("bf_0000.png");
     let args = [
@@ -475,6 +478,8 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
         path(&found),
         "--out".into(),
         path(&plan),
+        "--overlay".into(),
+        path(&overlay),
         "--json".into(),
     ];
     let (ok, text) = nanopush(&args.iter().map(String::as_str).collect::<Vec<_>>());
@@ -486,4 +491,36 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
     assert_eq!(centres_um(&found).len(), 5);
     let (ok, text) = nanopush(&["verify-plan", &path(&plan), "--layout", &path(&found)]);
     assert!(ok, "{text}");
+    // The calibration: x_um = 0.588235 x_px, y_um = 294.1176 - 0.588235 y_px.
+    let to_px = |x_um: f64, y_um: f64| (x_um / 0.588235, (294.1176 - y_um) / 0.588235);
+    let plan_json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    let sites_px: Vec<(f64, f64)> = plan_json["sites"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| to_px(s["x_um"].as_f64().unwrap(), s["y_um"].as_f64().unwrap()))
+        .collect();
+    let picture = image::open(&overlay).unwrap().to_rgb8();
+    let shot = image::open(&frame).unwrap();
+    assert_eq!(picture.dimensions(), (shot.width(), shot.height()));
+    // Site circles are drawn in (0, 200, 255), 5 um = 8.5 px round each site.
+    let site_pixels: Vec<(f64, f64)> = picture
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.0 == [0, 200, 255])
+        .map(|(x, y, _)| (x as f64, y as f64))
+        .collect();
+    let near = |(x, y): (f64, f64), (u, v): (f64, f64)| (x - u).hypot(y - v) <= 10.5;
+    for &site in &sites_px {
+        assert!(
+            site_pixels.iter().any(|&p| near(p, site)),
+            "no site circle round pixel {site:?}"
+        );
+    }
+    assert!(
+        site_pixels
+            .iter()
+            .all(|&p| sites_px.iter().any(|&s| near(p, s))),
+        "site colour away from every site"
+    );
 }

@@ -14,6 +14,8 @@ mod nanopush_plan_api {
     pub use crate::plan::{
         AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, plan_assembly, plan_file, verify,
     };
+    pub use crate::render::plan_on_frame::draw_plan_on_frame;
+    pub use crate::vision::frame::Frame;
     pub use crate::vision::frame_input::{Channel, load_frame};
 }
 
@@ -68,7 +70,8 @@ pub struct Args {
     /// Write the plan here (nanopush.plan/1 JSON).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Draw the plan over the layout (.svg or .png).
+    /// Draw the plan over the layout (.svg or .png); with --frame, a .png
+    /// is drawn over the frame itself, in its pixels.
     #[arg(long)]
     pub overlay: Option<PathBuf>,
     /// Print the summary as JSON.
@@ -97,12 +100,13 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
             layout: Layout::read(path)?,
             tip_start_m: None,
             cut_by_edge: Vec::new(),
+            seen_in: None,
         });
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
     let calibration = AffineCalibration::load(calib)?;
     let frame = load_frame(frame_path, Channel::Luminance)?;
-    let found = layout_from_frame(frame, &calibration, args.radius_um * 1e-6)
+    let found = layout_from_frame(frame.clone(), &calibration, args.radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
     if let Some(path) = &args.save_layout {
         found.layout.write(path)?;
@@ -111,6 +115,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         layout: found.layout,
         tip_start_m: found.tip_m,
         cut_by_edge: found.cut_by_edge,
+        seen_in: Some((frame, calibration)),
     })
 }
 
@@ -121,6 +126,8 @@ struct Particles {
     tip_start_m: Option<nalgebra::Vector2<f64>>,
     /// Particles the frame's edge cuts: obstacles, never pushed.
     cut_by_edge: Vec<u32>,
+    /// The frame the particles were found in, and its calibration.
+    seen_in: Option<(Frame, AffineCalibration)>,
 }
 
 /// Plans and prints the summary; writes the plan and overlay when asked.
@@ -129,6 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         layout,
         tip_start_m,
         cut_by_edge,
+        seen_in,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
     if radius <= 0.0 {
@@ -175,7 +183,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan_file::write(&plan, &config, out)?;
     }
     if let Some(path) = &args.overlay {
-        crate::render::plan_overlay::draw(&plan, &layout, path)?;
+        let is_png = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        match &seen_in {
+            Some((frame, calibration)) if is_png => {
+                draw_plan_on_frame(&plan, &layout, tip_start_m, frame, calibration)
+                    .map_err(anyhow::Error::msg)?
+                    .save(path)
+                    .with_context(|| format!("overlay {}", path.display()))?;
+            }
+            _ => crate::render::plan_overlay::draw(&plan, &layout, path)?,
+        }
     }
     let report = verify::verify_plan(&plan, &layout, &config);
     let mut summary = plan_file::summary_json(&plan.summary);

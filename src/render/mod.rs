@@ -3,6 +3,7 @@
 pub mod microscope;
 pub mod microscope_truth;
 pub mod noise;
+pub mod plan_on_frame;
 pub mod plan_overlay;
 pub mod plot;
 pub mod probe;
