@@ -10,9 +10,12 @@ mod nanopush_plan_api {
     pub use crate::plan::layout::Layout;
     pub use crate::plan::pattern::transform::{Reachable, place_at, rotate};
     pub use crate::plan::pattern::{Pattern, site_list};
-    pub use crate::plan::placement::{PlacementGoal, place_and_plan};
+    pub use crate::plan::placement::{
+        FALLBACK_CANDIDATES, PLAN_PLACEMENT_MAX_SITES, PlacementGoal, place_and_plan,
+    };
     pub use crate::plan::{
-        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, plan_assembly, plan_file, verify,
+        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
+        verify,
     };
     pub use crate::render::plan_on_frame::draw_plan_on_frame;
     pub use crate::vision::frame::Frame;
@@ -52,7 +55,8 @@ pub struct Args {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub rotation_deg: f64,
     /// Pattern centre "X,Y" in um (default: where the plan pushes least, of
-    /// the two best placements by the push distance's lower bound).
+    /// the two best placements by the push distance's lower bound; when
+    /// both are refused, the first of up to 24 others that plans).
     #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
     pub at: Option<(f64, f64)>,
     /// Contact angle of every push, degrees from the substrate normal.
@@ -174,9 +178,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         None => place_and_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)?,
     };
+    // Without --at, no plan means every placement tried was refused.
+    let fell_back = args.at.is_none() && pattern.offsets_m.len() <= PLAN_PLACEMENT_MAX_SITES;
     let plan = match planned {
         Some(plan) => plan,
-        None => plan_assembly(&layout, &sites, &config)?,
+        None => match plan_assembly(&layout, &sites, &config) {
+            Err(e @ PlanError::Blocked(_)) if fell_back => {
+                return Err(anyhow::Error::new(e).context(format!(
+                    "no placement tried plans (the best by the push bound, whose refusal follows, and up to {FALLBACK_CANDIDATES} others)"
+                )));
+            }
+            other => other?,
+        },
     };
     let placing_s = placing.elapsed().as_secs_f64();
     if let Some(out) = &args.out {
