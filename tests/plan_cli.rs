@@ -524,3 +524,50 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
         "site colour away from every site"
     );
 }
+
+/// A dense field refused at every placement tried says how many were tried
+/// and why the best by the push bound was refused, and exits non-zero
+/// (`synth layout --n 75 --kind adversarial --seed 3`: about 20 s).
+#[test]
+fn a_field_refused_at_every_placement_says_how_many_were_tried_and_why() {
+    use nanopush::plan::placement::{BOUND_CANDIDATES, FALLBACK_CANDIDATES};
+    let dir = tempfile::tempdir().unwrap();
+    let layout = dir.path().join("dense.json");
+    let layout = layout.to_str().unwrap();
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        "75",
+        "--field-um",
+        "120x100",
+        "--radius-um",
+        "5",
+        "--min-gap-um",
+        "1",
+        "--kind",
+        "adversarial",
+        "--seed",
+        "3",
+        "--out",
+        layout,
+    ]);
+    assert!(ok, "{text}");
+    let (ok, text) = nanopush(&["plan", "--text", "CMU", "--layout", layout]);
+    assert!(!ok, "a plan was found: {text}");
+    let tried: usize = text
+        .split("none of the ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no count of placements tried: {text}"));
+    assert!(
+        tried > BOUND_CANDIDATES && tried <= BOUND_CANDIDATES + FALLBACK_CANDIDATES,
+        "{tried} placements tried: {text}"
+    );
+    assert!(
+        text.contains("placements tried plans (the refusal at the best by the push bound follows): no collision-free order:"),
+        "{text}"
+    );
+    assert_eq!(text.matches("no collision-free order").count(), 1, "{text}");
+}

@@ -10,9 +10,7 @@ mod nanopush_plan_api {
     pub use crate::plan::layout::Layout;
     pub use crate::plan::pattern::transform::{Reachable, place_at, rotate};
     pub use crate::plan::pattern::{Pattern, site_list};
-    pub use crate::plan::placement::{
-        FALLBACK_CANDIDATES, PLAN_PLACEMENT_MAX_SITES, PlacementGoal, place_and_plan,
-    };
+    pub use crate::plan::placement::{PlacementGoal, place_and_plan};
     pub use crate::plan::{
         AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
         verify,
@@ -171,25 +169,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..PlanConfig::default()
     };
     let placing = std::time::Instant::now();
-    let (sites, planned) = match args.at {
+    let plan = match args.at {
         Some((x, y)) => {
             let at = nalgebra::Vector2::new(x * 1e-6, y * 1e-6);
-            (place_at(&pattern, at, &area, radius)?, None)
+            plan_assembly(&layout, &place_at(&pattern, at, &area, radius)?, &config)?
         }
-        None => place_and_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)?,
-    };
-    // Without --at, no plan means every placement tried was refused.
-    let fell_back = args.at.is_none() && pattern.offsets_m.len() <= PLAN_PLACEMENT_MAX_SITES;
-    let plan = match planned {
-        Some(plan) => plan,
-        None => match plan_assembly(&layout, &sites, &config) {
-            Err(e @ PlanError::Blocked(_)) if fell_back => {
-                return Err(anyhow::Error::new(e).context(format!(
-                    "no placement tried plans (the best by the push bound, whose refusal follows, and up to {FALLBACK_CANDIDATES} others)"
-                )));
+        None => {
+            let placed =
+                place_and_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)?;
+            match placed.plan {
+                Some(Ok(plan)) => plan,
+                Some(Err(e @ PlanError::Blocked(_))) if placed.centres_tried > 1 => {
+                    return Err(anyhow::Error::new(e).context(format!(
+                        "none of the {} placements tried plans (the refusal at the best by the push bound follows)",
+                        placed.centres_tried
+                    )));
+                }
+                Some(Err(e)) => return Err(e.into()),
+                None => plan_assembly(&layout, &placed.sites, &config)?,
             }
-            other => other?,
-        },
+        }
     };
     let placing_s = placing.elapsed().as_secs_f64();
     if let Some(out) = &args.out {

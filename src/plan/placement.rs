@@ -71,24 +71,43 @@ pub fn place_by_plan(
     config: &PlanConfig,
     goal: PlacementGoal,
 ) -> Result<Vec<Site>, PatternError> {
-    place_and_plan(pattern, area, layout, config, goal).map(|(sites, _)| sites)
+    place_and_plan(pattern, area, layout, config, goal).map(|placed| placed.sites)
 }
 
-/// [`place_by_plan`], with the chosen placement's plan when one was made
-/// (so a caller that wants it does not plan it again).
+/// A placement and what planning it in full found.
+#[derive(Debug)]
+pub struct Placed {
+    /// The chosen sites (the bound's best when no centre planned).
+    pub sites: Vec<Site>,
+    /// The plan at `sites`; when every centre tried was refused, the
+    /// refusal at the bound's best (so a caller need not plan it again to
+    /// say why); `None` when the pattern was placed by the bound alone
+    /// (above [`PLAN_PLACEMENT_MAX_SITES`]).
+    pub plan: Option<Result<Plan, PlanError>>,
+    /// How many centres were planned in full.
+    pub centres_tried: usize,
+}
+
+/// [`place_by_plan`], with the chosen placement's plan or refusal (so a
+/// caller that wants it does not plan it again).
 pub fn place_and_plan(
     pattern: &Pattern,
     area: &Reachable,
     layout: &Layout,
     config: &PlanConfig,
     goal: PlacementGoal,
-) -> Result<(Vec<Site>, Option<Plan>), PatternError> {
+) -> Result<Placed, PatternError> {
     let r = layout.max_radius_m();
     let centres: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
     let ranked = ranked_centres(pattern, area, r, &centres)?;
     if pattern.offsets_m.len() > PLAN_PLACEMENT_MAX_SITES {
-        return Ok((sites_at(pattern, ranked[0]), None));
+        return Ok(Placed {
+            sites: sites_at(pattern, ranked[0]),
+            plan: None,
+            centres_tried: 0,
+        });
     }
+    // The bound's best first: its refusal is the one reported.
     let mut candidates: Vec<Vector2<f64>> = Vec::new();
     for &c in ranked.iter().take(BOUND_CANDIDATES) {
         // The polish may leave the grid's best where it was: plan it once.
@@ -104,50 +123,53 @@ pub fn place_and_plan(
             }
         }
     }
-    let plan_at = |c: Vector2<f64>| {
-        let sites = sites_at(pattern, c);
-        plan_assembly(layout, &sites, config).map(|plan| (sites, plan))
-    };
-    let planned = plan_centres(&candidates, &plan_at, |_| false);
+    let plan_at = |c: Vector2<f64>| plan_assembly(layout, &sites_at(pattern, c), config);
+    let mut planned = plan_centres(&candidates, &plan_at, |_| false);
     // Only a blocked order may plan elsewhere (not too few particles, say).
     let only_blocked = planned
         .iter()
         .all(|p| matches!(p, Ok(_) | Err(PlanError::Blocked(_))));
-    let best = planned
-        .into_iter()
-        .filter_map(Result::ok)
-        .min_by(|a, b| goal.measure(&a.1).total_cmp(&goal.measure(&b.1)));
-    if let Some((sites, plan)) = best {
-        return Ok((sites, Some(plan)));
-    }
-    if goal == PlacementGoal::LeastPush && only_blocked {
-        // Every centre the bound ranks best was refused (a dense field): a
-        // plan elsewhere beats a refusal.
-        let refused = match candidates.len() {
-            1 => "the best centre by the push bound was refused".to_string(),
-            n => format!("the {n} best centres by the push bound were refused"),
-        };
-        tracing::warn!("placement: {refused}; trying up to {FALLBACK_CANDIDATES} others");
-        let mut tried = candidates.clone();
-        for c in candidate_centres(pattern, area, r, &centres, usize::MAX)? {
-            if tried.len() >= candidates.len() + FALLBACK_CANDIDATES {
-                break;
+    let best = (0..planned.len())
+        .filter_map(|i| planned[i].as_ref().ok().map(|p| (i, goal.measure(p))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i);
+    let mut tried = candidates.clone();
+    let chosen = match best {
+        Some(i) => Some((tried[i], planned.swap_remove(i))),
+        None if goal == PlacementGoal::LeastPush && only_blocked => {
+            // Every centre the bound ranks best was refused (a dense
+            // field): a plan elsewhere beats a refusal.
+            let refused = match candidates.len() {
+                1 => "the best centre by the push bound was refused".to_string(),
+                n => format!("the {n} best centres by the push bound were refused"),
+            };
+            tracing::warn!("placement: {refused}; trying up to {FALLBACK_CANDIDATES} others");
+            for c in candidate_centres(pattern, area, r, &centres, usize::MAX)? {
+                if tried.len() >= candidates.len() + FALLBACK_CANDIDATES {
+                    break;
+                }
+                if tried
+                    .iter()
+                    .all(|t| (t - c).norm() >= FALLBACK_SEPARATION_RADII * r)
+                {
+                    tried.push(c);
+                }
             }
-            if tried
-                .iter()
-                .all(|t| (t - c).norm() >= FALLBACK_SEPARATION_RADII * r)
-            {
-                tried.push(c);
-            }
+            let fallback = plan_centres(&tried[candidates.len()..], &plan_at, Result::is_ok);
+            tried.truncate(candidates.len() + fallback.len());
+            fallback
+                .into_iter()
+                .zip(&tried[candidates.len()..])
+                .find_map(|(plan, &c)| plan.ok().map(|p| (c, Ok(p))))
         }
-        let first = plan_centres(&tried[candidates.len()..], &plan_at, Result::is_ok)
-            .into_iter()
-            .find_map(Result::ok);
-        if let Some((sites, plan)) = first {
-            return Ok((sites, Some(plan)));
-        }
-    }
-    Ok((sites_at(pattern, ranked[0]), None))
+        None => None,
+    };
+    let (centre, plan) = chosen.unwrap_or_else(|| (ranked[0], planned.swap_remove(0)));
+    Ok(Placed {
+        sites: sites_at(pattern, centre),
+        plan: Some(plan),
+        centres_tried: tried.len(),
+    })
 }
 
 /// `plan_at` at each of `centres`, in their order, as many at once as the
