@@ -74,6 +74,10 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         (on_easy(" ", &[]), "empty pattern"),
         (on_easy("CMU", &[]), "only 4 particles"),
         (on_easy("I", &["--pitch-um", "NaN"]), "pitch-um"),
+        (
+            on_easy("I", &["--contact-angle-deg", "120"]),
+            "contact_angle_deg is 120.000 (must be in 0..90",
+        ),
         (on_easy("I", &["--pitch-um", "5"]), "overlap"),
         (on_easy("I", &["--at", "5,5"]), "outside the reachable area"),
         // Negative numbers reach the checks (not the argument parser).

@@ -57,7 +57,7 @@ pub struct Args {
     /// both are refused, the first of up to 24 others that plans).
     #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
     pub at: Option<(f64, f64)>,
-    /// Contact angle of every push, degrees from the substrate normal.
+    /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub contact_angle_deg: f64,
     /// Tip disc radius in um.

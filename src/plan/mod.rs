@@ -265,11 +265,21 @@ impl PlanConfig {
                 )));
             }
         }
-        if !self.contact_angle_rad.is_finite() {
-            return Err(PlanError::Config("contact_angle_deg is not finite".into()));
+        let angle_deg = self.contact_angle_rad.to_degrees();
+        if !contact_angle_in_range(angle_deg) {
+            return Err(PlanError::Config(format!(
+                "contact_angle_deg is {angle_deg:.3} (must be in 0..90: degrees from the substrate normal)"
+            )));
         }
         Ok(())
     }
+}
+
+/// Whether a push's contact angle (degrees from the substrate normal) is
+/// one a tip can push at: 0 (straight down) up to, not including, 90 (a
+/// tip lying on the substrate). NaN is not.
+pub fn contact_angle_in_range(deg: f64) -> bool {
+    (0.0..90.0).contains(&deg)
 }
 
 /// Plans the assembly of `sites` from the particles of `layout`: the entry

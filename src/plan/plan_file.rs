@@ -34,6 +34,9 @@ pub enum PlanFileError {
     /// A value is not finite.
     #[error("plan file: {0} is not finite")]
     NotFinite(String),
+    /// A value is finite but outside its range.
+    #[error("plan file: {0}")]
+    OutOfRange(String),
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -246,8 +249,10 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
                 approach_um,
                 contact_angle_deg,
             } => {
-                if !contact_angle_deg.is_finite() {
-                    return Err(PlanFileError::NotFinite(format!("{w} contact_angle_deg")));
+                if !super::contact_angle_in_range(contact_angle_deg) {
+                    return Err(PlanFileError::OutOfRange(format!(
+                        "{w} contact_angle_deg is {contact_angle_deg} (must be in 0..90)"
+                    )));
                 }
                 Step::Push {
                     particle,
@@ -306,4 +311,73 @@ pub fn read(path: &Path) -> Result<(Plan, PlanGeometry), PlanFileError> {
         source,
     })?;
     from_json(&text, &path.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::pattern::numbered_sites;
+    use crate::plan::{Layout, plan_assembly};
+
+    /// A one-push plan as written, parsed for editing.
+    fn one_push_document() -> serde_json::Value {
+        let layout = Layout::of_test_centres_um(&[(50.0, 50.0)]);
+        let sites = numbered_sites([Vector2::new(80e-6, 50e-6)]);
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&layout, &sites, &config).unwrap();
+        serde_json::from_str(&to_json(&plan, &config)).unwrap()
+    }
+
+    /// Another tool's plan with a contact angle no tip can push at is
+    /// refused by step; one inside 0..90 reads back as written.
+    #[test]
+    fn a_push_at_an_angle_no_tip_pushes_at_is_refused_by_step() {
+        let mut doc = one_push_document();
+        let step = doc["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|s| s["kind"] == "push")
+            .unwrap();
+        for (angle, ok) in [
+            (45.0, true),
+            (0.0, true),
+            (90.0, false),
+            (-5.0, false),
+            (120.0, false),
+        ] {
+            doc["steps"][step]["contact_angle_deg"] = angle.into();
+            match from_json(&doc.to_string(), "edited") {
+                Ok((plan, _)) => {
+                    assert!(ok, "{angle} deg was read");
+                    let Step::Push {
+                        contact_angle_rad, ..
+                    } = plan.steps[step]
+                    else {
+                        panic!("step {step} is not a push")
+                    };
+                    assert!((contact_angle_rad.to_degrees() - angle).abs() < 1e-9);
+                }
+                Err(PlanFileError::OutOfRange(what)) => {
+                    assert!(!ok, "{angle} deg was refused: {what}");
+                    assert!(
+                        what.contains(&format!("step {step} contact_angle_deg")),
+                        "{what}"
+                    );
+                }
+                Err(e) => panic!("{angle} deg: {e}"),
+            }
+        }
+    }
+
+    /// A document of another schema is refused with the schema it has.
+    #[test]
+    fn another_schema_is_refused_by_name() {
+        let mut doc = one_push_document();
+        doc["schema"] = "nanopush.plan/2".into();
+        match from_json(&doc.to_string(), "edited") {
+            Err(PlanFileError::Schema(s)) => assert_eq!(s, "nanopush.plan/2"),
+            other => panic!("{other:?}"),
+        }
+    }
 }
