@@ -130,6 +130,10 @@ fn run_method(
 
 /// Runs the study and prints one row per (N, method).
 pub fn run(args: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.sizes.iter().all(|&n| n > 0),
+        "--sizes must be positive"
+    );
     if !args.json {
         println!(
             "{:>6} {:>9} {:>12} {:>12} {:>11}  note",
@@ -137,7 +141,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     for &n in &args.sizes {
-        anyhow::ensure!(n > 0, "--sizes must be positive");
         let (sites, layout) = block_instance(n, args.seed);
         let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
         if let Some(dir) = &args.dump_dir {

@@ -7,6 +7,7 @@ use nalgebra::Vector2;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use std::collections::HashMap;
 
 /// Kind of synthetic layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -60,6 +61,24 @@ pub enum SynthError {
     /// Bad parameter.
     #[error(transparent)]
     Bad(#[from] super::layout::LayoutError),
+    /// More particles than any packing holds.
+    #[error(
+        "{n} particles of radius {r_um:.3} um at least {gap_um:.3} um apart cannot fit in {w_um:.1} x {h_um:.1} um: no packing holds more than {most} (ask for fewer particles, a larger field or a smaller gap)"
+    )]
+    BeyondPacking {
+        /// Requested.
+        n: usize,
+        /// The most any packing holds.
+        most: usize,
+        /// Smallest radius drawn.
+        r_um: f64,
+        /// Gap.
+        gap_um: f64,
+        /// Width.
+        w_um: f64,
+        /// Height.
+        h_um: f64,
+    },
     /// Could not place all particles.
     #[error(
         "could place only {placed} of {n} particles with gap {gap_um:.3} um in {w_um:.1} x {h_um:.1} um: too dense (ask for fewer particles, a larger field or a smaller gap)"
@@ -78,6 +97,17 @@ pub enum SynthError {
     },
 }
 
+/// The most particles with centres at least `spacing` apart that fit in a
+/// `w` x `h` region of centres (Oler's inequality for points in a convex
+/// region: N <= 2/sqrt(3) A / d^2 + P / (2 d) + 1). Above it a request is
+/// impossible, not just unlucky, and is refused before any try.
+fn most_that_fit(w: f64, h: f64, spacing: f64) -> f64 {
+    if w < 0.0 || h < 0.0 {
+        return 0.0;
+    }
+    2.0 / 3f64.sqrt() * w * h / spacing.powi(2) + (w + h) / spacing + 1.0
+}
+
 /// Relative margin on the adversarial core's pitch. Its neighbours sit at
 /// exactly the minimum gap, so without it the last bit of rounding in the
 /// inputs (`5.0 * 1e-6` from the CLI against a literal `5e-6`) decided
@@ -93,29 +123,35 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     if p.min_gap_m < 0.0 {
         check_finite("min_gap_um", -1.0, true)?;
     }
+    let [w, h] = p.field_m;
+    let rmin = p.radius_m * if p.polydisperse { 0.85 } else { 1.0 };
+    let most = most_that_fit(w - 2.0 * rmin, h - 2.0 * rmin, 2.0 * rmin + p.min_gap_m);
+    if p.n as f64 > most {
+        return Err(SynthError::BeyondPacking {
+            n: p.n,
+            most: most as usize,
+            r_um: rmin * 1e6,
+            gap_um: p.min_gap_m * 1e6,
+            w_um: w * 1e6,
+            h_um: h * 1e6,
+        });
+    }
     let mut rng = ChaCha8Rng::seed_from_u64(p.seed);
     let spread = Normal::new(1.0, 0.05).expect("valid normal");
-    let [w, h] = p.field_m;
-    let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(p.n);
+    let mut pts: Vec<(Vector2<f64>, f64)> = Vec::with_capacity(p.n.min(1 << 16));
     let rmax = p.radius_m * if p.polydisperse { 1.15 } else { 1.0 };
+    // Buckets of the cells in use only: a field of a metre has 10^10 cells.
     let cell = 2.0 * rmax + p.min_gap_m;
-    let nx = ((w / cell).ceil() as usize).max(1);
-    let ny = ((h / cell).ceil() as usize).max(1);
-    let mut cells: Vec<Vec<usize>> = vec![Vec::new(); nx * ny];
-    let cell_of = |c: Vector2<f64>| -> (usize, usize) {
-        (
-            ((c.x / cell) as usize).min(nx - 1),
-            ((c.y / cell) as usize).min(ny - 1),
-        )
-    };
+    let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    let cell_of = |c: Vector2<f64>| ((c.x / cell).floor() as i64, (c.y / cell).floor() as i64);
     let mut try_add = |c: Vector2<f64>, r: f64, pts: &mut Vec<(Vector2<f64>, f64)>| -> bool {
         if c.x < r || c.y < r || c.x > w - r || c.y > h - r {
             return false;
         }
         let (cx, cy) = cell_of(c);
-        for y in cy.saturating_sub(1)..=(cy + 1).min(ny - 1) {
-            for x in cx.saturating_sub(1)..=(cx + 1).min(nx - 1) {
-                for &j in &cells[y * nx + x] {
+        for y in cy - 1..=cy + 1 {
+            for x in cx - 1..=cx + 1 {
+                for &j in cells.get(&(x, y)).into_iter().flatten() {
                     let (q, rq) = pts[j];
                     if (q - c).norm() < r + rq + p.min_gap_m {
                         return false;
@@ -123,7 +159,7 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
                 }
             }
         }
-        cells[cy * nx + cx].push(pts.len());
+        cells.entry((cx, cy)).or_default().push(pts.len());
         pts.push((c, r));
         true
     };
@@ -141,11 +177,11 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
         let (hw, hh) = (w / 3.0, h / 3.0);
         let mut row = 0;
         let mut y = cy - hh;
-        while y <= cy + hh && pts.len() < p.n * 2 / 3 {
+        while y <= cy + hh && pts.len() < p.n.saturating_mul(2) / 3 {
             let x0 = cx - hw + if row % 2 == 1 { pitch / 2.0 } else { 0.0 };
             let mut x = x0;
             let mut column = 0;
-            while x <= cx + hw && pts.len() < p.n * 2 / 3 {
+            while x <= cx + hw && pts.len() < p.n.saturating_mul(2) / 3 {
                 let r = radius(&mut rng);
                 try_add(Vector2::new(x, y), r, &mut pts);
                 column += 1;
@@ -159,7 +195,7 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
         .map(|_| Vector2::new(rng.random::<f64>() * w, rng.random::<f64>() * h))
         .collect();
     let cluster = Normal::new(0.0, w.min(h) / 8.0).expect("valid normal");
-    let max_tries = 2_000 * p.n.max(1) + 100_000;
+    let max_tries = p.n.max(1).saturating_mul(2_000).saturating_add(100_000);
     let mut tries = 0;
     while pts.len() < p.n && tries < max_tries {
         tries += 1;
@@ -222,11 +258,53 @@ mod tests {
                 }
             }
         }
-        let too_many = SynthParams::cmu_field(500, LayoutKind::Uniform, 1);
+    }
+
+    /// A count no packing holds is refused at once with the most that fits
+    /// (113 in the CMU field: 10 um discs 1 um apart); one that packings
+    /// hold but random addition does not reach is refused after the tries.
+    /// A hexagonal lattice over the whole CMU field holds 105, under the
+    /// bound.
+    #[test]
+    fn too_many_particles_are_refused_and_the_impossible_at_once() {
+        let impossible = SynthParams::cmu_field(100_000_000, LayoutKind::Uniform, 1);
+        match synth_layout(&impossible) {
+            Err(SynthError::BeyondPacking { most, .. }) => assert_eq!(most, 113),
+            other => panic!("{other:?}"),
+        }
+        let over_the_bound = SynthParams::cmu_field(114, LayoutKind::Adversarial, 1);
         assert!(matches!(
-            synth_layout(&too_many),
+            synth_layout(&over_the_bound),
+            Err(SynthError::BeyondPacking { .. })
+        ));
+        let unlucky = SynthParams::cmu_field(100, LayoutKind::Uniform, 1);
+        assert!(matches!(
+            synth_layout(&unlucky),
             Err(SynthError::TooDense { .. })
         ));
+        // A dense hexagonal lattice over the whole field stays under the bound.
+        let pitch = 11e-6;
+        let rows = ((90e-6 / (pitch * 3f64.sqrt() / 2.0)) as usize) + 1;
+        let lattice = (0..rows)
+            .map(|row| {
+                ((110e-6 - if row % 2 == 1 { pitch / 2.0 } else { 0.0 }) / pitch) as usize + 1
+            })
+            .sum::<usize>();
+        assert!(
+            lattice as f64 <= most_that_fit(110e-6, 90e-6, pitch),
+            "{lattice}"
+        );
+    }
+
+    /// A field a metre wide (10^10 cells of a particle's size) is laid out
+    /// without allocating a cell for each.
+    #[test]
+    fn a_huge_field_is_laid_out_without_a_cell_for_every_spot() {
+        let p = SynthParams {
+            field_m: [1.0, 1.0],
+            ..SynthParams::cmu_field(5, LayoutKind::Adversarial, 2)
+        };
+        assert_eq!(synth_layout(&p).unwrap().particles.len(), 5);
     }
 
     /// The core is the same dense lattice whether the radius and gap come
