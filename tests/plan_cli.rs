@@ -575,3 +575,52 @@ fn a_field_refused_at_every_placement_says_how_many_were_tried_and_why() {
     );
     assert_eq!(text.matches("no collision-free order").count(), 1, "{text}");
 }
+
+/// An SVG drawing is a pattern: its paths sampled at the pitch (an "L" of
+/// 42 + 31.5 um at 10.5 um: 8 sites, the corner once), placed at `--at`,
+/// planned and verified; the sites lie on the drawing, y up.
+#[test]
+fn an_svg_drawing_plans_with_sites_along_its_paths() {
+    let dir = tempfile::tempdir().unwrap();
+    let drawing = dir.path().join("l.svg");
+    std::fs::write(
+        &drawing,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100"><path d="M 0 0 L 0 42 L 31.5 42" fill="none" stroke="black"/></svg>"#,
+    )
+    .unwrap();
+    let particles: Vec<(f64, f64, f64)> = (0..10)
+        .map(|i| (15.0 + 17.0 * i as f64, 15.0, 5.0))
+        .collect();
+    let layout = write_layout(dir.path(), "row.json", &particles, (200.0, 200.0));
+    let plan = dir.path().join("plan.json");
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        drawing.to_str().unwrap(),
+        "--layout",
+        &layout,
+        "--pitch-um",
+        "10.5",
+        "--at",
+        "100,100",
+        "--out",
+        plan.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(ok, "{text}");
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["sites"], 8, "{text}");
+    assert_eq!(summary["verified"], true, "{text}");
+    let (ok, text) = nanopush(&["verify-plan", plan.to_str().unwrap(), "--layout", &layout]);
+    assert!(ok, "{text}");
+    // The L's box is 31.5 x 42 um centred at (100, 100): its corner, at the
+    // bottom left once y points up, is a site.
+    let (plan, _) = nanopush::plan::plan_file::read(&plan).unwrap();
+    let corner = nalgebra::Vector2::new(100.0 - 15.75, 100.0 - 21.0) * 1e-6;
+    assert!(
+        plan.sites
+            .iter()
+            .any(|s| (s.centre_m - corner).norm() < 1e-9),
+        "no site at the L's corner"
+    );
+}

@@ -26,7 +26,7 @@ pub struct Args {
     /// Text to write with the built-in font (A-Z, 0-9, space).
     #[arg(long, conflicts_with = "pattern", required_unless_present = "pattern")]
     pub text: Option<String>,
-    /// Pattern file: site list (.toml/.json, um) or bitmap image (dark pixel = site).
+    /// Pattern file: site list (.toml/.json, um), SVG drawing (.svg: its paths sampled at the pitch, 1 user unit = 1 um) or bitmap image (dark pixel = site).
     #[arg(long)]
     pub pattern: Option<PathBuf>,
     /// Particle layout (nanopush.layout/1 JSON).

@@ -1,12 +1,13 @@
 //! Target patterns: where particles should end up, as sites in stage metres.
 //!
-//! Sources: the built-in font ([`font`]), site lists ([`site_list`]) and
-//! bitmap images ([`bitmap`]); [`transform`] applies pitch, rotation and
+//! Sources: the built-in font ([`font`]), site lists ([`site_list`]),
+//! bitmap images ([`bitmap`]) and SVG paths ([`svg_path`]); [`transform`] applies pitch, rotation and
 //! placement (given, or optimised for push distance inside the reachable area).
 
 pub mod bitmap;
 pub mod font;
 pub mod site_list;
+pub mod svg_path;
 pub mod transform;
 
 use nalgebra::Vector2;

@@ -15,6 +15,10 @@ pub struct SiteEntry {
     pub y_um: f64,
 }
 
+/// Farthest a listed site may lie from the list's origin, um: a metre, far
+/// beyond any stage, and small enough for every figure about it to print.
+pub const MAX_SITE_OFFSET_UM: f64 = 1e6;
+
 /// A site-list file.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct SiteList {
@@ -36,8 +40,21 @@ impl SiteList {
         }
     }
 
-    /// The pattern these sites describe.
+    /// The pattern these sites describe; a site beyond [`MAX_SITE_OFFSET_UM`]
+    /// is refused by index (most likely metres or nanometres written as um).
     pub fn to_pattern(&self, origin: &str) -> Result<Pattern, PatternError> {
+        for (i, s) in self.sites.iter().enumerate() {
+            for (name, v) in [("x_um", s.x_um), ("y_um", s.y_um)] {
+                if v.is_nan() || v.abs() > MAX_SITE_OFFSET_UM {
+                    return Err(PatternError::File {
+                        path: origin.into(),
+                        message: format!(
+                            "site {i}: {name} = {v:e} is not within {MAX_SITE_OFFSET_UM:e} um (a metre) of the origin: site lists are in micrometres"
+                        ),
+                    });
+                }
+            }
+        }
         let offsets = self
             .sites
             .iter()
@@ -47,8 +64,9 @@ impl SiteList {
     }
 }
 
-/// Reads a pattern file: `.toml` / `.json` site lists, or an image (`.png`, `.bmp`, ...)
-/// where every dark pixel is a site at `pitch_m`.
+/// Reads a pattern file: `.toml` / `.json` site lists, `.svg` drawings
+/// whose paths are sampled at `pitch_m` (1 user unit = 1 um), or an image
+/// (`.png`, `.bmp`, ...) where every dark pixel is a site at `pitch_m`.
 pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> {
     let origin = path.display().to_string();
     let ext = path
@@ -64,6 +82,7 @@ pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> 
             })?;
             SiteList::parse(&text, ext == "toml", &origin)?.to_pattern(&origin)
         }
+        "svg" => super::svg_path::read_svg(path, pitch_m),
         _ => super::bitmap::read_bitmap(path, pitch_m),
     }
 }
@@ -71,6 +90,34 @@ pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A site a metre or more out is refused by index, in short figures.
+    #[test]
+    fn a_site_beyond_a_metre_is_refused_by_index() {
+        let list = SiteList::parse(
+            "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 5.0, y_um = 1e300 }]",
+            true,
+            "far.toml",
+        )
+        .unwrap();
+        let message = list.to_pattern("far.toml").unwrap_err().to_string();
+        assert!(
+            message.contains("site 1: y_um = 1e300 is not within 1e6 um"),
+            "{message}"
+        );
+        assert!(message.len() < 200, "{message}");
+        let near = SiteList::parse(
+            "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 5.0, y_um = 1e6 }]",
+            true,
+            "near.toml",
+        )
+        .unwrap();
+        let nan =
+            SiteList::parse("sites = [{ x_um = nan, y_um = 0.0 }]", true, "nan.toml").unwrap();
+        let message = nan.to_pattern("nan.toml").unwrap_err().to_string();
+        assert!(message.contains("site 0: x_um = NaN"), "{message}");
+        assert_eq!(near.to_pattern("near.toml").unwrap().offsets_m.len(), 2);
+    }
 
     #[test]
     fn toml_and_json_round_trip() {
