@@ -275,6 +275,11 @@ impl PlanConfig {
     }
 }
 
+/// Farthest a position read from a file (a listed site, a plan's points)
+/// may lie from the origin, um: a metre, far beyond any stage, and near
+/// enough that distances between such points stay finite and print short.
+pub const MAX_COORDINATE_UM: f64 = 1e6;
+
 /// Whether a push's contact angle (degrees from the substrate normal) is
 /// one a tip can push at: 0 (straight down) up to, not including, 90 (a
 /// tip lying on the substrate). NaN is not.

@@ -115,6 +115,14 @@ fn m(v: [f64; 2], what: &str) -> Result<Vector2<f64>, PlanFileError> {
     if !v[0].is_finite() || !v[1].is_finite() {
         return Err(PlanFileError::NotFinite(what.into()));
     }
+    if v.iter().any(|c| c.abs() > super::MAX_COORDINATE_UM) {
+        return Err(PlanFileError::OutOfRange(format!(
+            "{what} is ({:e}, {:e}) um, not within {:e} um (a metre) of the origin",
+            v[0],
+            v[1],
+            super::MAX_COORDINATE_UM
+        )));
+    }
     Ok(Vector2::new(v[0] * 1e-6, v[1] * 1e-6))
 }
 
@@ -367,6 +375,27 @@ mod tests {
                 }
                 Err(e) => panic!("{angle} deg: {e}"),
             }
+        }
+    }
+
+    /// A point a metre or more out is refused by step (its distances would
+    /// overflow to infinity in the replay).
+    #[test]
+    fn a_point_beyond_a_metre_is_refused_by_step() {
+        let mut doc = one_push_document();
+        let step = doc["steps"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|s| s["kind"] == "push")
+            .unwrap();
+        doc["steps"][step]["to_um"] = serde_json::json!([1e300, 0.0]);
+        match from_json(&doc.to_string(), "edited") {
+            Err(PlanFileError::OutOfRange(what)) => {
+                assert!(what.contains(&format!("step {step}")), "{what}");
+                assert!(what.contains("1e300"), "{what}");
+            }
+            other => panic!("{other:?}"),
         }
     }
 

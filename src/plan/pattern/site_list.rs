@@ -2,6 +2,7 @@
 //! `{ sites = [ { x_um = 0.0, y_um = 0.0 }, ... ] }` (TOML) or the same in JSON.
 
 use super::{Pattern, PatternError};
+use crate::plan::MAX_COORDINATE_UM;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -14,10 +15,6 @@ pub struct SiteEntry {
     /// y, micrometres.
     pub y_um: f64,
 }
-
-/// Farthest a listed site may lie from the list's origin, um: a metre, far
-/// beyond any stage, and small enough for every figure about it to print.
-pub const MAX_SITE_OFFSET_UM: f64 = 1e6;
 
 /// A site-list file.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -40,16 +37,16 @@ impl SiteList {
         }
     }
 
-    /// The pattern these sites describe; a site beyond [`MAX_SITE_OFFSET_UM`]
+    /// The pattern these sites describe; a site beyond [`MAX_COORDINATE_UM`]
     /// is refused by index (most likely metres or nanometres written as um).
     pub fn to_pattern(&self, origin: &str) -> Result<Pattern, PatternError> {
         for (i, s) in self.sites.iter().enumerate() {
             for (name, v) in [("x_um", s.x_um), ("y_um", s.y_um)] {
-                if v.is_nan() || v.abs() > MAX_SITE_OFFSET_UM {
+                if v.is_nan() || v.abs() > MAX_COORDINATE_UM {
                     return Err(PatternError::File {
                         path: origin.into(),
                         message: format!(
-                            "site {i}: {name} = {v:e} is not within {MAX_SITE_OFFSET_UM:e} um (a metre) of the origin: site lists are in micrometres"
+                            "site {i}: {name} = {v:e} is not within {MAX_COORDINATE_UM:e} um (a metre) of the origin: site lists are in micrometres"
                         ),
                     });
                 }
