@@ -266,6 +266,20 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
         "--out",
         out.to_str().unwrap(),
     ]);
+    // No packing holds 500 (refused at once); 100 fit a packing but not
+    // random addition (refused after the tries).
+    assert!(
+        !ok && text.contains("no packing holds more than 113"),
+        "{text}"
+    );
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        "100",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(!ok && text.contains("too dense"), "{text}");
 }
 
