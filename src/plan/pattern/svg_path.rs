@@ -154,6 +154,12 @@ fn loop_span(line: &[Vector2<f64>], pitch: f64) -> Option<f64> {
     if line.len() < 3 || (last - first).norm() > 1e-9 * pitch {
         return None;
     }
+    // A loop of more sites than a pattern may hold is refused by the
+    // caller; the bisection's 60 walks along it would only delay that.
+    let length: f64 = line.windows(2).map(|w| (w[1] - w[0]).norm()).sum();
+    if length / pitch > MAX_SVG_SITES as f64 {
+        return None;
+    }
     let count = |span: f64| {
         let mut n = 0usize;
         let mut end = first;
@@ -378,11 +384,18 @@ mod tests {
             "{junk}"
         );
         let tiny = pattern_from_svg(
-            &svg(r#"<path d="M 0 0 L 1000 0" stroke="black"/>"#),
+            &svg(r#"<circle cx="500" cy="500" r="400" stroke="black"/>"#),
             1e-10,
             "tiny.svg",
         )
         .unwrap_err();
         assert!(tiny.to_string().contains("more than"), "{tiny}");
+        let tiny_line = pattern_from_svg(
+            &svg(r#"<path d="M 0 0 L 1000 0" stroke="black"/>"#),
+            1e-10,
+            "tiny.svg",
+        )
+        .unwrap_err();
+        assert!(tiny_line.to_string().contains("more than"), "{tiny_line}");
     }
 }
