@@ -107,7 +107,7 @@ pub enum DetectError {
     #[error("particle diameter hint {0} px must be finite and >= 2")]
     Diameter(f64),
     /// The frame is smaller than one particle.
-    #[error("frame {width}x{height} is smaller than a particle of {diameter} px")]
+    #[error("frame {width}x{height} is smaller than a particle of {diameter:.1} px")]
     FrameTooSmall {
         width: usize,
         height: usize,
