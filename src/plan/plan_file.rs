@@ -327,26 +327,27 @@ mod tests {
     use crate::plan::pattern::numbered_sites;
     use crate::plan::{Layout, plan_assembly};
 
-    /// A one-push plan as written, parsed for editing.
-    fn one_push_document() -> serde_json::Value {
+    /// A one-push plan as written, parsed for editing, and its push's step.
+    fn one_push_document() -> (serde_json::Value, usize) {
         let layout = Layout::of_test_centres_um(&[(50.0, 50.0)]);
         let sites = numbered_sites([Vector2::new(80e-6, 50e-6)]);
         let config = PlanConfig::default();
         let plan = plan_assembly(&layout, &sites, &config).unwrap();
-        serde_json::from_str(&to_json(&plan, &config)).unwrap()
-    }
-
-    /// Another tool's plan with a contact angle no tip can push at is
-    /// refused by step; one inside 0..90 reads back as written.
-    #[test]
-    fn a_push_at_an_angle_no_tip_pushes_at_is_refused_by_step() {
-        let mut doc = one_push_document();
+        let doc: serde_json::Value = serde_json::from_str(&to_json(&plan, &config)).unwrap();
         let step = doc["steps"]
             .as_array()
             .unwrap()
             .iter()
             .position(|s| s["kind"] == "push")
             .unwrap();
+        (doc, step)
+    }
+
+    /// Another tool's plan with a contact angle no tip can push at is
+    /// refused by step; one inside 0..90 reads back as written.
+    #[test]
+    fn a_push_at_an_angle_no_tip_pushes_at_is_refused_by_step() {
+        let (mut doc, step) = one_push_document();
         for (angle, ok) in [
             (45.0, true),
             (0.0, true),
@@ -382,13 +383,7 @@ mod tests {
     /// overflow to infinity in the replay).
     #[test]
     fn a_point_beyond_a_metre_is_refused_by_step() {
-        let mut doc = one_push_document();
-        let step = doc["steps"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .position(|s| s["kind"] == "push")
-            .unwrap();
+        let (mut doc, step) = one_push_document();
         doc["steps"][step]["to_um"] = serde_json::json!([1e300, 0.0]);
         match from_json(&doc.to_string(), "edited") {
             Err(PlanFileError::OutOfRange(what)) => {
@@ -402,7 +397,7 @@ mod tests {
     /// A document of another schema is refused with the schema it has.
     #[test]
     fn another_schema_is_refused_by_name() {
-        let mut doc = one_push_document();
+        let (mut doc, _) = one_push_document();
         doc["schema"] = "nanopush.plan/2".into();
         match from_json(&doc.to_string(), "edited") {
             Err(PlanFileError::Schema(s)) => assert_eq!(s, "nanopush.plan/2"),
