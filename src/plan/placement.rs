@@ -157,10 +157,22 @@ pub fn place_and_plan(
             }
             let fallback = plan_centres(&tried[candidates.len()..], &plan_at, Result::is_ok);
             tried.truncate(candidates.len() + fallback.len());
-            fallback
+            let found = fallback
                 .into_iter()
                 .zip(&tried[candidates.len()..])
-                .find_map(|(plan, &c)| plan.ok().map(|p| (c, Ok(p))))
+                .enumerate()
+                .find_map(|(k, (plan, &c))| plan.ok().map(|p| (k, c, p)));
+            if let Some((k, c, _)) = &found {
+                tracing::warn!(
+                    "placement: the {} other centre tried plans; the pattern is centred at ({:.2}, {:.2}) um, not at the bound's best ({:.2}, {:.2}) um",
+                    ordinal(k + 1),
+                    c.x * 1e6,
+                    c.y * 1e6,
+                    ranked[0].x * 1e6,
+                    ranked[0].y * 1e6
+                );
+            }
+            found.map(|(_, c, p)| (c, Ok(p)))
         }
         None => None,
     };
@@ -170,6 +182,18 @@ pub fn place_and_plan(
         plan: Some(plan),
         centres_tried: tried.len(),
     })
+}
+
+/// "1st", "2nd", "3rd", "4th", ... "11th", "21st", ...
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
 }
 
 /// `plan_at` at each of `centres`, in their order, as many at once as the
@@ -216,6 +240,21 @@ mod tests {
     use super::*;
     use crate::plan::pattern::transform::place_optimised;
     use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+
+    #[test]
+    fn ordinals_read_as_words_do() {
+        let words: Vec<String> = [1, 2, 3, 4, 11, 12, 13, 21, 22, 101, 111]
+            .into_iter()
+            .map(ordinal)
+            .collect();
+        assert_eq!(
+            words,
+            [
+                "1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd", "101st",
+                "111th"
+            ]
+        );
+    }
 
     /// Results come back in the centres' order whatever order the threads
     /// finish in, and planning stops after the round holding the first hit.
