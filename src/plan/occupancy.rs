@@ -65,6 +65,38 @@ impl Occupancy {
         }
         o
     }
+    /// No particles yet, bucketed in cells of `cell_m` (at least the
+    /// distance queries look within, so a query reads 3 x 3 cells): for
+    /// placing particles one at a time ([`Occupancy::push`]).
+    pub fn empty(cell_m: f64) -> Self {
+        Occupancy {
+            pos: Vec::new(),
+            radius: Vec::new(),
+            cell_m: cell_m.max(1e-9),
+            cells: Cells::default(),
+            max_radius_m: 0.0,
+        }
+    }
+    /// Adds a particle at `p` of radius `r`; its index.
+    pub fn push(&mut self, p: Vector2<f64>, r: f64) -> usize {
+        let i = self.pos.len();
+        self.pos.push(p);
+        self.radius.push(r);
+        self.max_radius_m = self.max_radius_m.max(r);
+        let k = self.key(p);
+        self.cells.entry(k).or_default().push(i);
+        i
+    }
+    /// Whether no particle's disc comes nearer than `gap` to a disc of
+    /// radius `r` at `c`.
+    pub fn clear_of_all(&self, c: Vector2<f64>, r: f64, gap: f64) -> bool {
+        let mut clear = true;
+        self.for_each_near(c, r + self.max_radius_m + gap, |j| {
+            clear = (self.pos[j] - c).norm() >= r + self.radius[j] + gap;
+            clear
+        });
+        clear
+    }
     fn key(&self, p: Vector2<f64>) -> (i64, i64) {
         (
             (p.x / self.cell_m).floor() as i64,

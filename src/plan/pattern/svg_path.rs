@@ -8,8 +8,8 @@
 //! (where paths cross, touch or close) is left out.
 
 use super::{Pattern, PatternError};
+use crate::plan::occupancy::Occupancy;
 use nalgebra::Vector2;
-use std::collections::HashMap;
 use std::path::Path;
 
 /// Most sites a drawing may give: a long path at a small pitch is more
@@ -42,12 +42,16 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
     let pitch_um = pitch_m * 1e6;
     let mut polylines = Vec::new();
     collect_polylines(tree.root(), pitch_um, &mut polylines);
-    let mut sites = SpacedSites::new(pitch_um);
+    // Sites as points kept a pitch (less rounding) apart.
+    let mut sites = Occupancy::empty(pitch_um);
+    let near = pitch_um * (1.0 - 1e-6);
     for line in &polylines {
         let span = loop_span(line, pitch_um).unwrap_or(pitch_um);
         let within = divide(line, span, |p| {
-            sites.add(p);
-            sites.points.len() <= MAX_SVG_SITES
+            if sites.clear_of_all(p, 0.0, near) {
+                sites.push(p, 0.0);
+            }
+            sites.pos.len() <= MAX_SVG_SITES
         });
         if !within {
             return Err(PatternError::File {
@@ -59,7 +63,7 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
         }
     }
     let offsets = sites
-        .points
+        .pos
         .iter()
         .map(|p| Vector2::new(p.x, -p.y) * 1e-6)
         .collect();
@@ -235,46 +239,6 @@ fn divide(line: &[Vector2<f64>], pitch: f64, mut site: impl FnMut(Vector2<f64>) 
         }
     }
     true
-}
-
-/// Sites kept at least a pitch (less rounding) apart, bucketed by pitch.
-struct SpacedSites {
-    pitch: f64,
-    points: Vec<Vector2<f64>>,
-    cells: HashMap<(i64, i64), Vec<usize>>,
-}
-
-impl SpacedSites {
-    fn new(pitch: f64) -> Self {
-        SpacedSites {
-            pitch,
-            points: Vec::new(),
-            cells: HashMap::new(),
-        }
-    }
-
-    /// Keeps `p` unless it lies within a pitch of a site kept before.
-    fn add(&mut self, p: Vector2<f64>) {
-        let cell = |v: f64| (v / self.pitch).floor() as i64;
-        let (cx, cy) = (cell(p.x), cell(p.y));
-        let near = self.pitch * (1.0 - 1e-6);
-        for y in cy - 1..=cy + 1 {
-            for x in cx - 1..=cx + 1 {
-                let close = self.cells.get(&(x, y)).into_iter().flatten();
-                if close
-                    .into_iter()
-                    .any(|&i| (self.points[i] - p).norm() < near)
-                {
-                    return;
-                }
-            }
-        }
-        self.cells
-            .entry((cx, cy))
-            .or_default()
-            .push(self.points.len());
-        self.points.push(p);
-    }
 }
 
 #[cfg(test)]
