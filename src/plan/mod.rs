@@ -280,6 +280,12 @@ impl PlanConfig {
 /// enough that distances between such points stay finite and print short.
 pub const MAX_COORDINATE_UM: f64 = 1e6;
 
+/// Whether a coordinate read from a file (um) is within
+/// [`MAX_COORDINATE_UM`] of the origin. NaN is not.
+pub fn coordinate_in_range(um: f64) -> bool {
+    um.abs() <= MAX_COORDINATE_UM
+}
+
 /// Whether a push's contact angle (degrees from the substrate normal) is
 /// one a tip can push at: 0 (straight down) up to, not including, 90 (a
 /// tip lying on the substrate). NaN is not.

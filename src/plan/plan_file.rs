@@ -115,7 +115,7 @@ fn m(v: [f64; 2], what: &str) -> Result<Vector2<f64>, PlanFileError> {
     if !v[0].is_finite() || !v[1].is_finite() {
         return Err(PlanFileError::NotFinite(what.into()));
     }
-    if v.iter().any(|c| c.abs() > super::MAX_COORDINATE_UM) {
+    if !v.iter().all(|&c| super::coordinate_in_range(c)) {
         return Err(PlanFileError::OutOfRange(format!(
             "{what} is ({:e}, {:e}) um, not within {:e} um (a metre) of the origin",
             v[0],

@@ -2,7 +2,7 @@
 //! `{ sites = [ { x_um = 0.0, y_um = 0.0 }, ... ] }` (TOML) or the same in JSON.
 
 use super::{Pattern, PatternError};
-use crate::plan::MAX_COORDINATE_UM;
+use crate::plan::{MAX_COORDINATE_UM, coordinate_in_range};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -42,7 +42,7 @@ impl SiteList {
     pub fn to_pattern(&self, origin: &str) -> Result<Pattern, PatternError> {
         for (i, s) in self.sites.iter().enumerate() {
             for (name, v) in [("x_um", s.x_um), ("y_um", s.y_um)] {
-                if v.is_nan() || v.abs() > MAX_COORDINATE_UM {
+                if !coordinate_in_range(v) {
                     return Err(PatternError::File {
                         path: origin.into(),
                         message: format!(
