@@ -64,7 +64,14 @@ pub struct Corridor {
     /// collinear): segment ends and radius, metres. Spatial queries visit
     /// only the cells near it.
     pub spine_m: (Vector2<f64>, Vector2<f64>, f64),
+    /// The spine capsule's bounding box (lower, upper corner), metres: a
+    /// disc clear of it is missed without the exact test.
+    bounds_m: (Vector2<f64>, Vector2<f64>),
 }
+
+/// Widens the bounding-box test beyond the exact one's reach: that one runs
+/// in f32 micrometres (about 1e-11 m of rounding across a field).
+const BOUNDS_MARGIN_M: f64 = 1e-9;
 
 fn local(origin: Vector2<f64>, p: Vector2<f64>) -> Vector {
     let d = (p - origin) * 1e6;
@@ -88,11 +95,14 @@ impl Corridor {
         // when a zero-length push has no direction).
         let off_spine = segment_distance(end, land, to).max(segment_distance(from, land, to));
         let spine_m = (land, to, radius_m.max(config.tip_radius_m) + off_spine);
+        let r = Vector2::repeat(spine_m.2);
+        let bounds_m = (land.inf(&to) - r, land.sup(&to) + r);
         Corridor {
             origin: from,
             particle,
             tip,
             spine_m,
+            bounds_m,
         }
     }
 
@@ -102,6 +112,15 @@ impl Corridor {
     /// particles left touching by earlier pushes) is hit only when the push
     /// brings them closer still: moving apart, or sideways away, is free.
     pub fn hits(&self, centre_m: Vector2<f64>, radius_m: f64, clearance_m: f64) -> bool {
+        let far = radius_m + clearance_m + BOUNDS_MARGIN_M;
+        let (lo, hi) = self.bounds_m;
+        if centre_m.x < lo.x - far
+            || centre_m.y < lo.y - far
+            || centre_m.x > hi.x + far
+            || centre_m.y > hi.y + far
+        {
+            return false;
+        }
         let p = local(self.origin, centre_m);
         let reach = ((radius_m + clearance_m) * 1e6) as f32;
         let along = self.particle.distance_to_local_point(p, true);

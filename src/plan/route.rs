@@ -100,15 +100,14 @@ pub fn find_route_within(
     let mut last_rays = Rays::new(to, radius_m, reach);
     let mut first_rays = Rays::new(from, radius_m, reach);
     let len = |w: &Vector2<f64>| (w - from).norm() + (to - w).norm();
-    let mut one: Vec<(f64, bool, usize)> = last_rays
+    let one: Vec<(f64, bool, usize)> = last_rays
         .points()
         .map(|(i, w)| (len(&w), true, i))
         .chain(first_rays.points().map(|(i, w)| (len(&w), false, i)))
         .filter(|c| c.0 < shorter_than_m)
         .collect();
-    one.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut tests = 0;
-    for &(_, on_last_ray, i) in &one {
+    for (on_last_ray, i) in shortest_first(&one) {
         if tests == MAX_ONE_WAYPOINT_TESTS {
             break;
         }
@@ -162,6 +161,36 @@ pub fn find_route_within(
     two.into_iter()
         .find(|&(_, i, j)| leg_free(first_ok[i], last_ok[j]))
         .map(|(_, i, j)| vec![first_ok[i], last_ok[j], to])
+}
+
+/// The candidates' (on the last ray, point index) by length, ties in their
+/// order: a heap popped lazily, since most searches end after a few of the
+/// up to 1,216 (a full sort of them took a tenth of the route search).
+fn shortest_first(candidates: &[(f64, bool, usize)]) -> impl Iterator<Item = (bool, usize)> + '_ {
+    struct Shortest(f64, usize);
+    impl PartialEq for Shortest {
+        fn eq(&self, other: &Self) -> bool {
+            self.cmp(other).is_eq()
+        }
+    }
+    impl Eq for Shortest {}
+    impl PartialOrd for Shortest {
+        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(other))
+        }
+    }
+    impl Ord for Shortest {
+        // Reversed: the max-heap pops the shortest, then the earliest.
+        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+            other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
+        }
+    }
+    let mut heap: std::collections::BinaryHeap<Shortest> = candidates
+        .iter()
+        .enumerate()
+        .map(|(k, c)| Shortest(c.0, k))
+        .collect();
+    std::iter::from_fn(move || heap.pop()).map(|Shortest(_, k)| (candidates[k].1, candidates[k].2))
 }
 
 /// How far from either end of a route the corridors its search tests can

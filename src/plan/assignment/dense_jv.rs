@@ -4,14 +4,32 @@
 
 use nalgebra::Vector2;
 
+/// Largest instance whose costs are kept in a table (32 MB).
+const TABLE_MAX_PAIRS: usize = 4_000_000;
+
 /// Solves the rectangular assignment (rows = sites <= cols = particles) for a
-/// cost function; returns the column of every row.
+/// cost function; returns the column of every row. Up to
+/// [`TABLE_MAX_PAIRS`] pairs, each cost is asked once and kept in a table:
+/// the search reads it O(n^2 m) times, and callers' costs look pairs up in
+/// maps (a tenth of CMU's planning went into hashing them).
 pub fn solve(
     sites: &[Vector2<f64>],
     particles: &[Vector2<f64>],
     cost: impl Fn(usize, usize) -> f64,
 ) -> Vec<usize> {
     let (n, m) = (sites.len(), particles.len());
+    if n * m > TABLE_MAX_PAIRS {
+        return shortest_augmenting_paths(n, m, cost);
+    }
+    let table: Vec<f64> = (0..n)
+        .flat_map(|i| (0..m).map(move |j| (i, j)))
+        .map(|(i, j)| cost(i, j))
+        .collect();
+    shortest_augmenting_paths(n, m, |i, j| table[i * m + j])
+}
+
+/// The search of [`solve`] on `n` rows and `m` columns.
+fn shortest_augmenting_paths(n: usize, m: usize, cost: impl Fn(usize, usize) -> f64) -> Vec<usize> {
     let mut u = vec![0.0; n];
     let mut v = vec![0.0; m];
     let mut col_row = vec![usize::MAX; m];

@@ -99,9 +99,20 @@ impl Scheduler<'_> {
         let (from, site, r) = (self.occ.pos[p], self.obstacles.site(k), self.radius(p));
         let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm() - (site - from).norm();
         let own = Some(self.moves[k].site_index);
-        let mut ring =
-            crate::plan::parking::ring_off_sites(from, r, &self.peel_site_discs(), &|_| false, own);
-        ring.sort_by(|a, b| added(a).total_cmp(&added(b)));
+        // The ring is found only when no spot on the way does.
+        let ring = std::iter::once(()).flat_map(|()| {
+            let ring = crate::plan::parking::ring_off_sites(
+                from,
+                r,
+                &self.peel_site_discs(),
+                &|_| false,
+                own,
+            );
+            let mut by_added: Vec<(f64, Vector2<f64>)> =
+                ring.into_iter().map(|s| (added(&s), s)).collect();
+            by_added.sort_by(|a, b| a.0.total_cmp(&b.0));
+            by_added.into_iter().map(|(_, s)| s)
+        });
         self.toward_site(k)
             .chain(ring)
             .find(|s| {

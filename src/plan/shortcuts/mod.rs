@@ -45,6 +45,7 @@ use nalgebra::Vector2;
 use park_after_blocker::park_after_blocker;
 use parking_spots::Parking;
 use pull_in::pull_in_parking;
+use std::cell::OnceCell;
 use std::collections::HashMap;
 use straighten::straighten;
 
@@ -140,18 +141,58 @@ fn bisect((mut valid, mut invalid): (f64, f64), ok: impl Fn(f64) -> bool) -> Opt
     best
 }
 
+/// One push whose corridor many discs are tested against: a box and a
+/// distance test first (most discs a shortcut checks lie far from the
+/// push), and the corridor built once, when a disc first comes near.
+struct SweptPush {
+    a: Vector2<f64>,
+    b: Vector2<f64>,
+    radius: f64,
+    /// How far from the segment a-b the corridor reaches.
+    reach: f64,
+    corridor: OnceCell<Corridor>,
+}
+
+impl SweptPush {
+    /// Pushing a particle of `radius` from `a` to `b`.
+    fn new((a, b, radius): (Vector2<f64>, Vector2<f64>, f64), config: &PlanConfig) -> Self {
+        SweptPush {
+            a,
+            b,
+            radius,
+            reach: corridor_reach(radius, config),
+            corridor: OnceCell::new(),
+        }
+    }
+
+    /// True when the corridor comes within the clearance of a disc of
+    /// `radius` at `centre`.
+    fn hits(&self, centre: Vector2<f64>, radius: f64, config: &PlanConfig) -> bool {
+        let clearance = config.clearance_m;
+        let near = self.reach + clearance + radius;
+        let (a, b) = (self.a, self.b);
+        let in_box = centre.x >= a.x.min(b.x) - near
+            && centre.x <= a.x.max(b.x) + near
+            && centre.y >= a.y.min(b.y) - near
+            && centre.y <= a.y.max(b.y) + near;
+        in_box
+            && segment_distance(centre, a, b) < near
+            && self
+                .corridor
+                .get_or_init(|| Corridor::new(a, b, self.radius, config))
+                .hits(centre, radius, clearance)
+    }
+}
+
 /// True when the corridor of pushing a particle of radius `r` from `a` to
-/// `b` comes within the clearance of a disc of `radius` at `centre`
-/// (built only when the disc is within [`corridor_reach`]).
+/// `b` comes within the clearance of a disc of `radius` at `centre`.
 fn corridor_hits(
-    (a, b, r): (Vector2<f64>, Vector2<f64>, f64),
+    push: (Vector2<f64>, Vector2<f64>, f64),
     centre: Vector2<f64>,
     radius: f64,
     config: &PlanConfig,
 ) -> bool {
-    let clearance = config.clearance_m;
-    segment_distance(centre, a, b) < corridor_reach(r, config) + clearance + radius
-        && Corridor::new(a, b, r, config).hits(centre, radius, clearance)
+    SweptPush::new(push, config).hits(centre, radius, config)
 }
 
 /// True when the pushes of `steps` that involve particle `x` (its index in
@@ -177,12 +218,12 @@ fn clear_for(
         let Some(&i) = index.get(&id) else {
             return false;
         };
-        let push = (from_m, to_m, radius(i));
+        let push = SweptPush::new((from_m, to_m, radius(i)), config);
         let clear = if i == x {
             (pos[x] - from_m).norm() <= 1e-12
-                && (0..pos.len()).all(|j| j == x || !corridor_hits(push, pos[j], radius(j), config))
+                && (0..pos.len()).all(|j| j == x || !push.hits(pos[j], radius(j), config))
         } else {
-            !corridor_hits(push, pos[x], radius(x), config)
+            !push.hits(pos[x], radius(x), config)
         };
         pos[i] = to_m;
         clear

@@ -2,7 +2,7 @@
 //! clearance: the test several passes try their candidate ends with.
 
 use super::MIN_SAVING_M;
-use super::corridor_hits;
+use super::{SweptPush, corridor_hits};
 use crate::plan::PlanConfig;
 use crate::plan::Step;
 use crate::plan::layout::Layout;
@@ -22,7 +22,7 @@ pub(super) struct SinglePushCheck {
     /// Centres and radii of the other particles at the push.
     others: Vec<(Vector2<f64>, f64)>,
     /// The other particles' later pushes: start, end, radius.
-    later: Vec<(Vector2<f64>, Vector2<f64>, f64)>,
+    later: Vec<SweptPush>,
 }
 
 impl SinglePushCheck {
@@ -63,7 +63,7 @@ impl SinglePushCheck {
             later: steps[at..]
                 .iter()
                 .filter_map(others_push)
-                .map(|(a, b, r, _)| (a, b, r))
+                .map(|(a, b, r, _)| SweptPush::new((a, b, r), config))
                 .collect(),
         }
     }
@@ -72,7 +72,7 @@ impl SinglePushCheck {
     pub(super) fn swept_later(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
         self.later
             .iter()
-            .any(|&push| corridor_hits(push, end, self.radius, config))
+            .any(|push| push.hits(end, self.radius, config))
     }
 
     /// True when pushing the particle to `end` (not at all, at its start)
@@ -81,11 +81,8 @@ impl SinglePushCheck {
         if !self.clear_before || self.swept_later(end, config) {
             return false;
         }
-        let own = (self.from, end, self.radius);
+        let own = SweptPush::new((self.from, end, self.radius), config);
         (end - self.from).norm() < MIN_SAVING_M
-            || self
-                .others
-                .iter()
-                .all(|&(c, r)| !corridor_hits(own, c, r, config))
+            || self.others.iter().all(|&(c, r)| !own.hits(c, r, config))
     }
 }
