@@ -15,7 +15,7 @@ use super::peel::SiteObstacles;
 use super::pushes::Corridor;
 use super::route::{Reach, find_route, route_length};
 use nalgebra::Vector2;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// What each (free particle, free site) pair pays beyond its straight line
 /// to get around the `fixed` particles (layout indices), keyed by the
@@ -33,8 +33,8 @@ pub fn fixed_detours(
     sites: &[Vector2<f64>],
     longest_m: f64,
     config: &PlanConfig,
-) -> HashMap<(usize, usize), f64> {
-    let mut out = HashMap::new();
+) -> FxHashMap<(usize, usize), f64> {
+    let mut out = FxHashMap::default();
     if fixed.is_empty() {
         return out;
     }

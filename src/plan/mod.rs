@@ -42,7 +42,7 @@ pub use pattern::{Pattern, Site};
 pub use verify::{VerifyReport, verify_plan};
 
 use nalgebra::Vector2;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::time::Instant;
 
 /// Planner settings; defaults are the 10 um polystyrene sphere scene.
@@ -585,7 +585,7 @@ struct FreeProblem {
     park: Vec<f64>,
     /// (free particle, free site) -> the detour around the particles that
     /// never move (refined instances only; [`fixed_detours`]).
-    detours: HashMap<(usize, usize), f64>,
+    detours: FxHashMap<(usize, usize), f64>,
     lb_push_m: f64,
 }
 
@@ -653,7 +653,7 @@ impl FreeProblem {
                 config,
             )
         } else {
-            HashMap::new()
+            FxHashMap::default()
         };
         let fixed: f64 = on_site_pairs
             .iter()

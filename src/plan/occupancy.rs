@@ -8,33 +8,11 @@ use super::grid::for_each_cell_near_segment;
 use super::layout::Layout;
 use super::pushes::Corridor;
 use nalgebra::Vector2;
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use rustc_hash::FxHashMap;
 
-/// Hashes a cell key with one multiply per word: the std hasher's
-/// DoS-resistance buys nothing here and cost a tenth of the scheduler's time
-/// at N = 1,000.
-#[derive(Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_i64(&mut self, v: i64) {
-        self.write_u64(v as u64);
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-}
-
-type Cells = HashMap<(i64, i64), Vec<usize>, BuildHasherDefault<CellHasher>>;
+/// Cells by key, hashed without the std hasher's DoS resistance, which
+/// bought nothing here and cost a tenth of the scheduler's time at N = 1,000.
+type Cells = FxHashMap<(i64, i64), Vec<usize>>;
 
 /// Particle positions that change as pushes are executed, bucketed for queries.
 pub struct Occupancy {

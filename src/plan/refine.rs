@@ -14,7 +14,7 @@
 use super::layout::Layout;
 use super::order::Ordered;
 use super::{PlanConfig, Step, summarise};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// Orders tried after the first (CMU, 100 layouts within 1.05 LB_push:
 /// none 62, 1 order 69, 3 orders 72, 5 the same as 3; planning time per
@@ -25,9 +25,9 @@ pub const REFINE_TRIES: usize = 3;
 #[derive(Debug, Clone, Default)]
 pub struct LearnedCosts {
     /// (particle index, site index) -> path excess paid when that pair was executed.
-    pub pair_m: HashMap<(usize, usize), f64>,
+    pub pair_m: FxHashMap<(usize, usize), f64>,
     /// Particle index -> push distance paid while it was unassigned.
-    pub park_m: HashMap<usize, f64>,
+    pub park_m: FxHashMap<usize, f64>,
 }
 
 impl LearnedCosts {
@@ -85,8 +85,9 @@ impl LearnedCosts {
     ) -> bool {
         let straight =
             |p: usize, s: usize| (layout.particles[p].centre_m - sites[s].centre_m).norm();
-        let site_of =
-            |pairs: &[(usize, usize)]| -> HashMap<usize, usize> { pairs.iter().copied().collect() };
+        let site_of = |pairs: &[(usize, usize)]| -> FxHashMap<usize, usize> {
+            pairs.iter().copied().collect()
+        };
         let (assigned_site, executed_site) = (site_of(assigned), site_of(executed));
         // Union-find over sites: a particle links its two sites.
         let mut group: Vec<usize> = (0..sites.len()).collect();
@@ -104,10 +105,10 @@ impl LearnedCosts {
             }
         }
         // Each group's executed straight lines minus its assigned ones.
-        let mut added: HashMap<usize, f64> = HashMap::new();
+        let mut added: FxHashMap<usize, f64> = FxHashMap::default();
         let undone = |&&(p, s): &&(usize, usize)| executed_site.get(&p) != Some(&s);
         // And how many assigned pairs each group undid, to share it out.
-        let mut undone_in: HashMap<usize, f64> = HashMap::new();
+        let mut undone_in: FxHashMap<usize, f64> = FxHashMap::default();
         for &(p, s) in assigned.iter().filter(undone) {
             let g = root(&mut group, s);
             *added.entry(g).or_insert(0.0) -= straight(p, s);

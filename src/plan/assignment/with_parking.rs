@@ -14,7 +14,7 @@
 
 use super::{dense_jv, dist};
 use nalgebra::Vector2;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// Cost that keeps a banned pair out of the assignment whenever any other
 /// assignment exists, metres (far beyond any field).
@@ -30,7 +30,7 @@ pub fn solve(
     particles: &[Vector2<f64>],
     park_cost_m: &[f64],
     banned: &[(usize, usize)],
-    pair_cost_m: &HashMap<(usize, usize), f64>,
+    pair_cost_m: &FxHashMap<(usize, usize), f64>,
 ) -> Vec<usize> {
     let park = |p: usize| park_cost_m.get(p).copied().unwrap_or(0.0);
     let shift = park_cost_m.iter().copied().fold(0.0, f64::max);
@@ -56,7 +56,7 @@ mod tests {
         // so taking A (4) and leaving B (0) is cheaper in total (4 < 1 + 6).
         let sites = [Vector2::new(0.0, 0.0)];
         let parts = [Vector2::new(4.0, 0.0), Vector2::new(0.0, 1.0)];
-        let none = HashMap::new();
+        let none = FxHashMap::default();
         assert_eq!(solve(&sites, &parts, &[0.0, 0.0], &[], &none), vec![1]);
         assert_eq!(solve(&sites, &parts, &[6.0, 0.0], &[], &none), vec![0]);
         // Parking cheaper than the difference: plain choice again.
@@ -68,7 +68,7 @@ mod tests {
         assert_eq!(solve(&sites, &um, &[], &[(1, 0)], &none), vec![0]);
         // A learned cost on the nearer pair (4 um beyond its 1 um line)
         // makes the other particle (4 um) the cheaper choice; 2 um does not.
-        let learned = |c: f64| HashMap::from([((1, 0), c)]);
+        let learned = |c: f64| FxHashMap::from_iter([((1, 0), c)]);
         assert_eq!(solve(&sites, &um, &[], &[], &learned(4e-6)), vec![0]);
         assert_eq!(solve(&sites, &um, &[], &[], &learned(2e-6)), vec![1]);
     }

@@ -13,6 +13,7 @@ use crate::plan::Step;
 use crate::plan::layout::Layout;
 use crate::plan::pushes::max_push_len;
 use nalgebra::Vector2;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// Where a bend is first tried on a push it replaces: fractions of the
@@ -31,7 +32,7 @@ const BEND_ASIDE_M: [f64; 6] = [0.5e-6, 1e-6, 2e-6, 3e-6, 4e-6, 6e-6];
 pub(super) fn bend_round_idle(
     mut steps: Vec<Step>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {

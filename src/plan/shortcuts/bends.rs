@@ -12,7 +12,7 @@ use crate::plan::Step;
 use crate::plan::layout::Layout;
 use crate::plan::pushes::max_push_len;
 use nalgebra::Vector2;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// `steps` with the pushes `i` and `j` of `particle` (of `radius_m`),
 /// from `p` to `n`, meeting at `bend` instead.
@@ -37,7 +37,7 @@ pub(super) fn with_bend(
 pub(super) fn tighten_bends(
     mut steps: Vec<Step>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     config: &PlanConfig,
 ) -> Vec<Step> {
     let wide = with_room(config);

@@ -45,8 +45,8 @@ use nalgebra::Vector2;
 use park_after_blocker::park_after_blocker;
 use parking_spots::Parking;
 use pull_in::pull_in_parking;
+use rustc_hash::FxHashMap;
 use std::cell::OnceCell;
-use std::collections::HashMap;
 use straighten::straighten;
 
 /// Least saving a shortcut is tried for: the collinear pieces of a long
@@ -205,7 +205,7 @@ fn corridor_hits(
 fn clear_for(
     steps: &[Step],
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     config: &PlanConfig,
     x: usize,
 ) -> bool {

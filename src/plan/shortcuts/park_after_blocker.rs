@@ -11,6 +11,7 @@ use crate::plan::Step;
 use crate::plan::layout::Layout;
 use crate::plan::pushes::corridor_reach;
 use nalgebra::Vector2;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// Least a parked push must shorten for [`park_after_blocker`] to reorder
@@ -29,7 +30,7 @@ const REORDER_GAIN_M: f64 = 0.1e-6;
 pub(super) fn park_after_blocker(
     mut steps: Vec<Step>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {

@@ -12,6 +12,7 @@ use crate::plan::Step;
 use crate::plan::layout::Layout;
 use crate::plan::parking::CLEARING_MARGIN_M;
 use nalgebra::Vector2;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// `steps` with each push that leaves a particle on no site (its last)
@@ -23,7 +24,7 @@ use std::collections::HashMap;
 pub(super) fn pull_in_parking(
     mut steps: Vec<Step>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {
@@ -44,7 +45,7 @@ pub(super) fn end_push_at(
     k: usize,
     end: Vector2<f64>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     config: &PlanConfig,
 ) {
     let (particle, from_m, _) = steps[k].push_move().expect("a push");
@@ -83,7 +84,7 @@ pub(super) fn nearer_parking_end(
     steps: &[Step],
     k: usize,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Option<Vector2<f64>> {

@@ -7,7 +7,7 @@ use crate::plan::PlanConfig;
 use crate::plan::Step;
 use crate::plan::layout::Layout;
 use nalgebra::Vector2;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// What a particle's one push, put where step `at` is in place of all its
 /// own pushes, must keep clear of: the other particles where they are at
@@ -35,7 +35,7 @@ impl SinglePushCheck {
         at: usize,
         unchanged_before: bool,
         layout: &Layout,
-        index: &HashMap<u32, usize>,
+        index: &FxHashMap<u32, usize>,
         config: &PlanConfig,
     ) -> Self {
         let radius_of = |i: usize| layout.particles[i].radius_m;

@@ -13,6 +13,7 @@ use crate::plan::layout::Layout;
 use crate::plan::pushes::max_push_len;
 use crate::plan::pushes::split_long;
 use nalgebra::Vector2;
+use rustc_hash::FxHashMap;
 use std::collections::HashMap;
 
 /// `steps` with every bent path that can be straightened so (at its first
@@ -23,7 +24,7 @@ use std::collections::HashMap;
 pub(super) fn straighten(
     mut steps: Vec<Step>,
     layout: &Layout,
-    index: &HashMap<u32, usize>,
+    index: &FxHashMap<u32, usize>,
     parking: &Parking,
     config: &PlanConfig,
 ) -> Vec<Step> {
