@@ -4,7 +4,7 @@
 //! Written by hand: a dynamic bucket grid of a few dozen moving discs is
 //! smaller than wiring a spatial-index crate for it.
 
-use super::grid::for_each_cell_near_segment;
+use super::grid::{floor_to_i64, for_each_cell_near_segment};
 use super::layout::Layout;
 use super::pushes::Corridor;
 use nalgebra::Vector2;
@@ -77,8 +77,8 @@ impl Occupancy {
     }
     fn key(&self, p: Vector2<f64>) -> (i64, i64) {
         (
-            (p.x / self.cell_m).floor() as i64,
-            (p.y / self.cell_m).floor() as i64,
+            floor_to_i64(p.x / self.cell_m),
+            floor_to_i64(p.y / self.cell_m),
         )
     }
     /// Moves particle i to p.

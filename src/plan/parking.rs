@@ -44,13 +44,16 @@ fn ring(
     pitch_m: f64,
     directions: [Vector2<f64>; CLEARING_DIRECTIONS],
 ) -> impl Iterator<Item = (f64, Vector2<f64>)> {
-    (1..=32).flat_map(move |step| {
+    (1..=RING_STEPS).flat_map(move |step| {
         let dist = pitch_m * step as f64 / 4.0;
         directions
             .into_iter()
             .map(move |u| (dist, centre + u * dist))
     })
 }
+
+/// Quarter-pitch steps of the ring.
+const RING_STEPS: usize = 32;
 
 /// Directions of the nearest spots off the sites.
 pub const CLEARING_DIRECTIONS: usize = 48;
@@ -83,13 +86,24 @@ pub fn ring_off_sites(
         let ang = std::f64::consts::TAU * a as f64 / CLEARING_DIRECTIONS as f64;
         Vector2::new(ang.cos(), ang.sin())
     });
-    let mut spots: Vec<(f64, Vector2<f64>)> = Vec::with_capacity(32 * 48 + CLEARING_DIRECTIONS);
-    spots.extend(spots_off_sites_along(
-        centre, directions, radius_m, sites, also, own,
-    ));
-    spots.extend(ring(centre, pitch_of(radius_m), directions));
-    spots.sort_by(|x, y| x.0.total_cmp(&y.0));
-    spots.into_iter().map(|s| s.1).collect()
+    let mut along = spots_off_sites_along(centre, directions, radius_m, sites, also, own);
+    along.sort_by(|x, y| x.0.total_cmp(&y.0));
+    // The ring comes nearest first already: merged, not sorted (sorting
+    // its 1,536 spots with the 48 was a tenth of the order's time). On a
+    // tie the direction's spot goes first.
+    let mut along = along.into_iter().peekable();
+    let mut ring = ring(centre, pitch_of(radius_m), directions).peekable();
+    let mut spots = Vec::with_capacity(RING_STEPS * CLEARING_DIRECTIONS + CLEARING_DIRECTIONS);
+    loop {
+        let next = match (along.peek(), ring.peek()) {
+            (Some(a), Some(b)) if a.0.total_cmp(&b.0).is_le() => along.next(),
+            (_, Some(_)) => ring.next(),
+            (Some(_), None) => along.next(),
+            (None, None) => break,
+        };
+        spots.extend(next.map(|s| s.1));
+    }
+    spots
 }
 
 /// Centre-to-centre distance of neighbouring spots for particles of
