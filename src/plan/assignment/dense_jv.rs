@@ -9,7 +9,7 @@ const TABLE_MAX_PAIRS: usize = 4_000_000;
 
 /// Solves the rectangular assignment (rows = sites <= cols = particles) for a
 /// cost function; returns the column of every row. Up to
-/// [`TABLE_MAX_PAIRS`] pairs, each cost is asked once and kept in a table:
+/// `TABLE_MAX_PAIRS` pairs, each cost is asked once and kept in a table:
 /// the search reads it O(n^2 m) times, and callers' costs look pairs up in
 /// maps (a tenth of CMU's planning went into hashing them).
 pub fn solve(
