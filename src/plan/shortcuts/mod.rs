@@ -144,22 +144,24 @@ fn bisect((mut valid, mut invalid): (f64, f64), ok: impl Fn(f64) -> bool) -> Opt
 /// One push whose corridor many discs are tested against: a box and a
 /// distance test first (most discs a shortcut checks lie far from the
 /// push), and the corridor built once, when a disc first comes near.
-struct SweptPush {
+struct SweptPush<'a> {
     a: Vector2<f64>,
     b: Vector2<f64>,
     radius: f64,
+    config: &'a PlanConfig,
     /// How far from the segment a-b the corridor reaches.
     reach: f64,
     corridor: OnceCell<Corridor>,
 }
 
-impl SweptPush {
+impl<'a> SweptPush<'a> {
     /// Pushing a particle of `radius` from `a` to `b`.
-    fn new((a, b, radius): (Vector2<f64>, Vector2<f64>, f64), config: &PlanConfig) -> Self {
+    fn new((a, b, radius): (Vector2<f64>, Vector2<f64>, f64), config: &'a PlanConfig) -> Self {
         SweptPush {
             a,
             b,
             radius,
+            config,
             reach: corridor_reach(radius, config),
             corridor: OnceCell::new(),
         }
@@ -167,8 +169,8 @@ impl SweptPush {
 
     /// True when the corridor comes within the clearance of a disc of
     /// `radius` at `centre`.
-    fn hits(&self, centre: Vector2<f64>, radius: f64, config: &PlanConfig) -> bool {
-        let clearance = config.clearance_m;
+    fn hits(&self, centre: Vector2<f64>, radius: f64) -> bool {
+        let clearance = self.config.clearance_m;
         let near = self.reach + clearance + radius;
         let (a, b) = (self.a, self.b);
         let in_box = centre.x >= a.x.min(b.x) - near
@@ -179,7 +181,7 @@ impl SweptPush {
             && segment_distance(centre, a, b) < near
             && self
                 .corridor
-                .get_or_init(|| Corridor::new(a, b, self.radius, config))
+                .get_or_init(|| Corridor::new(a, b, self.radius, self.config))
                 .hits(centre, radius, clearance)
     }
 }
@@ -192,7 +194,7 @@ fn corridor_hits(
     radius: f64,
     config: &PlanConfig,
 ) -> bool {
-    SweptPush::new(push, config).hits(centre, radius, config)
+    SweptPush::new(push, config).hits(centre, radius)
 }
 
 /// True when the pushes of `steps` that involve particle `x` (its index in
@@ -221,9 +223,9 @@ fn clear_for(
         let push = SweptPush::new((from_m, to_m, radius(i)), config);
         let clear = if i == x {
             (pos[x] - from_m).norm() <= 1e-12
-                && (0..pos.len()).all(|j| j == x || !push.hits(pos[j], radius(j), config))
+                && (0..pos.len()).all(|j| j == x || !push.hits(pos[j], radius(j)))
         } else {
-            !push.hits(pos[x], radius(x), config)
+            !push.hits(pos[x], radius(x))
         };
         pos[i] = to_m;
         clear

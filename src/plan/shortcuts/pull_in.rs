@@ -95,11 +95,11 @@ pub(super) fn nearer_parking_end(
     let len = (to_m - from_m).norm();
     let shorter = |spot: Vector2<f64>| (spot - from_m).norm() < len - MIN_SAVING_M;
     let at = |t: f64| from_m + (to_m - from_m) * t;
-    let swept = |p: Vector2<f64>| check.swept_later(p, config);
+    let swept = |p: Vector2<f64>| check.swept_later(p);
     let spots = parking.ends(from_m, check.radius, len, &swept);
     let end = spots
         .into_iter()
-        .find(|&spot| check.allows(spot, config))
+        .find(|&spot| check.allows(spot))
         .or_else(|| {
             // The nearest fraction (in 32nds) from which the rest of the
             // push stays off the sites.
@@ -114,10 +114,10 @@ pub(super) fn nearer_parking_end(
             if !shorter(at(t_off)) {
                 return None;
             }
-            if check.allows(at(t_off), config) {
+            if check.allows(at(t_off)) {
                 return Some(at(t_off));
             }
-            bisect((1.0, t_off), |t| check.allows(at(t), config)).map(at)
+            bisect((1.0, t_off), |t| check.allows(at(t))).map(at)
         });
     // The push as it is, or as found, may turn to a nearer spot.
     let turned = turned_nearer(
@@ -125,7 +125,7 @@ pub(super) fn nearer_parking_end(
         (from_m, end.unwrap_or(to_m)),
         check.radius,
         &swept,
-        |spot| check.allows(spot, config),
+        |spot| check.allows(spot),
     );
     (end.is_some() || turned != to_m).then_some(turned)
 }

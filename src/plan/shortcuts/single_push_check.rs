@@ -14,7 +14,7 @@ use rustc_hash::FxHashMap;
 /// `at`, and their later pushes' corridors (it then lies at its end for
 /// good). When its earlier pushes are dropped, it also stays at its start
 /// until `at`: the other particles' pushes before `at` must miss it there.
-pub(super) struct SinglePushCheck {
+pub(super) struct SinglePushCheck<'a> {
     from: Vector2<f64>,
     pub(super) radius: f64,
     /// The pushes before `at` miss the particle at its start.
@@ -22,10 +22,11 @@ pub(super) struct SinglePushCheck {
     /// Centres and radii of the other particles at the push.
     others: Vec<(Vector2<f64>, f64)>,
     /// The other particles' later pushes: start, end, radius.
-    later: Vec<SweptPush>,
+    later: Vec<SweptPush<'a>>,
+    config: &'a PlanConfig,
 }
 
-impl SinglePushCheck {
+impl<'a> SinglePushCheck<'a> {
     /// For particle `particle` (index in `layout`) leaving `from` where
     /// step `at` is; `unchanged_before`: its pushes before `at` stay, so
     /// nothing before `at` changes.
@@ -36,7 +37,7 @@ impl SinglePushCheck {
         unchanged_before: bool,
         layout: &Layout,
         index: &FxHashMap<u32, usize>,
-        config: &PlanConfig,
+        config: &'a PlanConfig,
     ) -> Self {
         let radius_of = |i: usize| layout.particles[i].radius_m;
         let radius = radius_of(particle);
@@ -65,24 +66,22 @@ impl SinglePushCheck {
                 .filter_map(others_push)
                 .map(|(a, b, r, _)| SweptPush::new((a, b, r), config))
                 .collect(),
+            config,
         }
     }
 
     /// True when a later push of another particle sweeps over `end`.
-    pub(super) fn swept_later(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
-        self.later
-            .iter()
-            .any(|push| push.hits(end, self.radius, config))
+    pub(super) fn swept_later(&self, end: Vector2<f64>) -> bool {
+        self.later.iter().any(|push| push.hits(end, self.radius))
     }
 
     /// True when pushing the particle to `end` (not at all, at its start)
     /// keeps the clearance from every particle at every push.
-    pub(super) fn allows(&self, end: Vector2<f64>, config: &PlanConfig) -> bool {
-        if !self.clear_before || self.swept_later(end, config) {
+    pub(super) fn allows(&self, end: Vector2<f64>) -> bool {
+        if !self.clear_before || self.swept_later(end) {
             return false;
         }
-        let own = SweptPush::new((self.from, end, self.radius), config);
-        (end - self.from).norm() < MIN_SAVING_M
-            || self.others.iter().all(|&(c, r)| !own.hits(c, r, config))
+        let own = SweptPush::new((self.from, end, self.radius), self.config);
+        (end - self.from).norm() < MIN_SAVING_M || self.others.iter().all(|&(c, r)| !own.hits(c, r))
     }
 }

@@ -54,7 +54,7 @@ pub(super) fn straighten(
         for (which, (_, check)) in checks.iter().enumerate() {
             tries.push((length - excess, which, path.end));
             if parked {
-                let swept = |p: Vector2<f64>| check.swept_later(p, config);
+                let swept = |p: Vector2<f64>| check.swept_later(p);
                 for end in parking.ends(path.start, check.radius, length, &swept) {
                     tries.push(((end - path.start).norm(), which, end));
                 }
@@ -63,13 +63,13 @@ pub(super) fn straighten(
         tries.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let found = tries
             .into_iter()
-            .find(|&(_, which, end)| checks[which].1.allows(end, config));
+            .find(|&(_, which, end)| checks[which].1.allows(end));
         if let Some((_, which, end)) = found {
             let (at, check) = &checks[which];
             let end = if parked {
-                let swept = |p: Vector2<f64>| check.swept_later(p, config);
+                let swept = |p: Vector2<f64>| check.swept_later(p);
                 turned_nearer(parking, (path.start, end), check.radius, &swept, |spot| {
-                    check.allows(spot, config)
+                    check.allows(spot)
                 })
             } else {
                 end
