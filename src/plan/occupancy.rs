@@ -65,16 +65,6 @@ impl Occupancy {
         self.cells.entry(k).or_default().push(i);
         i
     }
-    /// Whether no particle's disc comes nearer than `gap` to a disc of
-    /// radius `r` at `c`.
-    pub fn clear_of_all(&self, c: Vector2<f64>, r: f64, gap: f64) -> bool {
-        let mut clear = true;
-        self.for_each_near(c, r + self.max_radius_m + gap, |j| {
-            clear = (self.pos[j] - c).norm() >= r + self.radius[j] + gap;
-            clear
-        });
-        clear
-    }
     fn key(&self, p: Vector2<f64>) -> (i64, i64) {
         (
             floor_to_i64(p.x / self.cell_m),
@@ -176,11 +166,18 @@ impl Occupancy {
         });
         hits
     }
-    /// True when a disc at p of radius r keeps clearance from every particle but `except`.
-    pub fn disc_free(&self, p: Vector2<f64>, r: f64, except: usize, clearance: f64) -> bool {
+    /// True when a disc at p of radius r keeps clearance from every particle
+    /// but `except` (None: every particle).
+    pub fn disc_free(
+        &self,
+        p: Vector2<f64>,
+        r: f64,
+        except: Option<usize>,
+        clearance: f64,
+    ) -> bool {
         let mut free = true;
         self.for_each_near(p, r + self.max_radius_m + clearance, |i| {
-            if i != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {
+            if Some(i) != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {
                 free = false;
                 return false;
             }

@@ -143,7 +143,7 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     let mut placed = Occupancy::empty(2.0 * rmax + p.min_gap_m);
     let try_add = |c: Vector2<f64>, r: f64, placed: &mut Occupancy| {
         let inside = c.x >= r && c.y >= r && c.x <= w - r && c.y <= h - r;
-        if inside && placed.clear_of_all(c, r, p.min_gap_m) {
+        if inside && placed.disc_free(c, r, None, p.min_gap_m) {
             placed.push(c, r);
         }
     };

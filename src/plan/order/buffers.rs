@@ -118,7 +118,7 @@ impl Scheduler<'_> {
         let r = self.radius(q);
         let cl = self.config.clearance_m;
         self.reach.contains(spot)
-            && self.occ.disc_free(spot, r, q, cl)
+            && self.occ.disc_free(spot, r, Some(q), cl)
             && avoid.iter().all(|c| !c.hits(spot, r, cl))
     }
 
@@ -208,7 +208,9 @@ impl Scheduler<'_> {
                 }
             }
             if moved {
-                if self.occ.first_hit(&way, q, cl).is_none() && self.occ.disc_free(spot, r, q, cl) {
+                if self.occ.first_hit(&way, q, cl).is_none()
+                    && self.occ.disc_free(spot, r, Some(q), cl)
+                {
                     self.push(q, spot, true);
                 }
                 return true;

@@ -48,7 +48,7 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
     for line in &polylines {
         let span = loop_span(line, pitch_um).unwrap_or(pitch_um);
         let within = divide(line, span, |p| {
-            if sites.clear_of_all(p, 0.0, near) {
+            if sites.disc_free(p, 0.0, None, near) {
                 sites.push(p, 0.0);
             }
             sites.pos.len() <= MAX_SVG_SITES
