@@ -29,8 +29,7 @@
 //! far (the product keeps the search; docs/plan.md).
 
 use super::search::PathProblem;
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use rustc_hash::FxHashMap;
 
 /// Most moves a set of moves done can hold (one bit each).
 pub const MAX_MOVES: usize = 128;
@@ -76,7 +75,7 @@ struct Entry {
 #[derive(Default)]
 struct Layer {
     /// Per set, the index of its first state in `states`.
-    heads: HashMap<u128, u32, BuildHasherDefault<SetHasher>>,
+    heads: FxHashMap<u128, u32>,
     /// States, each with the index of the next state of its set (`u32::MAX`: none).
     states: Vec<(Entry, u32)>,
 }
@@ -343,26 +342,6 @@ fn backtrack(layers: &[Layer], mut set: u128, end: Entry) -> Vec<usize> {
     }
     order.reverse();
     order
-}
-
-/// One-multiply hasher for the sets (u128 keys; SipHash is several times slower here).
-#[derive(Default)]
-struct SetHasher(u64);
-
-impl Hasher for SetHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
-        }
-    }
-    fn write_u128(&mut self, v: u128) {
-        let x = (v as u64) ^ ((v >> 64) as u64).rotate_left(29);
-        self.0 = (x ^ (x >> 31)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        self.0 ^= self.0 >> 29;
-    }
 }
 
 #[cfg(test)]
