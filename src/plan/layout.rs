@@ -82,6 +82,38 @@ pub enum LayoutError {
         /// Overlap depth in micrometres.
         overlap_um: f64,
     },
+    /// A particle far outside the field: coordinates in another unit or
+    /// from another origin, most often.
+    #[error(
+        "layout: particle {id} at ({x_um:.3}, {y_um:.3}) um lies outside the {width_um:?} x {height_um:?} um field \
+         (positions are in um from the field's lower-left corner)"
+    )]
+    OutsideField {
+        /// Particle id.
+        id: u32,
+        /// Centre, micrometres.
+        x_um: f64,
+        /// Centre, micrometres.
+        y_um: f64,
+        /// Field width, micrometres.
+        width_um: f64,
+        /// Field height, micrometres.
+        height_um: f64,
+    },
+    /// A particle wider than the field it lies in.
+    #[error(
+        "layout: particle {id} radius_um {radius_um:?} is too large for the {width_um:?} x {height_um:?} um field"
+    )]
+    LargerThanField {
+        /// Particle id.
+        id: u32,
+        /// Radius, micrometres.
+        radius_um: f64,
+        /// Field width, micrometres.
+        width_um: f64,
+        /// Field height, micrometres.
+        height_um: f64,
+    },
 }
 
 /// Wire format of a layout file (micrometres).
@@ -102,6 +134,13 @@ struct ParticleFile {
 
 /// Overlap (metres) tolerated between particles, to absorb rounding in files.
 const OVERLAP_TOLERANCE_M: f64 = 1e-9;
+
+/// How far outside the field a particle's centre may lie, in its radii. A
+/// frame's edge may cut a particle (its centre then lies up to a radius
+/// out, more with the locator's error); a centre further out than this has
+/// no part within a radius of the field, which is a layout in the wrong
+/// unit or origin rather than a particle of this field.
+const OUTSIDE_FIELD_RADII: f64 = 2.0;
 
 pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
     let bad = !value.is_finite() || (positive && value <= 0.0);
@@ -140,6 +179,7 @@ impl Layout {
             if !ids.insert(p.id) {
                 return Err(LayoutError::DuplicateId(p.id));
             }
+            self.check_in_field(p)?;
         }
         let grid = crate::plan::grid::Grid::new(
             self.particles.iter().map(|p| p.centre_m),
@@ -160,6 +200,35 @@ impl Layout {
                     });
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// `p` fits the field and lies in it, or at most
+    /// [`OUTSIDE_FIELD_RADII`] of its radii beyond an edge.
+    fn check_in_field(&self, p: &Particle) -> Result<(), LayoutError> {
+        let [w, h] = self.field_m;
+        // To the nanometre, as a user wrote them (120, not 119.99999999999999).
+        let um = |m: f64| (m * UM_PER_M * 1e3).round() / 1e3;
+        let (width_um, height_um) = (um(w), um(h));
+        if 2.0 * p.radius_m > w.min(h) {
+            return Err(LayoutError::LargerThanField {
+                id: p.id,
+                radius_um: um(p.radius_m),
+                width_um,
+                height_um,
+            });
+        }
+        let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
+        let beyond = out(p.centre_m.x, w).hypot(out(p.centre_m.y, h));
+        if beyond > OUTSIDE_FIELD_RADII * p.radius_m {
+            return Err(LayoutError::OutsideField {
+                id: p.id,
+                x_um: p.centre_m.x * UM_PER_M,
+                y_um: p.centre_m.y * UM_PER_M,
+                width_um,
+                height_um,
+            });
         }
         Ok(())
     }
@@ -308,10 +377,43 @@ mod tests {
         let mut l = sample();
         l.particles[1].centre_m.x = 15e-6;
         assert!(matches!(l.validate(), Err(LayoutError::Overlap { .. })));
+        let mut l = sample();
+        l.particles[0].radius_m = 1e300;
+        assert!(matches!(
+            l.validate(),
+            Err(LayoutError::LargerThanField { id: 0, .. })
+        ));
         let text = sample().to_json().replace("layout/1", "layout/9");
         assert!(matches!(
             Layout::from_json(&text, "mem"),
             Err(LayoutError::Schema { .. })
         ));
+    }
+
+    #[test]
+    fn a_particle_the_field_edge_cuts_is_kept_and_one_far_outside_is_refused() {
+        // Cut by the left edge (centre 3 um out, radius 5 um): a frame's
+        // edge particle. Read back from a file as written.
+        let mut l = sample();
+        l.particles[0].centre_m = Vector2::new(-3e-6, 50e-6);
+        assert!(Layout::from_json(&l.to_json(), "mem").is_ok());
+        // Beyond the top right corner: allowed up to two radii (10 um), so
+        // 9.92 um out passes and 10.08 um does not.
+        let corner = Vector2::new(120e-6, 100e-6);
+        l.particles[0].centre_m = corner + Vector2::new(6e-6, 7.9e-6);
+        assert!(l.validate().is_ok());
+        l.particles[0].centre_m = corner + Vector2::new(6e-6, 8.1e-6);
+        assert!(matches!(
+            l.validate(),
+            Err(LayoutError::OutsideField { id: 0, .. })
+        ));
+        // Positions in nm instead of um: refused, naming the particle and where.
+        let text = sample().to_json().replace("30.5", "30500.0");
+        let err = Layout::from_json(&text, "mem").unwrap_err().to_string();
+        assert!(
+            err.contains("particle 7 at (30500.000, 20.000) um"),
+            "{err}"
+        );
+        assert!(err.contains("outside the 120.0 x 100.0 um field"), "{err}");
     }
 }
