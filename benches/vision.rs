@@ -9,8 +9,8 @@
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nanopush::render::microscope::{RenderSettings, TipView, render_frame};
-use nanopush::render::microscope_truth::{random_scene, with_tip};
+use nanopush::render::microscope::{RenderSettings, render_frame};
+use nanopush::render::microscope_truth::benchmark_scene;
 use nanopush::vision::analyse::analyse_frame;
 use nanopush::vision::crocker_grier::{LocateParams, locate};
 use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_candidates};
@@ -42,14 +42,7 @@ fn cpu_timed<R>(b: &mut criterion::Bencher, mut f: impl FnMut() -> R) {
 }
 
 fn bench(c: &mut Criterion) {
-    let scene = with_tip(
-        random_scene(100, 1024, 1024, 8.0, 42),
-        TipView {
-            apex_x_px: 600.0,
-            apex_y_px: 500.0,
-            angle_rad: 0.4,
-        },
-    );
+    let scene = benchmark_scene();
     let frame = render_frame(&scene, &RenderSettings::with_snr(10.0, 16), 42).expect("render");
     let settings = DetectSettings::default();
     let tip = TipSettings::default();
@@ -128,14 +121,7 @@ fn bench_crocker_grier(c: &mut Criterion) {
         invert: true,
         ..LocateParams::new(11)
     };
-    let scene = with_tip(
-        random_scene(100, 1024, 1024, 8.0, 42),
-        TipView {
-            apex_x_px: 600.0,
-            apex_y_px: 500.0,
-            angle_rad: 0.4,
-        },
-    );
+    let scene = benchmark_scene();
     let frame = render_frame(&scene, &RenderSettings::with_snr(10.0, 16), 42).expect("render");
     let frame_call = LocateParams {
         minmass: 1e5,

@@ -195,6 +195,21 @@ pub fn with_tip(mut scene: SceneView, tip: TipView) -> SceneView {
     scene
 }
 
+/// The vision speed benchmark's scene (issue 3's "1024 x 1024, 100
+/// particles + tip"): 100 spheres of 8 px (seed 42) and the probe's apex at
+/// (600, 500) px, pointing at 0.4 rad. Tests check the detections the
+/// benchmark times.
+pub fn benchmark_scene() -> SceneView {
+    with_tip(
+        random_scene(100, 1024, 1024, 8.0, 42),
+        TipView {
+            apex_x_px: 600.0,
+            apex_y_px: 500.0,
+            angle_rad: 0.4,
+        },
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -22,6 +22,25 @@ pub enum FitError {
     /// The model produced a non-finite value.
     #[error("the model evaluated to a non-finite value")]
     NotFinite,
+    /// The caller's give-up rule stopped a fit still running (the reason is
+    /// the rule's).
+    #[error("fit given up: {0}")]
+    GivenUp(&'static str),
+}
+
+/// A give-up rule for [`levenberg_marquardt_with`]: after an accepted step,
+/// called with the iterations done, the parameters and the residual
+/// variance; `Some(reason)` ends the fit with [`FitError::GivenUp`].
+pub type GiveUp<'a, const N: usize> =
+    &'a dyn Fn(usize, &SVector<f64, N>, f64) -> Option<&'static str>;
+
+/// The rule that never gives up.
+pub fn never_give_up<const N: usize>(
+    _: usize,
+    _: &SVector<f64, N>,
+    _: f64,
+) -> Option<&'static str> {
+    None
 }
 
 /// A converged (or best-effort) fit.
@@ -122,7 +141,13 @@ where
         model_at,
         last: None,
     };
-    levenberg_marquardt_with(samples.len(), init, max_iterations, &[], &mut problem)
+    levenberg_marquardt_with(
+        samples.len(),
+        init,
+        max_iterations,
+        (&[], &never_give_up),
+        &mut problem,
+    )
 }
 
 /// A Gauss-Newton step whose predicted rss decrease is below this many
@@ -158,12 +183,14 @@ const WATCHED_STEP: f64 = 0.02;
 /// `WATCHED_STEP` of its standard error, or when no trial step lowers the rss.
 /// The watched rule ends fits whose nuisance parameters crawl along a flat
 /// valley (a wide core trading off against the background) for dozens of
-/// iterations while the centre no longer moves.
+/// iterations while the centre no longer moves. `give_up` is asked after
+/// every accepted step that does not end the fit (a caller that will reject
+/// the fit's answer anyway can stop paying for it).
 pub fn levenberg_marquardt_with<const N: usize>(
     n_samples: usize,
     init: SVector<f64, N>,
     max_iterations: usize,
-    watched: &[usize],
+    (watched, give_up): (&[usize], GiveUp<N>),
     problem: &mut impl Evaluation<N>,
 ) -> Result<FitOutcome<N>, FitError> {
     if n_samples <= N {
@@ -225,6 +252,9 @@ pub fn levenberg_marquardt_with<const N: usize>(
                 if small {
                     return finish(n_samples, p, at_p.jtj, at_p.rss, iterations);
                 }
+                if let Some(reason) = give_up(iterations, &p, at_p.rss / (n_samples - N) as f64) {
+                    return Err(FitError::GivenUp(reason));
+                }
                 break;
             }
             // A Gauss-Newton step this small that does not lower the rss is
@@ -267,6 +297,17 @@ fn finish<const N: usize>(
 mod tests {
     use super::*;
 
+    /// y = a exp(-b x) at parameters (a, b), with its gradient.
+    fn decay_model(p: &SVector<f64, 2>) -> impl Fn(f64, f64, &mut SVector<f64, 2>) -> f64 + use<> {
+        let p = *p;
+        move |x, _y, g| {
+            let e = (-p[1] * x).exp();
+            g[0] = e;
+            g[1] = -p[0] * x * e;
+            p[0] * e
+        }
+    }
+
     #[test]
     fn fits_an_exponential_and_reports_too_few_samples() {
         let samples: Vec<Sample> = (0..20)
@@ -280,15 +321,7 @@ mod tests {
                 )
             })
             .collect();
-        let model = |p: &SVector<f64, 2>| {
-            let p = *p;
-            move |x: f64, _y: f64, g: &mut SVector<f64, 2>| {
-                let e = (-p[1] * x).exp();
-                g[0] = e;
-                g[1] = -p[0] * x * e;
-                p[0] * e
-            }
-        };
+        let model = decay_model;
         let fit =
             levenberg_marquardt(&samples, SVector::<f64, 2>::new(1.0, 0.1), 50, model).unwrap();
         assert!((fit.params[0] - 3.0).abs() < 1e-2 && (fit.params[1] - 0.7).abs() < 1e-2);
@@ -335,5 +368,53 @@ mod tests {
             fit.covariance[(0, 0)]
         );
         assert!((fit.covariance[(0, 1)] - fit.covariance[(1, 0)]).abs() < 1e-9 * want);
+    }
+
+    #[test]
+    fn a_give_up_rule_stops_a_running_fit_and_only_after_its_patience() {
+        // y = 3 exp(-0.7 x) from a far start: the fit takes several steps.
+        let samples: Vec<Sample> = (0..20)
+            .map(|i| {
+                (
+                    i as f64 * 0.25,
+                    0.0,
+                    3.0 * (-0.7 * i as f64 * 0.25).exp(),
+                    1.0,
+                )
+            })
+            .collect();
+        let fit_with = |give_up: GiveUp<2>| {
+            let mut problem = SampleModel {
+                samples: &samples,
+                model_at: decay_model,
+                last: None,
+            };
+            levenberg_marquardt_with(
+                samples.len(),
+                SVector::<f64, 2>::new(1.0, 0.1),
+                50,
+                (&[], give_up),
+                &mut problem,
+            )
+        };
+        let full = fit_with(&never_give_up).unwrap();
+        assert!(full.iterations >= 3, "{}", full.iterations);
+        // Asked after every accepted step with the iterations done so far.
+        let asked = std::cell::RefCell::new(vec![]);
+        let stop_at_2 = |it: usize, _: &SVector<f64, 2>, v: f64| {
+            assert!(v.is_finite() && v >= 0.0);
+            asked.borrow_mut().push(it);
+            (it >= 2).then_some("stopped")
+        };
+        assert_eq!(
+            fit_with(&stop_at_2).unwrap_err(),
+            FitError::GivenUp("stopped")
+        );
+        assert_eq!(*asked.borrow(), vec![1, 2]);
+        // A rule that never fires leaves the fit as it was.
+        let patient = |it: usize, _: &SVector<f64, 2>, _: f64| (it > 1000).then_some("never");
+        let same = fit_with(&patient).unwrap();
+        assert_eq!(same.params, full.params);
+        assert_eq!(same.iterations, full.iterations);
     }
 }
