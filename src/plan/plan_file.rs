@@ -3,6 +3,7 @@
 use super::pattern::Site;
 use super::{Plan, PlanConfig, PlanSummary, Step};
 use nalgebra::Vector2;
+use rustc_hash::FxHashSet;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -37,6 +38,10 @@ pub enum PlanFileError {
     /// A value is finite but outside its range.
     #[error("plan file: {0}")]
     OutOfRange(String),
+    /// The sites and the assignment do not agree (a site id twice, a pair
+    /// naming no site, a site or a particle assigned twice).
+    #[error("plan file: {0}")]
+    Inconsistent(String),
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -291,7 +296,7 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
         predicted_time_s: s.predicted_time_s,
         planning_time_s: s.planning_time_s,
     };
-    let assignment = f.assignment.iter().map(|a| (a.particle, a.site)).collect();
+    let assignment = assignment_of(&f.sites, &f.assignment)?;
     Ok((
         Plan {
             sites,
@@ -313,6 +318,36 @@ pub fn write(plan: &Plan, config: &PlanConfig, path: &Path) -> Result<(), PlanFi
 }
 
 /// Reads a plan file.
+/// The (particle, site) pairs, each site among `sites` (ids unique) and
+/// each site and particle at most once: a plan that assigns a site twice
+/// would verify on whichever of its particles lands there.
+fn assignment_of(sites: &[SiteJ], pairs: &[PairJ]) -> Result<Vec<(u32, u32)>, PlanFileError> {
+    let mut site_ids = FxHashSet::default();
+    if let Some(s) = sites.iter().find(|s| !site_ids.insert(s.id)) {
+        return Err(PlanFileError::Inconsistent(format!(
+            "site id {} appears twice",
+            s.id
+        )));
+    }
+    let (mut sites_taken, mut particles_taken) = (FxHashSet::default(), FxHashSet::default());
+    for (k, a) in pairs.iter().enumerate() {
+        let problem = if !site_ids.contains(&a.site) {
+            "names no site of the plan"
+        } else if !sites_taken.insert(a.site) {
+            "assigns its site a second time"
+        } else if !particles_taken.insert(a.particle) {
+            "assigns its particle a second time"
+        } else {
+            continue;
+        };
+        return Err(PlanFileError::Inconsistent(format!(
+            "assignment {k} (particle {}, site {}) {problem}",
+            a.particle, a.site
+        )));
+    }
+    Ok(pairs.iter().map(|a| (a.particle, a.site)).collect())
+}
+
 pub fn read(path: &Path) -> Result<(Plan, PlanGeometry), PlanFileError> {
     let text = std::fs::read_to_string(path).map_err(|source| PlanFileError::Io {
         path: path.display().to_string(),
@@ -390,6 +425,61 @@ mod tests {
                 assert!(what.contains(&format!("step {step}")), "{what}");
                 assert!(what.contains("1e300"), "{what}");
             }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    /// Sites and an assignment that disagree are refused, naming the pair;
+    /// the plan as written reads back with its assignment.
+    #[test]
+    fn an_assignment_that_disagrees_with_the_sites_is_refused_by_pair() {
+        let (doc, _) = one_push_document();
+        let (plan, _) = from_json(&doc.to_string(), "as written").unwrap();
+        assert_eq!(plan.assignment, vec![(0, 0)]);
+        let edits: [(&str, serde_json::Value, &str); 4] = [
+            (
+                "assignment",
+                serde_json::json!([{"particle": 0, "site": 7}]),
+                "assignment 0 (particle 0, site 7) names no site",
+            ),
+            (
+                "assignment",
+                serde_json::json!([{"particle": 0, "site": 0}, {"particle": 9, "site": 0}]),
+                "assignment 1 (particle 9, site 0) assigns its site a second time",
+            ),
+            (
+                "sites",
+                serde_json::json!([{"id": 0, "x_um": 80.0, "y_um": 50.0}, {"id": 1, "x_um": 95.0, "y_um": 50.0}]),
+                "",
+            ),
+            (
+                "sites",
+                serde_json::json!([{"id": 0, "x_um": 80.0, "y_um": 50.0}, {"id": 0, "x_um": 95.0, "y_um": 50.0}]),
+                "site id 0 appears twice",
+            ),
+        ];
+        for (field, value, want) in edits {
+            let mut d = doc.clone();
+            d[field] = value;
+            match from_json(&d.to_string(), "edited") {
+                Ok(_) => assert!(want.is_empty(), "{field} edit read: want {want}"),
+                Err(PlanFileError::Inconsistent(what)) => {
+                    assert!(!want.is_empty() && what.contains(want), "{what}")
+                }
+                Err(e) => panic!("{e}"),
+            }
+        }
+        let mut d = doc.clone();
+        d["sites"] = serde_json::json!([{"id": 0, "x_um": 80.0, "y_um": 50.0}, {"id": 1, "x_um": 95.0, "y_um": 50.0}]);
+        d["assignment"] =
+            serde_json::json!([{"particle": 0, "site": 0}, {"particle": 0, "site": 1}]);
+        match from_json(&d.to_string(), "edited") {
+            Err(PlanFileError::Inconsistent(what)) => assert!(
+                what.contains(
+                    "assignment 1 (particle 0, site 1) assigns its particle a second time"
+                ),
+                "{what}"
+            ),
             other => panic!("{other:?}"),
         }
     }
