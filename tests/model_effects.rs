@@ -35,6 +35,25 @@ fn the_paper_scene_switches_on_no_optional_effect() {
         assert!(!has(&r, e), "{e} is active");
     }
     assert!(has(&r, "substrate contact regime") && has(&r, "tip contact regime"));
+    // The paper pins the substrate's model (JKR) and leaves the tip's to its
+    // Tabor parameter; each reason says which.
+    let reason = |name: &str| {
+        r.active_effects
+            .iter()
+            .find(|e| e.name == name)
+            .map(|e| e.reason.clone())
+            .unwrap()
+    };
+    let substrate = reason("substrate contact regime");
+    assert!(
+        substrate.starts_with("jkr (Tabor parameter ") && substrate.ends_with(", pinned by scene)"),
+        "{substrate}"
+    );
+    let tip = reason("tip contact regime");
+    assert!(
+        tip.contains("(Tabor parameter ") && !tip.contains("pinned"),
+        "{tip}"
+    );
 }
 
 #[test]

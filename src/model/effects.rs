@@ -83,6 +83,16 @@ fn fx(name: &str, reason: String) -> ActiveEffect {
     }
 }
 
+/// An interface's contact model and why: its Tabor parameter, or the scene's pin.
+fn regime(interface: &Interface, pinned: bool) -> String {
+    let pin = if pinned { ", pinned by scene" } else { "" };
+    format!(
+        "{} (Tabor parameter {:.2}{pin})",
+        interface.model.name(),
+        interface.tabor
+    )
+}
+
 /// Decides the effects of `scene` with the interfaces in use.
 pub fn decide(scene: &Scene, substrate: &Interface, tip: &Interface) -> Effects {
     let mut active = vec![
@@ -92,29 +102,11 @@ pub fn decide(scene: &Scene, substrate: &Interface, tip: &Interface) -> Effects 
         ),
         fx(
             "substrate contact regime",
-            format!(
-                "{} (Tabor parameter {:.2}{})",
-                substrate.model.name(),
-                substrate.tabor,
-                if scene.substrate_interface.pinned_model.is_some() {
-                    ", pinned by scene"
-                } else {
-                    ""
-                }
-            ),
+            regime(substrate, scene.substrate_interface.pinned_model.is_some()),
         ),
         fx(
             "tip contact regime",
-            format!(
-                "{} (Tabor parameter {:.2}{})",
-                tip.model.name(),
-                tip.tabor,
-                if scene.tip_interface.pinned_model.is_some() {
-                    ", pinned by scene"
-                } else {
-                    ""
-                }
-            ),
+            regime(tip, scene.tip_interface.pinned_model.is_some()),
         ),
         fx(
             "rolling and sliding",
