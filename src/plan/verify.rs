@@ -91,6 +91,9 @@ impl VerifyReport {
     }
 }
 
+/// Distance from `p` to the segment a-b. `pushes::segment_distance` again,
+/// on purpose: the replay shares no code with the planner's checks, so that
+/// a bug there cannot hide here.
 fn seg_dist(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     let ab = b - a;
     let l2 = ab.norm_squared();
