@@ -588,6 +588,13 @@ fn a_field_refused_at_every_placement_says_how_many_were_tried_and_why() {
         "{text}"
     );
     assert_eq!(text.matches("no collision-free order").count(), 1, "{text}");
+    // About a second of a core per centre: the wait is told every 2 s, by
+    // how many centres were tried.
+    assert!(
+        text.contains(" other centres tried, none plans yet ("),
+        "no progress while the centres were tried: {text}"
+    );
+    assert!(!text.contains("\u{1b}["), "colour codes in a log: {text}");
 }
 
 /// An SVG drawing is a pattern: its paths sampled at the pitch (an "L" of

@@ -101,13 +101,17 @@ pub fn main() -> ExitCode {
     }
 }
 
-/// Warnings (rig: skipped frame files, discarded frames, halts) go to
-/// stderr; `RUST_LOG` (e.g. `nanopush=debug`) shows more, such as the
+/// Warnings (rig: skipped frame files, discarded frames, halts) and the
+/// placement's progress through a field that refuses its best centres go
+/// to stderr; `RUST_LOG` (e.g. `nanopush=debug`) shows more, such as the
 /// planner's stage times.
 fn show_warnings() {
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn"));
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+        tracing_subscriber::EnvFilter::new("warn,nanopush::plan::placement=info")
+    });
+    // Colour codes only for a terminal, not in a log file.
     let _ = tracing_subscriber::fmt()
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .with_writer(std::io::stderr)
         .with_env_filter(filter)
         .try_init();

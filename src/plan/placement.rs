@@ -50,6 +50,9 @@ pub const TIME_CANDIDATES: usize = 24;
 /// centres planned 16.
 pub const FALLBACK_CANDIDATES: usize = 24;
 
+/// Seconds between two progress lines while the fallback centres are planned.
+const PROGRESS_EVERY_S: f64 = 2.0;
+
 /// Least distance between fallback centres, in particle radii: the grid's
 /// neighbours lie a fraction of a radius apart (0.3 um along CMU's 5 um of
 /// play in x) and often refuse alike. On the adversarial scenes with 24
@@ -124,7 +127,7 @@ pub fn place_and_plan(
         }
     }
     let plan_at = |c: Vector2<f64>| plan_assembly(layout, &sites_at(pattern, c), config);
-    let mut planned = plan_centres(&candidates, &plan_at, |_| false);
+    let mut planned = plan_centres(&candidates, &plan_at, |_| false, |_| {});
     // Only a blocked order may plan elsewhere (not too few particles, say).
     let only_blocked = planned
         .iter()
@@ -155,7 +158,26 @@ pub fn place_and_plan(
                     tried.push(c);
                 }
             }
-            let fallback = plan_centres(&tried[candidates.len()..], &plan_at, Result::is_ok);
+            let others = tried.len() - candidates.len();
+            let start = std::time::Instant::now();
+            let last_told = std::cell::Cell::new(0.0);
+            // A dense field refuses each centre in about a second of a core:
+            // say how far it got, every few seconds.
+            let progress = |done: usize| {
+                let t = start.elapsed().as_secs_f64();
+                if t - last_told.get() >= PROGRESS_EVERY_S {
+                    last_told.set(t);
+                    tracing::info!(
+                        "placement: {done} of {others} other centres tried, none plans yet ({t:.1} s)"
+                    );
+                }
+            };
+            let fallback = plan_centres(
+                &tried[candidates.len()..],
+                &plan_at,
+                Result::is_ok,
+                progress,
+            );
             tried.truncate(candidates.len() + fallback.len());
             let found = fallback
                 .into_iter()
@@ -200,11 +222,13 @@ fn ordinal(n: usize) -> String {
 /// machine has cores (each plan is independent and deterministic, so the
 /// answer is the same as one at a time: the fallback of a dense field took
 /// 18.3 s one at a time, 10.9 s on 2 cores); stops after the round in which
-/// a result meets `enough`.
+/// a result meets `enough`, and tells `progress` how many are done after
+/// every other round but the last.
 fn plan_centres<T: Send>(
     centres: &[Vector2<f64>],
     plan_at: &(dyn Fn(Vector2<f64>) -> T + Sync),
     enough: impl Fn(&T) -> bool,
+    progress: impl Fn(usize),
 ) -> Vec<T> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = Vec::with_capacity(centres.len());
@@ -220,6 +244,9 @@ fn plan_centres<T: Send>(
         });
         if out.iter().any(&enough) {
             break;
+        }
+        if out.len() < centres.len() {
+            progress(out.len());
         }
     }
     out
@@ -257,7 +284,8 @@ mod tests {
     }
 
     /// Results come back in the centres' order whatever order the threads
-    /// finish in, and planning stops after the round holding the first hit.
+    /// finish in, planning stops after the round holding the first hit, and
+    /// progress is told after every round that is not the last.
     #[test]
     fn centres_planned_at_once_keep_their_order_and_stop_at_the_first_hit() {
         let centres: Vec<_> = (0..7).map(|i| Vector2::new(i as f64, 0.0)).collect();
@@ -266,12 +294,18 @@ mod tests {
             std::thread::sleep(std::time::Duration::from_millis(10 * (7 - c.x as u64)));
             c.x as usize
         };
-        let all = plan_centres(&centres, &plan_at, |_| false);
-        assert_eq!(all, (0..7).collect::<Vec<_>>());
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-        let upto_hit = plan_centres(&centres, &plan_at, |&i| i == 3);
+        let told = std::cell::RefCell::new(vec![]);
+        let tell = |done: usize| told.borrow_mut().push(done);
+        let all = plan_centres(&centres, &plan_at, |_| false, tell);
+        assert_eq!(all, (0..7).collect::<Vec<_>>());
+        let every_round: Vec<usize> = (1..7usize.div_ceil(cores)).map(|k| k * cores).collect();
+        assert_eq!(*told.borrow(), every_round);
+        told.borrow_mut().clear();
+        let upto_hit = plan_centres(&centres, &plan_at, |&i| i == 3, tell);
         let rounds = 4usize.div_ceil(cores);
         assert_eq!(upto_hit, (0..(rounds * cores).min(7)).collect::<Vec<_>>());
+        assert_eq!(*told.borrow(), every_round[..rounds - 1]);
     }
 
     /// For either goal the chosen placement's plan is no worse than the
