@@ -317,7 +317,6 @@ pub fn write(plan: &Plan, config: &PlanConfig, path: &Path) -> Result<(), PlanFi
     })
 }
 
-/// Reads a plan file.
 /// The (particle, site) pairs, each site among `sites` (ids unique) and
 /// each site and particle at most once: a plan that assigns a site twice
 /// would verify on whichever of its particles lands there.
@@ -348,6 +347,7 @@ fn assignment_of(sites: &[SiteJ], pairs: &[PairJ]) -> Result<Vec<(u32, u32)>, Pl
     Ok(pairs.iter().map(|a| (a.particle, a.site)).collect())
 }
 
+/// Reads a plan file.
 pub fn read(path: &Path) -> Result<(Plan, PlanGeometry), PlanFileError> {
     let text = std::fs::read_to_string(path).map_err(|source| PlanFileError::Io {
         path: path.display().to_string(),
