@@ -59,7 +59,9 @@ pub enum PatternError {
     Empty(String),
     /// Two sites closer than a particle diameter.
     #[error(
-        "sites {a} and {b} overlap: {distance_um:.3} um apart, need at least {needed_um:.3} um"
+        "sites {a} and {b} overlap: {} um apart, need at least {} um",
+        um_text(*.distance_um, 3),
+        um_text(*.needed_um, 3)
     )]
     OverlappingSites {
         /// First site index.
@@ -83,7 +85,11 @@ pub enum PatternError {
     },
     /// The pattern does not fit the reachable area.
     #[error(
-        "pattern of {w_um:.1} x {h_um:.1} um does not fit the reachable area of {aw_um:.1} x {ah_um:.1} um"
+        "pattern of {} x {} um does not fit the reachable area of {} x {} um",
+        um_text(*.w_um, 1),
+        um_text(*.h_um, 1),
+        um_text(*.aw_um, 1),
+        um_text(*.ah_um, 1)
     )]
     DoesNotFit {
         /// Pattern width including particle radius.
@@ -96,7 +102,11 @@ pub enum PatternError {
         ah_um: f64,
     },
     /// A placement point leaves part of the pattern outside the reachable area.
-    #[error("pattern placed at ({x_um:.1}, {y_um:.1}) um leaves sites outside the reachable area")]
+    #[error(
+        "pattern placed at ({}, {}) um leaves sites outside the reachable area",
+        um_text(*.x_um, 1),
+        um_text(*.y_um, 1)
+    )]
     OutsideAtPlacement {
         /// Requested centre x.
         x_um: f64,
@@ -111,6 +121,16 @@ pub enum PatternError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// `value` with `decimals` decimals, or in exponent form when a mistyped
+/// input (an --at or --pitch-um of 1e300) makes it too long to read.
+fn um_text(value: f64, decimals: usize) -> String {
+    if value.abs() < 1e9 || !value.is_finite() {
+        format!("{value:.decimals$}")
+    } else {
+        format!("{value:.3e}")
+    }
 }
 
 pub(crate) fn check_value(what: &str, value: f64, positive: bool) -> Result<(), PatternError> {
@@ -184,4 +204,25 @@ pub(crate) fn bbox(points: &[Vector2<f64>]) -> (Vector2<f64>, Vector2<f64>) {
     points
         .iter()
         .fold((first, first), |(lo, hi), p| (lo.inf(p), hi.sup(p)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sizes read as typed, and an absurd one in exponent form instead of
+    /// three hundred digits.
+    #[test]
+    fn a_pattern_too_large_is_told_in_readable_numbers() {
+        let err = PatternError::DoesNotFit {
+            w_um: 2e300,
+            h_um: 115.25,
+            aw_um: 120.0,
+            ah_um: 100.0,
+        };
+        assert_eq!(
+            err.to_string(),
+            "pattern of 2.000e300 x 115.2 um does not fit the reachable area of 120.0 x 100.0 um"
+        );
+    }
 }
