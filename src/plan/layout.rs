@@ -85,8 +85,12 @@ pub enum LayoutError {
     /// A particle far outside the field: coordinates in another unit or
     /// from another origin, most often.
     #[error(
-        "layout: particle {id} at ({x_um:.3}, {y_um:.3}) um lies outside the {width_um:?} x {height_um:?} um field \
-         (positions are in um from the field's lower-left corner)"
+        "layout: particle {id} at ({}, {}) um lies outside the {} x {} um field \
+         (positions are in um from the field's lower-left corner)",
+        um_text(*.x_um, 3),
+        um_text(*.y_um, 3),
+        um_text(*.width_um, 1),
+        um_text(*.height_um, 1)
     )]
     OutsideField {
         /// Particle id.
@@ -102,7 +106,10 @@ pub enum LayoutError {
     },
     /// A particle wider than the field it lies in.
     #[error(
-        "layout: particle {id} radius_um {radius_um:?} is too large for the {width_um:?} x {height_um:?} um field"
+        "layout: particle {id} radius_um {} is too large for the {} x {} um field",
+        um_text(*.radius_um, 3),
+        um_text(*.width_um, 1),
+        um_text(*.height_um, 1)
     )]
     LargerThanField {
         /// Particle id.
@@ -141,6 +148,17 @@ const OVERLAP_TOLERANCE_M: f64 = 1e-9;
 /// no part within a radius of the field, which is a layout in the wrong
 /// unit or origin rather than a particle of this field.
 const OUTSIDE_FIELD_RADII: f64 = 2.0;
+
+/// `value` with `decimals` decimals, or in exponent form when a mistyped
+/// input (a position, an --at or a --pitch-um of 1e300) makes it too long
+/// to read: the planner's error messages print sizes with it.
+pub(crate) fn um_text(value: f64, decimals: usize) -> String {
+    if value.abs() < 1e9 || !value.is_finite() {
+        format!("{value:.decimals$}")
+    } else {
+        format!("{value:.3e}")
+    }
+}
 
 pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
     let bad = !value.is_finite() || (positive && value <= 0.0);
@@ -208,13 +226,11 @@ impl Layout {
     /// [`OUTSIDE_FIELD_RADII`] of its radii beyond an edge.
     fn check_in_field(&self, p: &Particle) -> Result<(), LayoutError> {
         let [w, h] = self.field_m;
-        // To the nanometre, as a user wrote them (120, not 119.99999999999999).
-        let um = |m: f64| (m * UM_PER_M * 1e3).round() / 1e3;
-        let (width_um, height_um) = (um(w), um(h));
+        let (width_um, height_um) = (w * UM_PER_M, h * UM_PER_M);
         if 2.0 * p.radius_m > w.min(h) {
             return Err(LayoutError::LargerThanField {
                 id: p.id,
-                radius_um: um(p.radius_m),
+                radius_um: p.radius_m * UM_PER_M,
                 width_um,
                 height_um,
             });
@@ -415,5 +431,12 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("outside the 120.0 x 100.0 um field"), "{err}");
+        // A mistyped 1e300 is told in exponent form, not in 300 digits.
+        let text = sample().to_json().replace("30.5", "1e300");
+        let err = Layout::from_json(&text, "mem").unwrap_err().to_string();
+        assert!(
+            err.contains("particle 7 at (1.000e300, 20.000) um"),
+            "{err}"
+        );
     }
 }

@@ -10,6 +10,7 @@ pub mod site_list;
 pub mod svg_path;
 pub mod transform;
 
+use crate::plan::layout::um_text;
 use nalgebra::Vector2;
 
 /// A target position for one particle.
@@ -121,16 +122,6 @@ pub enum PatternError {
         /// What went wrong.
         message: String,
     },
-}
-
-/// `value` with `decimals` decimals, or in exponent form when a mistyped
-/// input (an --at or --pitch-um of 1e300) makes it too long to read.
-fn um_text(value: f64, decimals: usize) -> String {
-    if value.abs() < 1e9 || !value.is_finite() {
-        format!("{value:.decimals$}")
-    } else {
-        format!("{value:.3e}")
-    }
 }
 
 pub(crate) fn check_value(what: &str, value: f64, positive: bool) -> Result<(), PatternError> {
