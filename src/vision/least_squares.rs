@@ -145,7 +145,8 @@ where
         samples.len(),
         init,
         max_iterations,
-        (&[], &never_give_up),
+        &[],
+        &never_give_up,
         &mut problem,
     )
 }
@@ -190,7 +191,8 @@ pub fn levenberg_marquardt_with<const N: usize>(
     n_samples: usize,
     init: SVector<f64, N>,
     max_iterations: usize,
-    (watched, give_up): (&[usize], GiveUp<N>),
+    watched: &[usize],
+    give_up: GiveUp<N>,
     problem: &mut impl Evaluation<N>,
 ) -> Result<FitOutcome<N>, FitError> {
     if n_samples <= N {
@@ -393,7 +395,8 @@ mod tests {
                 samples.len(),
                 SVector::<f64, 2>::new(1.0, 0.1),
                 50,
-                (&[], give_up),
+                &[],
+                give_up,
                 &mut problem,
             )
         };

@@ -245,7 +245,8 @@ fn fit_ring(
         win.len(),
         init,
         RING_MAX_ITERATIONS,
-        (&[0, 1, 6], &give_up),
+        &[0, 1, 6],
+        &give_up,
         &mut WindowModel::ring(&win),
     )
     .map_err(|e| match e {
@@ -318,7 +319,8 @@ fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, Pro
         win.len(),
         init,
         30,
-        (&[0, 1, 4], &never_give_up),
+        &[0, 1, 4],
+        &never_give_up,
         &mut WindowModel::spot(&win),
     )?;
     let p = fit.params;
