@@ -100,7 +100,7 @@ impl Scheduler<'_> {
         let added = |s: &Vector2<f64>| (s - from).norm() + (site - s).norm() - (site - from).norm();
         let own = Some(self.moves[k].site_index);
         // The ring is found only when no spot on the way does.
-        let ring = std::iter::once(()).flat_map(|()| {
+        let ring = std::iter::once_with(|| {
             let ring = crate::plan::parking::ring_off_sites(
                 from,
                 r,
@@ -111,8 +111,10 @@ impl Scheduler<'_> {
             let mut by_added: Vec<(f64, Vector2<f64>)> =
                 ring.into_iter().map(|s| (added(&s), s)).collect();
             by_added.sort_by(|a, b| a.0.total_cmp(&b.0));
-            by_added.into_iter().map(|(_, s)| s)
-        });
+            by_added
+        })
+        .flatten()
+        .map(|(_, s)| s);
         self.toward_site(k)
             .chain(ring)
             .find(|s| {
