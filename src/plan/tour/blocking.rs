@@ -169,12 +169,45 @@ impl Blocking {
     }
 }
 
+/// Which constraints a study's relaxed tour ignores, to show what each one
+/// costs in tip travel (docs/plan.md, the eleventh and twenty-third passes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Relaxation {
+    /// Every collision: only each particle's own moves keep their sequence.
+    Collisions,
+    /// A moving particle where it starts: the ceiling of any first leg that
+    /// takes particles out of other pushes' way, were such legs free.
+    MovingStarts,
+    /// A moving particle where its last move leaves it (a filled site, or
+    /// its parking spot).
+    FinalPlaces,
+}
+
 impl Blocking {
-    /// The same moves with only their sequence per particle kept (no
-    /// collision constraint): the relaxation the study compares against.
-    pub fn sequence_only(&self) -> Blocking {
+    /// The same moves with the constraints `relaxation` names dropped.
+    pub fn relaxed(&self, relaxation: Relaxation) -> Blocking {
+        let dropped = |q: usize| -> u64 {
+            let last = self.last_state[q];
+            match relaxation {
+                Relaxation::Collisions => u64::MAX,
+                Relaxation::MovingStarts if last > 0 => 1,
+                Relaxation::FinalPlaces if last > 0 => 1u64 << last,
+                _ => 0,
+            }
+        };
+        let blocked_by = self
+            .blocked_by
+            .iter()
+            .map(|masks| {
+                masks
+                    .iter()
+                    .map(|&(q, mask)| (q, mask & !dropped(q)))
+                    .filter(|&(_, mask)| mask != 0)
+                    .collect()
+            })
+            .collect();
         Blocking {
-            blocked_by: vec![Vec::new(); self.blocked_by.len()],
+            blocked_by,
             ..self.clone()
         }
     }

@@ -20,7 +20,7 @@ use super::layout::Layout;
 use super::occupancy::Occupancy;
 use super::pushes::{landing_point, tip_end};
 use super::{PlanConfig, Step};
-use blocking::Blocking;
+use blocking::{Blocking, Relaxation};
 use nalgebra::Vector2;
 use search::{PathProblem, SearchBudget, shortest_path};
 
@@ -87,8 +87,15 @@ pub struct TourStudy {
     pub given_m: f64,
     /// Travel after the constrained search.
     pub constrained_m: f64,
-    /// Travel after the same search without collision constraints.
+    /// Travel after the same search, from the constrained order, without
+    /// collision constraints.
     pub unconstrained_m: f64,
+    /// The same without the constraints of moving particles where they
+    /// start ([`Relaxation::MovingStarts`]).
+    pub without_moving_starts_m: f64,
+    /// The same without the constraints of moving particles where they end
+    /// ([`Relaxation::FinalPlaces`]).
+    pub without_final_places_m: f64,
     /// Assignment bound of the constrained problem: LB_tip's relaxation with
     /// also the pairs forbidden where the second move would hit the first
     /// one's particle where it was just left (hops only, no standoffs).
@@ -99,7 +106,7 @@ pub struct TourStudy {
     /// True when `optimal_m` is proven least (no layer of the DP was cut to a beam).
     pub exact: bool,
     /// True when the DP's order replays free of collisions (it must: the
-    /// DP only tests the blocking masks).
+    /// DP only tests the blocking masks); false when no DP ran.
     pub optimal_replays: bool,
     /// States the DP kept, in total over its layers, and in its largest layer.
     pub dp_states: (usize, usize),
@@ -114,26 +121,31 @@ pub const STUDY_DP: exact::DpBudget = exact::DpBudget {
     prune: true,
 };
 
-/// Measures [`TourStudy`] for `steps` (pushes in a collision-free order);
-/// None when the pushes do not split into moves.
+/// Measures [`TourStudy`] for `steps` (pushes in a collision-free order),
+/// with the DP when `dp` gives it a budget; None when the pushes do not
+/// split into moves. Each relaxed search starts from the constrained
+/// search's order (valid without any constraint), so it is never longer.
 pub fn study(
     steps: &[Step],
     layout: &Layout,
     tip_start: Option<Vector2<f64>>,
     config: &PlanConfig,
+    dp: Option<exact::DpBudget>,
 ) -> Option<TourStudy> {
     let moves = moves_of(steps, layout, config)?;
     let blocking = Blocking::new(&moves, steps, layout, config)?;
-    let free = blocking.sequence_only();
     let (lands, ends) = endpoints(&moves);
-    let mut problem = PathProblem::new(&lands, &ends, tip_start, &blocking);
+    let problem = PathProblem::new(&lands, &ends, tip_start, &blocking);
     let given = identity(moves.len());
     let given_m = problem.travel(&given);
-    let searched = shortest_path(&problem, given.clone(), budget());
+    let searched = shortest_path(&problem, given, budget());
     let constrained_m = problem.travel(&searched);
-    let dp = exact::optimal_path(&problem, &searched, STUDY_DP);
-    problem.blocking = &free;
-    let unconstrained_m = problem.travel(&shortest_path(&problem, given, budget()));
+    let dp = dp.and_then(|budget| exact::optimal_path(&problem, &searched, budget));
+    let relaxed_m = |relaxation: Relaxation| {
+        let relaxed = blocking.relaxed(relaxation);
+        let problem = PathProblem::new(&lands, &ends, tip_start, &relaxed);
+        problem.travel(&shortest_path(&problem, searched.clone(), budget()))
+    };
     let constrained_bound_m =
         crate::plan::bounds::path_assignment_bound(&lands, &ends, tip_start, |i, j| {
             !blocking.may_follow(i, j)
@@ -142,7 +154,9 @@ pub fn study(
         constrained_bound_m,
         given_m,
         constrained_m,
-        unconstrained_m,
+        unconstrained_m: relaxed_m(Relaxation::Collisions),
+        without_moving_starts_m: relaxed_m(Relaxation::MovingStarts),
+        without_final_places_m: relaxed_m(Relaxation::FinalPlaces),
         optimal_m: dp.as_ref().map(|d| d.travel_m),
         exact: dp.as_ref().is_some_and(|d| d.exact),
         optimal_replays: dp
@@ -387,5 +401,48 @@ mod tests {
         assert!(problem.valid(&best));
         assert!(collision_free(&steps, &moves, &layout, &cfg, &best));
         assert!(problem.travel(&best) <= problem.travel(&given) + 1e-12);
+    }
+
+    /// Each relaxation drops its own class of constraint and keeps the
+    /// others: move 0 crosses particle 1's start, move 3 crosses particle
+    /// 2's final place, move 4 crosses particle 4, which never moves.
+    #[test]
+    fn each_relaxation_drops_only_its_own_constraints() {
+        let cfg = PlanConfig::default();
+        let l = layout(&[
+            v(20.0, 50.0),
+            v(50.0, 50.0),
+            v(120.0, 180.0),
+            v(80.0, 140.0),
+            v(170.0, 60.0),
+            v(170.0, 20.0),
+        ]);
+        let steps = [
+            push(0, v(20.0, 50.0), v(90.0, 50.0), &cfg),
+            push(1, v(50.0, 50.0), v(50.0, 110.0), &cfg),
+            push(2, v(120.0, 180.0), v(120.0, 140.0), &cfg),
+            push(3, v(80.0, 140.0), v(160.0, 140.0), &cfg),
+            push(5, v(170.0, 20.0), v(170.0, 100.0), &cfg),
+        ];
+        let moves = moves_of(&steps, &l, &cfg).unwrap();
+        let full = Blocking::new(&moves, &steps, &l, &cfg).unwrap();
+        let allowed = |b: &Blocking, order: &[usize]| b.allows(order, &mut [0; 6]);
+        let starts = full.relaxed(Relaxation::MovingStarts);
+        let finals = full.relaxed(Relaxation::FinalPlaces);
+        let none = full.relaxed(Relaxation::Collisions);
+        for b in [&full, &starts, &finals, &none] {
+            assert!(allowed(b, &[1, 0, 3, 2]), "the valid order is refused");
+        }
+        assert!(!allowed(&full, &[0, 1]) && !allowed(&finals, &[0, 1]));
+        assert!(allowed(&starts, &[0, 1]) && allowed(&none, &[0, 1]));
+        assert!(!allowed(&full, &[2, 3]) && !allowed(&starts, &[2, 3]));
+        assert!(allowed(&finals, &[2, 3]) && allowed(&none, &[2, 3]));
+        for b in [&full, &starts, &finals] {
+            assert!(
+                !allowed(b, &[4]),
+                "an idle particle's constraint was dropped"
+            );
+        }
+        assert!(allowed(&none, &[4]));
     }
 }
