@@ -465,12 +465,12 @@ fn push_excess_study_on_cmu() {
             v.len()
         );
     };
-    print_spread("planning time per layout, ms", plan_ms);
-    print_spread("push ratio", ratio);
-    print_spread("clearing bound / LB_push", clearing_lb);
-    print_spread("push / clearing bound", over_clearing);
-    print_spread("executed assignment above LB_push (/ LB_push)", assign_x);
-    print_spread("path above the executed straight lines (/ LB_push)", path_x);
+    show("planning time per layout, ms", plan_ms);
+    show("push ratio", ratio);
+    show("clearing bound / LB_push", clearing_lb);
+    show("push / clearing bound", over_clearing);
+    show("executed assignment above LB_push (/ LB_push)", assign_x);
+    show("path above the executed straight lines (/ LB_push)", path_x);
     eprintln!("buffer or waypoint pushes: {buffers}");
     eprintln!(
         "pushes of unassigned particles, mean per layout (/ LB_push): {:.4}",
