@@ -26,3 +26,27 @@ fn unknown_command_exits_non_zero() {
         .expect("run nanopush");
     assert!(!out.status.success());
 }
+
+/// Output piped into a reader that has gone (`| head`) ends the process
+/// quietly, as for any Unix tool, not with a panic and a backtrace.
+#[test]
+fn a_closed_output_pipe_is_not_a_panic() {
+    let mut child = nanopush()
+        .args(["simulate", "--scene", "calib/paper-ps-ito.toml"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run nanopush");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait for nanopush");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_ne!(out.status.code(), Some(101), "{stderr}");
+    use std::os::unix::process::ExitStatusExt;
+    assert_eq!(
+        out.status.signal(),
+        Some(13),
+        "not ended by SIGPIPE: {stderr}"
+    );
+}

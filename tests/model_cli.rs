@@ -229,7 +229,9 @@ fn bad_flags_exit_non_zero() {
 #[test]
 fn study_writes_a_table_that_reads_back() {
     let dir = tempfile::tempdir().unwrap();
+    // Run from outside the project folder: the default scenes are built in.
     let out = nanopush()
+        .current_dir(dir.path())
         .args(["study", "model", "--repeats", "1", "--out"])
         .arg(dir.path())
         .output()
@@ -252,6 +254,39 @@ fn study_writes_a_table_that_reads_back() {
         nanopush::model::study::from_csv(&nanopush::model::study::to_csv(&rows)).unwrap(),
         rows
     );
+}
+
+/// Requests that cannot run fail at once, say why, and write nothing.
+#[test]
+fn bad_study_and_demo_requests_fail_before_writing_anything() {
+    let dir = tempfile::tempdir().unwrap();
+    let fails = |args: &[&str], says: &str| {
+        let out = nanopush().args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    };
+    fails(&["study", "model", "--repeats", "0"], "1..=10000");
+    fails(
+        &["study", "model", "--repeats", "18446744073709551615"],
+        "--repeats",
+    );
+    let a_file = dir.path().join("a-file");
+    std::fs::write(&a_file, "").unwrap();
+    let a_file = a_file.to_str().unwrap();
+    fails(
+        &["study", "model", "--repeats", "1", "--out", a_file],
+        a_file,
+    );
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    fails(
+        &["study", "assemble", "--text", "é", "--out", out],
+        "unknown glyph",
+    );
+    fails(&["demo", "--text", "é", "--out", out], "unknown glyph");
+    assert!(!Path::new(out).exists(), "a refused request wrote {out}");
 }
 
 #[test]

@@ -39,7 +39,8 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
             k += 1;
         }
     }
-    std::fs::write(dir.path().join("stage.csv"), csv).unwrap();
+    // Saved as a spreadsheet saves UTF-8: with a byte-order mark.
+    std::fs::write(dir.path().join("stage.csv"), format!("\u{feff}{csv}")).unwrap();
     let exe = env!("CARGO_BIN_EXE_nanopush");
     let out = Command::new(exe)
         .args(["calibrate", "--recording"])
@@ -56,6 +57,29 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
     let err_px = ((s[0] - t[0]).hypot(s[1] - t[1])) / truth.m_per_px();
     println!("map error at the frame centre: {err_px:.3} px");
     assert!(err_px < 0.3, "{err_px}");
+
+    // A second fit keeps the first unless told, and never writes over an input.
+    let again = |extra: &[&str]| {
+        let out = Command::new(exe)
+            .args(["calibrate", "--recording"])
+            .arg(dir.path())
+            .args(extra)
+            .output()
+            .unwrap();
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stderr).to_string(),
+        )
+    };
+    let stage_csv = dir.path().join("stage.csv");
+    let before = std::fs::read(&stage_csv).unwrap();
+    let (ok, err) = again(&[]);
+    assert!(!ok && err.contains("--force"), "{err}");
+    let (ok, err) = again(&["--force", "--out", stage_csv.to_str().unwrap()]);
+    assert!(!ok && err.contains("stage.csv"), "{err}");
+    assert_eq!(std::fs::read(&stage_csv).unwrap(), before);
+    let (ok, err) = again(&["--force"]);
+    assert!(ok, "{err}");
 
     let det = Command::new(exe)
         .arg("detect")
@@ -87,6 +111,13 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("stage.csv"));
+    let out = Command::new(exe)
+        .args(["calibrate", "--threshold-px=0", "--recording"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--threshold-px must be a positive"));
     std::fs::write(dir.path().join("x.png"), b"nope").unwrap();
     let out = Command::new(exe)
         .arg("detect")

@@ -19,9 +19,13 @@ pub struct Args {
     /// Recording folder: frames plus stage.csv (frame,x_um,y_um).
     #[arg(long)]
     pub recording: PathBuf,
-    /// Output calibration TOML (default DIR/calibration.toml).
+    /// Output calibration TOML (default DIR/calibration.toml); an existing
+    /// file is kept unless --force.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace an existing output file (never one of the recording's inputs).
+    #[arg(long)]
+    pub force: bool,
     /// RANSAC inlier threshold, pixels.
     #[arg(long, default_value_t = 2.0)]
     pub threshold_px: f64,
@@ -40,6 +44,8 @@ pub struct StageRow {
 
 /// Parses stage.csv text; errors name the line.
 pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
+    // A spreadsheet's UTF-8 export starts with a byte-order mark.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -81,13 +87,51 @@ pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
         .collect()
 }
 
+/// Refuses an output that would overwrite one of the recording's inputs,
+/// or an existing file without `force` (a good calibration is not lost to
+/// a re-run).
+fn check_output(
+    out: &Path,
+    inputs: impl Iterator<Item = PathBuf>,
+    force: bool,
+) -> anyhow::Result<()> {
+    if !out.exists() {
+        return Ok(());
+    }
+    let same = |p: &Path| std::fs::canonicalize(p).ok() == std::fs::canonicalize(out).ok();
+    if let Some(input) = inputs.into_iter().find(|p| same(p)) {
+        anyhow::bail!(
+            "--out {} is the recording's own {}: choose another file",
+            out.display(),
+            input.display()
+        );
+    }
+    anyhow::ensure!(
+        force,
+        "{} exists: pass --force to replace it, or --out another file",
+        out.display()
+    );
+    Ok(())
+}
+
 /// Detects the tip in every frame of the recording, fits and writes the map.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.threshold_px.is_finite() && args.threshold_px > 0.0,
+        "--threshold-px must be a positive number of pixels, got {}",
+        args.threshold_px
+    );
     let dir: &Path = &args.recording;
     let csv = dir.join("stage.csv");
     let text =
         std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
     let rows = parse_stage_csv(&text)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| dir.join("calibration.toml"));
+    let inputs = std::iter::once(csv).chain(rows.iter().map(|r| dir.join(&r.frame)));
+    check_output(&out, inputs, args.force)?;
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();
@@ -124,10 +168,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pixels.len(),
         fit.rms_px
     );
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dir.join("calibration.toml"));
     std::fs::write(&out, c.to_toml(Some((fit.rms_px, fit.inliers))))
         .with_context(|| format!("writing {}", out.display()))?;
     println!("wrote {}", out.display());

@@ -8,6 +8,7 @@ use super::assemble;
 use super::simulate::simulate_scene;
 use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
+use crate::plan::Pattern;
 use anyhow::Context;
 use clap::Parser;
 use std::path::{Path, PathBuf};
@@ -41,6 +42,7 @@ struct AssembleCommand {
 
 /// Simulates the paper push, then assembles the pattern; prints where everything is.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    Pattern::from_text(&args.text, 1e-5)?;
     let push_dir = args.out.join("paper-push");
     paper_push(&args.scene, &push_dir)?;
     let assemble_dir = args.out.join("assemble");
@@ -64,15 +66,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "assembling '{}' on the simulated rig (seed {})",
         args.text, args.seed
     );
-    // A run that stops short is still a demo of the loop: its report says why.
+    // A run that stops short is still a demo of the loop: its report says
+    // why. One that never started (a bad --text) has no report to show.
+    let report = assemble_dir.join("report.md");
     if let Err(e) = assemble::run(command.args) {
+        if !report.is_file() {
+            return Err(e.context("the assembly did not start"));
+        }
         println!("the assembly stopped short: {e:#}");
     }
     println!("paper-scene push: {}", push_dir.display());
-    println!(
-        "assembly report:  {}",
-        assemble_dir.join("report.md").display()
-    );
+    println!("assembly report:  {}", report.display());
     Ok(())
 }
 

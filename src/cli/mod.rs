@@ -90,6 +90,7 @@ enum RigCommand {
 
 /// Parses the command line, runs the command and maps errors to a non-zero exit.
 pub fn main() -> ExitCode {
+    end_quietly_on_closed_pipe();
     let cli = Cli::parse();
     show_warnings();
     match run(cli) {
@@ -98,6 +99,20 @@ pub fn main() -> ExitCode {
             eprintln!("error: {}", error_message::error_message(&err));
             ExitCode::FAILURE
         }
+    }
+}
+
+/// `nanopush detect frame.png | head` ends the way `ls | head` does, not
+/// with a panic and a backtrace: Rust ignores SIGPIPE, so the default is
+/// put back. Safe for the rig: std's sockets write with MSG_NOSIGNAL, a
+/// serial line raises no SIGPIPE, and the hardware commands print to
+/// stdout only once the run and its journal are done.
+fn end_quietly_on_closed_pipe() {
+    use nix::sys::signal::{SigHandler, Signal, signal};
+    // SAFETY: called first thing in main, before any other thread exists;
+    // SIG_DFL installs no handler code.
+    if let Err(e) = unsafe { signal(Signal::SIGPIPE, SigHandler::SigDfl) } {
+        eprintln!("warning: SIGPIPE left ignored ({e})");
     }
 }
 

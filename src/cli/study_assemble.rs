@@ -7,6 +7,8 @@
 //! panics or is killed cannot take the study down, and the study sees exactly
 //! what a user sees.
 
+use crate::model::Scene;
+use crate::plan::Pattern;
 use anyhow::{Context, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -108,9 +110,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    if !args.scene.is_file() {
-        bail!("scene {} does not exist", args.scene.display());
-    }
+    // Checked once here: each run would fail the same way, after the table's header.
+    Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    Pattern::from_text(&args.text, 1e-5)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let exe = std::env::current_exe().context("locating the nanopush binary")?;

@@ -21,9 +21,9 @@ pub struct Args {
     /// Scene files (default: the paper scene and two hard scenes in calib/).
     #[arg(long = "scene")]
     pub scenes: Vec<PathBuf>,
-    /// Timing repeats per setting (median reported).
-    #[arg(long, default_value_t = 51)]
-    pub repeats: usize,
+    /// Timing repeats per setting (median reported), 1 to 10,000.
+    #[arg(long, default_value_t = 51, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    pub repeats: u32,
 }
 
 /// Runs the study, prints the table, optionally writes it.
@@ -38,7 +38,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let s = Scene::load(p).with_context(|| format!("scene {}", p.display()))?;
         scenes.push((s.name.clone(), s));
     }
-    let rows = run_study(&scenes, args.repeats).context("study failed")?;
+    let rows = run_study(&scenes, args.repeats as usize).context("study failed")?;
     print!("{}", to_markdown(&rows));
     if let Some(dir) = &args.out {
         for f in write_outputs(dir, &rows).map_err(anyhow::Error::msg)? {

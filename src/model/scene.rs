@@ -280,15 +280,32 @@ fn reduced_modulus(a: &(f64, f64), b: &(f64, f64)) -> f64 {
 /// The commands' default scene, relative to the project folder.
 pub const DEFAULT_SCENE_PATH: &str = "calib/paper-ps-ito.toml";
 
-/// The default scene as built in, for commands run outside the project folder.
-const DEFAULT_SCENE_TOML: &str = include_str!("../../calib/paper-ps-ito.toml");
+/// The scenes commands use by default, built in for commands run outside
+/// the project folder (path relative to it, text).
+const BUILT_IN_SCENES: [(&str, &str); 3] = [
+    (
+        DEFAULT_SCENE_PATH,
+        include_str!("../../calib/paper-ps-ito.toml"),
+    ),
+    (
+        "calib/hard-nanoparticle-sliding.toml",
+        include_str!("../../calib/hard-nanoparticle-sliding.toml"),
+    ),
+    (
+        "calib/hard-high-adhesion.toml",
+        include_str!("../../calib/hard-high-adhesion.toml"),
+    ),
+];
 
 impl Scene {
-    /// Reads and validates a scene file. The default scene's path falls back to
-    /// the built-in copy when it is not there (a command run from another folder).
+    /// Reads and validates a scene file. A built-in scene's path falls back
+    /// to the built-in copy when it is not there (a command run from another
+    /// folder).
     pub fn load(path: &Path) -> Result<Scene, ModelError> {
-        if path == Path::new(DEFAULT_SCENE_PATH) && !path.exists() {
-            return Scene::from_toml_str(DEFAULT_SCENE_TOML);
+        if !path.exists()
+            && let Some((_, text)) = BUILT_IN_SCENES.iter().find(|(p, _)| path == Path::new(p))
+        {
+            return Scene::from_toml_str(text);
         }
         let text = std::fs::read_to_string(path).map_err(|e| {
             ModelError::scene(path.display().to_string(), format!("cannot read: {e}"))
