@@ -195,3 +195,28 @@ fn case_9_extreme_magnitudes_stay_finite() {
     let r = simulate_push(&big, &big.push).unwrap();
     assert!(r.force_per_travel_n_per_m.is_finite());
 }
+
+/// A push longer than any stage's travel (a unit slip in the duration or
+/// the speed) is refused by name; at 1e300 s it once overflowed into an
+/// onset of 3.9e238 s that looked like a result.
+#[test]
+fn a_push_longer_than_any_stage_travel_is_refused() {
+    use nanopush::model::error::ModelError;
+    let s = paper();
+    for (duration_s, speed_m_per_s) in [(1e300, s.push.speed_m_per_s), (10.0, 1e300), (2e6, 1e-6)] {
+        let mut p = s.push;
+        p.duration_s = duration_s;
+        p.speed_m_per_s = speed_m_per_s;
+        match simulate_push_with(&s, &p, &SolverSettings::default()) {
+            Err(ModelError::Push { field, problem }) => {
+                assert_eq!(field, "duration_s");
+                assert!(problem.contains("unit slip"), "{problem}");
+            }
+            other => panic!("{duration_s} s at {speed_m_per_s} m/s: {other:?}"),
+        }
+    }
+    let mut p = s.push;
+    p.duration_s = 1e5; // 0.1 m at 1 um/s: long, but a push
+    p.speed_m_per_s = 1e-6;
+    assert!(simulate_push_with(&s, &p, &SolverSettings::default()).is_ok());
+}

@@ -78,3 +78,63 @@ fn black_and_saturated_frames_give_nothing() {
     };
     assert!(detect_particles(&Frame::new(64, 64, vec![1.0; 4096], 8).unwrap(), &bad).is_err());
 }
+
+/// Settings that make no sense at the frame's scale are refused by the
+/// settings the user gave: `--radius-um` at a calibration's scale (not a
+/// "diameter hint" they never typed), and a Crocker-Grier separation below
+/// a pixel (which found each particle many times over).
+#[test]
+fn detect_refuses_settings_by_the_flags_the_user_gave() {
+    use nanopush::calib::affine::AffineCalibration;
+    let dir = tempfile::tempdir().unwrap();
+    let frame = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/real/brightfield/bf_0000.png"
+    );
+    let detect = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .arg("detect")
+            .arg(frame)
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let calib = |um_per_px: f64| {
+        let c = AffineCalibration::from_scale_rotation(um_per_px * 1e-6, 0.0, [0.0, 0.0]);
+        let p = write(
+            &dir,
+            &format!("calib-{um_per_px}.toml"),
+            c.to_toml(None).as_bytes(),
+        );
+        p.to_str().unwrap().to_string()
+    };
+    for (radius, um_per_px) in [("5", 25.0), ("-4", 0.5)] {
+        let out = detect(&[
+            "--calib",
+            &calib(um_per_px),
+            &format!("--radius-um={radius}"),
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success(),
+            "--radius-um {radius} at {um_per_px} um/px: {err}"
+        );
+        assert!(
+            err.contains(&format!("--radius-um {radius}")) && !err.contains("hint"),
+            "{err}"
+        );
+    }
+    let out = detect(&[
+        "--locator",
+        "crocker-grier",
+        "--diameter-px",
+        "9",
+        "--separation-px",
+        "0",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("separation 0 px"),
+        "{err}"
+    );
+}

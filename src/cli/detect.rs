@@ -130,6 +130,20 @@ fn crocker_grier_analysis(
     Ok(FrameAnalysis { particles, tip })
 }
 
+/// The diameter hint in pixels for `--radius-um` at the calibration's
+/// scale; an error names both when they give less than 2 px (a wrong
+/// calibration or radius, not a diameter the user typed).
+fn diameter_from_radius(radius_um: f64, m_per_px: f64) -> anyhow::Result<f64> {
+    let diameter_px = 2.0 * radius_um * 1e-6 / m_per_px;
+    anyhow::ensure!(
+        radius_um.is_finite() && radius_um > 0.0 && diameter_px.is_finite() && diameter_px >= 2.0,
+        "--radius-um {radius_um} at the calibration's {:.4e} um/px is a particle {diameter_px:.3} px across; \
+         the detector needs at least 2 px: check --radius-um and the calibration",
+        m_per_px * 1e6
+    );
+    Ok(diameter_px)
+}
+
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let frame = load_frame(&args.frame, args.channel)
@@ -143,7 +157,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let diameter_px = match (args.diameter_px, args.radius_um, &calib) {
         (Some(d), _, _) => d,
-        (None, Some(r), Some(c)) => 2.0 * r * 1e-6 / c.m_per_px(),
+        (None, Some(r), Some(c)) => diameter_from_radius(r, c.m_per_px())?,
         _ => DetectSettings::default().diameter_px,
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);

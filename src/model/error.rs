@@ -35,6 +35,10 @@ pub enum ModelError {
         /// What is wrong with it.
         problem: String,
     },
+    /// A scene file could not be read ("cannot read: ...") or parsed
+    /// ("line 3: ..."); callers name the file.
+    #[error("{0}")]
+    SceneText(String),
     /// A push parameter was invalid.
     #[error("push parameter `{field}`: {problem}")]
     Push {

@@ -119,8 +119,24 @@ fn check_params(p: &PushParams) -> Result<(), ModelError> {
             problem: format!("must be positive, got {}", p.duration_s),
         });
     }
+    let travel_m = p.speed_m_per_s * p.duration_s;
+    if travel_m > MAX_PUSH_TRAVEL_M {
+        return Err(ModelError::Push {
+            field: "duration_s",
+            problem: format!(
+                "{:.3e} s at {:.3e} um/s is a push of {travel_m:.3e} m; no stage travels more than {MAX_PUSH_TRAVEL_M} m (a unit slip?)",
+                p.duration_s,
+                p.speed_m_per_s * 1e6
+            ),
+        });
+    }
     Ok(())
 }
+
+/// Longest push the model accepts: beyond any stage's travel, a duration
+/// or speed that large is a unit slip, and at 1e300 s the sums overflowed
+/// into a plausible-looking but wrong onset.
+pub const MAX_PUSH_TRAVEL_M: f64 = 1.0;
 
 impl<'a> Prepared<'a> {
     fn new(

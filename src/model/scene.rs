@@ -307,9 +307,8 @@ impl Scene {
         {
             return Scene::from_toml_str(text);
         }
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            ModelError::scene(path.display().to_string(), format!("cannot read: {e}"))
-        })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ModelError::SceneText(format!("cannot read: {e}")))?;
         Scene::from_toml_str(&text)
     }
 
@@ -317,7 +316,7 @@ impl Scene {
     pub fn from_toml_str(text: &str) -> Result<Scene, ModelError> {
         let raw: RawScene = toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
-            ModelError::scene(format!("scene (line {})", line_of(text, e.span())), msg)
+            ModelError::SceneText(format!("line {}: {msg}", line_of(text, e.span())))
         })?;
         raw.validate()
     }

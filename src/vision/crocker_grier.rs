@@ -109,7 +109,7 @@ impl LocateParams {
             return Err(LocateError::Minmass(self.minmass));
         }
         let sep = self.separation();
-        if !(sep.is_finite() && sep >= 0.0) {
+        if !(sep.is_finite() && sep >= 1.0) {
             return Err(LocateError::Separation(sep));
         }
         let smoothing = self.smoothing_size();
@@ -143,8 +143,9 @@ pub enum LocateError {
     /// `minmass` must be finite and >= 0.
     #[error("minmass {0} must be finite and >= 0")]
     Minmass(f64),
-    /// `separation` must be finite and >= 0.
-    #[error("separation {0} px must be finite and >= 0")]
+    /// `separation` must be finite and >= 1 px: below a pixel, the peaks of
+    /// one particle are not merged and it is found many times over.
+    #[error("separation {0} px must be finite and at least 1 px")]
     Separation(f64),
     /// The noise blur must be finite, >= 0 and smaller than the boxcar.
     #[error(
@@ -894,6 +895,13 @@ mod tests {
         assert!(matches!(
             bad(LocateParams {
                 separation_px: Some(-1.0),
+                ..LocateParams::new(9)
+            }),
+            LocateError::Separation(_)
+        ));
+        assert!(matches!(
+            bad(LocateParams {
+                separation_px: Some(0.0),
                 ..LocateParams::new(9)
             }),
             LocateError::Separation(_)
