@@ -138,3 +138,20 @@ fn detect_refuses_settings_by_the_flags_the_user_gave() {
         "{err}"
     );
 }
+
+/// A file that is not a video gets our one-line error, not a page of
+/// OpenCV's backend errors before it.
+#[test]
+fn a_broken_video_is_one_line_of_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let clip = write(&dir, "clip.avi", b"not a video");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .arg("detect")
+        .arg(&clip)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("clip.avi holds no frames"), "{err}");
+}

@@ -272,9 +272,10 @@ fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputErr
             source: std::io::Error::from(std::io::ErrorKind::NotFound),
         });
     }
-    let mut cap =
+    let mut cap = quietly(|| {
         opencv::videoio::VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
-            .map_err(|e| decode_error(path, e.to_string()))?;
+    })
+    .map_err(|e| decode_error(path, e.to_string()))?;
     let mut frames = Vec::new();
     let mut mat = Mat::default();
     while cap
@@ -287,6 +288,19 @@ fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputErr
         frames.push(mat_to_frame(&mat, path, channel)?);
     }
     Ok(frames)
+}
+
+/// Runs `f` with OpenCV's log silenced: trying its backends on a file that
+/// is not a video prints a page of GStreamer and image-sequence errors
+/// before our own one-line error says the same.
+fn quietly<T>(f: impl FnOnce() -> T) -> T {
+    use opencv::core::{LogLevel, set_log_level};
+    let before = set_log_level(LogLevel::LOG_LEVEL_SILENT);
+    let out = f();
+    if let Ok(level) = before {
+        let _ = set_log_level(level);
+    }
+    out
 }
 
 /// Writes a frame as a grey PNG of its own bit depth (counts clamped, rounded).
