@@ -274,3 +274,128 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
     assert_refused(&dry_run(&fixture, &first, &[]), "exists");
     assert_eq!(std::fs::read(first.join("dry-run.json")).unwrap(), kept);
 }
+
+mod deadline;
+
+/// `file` in `rec` with `line_start`'s line replaced by `line`.
+fn set_line(rec: &Path, file: &str, line_start: &str, line: &str) {
+    let p = rec.join(file);
+    let text = std::fs::read_to_string(&p).unwrap();
+    let out: Vec<&str> = text
+        .lines()
+        .map(|l| if l.starts_with(line_start) { line } else { l })
+        .collect();
+    std::fs::write(&p, out.join("\n") + "\n").unwrap();
+}
+
+/// A recording whose numbers cannot be right is refused when read, naming
+/// the file and the field, with a non-zero exit and nothing written: a
+/// field of no size or sites on top of each other used to give "nothing:
+/// planner: ..." on every frame and exit 0, a site 1e9 um away never
+/// ended, one 5 mm off the field was planned a push to, a coarse offset of
+/// 1e308 um drew ghost particles, and frames of two sizes failed only in
+/// the animation, after every frame.
+#[test]
+fn recordings_with_impossible_numbers_are_refused_on_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = root().join("fixtures/recordings/sim-L-seed6");
+    let spec = |line: &'static str| {
+        let key = line.split(' ').next().unwrap();
+        move |r: &Path| set_line(r, "recording.toml", key, line)
+    };
+    type Damage = Box<dyn Fn(&Path)>;
+    let cases: Vec<(&str, Damage, &str)> = vec![
+        (
+            "far site",
+            Box::new(spec("sites_um = [[1e9, 0.0], [5.0, 5.0]]")),
+            "recording.toml: sites_um: site 0 at (1.000e9, 0.000) um is not a finite position",
+        ),
+        (
+            "site off the field",
+            Box::new(spec("sites_um = [[-5000, 80]]")),
+            "recording.toml: sites_um: site 0 at (-5000.000, 80.000) um lies outside the 120.0 x 100.0 um field",
+        ),
+        (
+            "nan site",
+            Box::new(spec("sites_um = [[nan, 0.0], [5.0, 5.0]]")),
+            "sites_um: site 0 at (NaN, 0.000) um",
+        ),
+        (
+            "same site twice",
+            Box::new(spec("sites_um = [[50.0, 50.0], [50.0, 50.0]]")),
+            "sites_um: sites 0 and 1 overlap",
+        ),
+        (
+            "negative field",
+            Box::new(spec("field_um = [-120.0, 100.0]")),
+            "recording.toml: field_um is [-120.000, 100.000]",
+        ),
+        (
+            "nan field",
+            Box::new(spec("field_um = [nan, 100.0]")),
+            "field_um is [NaN, 100.000]",
+        ),
+        (
+            "empty field",
+            Box::new(spec("field_um = [0.0, 100.0]")),
+            "field_um is [0.000, 100.000]",
+        ),
+        (
+            "sheared calibration",
+            Box::new(|r: &Path| {
+                set_line(
+                    r,
+                    "calibration.toml",
+                    "pixel_to_stage_um",
+                    "pixel_to_stage_um = [[0.25, 0.5, -20.0], [0.0, -0.25, 120.0]]",
+                )
+            }),
+            "calibration.toml: pixel_to_stage_um has pixel axes 0.2500 and 0.5590 um long, 63.4 deg off perpendicular",
+        ),
+        (
+            "absurd offset",
+            Box::new(|r: &Path| {
+                let log = r.join("stage.jsonl");
+                let text = std::fs::read_to_string(&log).unwrap();
+                let line = text.lines().nth(2).unwrap();
+                let at = line.find("\"coarse_offset_um\"").unwrap();
+                let end = at + line[at..].find(']').unwrap() + 1;
+                let bad = format!(
+                    "{}\"coarse_offset_um\":[1e308,-1e308]{}",
+                    &line[..at],
+                    &line[end..]
+                );
+                std::fs::write(&log, text.replace(line, &bad)).unwrap();
+            }),
+            "stage.jsonl: line 3: coarse_offset_um is [1.000e308, -1.000e308]",
+        ),
+        (
+            "frames of two sizes",
+            Box::new(|r: &Path| {
+                let small =
+                    nanopush::vision::frame::Frame::new(200, 150, vec![100.0; 200 * 150], 8)
+                        .unwrap();
+                nanopush::vision::frame_input::save_png(&small, &r.join("frames/frame_00002.png"))
+                    .unwrap();
+            }),
+            "frames: frame_00002.png is 200x150 px but frame_00000.png is 560x560 px",
+        ),
+    ];
+    for (name, damage, needle) in cases {
+        let rec = dir.path().join(name.replace(' ', "-"));
+        let out = dir.path().join(format!("out-{}", name.replace(' ', "-")));
+        copy_dir(&fixture, &rec);
+        damage(&rec);
+        let args = [
+            "dry-run",
+            "--recording",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        let ran = deadline::nanopush_within(dir.path(), &args, 30);
+        assert!(!ran.ok, "{name}: accepted:\n{}", ran.stdout);
+        assert!(ran.stderr.contains(needle), "{name}: {}", ran.stderr);
+        assert!(!out.exists(), "{name}: {} was written", out.display());
+    }
+}

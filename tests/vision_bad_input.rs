@@ -155,3 +155,128 @@ fn a_broken_video_is_one_line_of_error() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("clip.avi holds no frames"), "{err}");
 }
+
+mod deadline;
+
+/// Runs `nanopush args` (at most 20 s) and returns its stderr, checking it failed.
+fn refused(dir: &std::path::Path, args: &[&str]) -> String {
+    let ran = deadline::nanopush_within(dir, args, 20);
+    assert!(
+        !ran.ok,
+        "nanopush {} succeeded: {}",
+        args.join(" "),
+        ran.stderr
+    );
+    ran.stderr
+}
+
+/// `synth frame` draws only a layout the planner would accept, and a
+/// radius flag that is a radius; a huge particle is refused at once
+/// rather than after minutes of computing its Cramer-Rao bound.
+#[test]
+fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = |name: &str, particles: &str| {
+        let text = format!(
+            r#"{{"schema":"nanopush.layout/1","field_um":[100,100],"particles":[{particles}]}}"#
+        );
+        write(&dir, name, text.as_bytes()).display().to_string()
+    };
+    let p = |id: u32, x: &str, y: &str, r: &str| {
+        format!(r#"{{"id":{id},"x_um":{x},"y_um":{y},"radius_um":{r}}}"#)
+    };
+    let out = dir.path().join("f.png").display().to_string();
+    let truth = dir.path().join("t.json").display().to_string();
+    let cases = [
+        (
+            layout("huge.json", &p(0, "50", "50", "1e4")),
+            "particle 0 radius_um 10000.000 is too large",
+        ),
+        (
+            layout("far.json", &p(2, "5000", "-50", "5")),
+            "particle 2 at (5000.000, -50.000) um",
+        ),
+        (
+            layout(
+                "twice.json",
+                &format!("{},{}", p(1, "20", "20", "5"), p(1, "60", "60", "5")),
+            ),
+            "particle id 1 appears twice",
+        ),
+        (
+            layout("e300.json", &p(0, "50", "50", "1e300")),
+            "particle 0 radius_um",
+        ),
+    ];
+    for (path, needle) in &cases {
+        let args = [
+            "synth", "frame", "--layout", path, "--truth", &truth, "--out", &out,
+        ];
+        let err = refused(dir.path(), &args);
+        assert!(err.contains(needle), "{path}: {err}");
+    }
+    for (r, needle) in [
+        ("nan", "--radius-px must be finite and > 0, got NaN"),
+        ("inf", "--radius-px must be finite and > 0, got inf"),
+        (
+            "1e4",
+            "--radius-px: its image is 20000.0 px across, larger than the 1024x1024 px frame",
+        ),
+    ] {
+        let err = refused(
+            dir.path(),
+            &[
+                "synth",
+                "frame",
+                "--n",
+                "3",
+                "--radius-px",
+                r,
+                "--out",
+                &out,
+            ],
+        );
+        assert!(err.contains(needle), "--radius-px {r}: {err}");
+    }
+    assert!(!dir.path().join("f.png").exists() && !dir.path().join("t.json").exists());
+}
+
+/// `study vision` checks its particles before the expensive bound: a
+/// radius wider than the frame and zero particles are refused, and a
+/// frame too small for the particles asked says how many it holds.
+#[test]
+fn study_vision_refuses_what_it_cannot_study() {
+    let dir = tempfile::tempdir().unwrap();
+    let study = [
+        "study",
+        "vision",
+        "--snr",
+        "8",
+        "--frames",
+        "1",
+        "--size-px",
+        "128",
+    ];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        study.iter().chain(extra).copied().collect()
+    };
+    let err = refused(
+        dir.path(),
+        &with(&["--radius-px", "1e4", "--particles", "5"]),
+    );
+    assert!(
+        err.contains(
+            "--radius-px: its image is 20000.0 px across, larger than the 128x128 px frame"
+        ),
+        "{err}"
+    );
+    let err = refused(dir.path(), &with(&["--particles", "0"]));
+    assert!(err.contains("--particles must be > 0"), "{err}");
+    let ran = deadline::nanopush_within(dir.path(), &with(&["--particles", "100000"]), 60);
+    assert!(ran.ok, "{}", ran.stderr);
+    let header = ran.stdout.lines().next().unwrap_or_default();
+    assert!(
+        header.contains("(of 100000 asked; no more fit) spheres"),
+        "{header}"
+    );
+}

@@ -9,7 +9,7 @@ use anyhow::Context;
 use serde::Serialize;
 
 use crate::render::microscope::{RenderSettings, render_frame};
-use crate::render::microscope_truth::random_scene;
+use crate::render::microscope_truth::{check_particle_fits, random_scene};
 use crate::vision::cramer_rao::centre_crb_px;
 use crate::vision::detect::{DetectSettings, Locator, detect_particles};
 use crate::vision::matching::match_points;
@@ -61,7 +61,14 @@ pub struct StudyRow {
 pub fn run(args: Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.frames > 0, "--frames must be > 0");
     anyhow::ensure!(args.bits == 8 || args.bits == 16, "--bits must be 8 or 16");
+    anyhow::ensure!(
+        args.particles > 0,
+        "--particles must be > 0 (a frame without particles has no accuracy to study)"
+    );
+    // Before the bound, whose cost grows with the particle's area.
+    check_particle_fits("--radius-px", args.radius_px, args.size_px, args.size_px)?;
     let mut rows = Vec::new();
+    let mut placed: Vec<usize> = Vec::new();
     for &snr in &args.snr {
         anyhow::ensure!(
             snr.is_finite() && snr > 0.0,
@@ -82,6 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 Ok((scene, frame))
             })
             .collect::<anyhow::Result<_>>()?;
+        placed.extend(frames.iter().map(|(scene, _)| scene.particles.len()));
         for locator in Locator::ALL {
             let detect = DetectSettings {
                 diameter_px: 2.0 * args.radius_px + 1.0,
@@ -135,7 +143,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.size_px,
         args.size_px,
         args.bits,
-        args.particles,
+        spheres_text(&placed, args.particles),
         args.radius_px,
         args.frames,
         args.seed
@@ -166,4 +174,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", out.display()))?;
     }
     Ok(())
+}
+
+/// How many spheres the frames hold: the number asked for, or as many as
+/// fitted without overlap when that is fewer (the header must not claim
+/// spheres that were never drawn).
+fn spheres_text(placed: &[usize], asked: usize) -> String {
+    let lo = placed.iter().copied().min().unwrap_or(0);
+    let hi = placed.iter().copied().max().unwrap_or(0);
+    match (lo == asked, lo == hi) {
+        (true, _) => asked.to_string(),
+        (false, true) => format!("{lo} (of {asked} asked; no more fit)"),
+        (false, false) => format!("{lo} to {hi} (of {asked} asked; no more fit)"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spheres_text;
+
+    #[test]
+    fn the_header_counts_the_spheres_drawn() {
+        assert_eq!(spheres_text(&[40, 40], 40), "40");
+        assert_eq!(
+            spheres_text(&[91, 91], 100000),
+            "91 (of 100000 asked; no more fit)"
+        );
+        assert_eq!(
+            spheres_text(&[90, 93], 100000),
+            "90 to 93 (of 100000 asked; no more fit)"
+        );
+    }
 }

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use crate::render::microscope::{RenderSettings, TipView, render_frame};
-use crate::render::microscope_truth::{Truth, random_scene, scene_from_layout};
+use crate::render::microscope_truth::{
+    Truth, check_particle_fits, random_scene, scene_from_layout,
+};
 use crate::vision::cramer_rao::centre_crb_px;
 use crate::vision::frame_input::save_png;
 
@@ -70,6 +72,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !(args.snr.is_finite() && args.snr > 0.0) {
         anyhow::bail!("--snr must be > 0, got {}", args.snr);
     }
+    // Checked with --layout too: it is the radius of the bound without particles.
+    if !(args.radius_px.is_finite() && args.radius_px > 0.0) {
+        anyhow::bail!("--radius-px must be finite and > 0, got {}", args.radius_px);
+    }
     let mut scene = match (&args.layout, args.n) {
         (Some(path), _) => {
             let text = std::fs::read_to_string(path)
@@ -78,6 +84,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .with_context(|| format!("layout {}", path.display()))?
         }
         (None, Some(n)) => {
+            check_particle_fits("--radius-px", args.radius_px, args.width_px, args.height_px)?;
             let s = random_scene(n, args.width_px, args.height_px, args.radius_px, args.seed);
             if s.particles.len() < n {
                 eprintln!(

@@ -9,6 +9,7 @@ use super::assemble::{
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::recording::Recording;
+use super::recording_check::{check_sites_in_field, sites_of};
 use super::tracker::Tracker;
 use crate::model::Scene;
 use crate::plan::pattern::site_list::read_pattern;
@@ -246,15 +247,12 @@ fn target_sites(
     config: &PlanConfig,
 ) -> Result<Vec<Site>, DryRunError> {
     let spec = &recording.spec;
-    if let Some(sites) = &spec.sites_um {
-        return Ok(sites
-            .iter()
-            .enumerate()
-            .map(|(id, s)| Site {
-                id: id as u32,
-                centre_m: Vector2::new(s[0] * 1e-6, s[1] * 1e-6),
-            })
-            .collect());
+    if let Some(sites_um) = &spec.sites_um {
+        // Checked on read against `field_um`; here against the field the
+        // first frame shows when the recording gives none.
+        let sites = sites_of(sites_um).map_err(DryRunError::Target)?;
+        check_sites_in_field(&sites, field_m, radius_m).map_err(DryRunError::Target)?;
+        return Ok(sites);
     }
     let pitch = 2.0 * radius_m + DEFAULT_SITE_GAP_M;
     let target = |e: String| DryRunError::Target(e);

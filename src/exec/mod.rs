@@ -10,6 +10,7 @@ pub mod journal;
 pub mod observe;
 pub mod push_check;
 pub mod recording;
+mod recording_check;
 pub mod report;
 pub mod sim_run;
 pub mod stroke;

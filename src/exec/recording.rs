@@ -18,6 +18,7 @@
 //! [`open_recording`] reads and checks one.
 
 use super::assemble::{FrameSink, FrameView};
+use super::recording_check::{check_calibration, check_frame_sizes, check_spec, check_stage_entry};
 use crate::calib::affine::AffineCalibration;
 use crate::vision::frame::Frame;
 use crate::vision::frame_input::{Channel, load_frames, save_png};
@@ -190,6 +191,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
             "frame_interval_s must be positive, got {dt}"
         )));
     }
+    check_spec(&spec).map_err(format)?;
     let targets = [
         spec.sites_um.is_some(),
         spec.pattern_text.is_some(),
@@ -205,10 +207,13 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     if !cal_path.is_file() {
         return Err(RecordingError::Missing { path: cal_path });
     }
-    let calibration = AffineCalibration::load(&cal_path).map_err(|e| RecordingError::Format {
-        path: cal_path.clone(),
-        message: e.to_string(),
-    })?;
+    let calibration = AffineCalibration::load(&cal_path)
+        .map_err(|e| e.to_string())
+        .and_then(|c| check_calibration(&c).map(|()| c))
+        .map_err(|message| RecordingError::Format {
+            path: cal_path.clone(),
+            message,
+        })?;
     let frames_path = dir.join(&spec.frames);
     if !frames_path.exists() {
         return Err(RecordingError::Missing { path: frames_path });
@@ -218,6 +223,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
             path: frames_path.clone(),
             message: e.to_string(),
         })?;
+    check_frame_sizes(&frames, &frames_path).map_err(|message| RecordingError::Mismatch {
+        path: frames_path.clone(),
+        message,
+    })?;
     let stage_log = match &spec.stage_log {
         None => None,
         Some(rel) => {
@@ -279,6 +288,7 @@ pub fn read_stage_log(path: &Path) -> Result<Vec<StageLogEntry>, RecordingError>
         }
         let e: StageLogEntry =
             serde_json::from_str(&line).map_err(|err| format(i + 1, err.to_string()))?;
+        check_stage_entry(&e).map_err(|m| format(i + 1, m))?;
         if e.frame != out.len() {
             return Err(format(
                 i + 1,

@@ -3,6 +3,7 @@
 //! The file format `nanopush.layout/1` is JSON in micrometres; inside the
 //! library everything is SI metres. Conversion happens once, here.
 
+use super::Site;
 use nalgebra::Vector2;
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
@@ -104,6 +105,40 @@ pub enum LayoutError {
         /// Field height, micrometres.
         height_um: f64,
     },
+    /// A target site far outside the field: the planner would push a
+    /// particle there in pieces the nanostage can reach, without bound.
+    #[error(
+        "site {id} at ({}, {}) um lies outside the {} x {} um field \
+         (sites are in um from the field's lower-left corner)",
+        um_text(*.x_um, 3),
+        um_text(*.y_um, 3),
+        um_text(*.width_um, 1),
+        um_text(*.height_um, 1)
+    )]
+    SiteOutsideField {
+        /// Site id.
+        id: u32,
+        /// Centre, micrometres.
+        x_um: f64,
+        /// Centre, micrometres.
+        y_um: f64,
+        /// Field width, micrometres.
+        width_um: f64,
+        /// Field height, micrometres.
+        height_um: f64,
+    },
+    /// A field wider than any stage: a size in another unit, most often.
+    #[error(
+        "layout: field {what} is {} (must be at most {} um, a metre)",
+        um_text(*.value, 1),
+        um_text(crate::plan::MAX_COORDINATE_UM, 0)
+    )]
+    FieldTooLarge {
+        /// "width_um" or "height_um".
+        what: &'static str,
+        /// The size, micrometres.
+        value: f64,
+    },
     /// A particle wider than the field it lies in.
     #[error(
         "layout: particle {id} radius_um {} is too large for the {} x {} um field",
@@ -177,6 +212,17 @@ impl Layout {
     pub fn validate(&self) -> Result<(), LayoutError> {
         check_finite("field width_um", self.field_m[0] * UM_PER_M, true)?;
         check_finite("field height_um", self.field_m[1] * UM_PER_M, true)?;
+        for (what, m) in [
+            ("width_um", self.field_m[0]),
+            ("height_um", self.field_m[1]),
+        ] {
+            if !crate::plan::coordinate_in_range(m * UM_PER_M) {
+                return Err(LayoutError::FieldTooLarge {
+                    what,
+                    value: m * UM_PER_M,
+                });
+            }
+        }
         let mut ids = std::collections::HashSet::new();
         for p in &self.particles {
             check_finite(
@@ -235,9 +281,7 @@ impl Layout {
                 height_um,
             });
         }
-        let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
-        let beyond = out(p.centre_m.x, w).hypot(out(p.centre_m.y, h));
-        if beyond > OUTSIDE_FIELD_RADII * p.radius_m {
+        if self.beyond_field_m(p.centre_m) > OUTSIDE_FIELD_RADII * p.radius_m {
             return Err(LayoutError::OutsideField {
                 id: p.id,
                 x_um: p.centre_m.x * UM_PER_M,
@@ -247,6 +291,34 @@ impl Layout {
             });
         }
         Ok(())
+    }
+
+    /// A site for particles of `radius_m` lies no farther outside the
+    /// field than a particle may (see [`OUTSIDE_FIELD_RADII`]).
+    pub fn check_site_in_field(&self, site: &Site, radius_m: f64) -> Result<(), LayoutError> {
+        let c = site.centre_m;
+        let beyond = self.beyond_field_m(c);
+        if beyond.is_nan() || beyond > OUTSIDE_FIELD_RADII * radius_m {
+            return Err(LayoutError::SiteOutsideField {
+                id: site.id,
+                x_um: c.x * UM_PER_M,
+                y_um: c.y * UM_PER_M,
+                width_um: self.field_m[0] * UM_PER_M,
+                height_um: self.field_m[1] * UM_PER_M,
+            });
+        }
+        Ok(())
+    }
+
+    /// How far `c` lies outside the field, metres (0 inside; NaN for a
+    /// NaN coordinate, which `f64::max` would otherwise drop).
+    fn beyond_field_m(&self, c: Vector2<f64>) -> f64 {
+        if c.x.is_nan() || c.y.is_nan() {
+            return f64::NAN;
+        }
+        let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
+        let [w, h] = self.field_m;
+        out(c.x, w).hypot(out(c.y, h))
     }
 
     /// Particle index by id (ids are unique in a valid layout). Hashed
@@ -431,6 +503,23 @@ mod tests {
             "{err}"
         );
         assert!(err.contains("outside the 120.0 x 100.0 um field"), "{err}");
+        // A site is held to the same rule, and so is the field's size.
+        let site = |x: f64, y: f64| Site {
+            id: 3,
+            centre_m: Vector2::new(x, y) * 1e-6,
+        };
+        assert!(l.check_site_in_field(&site(126.0, 107.9), 5e-6).is_ok());
+        for (x, y) in [(1e9, 0.0), (-5000.0, 80.0), (f64::NAN, 1.0)] {
+            let err = l.check_site_in_field(&site(x, y), 5e-6).unwrap_err();
+            assert!(err.to_string().starts_with("site 3 at ("), "{err}");
+        }
+        let mut wide = sample();
+        wide.field_m[0] = 2.0;
+        let err = wide.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("field width_um is 2000000.0 (must be at most 1000000 um"),
+            "{err}"
+        );
         // A mistyped 1e300 is told in exponent form, not in 300 digits.
         let text = sample().to_json().replace("30.5", "1e300");
         let err = Layout::from_json(&text, "mem").unwrap_err().to_string();

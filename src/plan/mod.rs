@@ -368,6 +368,9 @@ fn plan_at_standoff(
     for s in sites {
         pattern::check_value(&format!("site {} x_um", s.id), s.centre_m.x * 1e6, false)?;
         pattern::check_value(&format!("site {} y_um", s.id), s.centre_m.y * 1e6, false)?;
+        // In the field, every push is bounded by it: split into pieces the
+        // nanostage reaches, a push to a site 1e9 um away never ends.
+        layout.check_site_in_field(s, radius)?;
     }
     let site_pattern = Pattern {
         offsets_m: sites.iter().map(|s| s.centre_m).collect(),
@@ -810,6 +813,30 @@ mod tests {
             pairs: vec![(0, 0)],
             on_site: Vec::new(),
             lb_push_m: 10.0,
+        }
+    }
+
+    /// A site off the field is refused, naming it, before any push is
+    /// planned: the push there was split into nanostage-sized pieces
+    /// without bound (a site 1e9 um away never finished planning).
+    #[test]
+    fn a_site_off_the_field_is_refused_before_planning() {
+        let layout = Layout::of_test_centres_um(&[(50.0, 50.0)]);
+        let site = |x: f64| Site {
+            id: 0,
+            centre_m: Vector2::new(x, 60.0) * 1e-6,
+        };
+        let config = PlanConfig::default();
+        assert!(plan_assembly(&layout, &[site(150.0)], &config).is_ok());
+        for x in [1e5, 1e9, -5000.0] {
+            let err = plan_assembly(&layout, &[site(x)], &config).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    PlanError::Layout(layout::LayoutError::SiteOutsideField { id: 0, .. })
+                ),
+                "{err}"
+            );
         }
     }
 

@@ -1,12 +1,13 @@
 //! Ground truth of a synthetic frame ("nanopush.truth/1"), random scenes, and
-//! the layout file a planner writes ("nanopush.layout/1", read here with a small
-//! private struct until the layout module lands).
+//! scenes of the layout file a planner writes ("nanopush.layout/1").
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Uniform};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
+
+use crate::plan::layout::{Layout, UM_PER_M, um_text};
 
 use super::microscope::{ParticleView, SceneView, TipView};
 
@@ -91,58 +92,72 @@ impl Truth {
 #[error("{0}")]
 pub struct SceneFileError(pub String);
 
-#[derive(Deserialize)]
-struct LayoutFile {
-    schema: String,
-    field_um: [f64; 2],
-    particles: Vec<LayoutParticle>,
-}
-
-#[derive(Deserialize)]
-struct LayoutParticle {
-    #[allow(dead_code)]
-    id: Option<usize>,
-    x_um: f64,
-    y_um: f64,
-    radius_um: f64,
-}
-
-/// Scene of a "nanopush.layout/1" JSON document at `um_per_px`, origin at pixel (0, 0).
+/// Scene of a "nanopush.layout/1" JSON document at `um_per_px`, origin at
+/// pixel (0, 0). The layout is checked as the planner checks it (finite,
+/// unique ids, every particle in and narrower than the field), so a
+/// mistyped position or radius is refused rather than drawn.
 pub fn scene_from_layout(text: &str, um_per_px: f64) -> Result<SceneView, SceneFileError> {
-    let l: LayoutFile = serde_json::from_str(text).map_err(|e| SceneFileError(e.to_string()))?;
-    if l.schema != "nanopush.layout/1" {
-        return Err(SceneFileError(format!(
-            "schema {:?}, expected \"nanopush.layout/1\"",
-            l.schema
-        )));
-    }
+    let layout = Layout::from_json(text, "layout").map_err(|e| SceneFileError(e.to_string()))?;
     if !(um_per_px.is_finite() && um_per_px > 0.0) {
         return Err(SceneFileError(format!(
             "pixel size {um_per_px} um must be > 0"
         )));
     }
-    let (w, h) = (l.field_um[0] / um_per_px, l.field_um[1] / um_per_px);
-    if !(w.is_finite() && h.is_finite() && w >= 1.0 && h >= 1.0 && w <= 16384.0 && h <= 16384.0) {
+    let px = |m: f64| m * UM_PER_M / um_per_px;
+    let (w, h) = (px(layout.field_m[0]), px(layout.field_m[1]));
+    if !(w >= 1.0 && h >= 1.0 && w <= 16384.0 && h <= 16384.0) {
         return Err(SceneFileError(format!(
-            "field {:?} um at {um_per_px} um/px gives {w:.0}x{h:.0} px (1..16384 allowed)",
-            l.field_um
+            "field {} x {} um at {um_per_px} um/px gives {w:.0}x{h:.0} px (1..16384 allowed)",
+            layout.field_m[0] * UM_PER_M,
+            layout.field_m[1] * UM_PER_M
         )));
     }
-    let particles = l
-        .particles
-        .iter()
-        .map(|p| ParticleView {
-            x_px: p.x_um / um_per_px,
-            y_px: p.y_um / um_per_px,
-            radius_px: p.radius_um / um_per_px,
-        })
-        .collect();
+    let (width_px, height_px) = (w.round() as usize, h.round() as usize);
+    let mut particles = Vec::with_capacity(layout.particles.len());
+    for p in &layout.particles {
+        let radius_px = px(p.radius_m);
+        check_particle_fits(
+            &format!("particle {}", p.id),
+            radius_px,
+            width_px,
+            height_px,
+        )?;
+        particles.push(ParticleView {
+            x_px: px(p.centre_m.x),
+            y_px: px(p.centre_m.y),
+            radius_px,
+        });
+    }
     Ok(SceneView {
-        width_px: w.round() as usize,
-        height_px: h.round() as usize,
+        width_px,
+        height_px,
         particles,
         tip: None,
     })
+}
+
+/// Refuses a radius that is not finite and positive, or a particle whose
+/// image is wider than the frame: rendering and the Cramer-Rao bound work
+/// over the whole image, so a mistyped radius would cost minutes for a
+/// frame with nothing recognisable in it. `what` names the particle or flag.
+pub fn check_particle_fits(
+    what: &str,
+    radius_px: f64,
+    width_px: usize,
+    height_px: usize,
+) -> Result<(), SceneFileError> {
+    if !(radius_px.is_finite() && radius_px > 0.0) {
+        return Err(SceneFileError(format!(
+            "{what}: radius {radius_px} px must be finite and > 0"
+        )));
+    }
+    if 2.0 * radius_px > width_px.min(height_px) as f64 {
+        return Err(SceneFileError(format!(
+            "{what}: its image is {} px across, larger than the {width_px}x{height_px} px frame",
+            um_text(2.0 * radius_px, 1)
+        )));
+    }
+    Ok(())
 }
 
 /// `n` non-overlapping spheres of radius `radius_px` placed at random (seeded),
@@ -229,5 +244,53 @@ mod tests {
         assert_eq!(sc.particles[0].x_px, 20.0);
         assert!(scene_from_layout(layout, 0.0).is_err());
         assert!(scene_from_layout("{}", 0.5).is_err());
+    }
+
+    #[test]
+    fn a_layout_the_planner_would_refuse_is_not_drawn() {
+        let one = |x: &str, y: &str, r: &str| {
+            format!(
+                r#"{{"schema":"nanopush.layout/1","field_um":[100,100],
+                "particles":[{{"id":4,"x_um":{x},"y_um":{y},"radius_um":{r}}}]}}"#
+            )
+        };
+        let err = |text: &str| scene_from_layout(text, 0.5).unwrap_err().0;
+        assert!(err(&one("50", "50", "1e4")).contains("particle 4 radius_um"));
+        assert!(err(&one("50", "50", "1e300")).contains("particle 4 radius_um"));
+        assert!(err(&one("5000", "-50", "5")).contains("particle 4 at (5000.000, -50.000) um"));
+        let twice = one("20", "20", "5").replace(
+            r#"}]}"#,
+            r#"},{"id":4,"x_um":60,"y_um":60,"radius_um":5}]}"#,
+        );
+        assert!(
+            err(&twice).contains("particle id 4 appears twice"),
+            "{}",
+            err(&twice)
+        );
+        // Half the field wide: its image is the whole 200 px frame.
+        assert!(scene_from_layout(&one("50", "50", "50"), 0.5).is_ok());
+    }
+
+    #[test]
+    fn a_particle_wider_than_its_frame_is_named_with_its_size() {
+        let e = check_particle_fits("--radius-px", 1e4, 128, 128)
+            .unwrap_err()
+            .0;
+        assert!(
+            e.contains(
+                "--radius-px: its image is 20000.0 px across, larger than the 128x128 px frame"
+            ),
+            "{e}"
+        );
+        for r in [f64::NAN, f64::INFINITY, 0.0, -1.0] {
+            let e = check_particle_fits("particle 3", r, 128, 128)
+                .unwrap_err()
+                .0;
+            assert!(
+                e.contains("particle 3: radius") && e.contains("finite and > 0"),
+                "{e}"
+            );
+        }
+        assert!(check_particle_fits("p", 64.0, 128, 200).is_ok());
     }
 }

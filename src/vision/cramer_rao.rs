@@ -8,8 +8,15 @@ use super::profile_fit::ring_model;
 use crate::render::microscope::RenderSettings;
 use crate::render::sphere::SphereProfile;
 
+/// Widest image half-side, pixels, the bound is summed over: its cost
+/// grows with the image's area (about 1 s at this size), and a sphere
+/// wider than this is beyond any frame the vision works on.
+pub const MAX_SUPPORT_PX: f64 = 1024.0;
+
 /// Per-axis 1-sigma bound on the centre, in pixels, for a sphere of radius
-/// `radius_px` at unit illumination, or `None` if the Fisher matrix is singular.
+/// `radius_px` at unit illumination, or `None` if the Fisher matrix is
+/// singular or the radius is not positive or its image is wider than
+/// [`MAX_SUPPORT_PX`] (so a mistyped radius cannot hang the caller).
 pub fn centre_crb_px(radius_px: f64, settings: &RenderSettings) -> Option<f64> {
     let prof = SphereProfile::new(
         0.0,
@@ -31,7 +38,11 @@ pub fn centre_crb_px(radius_px: f64, settings: &RenderSettings) -> Option<f64> {
         prof.ring_radius_px,
         prof.ring_sigma_px,
     ]);
-    let half = (prof.support_px() + 2.0).ceil() as i64;
+    let support = prof.support_px();
+    if !(radius_px > 0.0 && support.is_finite() && support <= MAX_SUPPORT_PX) {
+        return None;
+    }
+    let half = (support + 2.0).ceil() as i64;
     let read2 = settings.camera.read_noise_e.powi(2);
     let mut fisher = SMatrix::<f64, 8, 8>::zeros();
     let mut g = SVector::<f64, 8>::zeros();
@@ -57,5 +68,15 @@ mod tests {
         assert!(lo > hi && lo < 0.5, "{lo} {hi}");
         // Shot-noise dominated: four times the SNR, about a quarter of the error.
         assert!((lo / hi - 4.0).abs() < 0.6, "{}", lo / hi);
+    }
+
+    #[test]
+    fn an_absurd_radius_gives_no_bound_at_once() {
+        let s = RenderSettings::with_snr(8.0, 16);
+        let t0 = std::time::Instant::now();
+        for r in [1e4, 1e300, f64::INFINITY, f64::NAN, 0.0, -8.0] {
+            assert_eq!(centre_crb_px(r, &s), None, "radius {r}");
+        }
+        assert!(t0.elapsed().as_secs_f64() < 1.0, "{:?}", t0.elapsed());
     }
 }

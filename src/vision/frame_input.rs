@@ -91,21 +91,27 @@ pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputErro
     decode_image(&bytes, path, channel)
 }
 
+/// The images of a folder, sorted by name: the frames [`load_frames`]
+/// reads from it, in its order (so an error can name a frame's file).
+pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|source| FrameInputError::Io {
+            path: dir.to_owned(),
+            source,
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| IMAGE_EXTENSIONS.contains(&extension(p).as_str()))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
 /// Reads every frame: all pages of a TIFF stack, all images of a folder (sorted
 /// by name), all frames of a video, or the single image of any other file.
 pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
     let ext = extension(path);
     let frames = if path.is_dir() {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(path)
-            .map_err(|source| FrameInputError::Io {
-                path: path.to_owned(),
-                source,
-            })?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| IMAGE_EXTENSIONS.contains(&extension(p).as_str()))
-            .collect();
-        files.sort();
-        files
+        image_files(path)?
             .iter()
             .map(|f| load_frame(f, channel))
             .collect::<Result<Vec<_>, _>>()?

@@ -1,0 +1,178 @@
+//! Checks of a recording's numbers on read, by the planner's rules: a
+//! field, site, calibration, offset or frame size that cannot be right is
+//! refused naming its file and field, before any frame is analysed.
+//! Unchecked, such a recording made every frame's plan fail (and the
+//! dry-run exit 0), planned pushes off the field, or never ended.
+
+use super::recording::{RecordingSpec, StageLogEntry};
+use crate::calib::affine::AffineCalibration;
+use crate::plan::layout::{UM_PER_M, um_text};
+use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
+use crate::vision::frame::Frame;
+use crate::vision::frame_input::image_files;
+use nalgebra::Vector2;
+use std::path::Path;
+
+/// Most a calibration's two pixel axes may differ in length, as a ratio:
+/// camera pixels are square, and detection uses one scale for both axes.
+const MAX_AXIS_RATIO: f64 = 1.1;
+/// Most the pixel axes may be off perpendicular on the sample, degrees.
+const MAX_SHEAR_DEG: f64 = 5.0;
+
+/// `field_um` and `sites_um`: finite, within a metre, sites apart by a
+/// particle diameter and (with a field) in the field as a layout's particles.
+pub(super) fn check_spec(spec: &RecordingSpec) -> Result<(), String> {
+    let field = match spec.field_um {
+        Some([w, h]) => {
+            let ok = |v: f64| v > 0.0 && coordinate_in_range(v);
+            if !(ok(w) && ok(h)) {
+                return Err(format!(
+                    "field_um is [{}, {}] (each must be finite, > 0 and at most {} um)",
+                    um_text(w, 3),
+                    um_text(h, 3),
+                    um_text(MAX_COORDINATE_UM, 0)
+                ));
+            }
+            Some([w / UM_PER_M, h / UM_PER_M])
+        }
+        None => None,
+    };
+    let Some(sites_um) = &spec.sites_um else {
+        return Ok(());
+    };
+    let radius_m = spec.particle_radius_um / UM_PER_M;
+    let sites = sites_of(sites_um)?;
+    if let Some(field_m) = field {
+        check_sites_in_field(&sites, field_m, radius_m)?;
+    }
+    let pattern = Pattern {
+        offsets_m: sites.iter().map(|s| s.centre_m).collect(),
+    };
+    pattern
+        .check_no_overlap(2.0 * radius_m)
+        .map_err(|e| format!("sites_um: {e}"))
+}
+
+/// The sites of `sites_um`, ids from 0, each finite and within a metre.
+pub(crate) fn sites_of(sites_um: &[[f64; 2]]) -> Result<Vec<Site>, String> {
+    sites_um
+        .iter()
+        .enumerate()
+        .map(|(id, &[x, y])| {
+            if !(coordinate_in_range(x) && coordinate_in_range(y)) {
+                return Err(format!(
+                    "sites_um: site {id} at ({}, {}) um is not a finite position within {} um (a metre) of the origin",
+                    um_text(x, 3),
+                    um_text(y, 3),
+                    um_text(MAX_COORDINATE_UM, 0)
+                ));
+            }
+            Ok(Site {
+                id: id as u32,
+                centre_m: Vector2::new(x, y) / UM_PER_M,
+            })
+        })
+        .collect()
+}
+
+/// Every site lies in the field as a layout's particle must.
+pub(crate) fn check_sites_in_field(
+    sites: &[Site],
+    field_m: [f64; 2],
+    radius_m: f64,
+) -> Result<(), String> {
+    let layout = Layout {
+        field_m,
+        particles: Vec::new(),
+    };
+    sites
+        .iter()
+        .try_for_each(|s| layout.check_site_in_field(s, radius_m))
+        .map_err(|e| format!("sites_um: {e}"))
+}
+
+/// The calibration maps square pixels to square areas of the sample, near
+/// enough: a sheared or stretched map puts the particles where they are not.
+pub(super) fn check_calibration(cal: &AffineCalibration) -> Result<(), String> {
+    let (a, b) = (cal.linear.column(0), cal.linear.column(1));
+    let (la, lb) = (a.norm(), b.norm());
+    let ratio = la.max(lb) / la.min(lb);
+    let shear_deg = (a.dot(&b) / (la * lb))
+        .clamp(-1.0, 1.0)
+        .asin()
+        .abs()
+        .to_degrees();
+    // The map is not singular (checked on load): both axes have a length.
+    if ratio > MAX_AXIS_RATIO || shear_deg > MAX_SHEAR_DEG {
+        return Err(format!(
+            "pixel_to_stage_um has pixel axes {:.4} and {:.4} um long, {shear_deg:.1} deg off \
+             perpendicular (at most {MAX_AXIS_RATIO}x and {MAX_SHEAR_DEG} deg: camera pixels are square)",
+            la * UM_PER_M,
+            lb * UM_PER_M
+        ));
+    }
+    Ok(())
+}
+
+/// A stage-log line's positions are finite and within a metre.
+pub(super) fn check_stage_entry(e: &StageLogEntry) -> Result<(), String> {
+    let far = |v: &[f64]| !v.iter().all(|&c| coordinate_in_range(c));
+    let text = |v: &[f64]| {
+        let parts: Vec<String> = v.iter().map(|&c| um_text(c, 3)).collect();
+        format!("[{}]", parts.join(", "))
+    };
+    let bad = if far(&e.coarse_offset_um) {
+        Some(("coarse_offset_um", text(&e.coarse_offset_um)))
+    } else {
+        e.stage_um
+            .filter(|p| far(p))
+            .map(|p| ("stage_um", text(&p)))
+    };
+    match bad {
+        Some((what, value)) => Err(format!(
+            "{what} is {value}: not a finite position within {} um (a metre) of the origin",
+            um_text(MAX_COORDINATE_UM, 0)
+        )),
+        None => Ok(()),
+    }
+}
+
+/// Every frame is the size of the first (the animation and the view are
+/// one size); the message names the odd frame (its file, in a folder).
+pub(super) fn check_frame_sizes(frames: &[Frame], frames_path: &Path) -> Result<(), String> {
+    let size = |f: &Frame| (f.width(), f.height());
+    let Some(first) = frames.first().map(size) else {
+        return Ok(());
+    };
+    let Some(i) = frames.iter().position(|f| size(f) != first) else {
+        return Ok(());
+    };
+    let names: Vec<String> = if frames_path.is_dir() {
+        let files = image_files(frames_path).unwrap_or_default();
+        files
+            .iter()
+            .map(|f| {
+                f.file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let name = |k: usize| {
+        names
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| format!("frame {k}"))
+    };
+    let (w, h) = size(&frames[i]);
+    Err(format!(
+        "{} is {w}x{h} px but {} is {}x{} px: every frame of a recording must be one size",
+        name(i),
+        name(0),
+        first.0,
+        first.1
+    ))
+}
