@@ -23,7 +23,7 @@
 
 use super::assemble::{Args, write_sites};
 use crate::exec::assemble::layout_seen;
-use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
+use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
@@ -108,7 +108,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             path.display()
         );
     }
-    let report = result?;
+    let (report, end) = result?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -120,10 +120,20 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     {
         bail!("interrupted: the stage was halted");
     }
-    if report.outcome != "done" && !hw.dry_run {
-        bail!("assembly did not finish: {}", report.outcome);
+    check_end(&end, hw.dry_run)
+}
+
+/// Fails unless every site was filled, or a dry run spent its one push (it
+/// stops there by design); any other end, a stage error above all, is a
+/// non-zero exit even though the journal and report are written.
+fn check_end(end: &RunEnd, dry_run: bool) -> anyhow::Result<()> {
+    match (end, dry_run) {
+        (RunEnd::Done, _) | (RunEnd::PushesSpent(_), true) => Ok(()),
+        (end, _) => bail!(
+            "assembly did not finish: stopped: {}",
+            end.reason().unwrap_or_default()
+        ),
     }
-    Ok(())
 }
 
 fn assemble(
@@ -132,7 +142,7 @@ fn assemble(
     rig: &mut HardwareRig,
     journal: JournalWriter,
     journal_path: &Path,
-) -> anyhow::Result<AssemblyReport> {
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let mut settings = AssemblySettings::default();
     if args.hardware.dry_run {
@@ -235,7 +245,7 @@ fn assemble(
         offset,
         &args.out.join("sites.json"),
     )?;
-    Ok(report)
+    Ok((report, end))
 }
 
 /// Frame analysis for this rig's camera: the particles' size in its pixels.
@@ -339,4 +349,20 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
     );
     println!("  wall time        {:.1} s", r.time_s);
     println!("report: {}", out.join("report.json").display());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dry_run_fails_on_a_stage_error_and_passes_on_its_one_push() {
+        let stage = RunEnd::Stopped("rig error: stage did not answer within 10000 ms".into());
+        let err = check_end(&stage, true).unwrap_err().to_string();
+        assert!(err.contains("did not answer within 10000 ms"), "{err}");
+        assert!(check_end(&stage, false).is_err());
+        assert!(check_end(&RunEnd::PushesSpent(1), true).is_ok());
+        assert!(check_end(&RunEnd::PushesSpent(40), false).is_err());
+        assert!(check_end(&RunEnd::Done, false).is_ok());
+    }
 }
