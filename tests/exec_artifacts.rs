@@ -218,3 +218,25 @@ fn a_pattern_that_does_not_fit_the_scene_is_refused_before_anything_is_written()
         "earlier work"
     );
 }
+
+#[test]
+fn a_record_folder_that_cannot_be_made_leaves_out_unwritten_and_retryable() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let blocker = dir.path().join("blocker");
+    std::fs::write(&blocker, "a file, not a folder").unwrap();
+    let record = blocker.join("rec");
+    for attempt in 0..2 {
+        let o = binary()
+            .args(["assemble", "--out", out.to_str().unwrap()])
+            .args(["--record", record.to_str().unwrap()])
+            .args(RUN)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "attempt {attempt}: {err}");
+        assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
+        assert!(!err.contains("journal"), "attempt {attempt}: {err}");
+        assert!(err.contains("--record") && err.contains("blocker"), "{err}");
+    }
+}

@@ -139,16 +139,6 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         spec,
         mut rig,
     } = prepare_sim_run(&request(args)?)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let journal_path = args.out.join(JOURNAL);
-    let journal = JournalWriter::create(&journal_path).with_context(|| {
-        format!(
-            "{} exists: use --resume {0} or another --out",
-            journal_path.display()
-        )
-    })?;
-    rig.persist_to(args.out.join(SIM_STATE))?;
     let mut recorder = match &args.record {
         Some(dir) => Some(RecordingWriter::create(
             dir,
@@ -172,9 +162,22 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
             },
             rig.calibration(),
             std::fs::read_to_string(&args.scene).ok().as_deref(),
-        )?),
+        )
+        .with_context(|| format!("--record {}", dir.display()))?),
         None => None,
     };
+    // The journal comes last: a journal holding no run could not be resumed
+    // and would block this --out.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let journal_path = args.out.join(JOURNAL);
+    let journal = JournalWriter::create(&journal_path).with_context(|| {
+        format!(
+            "{} exists: use --resume {0} or another --out",
+            journal_path.display()
+        )
+    })?;
+    rig.persist_to(args.out.join(SIM_STATE))?;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {

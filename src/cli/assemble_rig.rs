@@ -78,11 +78,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
     let journal_path = args.out.join(JOURNAL);
-    let journal = JournalWriter::create(&journal_path)
-        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
+    if journal_path.exists() {
+        bail!("{} exists: use another --out", journal_path.display());
+    }
     let mut rig = HardwareRig::open(
         rig_path,
         HardwareRigOptions {
@@ -92,7 +91,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
-    let result = assemble(args, &scene, &mut rig, journal, &journal_path);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let result = assemble(args, &scene, &mut rig, &journal_path);
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
     if let Some(log) = rig.sent_log() {
@@ -140,7 +141,6 @@ fn assemble(
     args: &Args,
     scene: &Scene,
     rig: &mut HardwareRig,
-    journal: JournalWriter,
     journal_path: &Path,
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
@@ -200,6 +200,10 @@ fn assemble(
         perception,
         settings: settings.clone(),
     };
+    // Created only now, when the run spec is known: a journal without one
+    // (the first frame failed, say) would block this --out for nothing.
+    let journal = JournalWriter::create(journal_path)
+        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
     let (end, sites, errors_m, last) = {
         let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
         let end = assembly.run();
