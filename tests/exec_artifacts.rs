@@ -218,3 +218,58 @@ fn a_pattern_that_does_not_fit_the_scene_is_refused_before_anything_is_written()
         "earlier work"
     );
 }
+
+#[test]
+fn a_record_folder_that_cannot_be_made_leaves_out_unwritten_and_retryable() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let blocker = dir.path().join("blocker");
+    std::fs::write(&blocker, "a file, not a folder").unwrap();
+    let record = blocker.join("rec");
+    for attempt in 0..2 {
+        let o = binary()
+            .args(["assemble", "--out", out.to_str().unwrap()])
+            .args(["--record", record.to_str().unwrap()])
+            .args(RUN)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "attempt {attempt}: {err}");
+        assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
+        assert!(!err.contains("journal"), "attempt {attempt}: {err}");
+        assert!(err.contains("--record") && err.contains("blocker"), "{err}");
+    }
+}
+
+#[test]
+fn resuming_a_finished_run_is_refused_and_leaves_its_journal_alone() {
+    let (_, out, _) = run();
+    let dir = tempfile::tempdir().unwrap();
+    for entry in std::fs::read_dir(out).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_file() {
+            std::fs::copy(&path, dir.path().join(path.file_name().unwrap())).unwrap();
+        }
+    }
+    let journal = dir.path().join("journal.jsonl");
+    let before = std::fs::read(&journal).unwrap();
+    let o = binary()
+        .args(["assemble", "--resume", journal.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("run already finished at"), "{err}");
+    assert!(err.contains("nothing to resume"), "{err}");
+    assert_eq!(std::fs::read(&journal).unwrap(), before, "journal changed");
+    // --out is not where a resumed run writes: refused, not ignored.
+    let o = binary()
+        .args(["assemble", "--resume", journal.to_str().unwrap()])
+        .args(["--out", dir.path().join("elsewhere").to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("--out"), "{err}");
+    assert_eq!(std::fs::read(&journal).unwrap(), before, "journal changed");
+}

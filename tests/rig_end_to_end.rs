@@ -446,6 +446,26 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
 }
 
 #[test]
+fn a_dry_run_that_ends_on_a_stage_error_exits_non_zero_and_still_reports() {
+    let b = bench(50.0);
+    // The dry run's in-process controller moves in real time: travel moves
+    // settle in under 1.5 s, the push (5 um at about 1 um/s) takes over 5 s.
+    let text = std::fs::read_to_string(&b.rig_path).unwrap();
+    let short = text.replace("settle_timeout_ms = 20000", "settle_timeout_ms = 3000");
+    assert_ne!(short, text, "the replacement did not apply");
+    std::fs::write(&b.rig_path, short).unwrap();
+    let out = finish(b.assemble("dry", &["--dry-run"]), RUN_LIMIT);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{}", failed(out.status, &out));
+    assert!(stdout.contains("stopped: rig error"), "{stdout}");
+    assert!(stderr.contains("did not answer within 3000 ms"), "{stderr}");
+    for file in ["journal.jsonl", "report.json", "sent-bytes.log"] {
+        assert!(b.dir.path().join("dry").join(file).exists(), "no {file}");
+    }
+}
+
+#[test]
 fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_still() {
     // Real time: the first travel (tens of um at 10 um/s) takes seconds.
     let b = bench(1.0);

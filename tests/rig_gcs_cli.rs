@@ -151,3 +151,75 @@ fn sim_gcs_asks_for_the_coarse_port_a_coarse_rig_file_needs() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--coarse-port"), "{stderr}");
 }
+
+#[test]
+fn a_rig_file_naming_one_axis_twice_is_refused_by_probe_and_assemble() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("dup-axes.toml");
+    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml").unwrap();
+    let bad = text.replace(r#"axes = ["1", "2", "3"]"#, r#"axes = ["1", "1", "3"]"#);
+    assert_ne!(bad, text, "the replacement did not apply");
+    std::fs::write(&rig, bad).unwrap();
+    let probe = nanopush()
+        .args(["rig", "probe", "--dry-run", "--rig"])
+        .arg(&rig)
+        .output()
+        .unwrap();
+    let out = dir.path().join("out");
+    let assemble = nanopush()
+        .args(["assemble", "--text", "L", "--dry-run", "--rig"])
+        .arg(&rig)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    for (what, run) in [("probe", probe), ("assemble", assemble)] {
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{what} accepted it: {stderr}");
+        for needle in ["dup-axes.toml", "stage.axes", "\"1\" twice"] {
+            assert!(
+                stderr.contains(needle),
+                "{what}: no {needle:?} in: {stderr}"
+            );
+        }
+        assert!(
+            !String::from_utf8_lossy(&run.stdout).contains("MOV "),
+            "{what} moved"
+        );
+    }
+}
+
+#[test]
+fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml").unwrap();
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
+    let text = text.replace(
+        "\"camera-stage-sim.toml\"",
+        &format!("{:?}", calibration.display().to_string()),
+    );
+    let missing = dir.path().join("no-frames-here");
+    let text = text.replace(
+        "\"../out/rig-gcs-sim/frames\"",
+        &format!("{:?}", missing.display().to_string()),
+    );
+    std::fs::write(&rig, text).unwrap();
+    let out = dir.path().join("out");
+    for attempt in 0..2 {
+        let run = nanopush()
+            .args(["assemble", "--text", "L", "--dry-run", "--rig"])
+            .arg(&rig)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "attempt {attempt}: {stderr}");
+        assert!(
+            stderr.contains("camera folder"),
+            "attempt {attempt}: {stderr}"
+        );
+        assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
+    }
+}

@@ -24,6 +24,20 @@ fn dry_stage(confirmation: FirstMoveConfirmation) -> (GcsStage, SentLog, Arc<Ato
 }
 
 #[test]
+fn a_stage_with_a_repeated_axis_is_refused_before_any_move() {
+    let rig = RigFile::load(Path::new("calib/rig-gcs-sim-xyz.toml")).unwrap();
+    let (ctrl, log) = gcs::connect(&rig, true).unwrap();
+    let mut settings = rig.stage_settings();
+    settings.axes = vec!["1".into(), "1".into(), "3".into()];
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let err = GcsStage::new(ctrl, settings, FirstMoveConfirmation::NotNeeded, interrupt)
+        .err()
+        .expect("a repeated axis was accepted");
+    assert!(err.to_string().contains("axis 1 is named twice"), "{err}");
+    assert!(motion_commands(&log.unwrap()).is_empty());
+}
+
+#[test]
 fn open_stage_from_a_real_hardware_rig_in_dry_run_sends_nothing_real() {
     let mut rig = RigFile::load(Path::new("calib/rig-pi-e727-serial.toml")).unwrap();
     let interrupt = Arc::new(AtomicBool::new(false));

@@ -50,8 +50,9 @@ pub struct Args {
     /// Particles in the random layout.
     #[arg(long, default_value_t = 50)]
     pub particles: usize,
-    /// Output folder (must not hold a journal yet).
-    #[arg(long, default_value = "out/assemble")]
+    /// Output folder (must not hold a journal yet; a resumed run writes
+    /// next to its journal, so not with --resume).
+    #[arg(long, default_value = "out/assemble", conflicts_with = "resume")]
     pub out: PathBuf,
     /// Print the report as one JSON object.
     #[arg(long)]
@@ -139,16 +140,6 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         spec,
         mut rig,
     } = prepare_sim_run(&request(args)?)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let journal_path = args.out.join(JOURNAL);
-    let journal = JournalWriter::create(&journal_path).with_context(|| {
-        format!(
-            "{} exists: use --resume {0} or another --out",
-            journal_path.display()
-        )
-    })?;
-    rig.persist_to(args.out.join(SIM_STATE))?;
     let mut recorder = match &args.record {
         Some(dir) => Some(RecordingWriter::create(
             dir,
@@ -172,9 +163,22 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
             },
             rig.calibration(),
             std::fs::read_to_string(&args.scene).ok().as_deref(),
-        )?),
+        )
+        .with_context(|| format!("--record {}", dir.display()))?),
         None => None,
     };
+    // The journal comes last: a journal holding no run could not be resumed
+    // and would block this --out.
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let journal_path = args.out.join(JOURNAL);
+    let journal = JournalWriter::create(&journal_path).with_context(|| {
+        format!(
+            "{} exists: use --resume {0} or another --out",
+            journal_path.display()
+        )
+    })?;
+    rig.persist_to(args.out.join(SIM_STATE))?;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
@@ -196,6 +200,18 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
 }
 
 fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
+    // Read-only first: a finished run is left exactly as it is.
+    let finished = read_journal::<RunEvent>(journal_path)?
+        .entries
+        .iter()
+        .find(|e| e.event == RunEvent::Done)
+        .map(|e| e.t_s);
+    if let Some(t_s) = finished {
+        bail!(
+            "{}: run already finished at {t_s:.1} s; nothing to resume",
+            journal_path.display()
+        );
+    }
     let (journal, contents) = JournalWriter::resume::<RunEvent>(journal_path)?;
     let Some(RunEvent::Start(spec)) = contents.entries.first().map(|e| e.event.clone()) else {
         bail!("{} does not start with a run spec", journal_path.display());

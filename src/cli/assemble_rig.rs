@@ -23,7 +23,7 @@
 
 use super::assemble::{Args, write_sites};
 use crate::exec::assemble::layout_seen;
-use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings};
+use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
@@ -78,11 +78,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
     let journal_path = args.out.join(JOURNAL);
-    let journal = JournalWriter::create(&journal_path)
-        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
+    if journal_path.exists() {
+        bail!("{} exists: use another --out", journal_path.display());
+    }
     let mut rig = HardwareRig::open(
         rig_path,
         HardwareRigOptions {
@@ -92,7 +91,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
-    let result = assemble(args, &scene, &mut rig, journal, &journal_path);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let result = assemble(args, &scene, &mut rig, &journal_path);
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
     if let Some(log) = rig.sent_log() {
@@ -108,7 +109,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             path.display()
         );
     }
-    let report = result?;
+    let (report, end) = result?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -120,19 +121,28 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     {
         bail!("interrupted: the stage was halted");
     }
-    if report.outcome != "done" && !hw.dry_run {
-        bail!("assembly did not finish: {}", report.outcome);
+    check_end(&end, hw.dry_run)
+}
+
+/// Fails unless every site was filled, or a dry run spent its one push (it
+/// stops there by design); any other end, a stage error above all, is a
+/// non-zero exit even though the journal and report are written.
+fn check_end(end: &RunEnd, dry_run: bool) -> anyhow::Result<()> {
+    match (end, dry_run) {
+        (RunEnd::Done, _) | (RunEnd::PushesSpent(_), true) => Ok(()),
+        (end, _) => bail!(
+            "assembly did not finish: stopped: {}",
+            end.reason().unwrap_or_default()
+        ),
     }
-    Ok(())
 }
 
 fn assemble(
     args: &Args,
     scene: &Scene,
     rig: &mut HardwareRig,
-    journal: JournalWriter,
     journal_path: &Path,
-) -> anyhow::Result<AssemblyReport> {
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let mut settings = AssemblySettings::default();
     if args.hardware.dry_run {
@@ -190,6 +200,10 @@ fn assemble(
         perception,
         settings: settings.clone(),
     };
+    // Created only now, when the run spec is known: a journal without one
+    // (the first frame failed, say) would block this --out for nothing.
+    let journal = JournalWriter::create(journal_path)
+        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
     let (end, sites, errors_m, last) = {
         let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
         let end = assembly.run();
@@ -235,7 +249,7 @@ fn assemble(
         offset,
         &args.out.join("sites.json"),
     )?;
-    Ok(report)
+    Ok((report, end))
 }
 
 /// Frame analysis for this rig's camera: the particles' size in its pixels.
@@ -339,4 +353,20 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
     );
     println!("  wall time        {:.1} s", r.time_s);
     println!("report: {}", out.join("report.json").display());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_dry_run_fails_on_a_stage_error_and_passes_on_its_one_push() {
+        let stage = RunEnd::Stopped("rig error: stage did not answer within 10000 ms".into());
+        let err = check_end(&stage, true).unwrap_err().to_string();
+        assert!(err.contains("did not answer within 10000 ms"), "{err}");
+        assert!(check_end(&stage, false).is_err());
+        assert!(check_end(&RunEnd::PushesSpent(1), true).is_ok());
+        assert!(check_end(&RunEnd::PushesSpent(40), false).is_err());
+        assert!(check_end(&RunEnd::Done, false).is_ok());
+    }
 }

@@ -112,8 +112,22 @@ pub enum ExecError {
 pub enum RunEnd {
     /// Every site filled within tolerance.
     Done,
+    /// `max_pushes` pushes made first: the end a dry run, which allows one
+    /// push, expects (any other stop is a failure there).
+    PushesSpent(usize),
     /// Stopped before that, with the reason.
     Stopped(String),
+}
+
+impl RunEnd {
+    /// Why the run stopped, as the journal and the report say it; `None` when done.
+    pub fn reason(&self) -> Option<String> {
+        match self {
+            RunEnd::Done => None,
+            RunEnd::PushesSpent(n) => Some(format!("{n} pushes made without filling every site")),
+            RunEnd::Stopped(why) => Some(why.clone()),
+        }
+    }
 }
 
 /// One executed push, for reports (rig times bracket every move of the push).
@@ -382,14 +396,11 @@ impl<'a> Assembly<'a> {
                 }
             }
             if self.pushes_done >= self.settings.max_pushes {
-                return self.stop(format!(
-                    "{} pushes made without filling every site",
-                    self.pushes_done
-                ));
+                return self.stop(RunEnd::PushesSpent(self.pushes_done));
             }
             let intent = match self.next_push()? {
                 Ok(intent) => intent,
-                Err(reason) => return self.stop(reason),
+                Err(reason) => return self.stop(RunEnd::Stopped(reason)),
             };
             match self.push(&intent) {
                 Ok(()) => {
@@ -399,7 +410,10 @@ impl<'a> Assembly<'a> {
                 Err(PushError::Rig(RigError::StageFault(why))) => {
                     self.recover_from_fault(why)?;
                     if self.stage_faults > self.settings.max_stage_faults {
-                        return self.stop(format!("{} stage faults in a row", self.stage_faults));
+                        return self.stop(RunEnd::Stopped(format!(
+                            "{} stage faults in a row",
+                            self.stage_faults
+                        )));
                     }
                 }
                 Err(PushError::Rig(e)) => {
@@ -410,7 +424,7 @@ impl<'a> Assembly<'a> {
                             error: e.to_string(),
                         },
                     )?;
-                    return self.stop(format!("rig error: {e}"));
+                    return self.stop(RunEnd::Stopped(format!("rig error: {e}")));
                 }
                 Err(PushError::Journal(e)) => return Err(e.into()),
                 Err(PushError::Refused(why)) => {
@@ -435,14 +449,11 @@ impl<'a> Assembly<'a> {
             .all(|e| *e <= self.settings.placed_tolerance_m)
     }
 
-    fn stop(&mut self, reason: String) -> Result<RunEnd, ExecError> {
-        self.journal.append(
-            self.rig.now_s(),
-            &RunEvent::Stopped {
-                reason: reason.clone(),
-            },
-        )?;
-        Ok(RunEnd::Stopped(reason))
+    fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
+        let reason = end.reason().unwrap_or_default();
+        self.journal
+            .append(self.rig.now_s(), &RunEvent::Stopped { reason })?;
+        Ok(end)
     }
 
     /// Grabs, detects, tracks and journals one frame.

@@ -112,9 +112,9 @@ impl AssemblyReport {
         let (rms_error_nm, max_error_nm) = error_figures_nm(errors_m);
         AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
-            outcome: match facts.end {
-                RunEnd::Done => "done".to_owned(),
-                RunEnd::Stopped(why) => format!("stopped: {why}"),
+            outcome: match facts.end.reason() {
+                None => "done".to_owned(),
+                Some(why) => format!("stopped: {why}"),
             },
             sites: facts.sites.len(),
             filled: errors_m

@@ -36,6 +36,15 @@ pub fn validate_axis(axis: &str) -> Result<(), GcsError> {
     }
 }
 
+/// The first axis identifier named twice in `axes`, if any. A stage with a
+/// repeated axis would send two targets to one motor and none to another.
+pub fn repeated_axis(axes: &[String]) -> Option<&str> {
+    axes.iter()
+        .enumerate()
+        .find(|(i, a)| axes[..*i].contains(a))
+        .map(|(_, a)| a.as_str())
+}
+
 /// Formats a command with optional plain arguments: `format_command("SAI?", &[])`
 /// gives `SAI?\n`.
 pub fn format_command(name: &str, args: &[&str]) -> Vec<u8> {

@@ -294,6 +294,12 @@ fn validate_controller(
     for axis in &section.axes {
         super::protocol::validate_axis(axis).map_err(|e| format!("{stage}.axes: {e}"))?;
     }
+    if let Some(axis) = super::protocol::repeated_axis(&section.axes) {
+        return Err(format!(
+            "{stage}.axes names axis {axis:?} twice ({:?}): each stage axis needs its own controller axis",
+            section.axes
+        ));
+    }
     if safety.soft_min_um.len() != n || safety.soft_max_um.len() != n {
         return Err(format!(
             "{safety_name}.soft_min_um and soft_max_um need {n} entries (one per axis)"
@@ -370,6 +376,29 @@ mod tests {
             RigFile::from_toml(&bad, Path::new("bad.toml")),
             Err(RigFileError::Parse { .. })
         ));
+    }
+
+    #[test]
+    fn a_repeated_axis_is_refused_naming_file_field_and_axis() {
+        let xyz = include_str!("../../../calib/rig-gcs-sim-xyz.toml");
+        let bad = xyz.replace(r#"axes = ["1", "2", "3"]"#, r#"axes = ["1", "1", "3"]"#);
+        assert_ne!(bad, xyz, "the replacement did not apply");
+        let err = RigFile::from_toml(&bad, Path::new("dup.toml")).unwrap_err();
+        let text = err.to_string();
+        assert!(matches!(err, RigFileError::Invalid { .. }), "{text}");
+        for needle in ["dup.toml", "stage.axes", "\"1\" twice"] {
+            assert!(text.contains(needle), "no {needle:?} in: {text}");
+        }
+        let coarse = COARSE.replace(
+            "axes = [\"1\", \"2\"]\nunit_um = 1000.0",
+            "axes = [\"2\", \"2\"]\nunit_um = 1000.0",
+        );
+        assert_ne!(coarse, COARSE, "the replacement did not apply");
+        let err = RigFile::from_toml(&coarse, Path::new("dup.toml")).unwrap_err();
+        assert!(err.to_string().contains("coarse.stage.axes"), "{err}");
+        let empty = xyz.replace(r#"axes = ["1", "2", "3"]"#, r#"axes = ["1", "", "3"]"#);
+        let err = RigFile::from_toml(&empty, Path::new("empty.toml")).unwrap_err();
+        assert!(err.to_string().contains("stage.axes"), "{err}");
     }
 
     const COARSE: &str = include_str!("../../../calib/rig-gcs-sim-coarse-folder.toml");

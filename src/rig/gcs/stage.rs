@@ -60,6 +60,12 @@ impl GcsStage {
                 settings.limits.soft_limits.len()
             )));
         }
+        if let Some(axis) = super::protocol::repeated_axis(&settings.axes) {
+            return Err(GcsError::InvalidArgument(format!(
+                "axis {axis} is named twice in {:?}",
+                settings.axes
+            )));
+        }
         let present = controller.axes()?;
         if let Some(missing) = settings.axes.iter().find(|a| !present.contains(a)) {
             return Err(GcsError::InvalidArgument(format!(
