@@ -294,7 +294,7 @@ impl Layout {
     }
 
     /// A site for particles of `radius_m` lies no farther outside the
-    /// field than a particle may (see [`OUTSIDE_FIELD_RADII`]).
+    /// field than a particle may (`OUTSIDE_FIELD_RADII`).
     pub fn check_site_in_field(&self, site: &Site, radius_m: f64) -> Result<(), LayoutError> {
         let c = site.centre_m;
         let beyond = self.beyond_field_m(c);
