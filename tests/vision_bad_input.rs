@@ -238,6 +238,21 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
         );
         assert!(err.contains(needle), "--radius-px {r}: {err}");
     }
+    // Flags named as the user gave them, not as internal render settings.
+    for (flags, needle) in [
+        (
+            &["--snr", "1e300"][..],
+            "--snr must be > 0 and at most 1e6, got 1e300",
+        ),
+        (
+            &["--tip-x-px", "nan", "--tip-y-px", "3"][..],
+            "--tip-x-px, --tip-y-px and --tip-angle-deg must be numbers, got NaN",
+        ),
+    ] {
+        let args = [&["synth", "frame", "--n", "3", "--out", &out][..], flags].concat();
+        let err = refused(dir.path(), &args);
+        assert!(err.contains(needle), "{flags:?}: {err}");
+    }
     assert!(!dir.path().join("f.png").exists() && !dir.path().join("t.json").exists());
 }
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::render::microscope::{RenderSettings, TipView, render_frame};
+use crate::render::microscope::{MAX_SNR, RenderSettings, TipView, render_frame};
 use crate::render::microscope_truth::{
     Truth, check_particle_fits, random_scene, scene_from_layout,
 };
@@ -69,8 +69,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.bits != 8 && args.bits != 16 {
         anyhow::bail!("--bits must be 8 or 16, got {}", args.bits);
     }
-    if !(args.snr.is_finite() && args.snr > 0.0) {
-        anyhow::bail!("--snr must be > 0, got {}", args.snr);
+    if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
+        anyhow::bail!(
+            "--snr must be > 0 and at most {MAX_SNR:e}, got {:e}",
+            args.snr
+        );
+    }
+    let tip = [args.tip_x_px, args.tip_y_px, Some(args.tip_angle_deg)];
+    if let Some(bad) = tip.into_iter().flatten().find(|v| !v.is_finite()) {
+        anyhow::bail!("--tip-x-px, --tip-y-px and --tip-angle-deg must be numbers, got {bad}");
     }
     // Checked with --layout too: it is the radius of the bound without particles.
     if !(args.radius_px.is_finite() && args.radius_px > 0.0) {

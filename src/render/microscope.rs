@@ -88,6 +88,10 @@ pub enum RenderError {
     Scene { index: usize },
 }
 
+/// Highest SNR a frame may be rendered at: far beyond any camera, and below
+/// where the background's photon count overflows (about 1e77).
+pub const MAX_SNR: f64 = 1e6;
+
 impl RenderSettings {
     /// Settings whose ring signal-to-noise ratio is `snr`: the in-focus ring
     /// depth over the background noise, both in electrons. Gain puts the

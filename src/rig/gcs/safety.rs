@@ -63,26 +63,28 @@ pub enum SafetyViolation {
 }
 
 impl SafetyLimits {
-    /// Checks the limits themselves (finite, ordered, positive).
+    /// Checks the limits themselves (finite, ordered, positive); messages in
+    /// um, the rig file's unit.
     pub fn validate(&self) -> Result<(), String> {
         for (i, l) in self.soft_limits.iter().enumerate() {
             if !(l.min_m.is_finite() && l.max_m.is_finite() && l.min_m < l.max_m) {
                 return Err(format!(
-                    "soft limit {i}: need finite min < max, got [{}, {}]",
-                    l.min_m, l.max_m
+                    "soft limit {i}: need finite min < max, got [{:.3}, {:.3}] um",
+                    l.min_m * 1e6,
+                    l.max_m * 1e6
                 ));
             }
         }
         if !(self.max_step_m.is_finite() && self.max_step_m > 0.0) {
             return Err(format!(
-                "largest step must be positive, got {}",
-                self.max_step_m
+                "largest step must be positive, got {:.3} um",
+                self.max_step_m * 1e6
             ));
         }
         if !(self.max_speed_m_per_s.is_finite() && self.max_speed_m_per_s > 0.0) {
             return Err(format!(
-                "top speed must be positive, got {}",
-                self.max_speed_m_per_s
+                "top speed must be positive, got {:.3} um/s",
+                self.max_speed_m_per_s * 1e6
             ));
         }
         Ok(())
@@ -214,12 +216,19 @@ mod tests {
     fn bad_limits_are_reported() {
         let mut l = limits();
         l.soft_limits[1] = SoftLimit {
-            min_m: 1.0,
-            max_m: 0.0,
+            min_m: 99e-6,
+            max_m: 98e-6,
         };
-        assert!(l.validate().is_err());
+        // In um, as the rig file gives them (not [0.000099, 0.000098]).
+        assert_eq!(
+            l.validate().unwrap_err(),
+            "soft limit 1: need finite min < max, got [99.000, 98.000] um"
+        );
         let mut l = limits();
-        l.max_step_m = -1.0;
-        assert!(l.validate().is_err());
+        l.max_step_m = -5e-6;
+        assert_eq!(
+            l.validate().unwrap_err(),
+            "largest step must be positive, got -5.000 um"
+        );
     }
 }
