@@ -118,6 +118,27 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--threshold-px must be a positive"));
+    // Frames of two sizes are refused by name before any tip is fitted.
+    for (name, w) in [("a.png", 64), ("b.png", 48)] {
+        let frame = nanopush::vision::frame::Frame::new(w, 40, vec![100.0; w * 40], 8).unwrap();
+        save_png(&frame, &dir.path().join(name)).unwrap();
+    }
+    std::fs::write(
+        dir.path().join("stage.csv"),
+        "frame,x_um,y_um\na.png,0,0\nb.png,1,0\n",
+    )
+    .unwrap();
+    let out = Command::new(exe)
+        .args(["calibrate", "--recording"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("b.png is 48x40 px but a.png is 64x40 px"),
+        "{err}"
+    );
     std::fs::write(dir.path().join("x.png"), b"nope").unwrap();
     let out = Command::new(exe)
         .arg("detect")

@@ -135,10 +135,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();
+    let mut size: Option<(String, (usize, usize))> = None;
     for row in &rows {
         let path = dir.join(&row.frame);
         let frame = load_frame(&path, Channel::Luminance)
             .with_context(|| format!("loading {}", path.display()))?;
+        // One camera, one pixel grid: a frame of another size is a crop or
+        // another camera, and its tip position would bend the map.
+        let this = (frame.width(), frame.height());
+        match &size {
+            Some((first, s)) if *s != this => anyhow::bail!(
+                "{} is {}x{} px but {first} is {}x{} px: a recording's frames must share one size",
+                row.frame,
+                this.0,
+                this.1,
+                s.0,
+                s.1
+            ),
+            Some(_) => {}
+            None => size = Some((row.frame.clone(), this)),
+        }
         match detect_tip(&frame, &TipSettings::default()) {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
