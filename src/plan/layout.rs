@@ -86,47 +86,27 @@ pub enum LayoutError {
     /// A particle far outside the field: coordinates in another unit or
     /// from another origin, most often.
     #[error(
-        "layout: particle {id} at ({}, {}) um lies outside the {} x {} um field \
+        "layout: particle {} at ({}, {}) um lies outside the {} x {} um field \
          (positions are in um from the field's lower-left corner)",
-        um_text(*.x_um, 3),
-        um_text(*.y_um, 3),
-        um_text(*.width_um, 1),
-        um_text(*.height_um, 1)
+        .0.id,
+        um_text(.0.x_um, 3),
+        um_text(.0.y_um, 3),
+        um_text(.0.width_um, 1),
+        um_text(.0.height_um, 1)
     )]
-    OutsideField {
-        /// Particle id.
-        id: u32,
-        /// Centre, micrometres.
-        x_um: f64,
-        /// Centre, micrometres.
-        y_um: f64,
-        /// Field width, micrometres.
-        width_um: f64,
-        /// Field height, micrometres.
-        height_um: f64,
-    },
+    OutsideField(OffField),
     /// A target site far outside the field: the planner would push a
     /// particle there in pieces the nanostage can reach, without bound.
     #[error(
-        "site {id} at ({}, {}) um lies outside the {} x {} um field \
+        "site {} at ({}, {}) um lies outside the {} x {} um field \
          (sites are in um from the field's lower-left corner)",
-        um_text(*.x_um, 3),
-        um_text(*.y_um, 3),
-        um_text(*.width_um, 1),
-        um_text(*.height_um, 1)
+        .0.id,
+        um_text(.0.x_um, 3),
+        um_text(.0.y_um, 3),
+        um_text(.0.width_um, 1),
+        um_text(.0.height_um, 1)
     )]
-    SiteOutsideField {
-        /// Site id.
-        id: u32,
-        /// Centre, micrometres.
-        x_um: f64,
-        /// Centre, micrometres.
-        y_um: f64,
-        /// Field width, micrometres.
-        width_um: f64,
-        /// Field height, micrometres.
-        height_um: f64,
-    },
+    SiteOutsideField(OffField),
     /// A field wider than any stage: a size in another unit, most often.
     #[error(
         "layout: field {what} is {} (must be at most {} um, a metre)",
@@ -193,6 +173,21 @@ pub(crate) fn um_text(value: f64, decimals: usize) -> String {
     } else {
         format!("{value:.3e}")
     }
+}
+
+/// Where a particle or a site lies off its field, and the field's size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OffField {
+    /// Particle or site id.
+    pub id: u32,
+    /// Centre, micrometres.
+    pub x_um: f64,
+    /// Centre, micrometres.
+    pub y_um: f64,
+    /// Field width, micrometres.
+    pub width_um: f64,
+    /// Field height, micrometres.
+    pub height_um: f64,
 }
 
 pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
@@ -282,13 +277,7 @@ impl Layout {
             });
         }
         if self.beyond_field_m(p.centre_m) > OUTSIDE_FIELD_RADII * p.radius_m {
-            return Err(LayoutError::OutsideField {
-                id: p.id,
-                x_um: p.centre_m.x * UM_PER_M,
-                y_um: p.centre_m.y * UM_PER_M,
-                width_um,
-                height_um,
-            });
+            return Err(LayoutError::OutsideField(self.off_field(p.id, p.centre_m)));
         }
         Ok(())
     }
@@ -299,15 +288,20 @@ impl Layout {
         let c = site.centre_m;
         let beyond = self.beyond_field_m(c);
         if beyond.is_nan() || beyond > OUTSIDE_FIELD_RADII * radius_m {
-            return Err(LayoutError::SiteOutsideField {
-                id: site.id,
-                x_um: c.x * UM_PER_M,
-                y_um: c.y * UM_PER_M,
-                width_um: self.field_m[0] * UM_PER_M,
-                height_um: self.field_m[1] * UM_PER_M,
-            });
+            return Err(LayoutError::SiteOutsideField(self.off_field(site.id, c)));
         }
         Ok(())
+    }
+
+    /// The error payload for `id` at `c`, in um.
+    fn off_field(&self, id: u32, c: Vector2<f64>) -> OffField {
+        OffField {
+            id,
+            x_um: c.x * UM_PER_M,
+            y_um: c.y * UM_PER_M,
+            width_um: self.field_m[0] * UM_PER_M,
+            height_um: self.field_m[1] * UM_PER_M,
+        }
     }
 
     /// How far `c` lies outside the field, metres (0 inside; NaN for a
@@ -493,7 +487,7 @@ mod tests {
         l.particles[0].centre_m = corner + Vector2::new(6e-6, 8.1e-6);
         assert!(matches!(
             l.validate(),
-            Err(LayoutError::OutsideField { id: 0, .. })
+            Err(LayoutError::OutsideField(OffField { id: 0, .. }))
         ));
         // Positions in nm instead of um: refused, naming the particle and where.
         let text = sample().to_json().replace("30.5", "30500.0");

@@ -833,7 +833,10 @@ mod tests {
             assert!(
                 matches!(
                     err,
-                    PlanError::Layout(layout::LayoutError::SiteOutsideField { id: 0, .. })
+                    PlanError::Layout(layout::LayoutError::SiteOutsideField(layout::OffField {
+                        id: 0,
+                        ..
+                    }))
                 ),
                 "{err}"
             );
