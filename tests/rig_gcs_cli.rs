@@ -152,6 +152,17 @@ fn sim_gcs_asks_for_the_coarse_port_a_coarse_rig_file_needs() {
     assert!(stderr.contains("--coarse-port"), "{stderr}");
 }
 
+/// `nanopush assemble --text L --dry-run --rig RIG --out OUT`.
+fn assemble_dry_run(rig: &std::path::Path, out: &std::path::Path) -> std::process::Output {
+    nanopush()
+        .args(["assemble", "--text", "L", "--dry-run", "--rig"])
+        .arg(rig)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn a_rig_file_naming_one_axis_twice_is_refused_by_probe_and_assemble() {
     let dir = tempfile::tempdir().unwrap();
@@ -165,14 +176,7 @@ fn a_rig_file_naming_one_axis_twice_is_refused_by_probe_and_assemble() {
         .arg(&rig)
         .output()
         .unwrap();
-    let out = dir.path().join("out");
-    let assemble = nanopush()
-        .args(["assemble", "--text", "L", "--dry-run", "--rig"])
-        .arg(&rig)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let assemble = assemble_dry_run(&rig, &dir.path().join("out"));
     for (what, run) in [("probe", probe), ("assemble", assemble)] {
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success(), "{what} accepted it: {stderr}");
@@ -207,13 +211,7 @@ fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
     std::fs::write(&rig, text).unwrap();
     let out = dir.path().join("out");
     for attempt in 0..2 {
-        let run = nanopush()
-            .args(["assemble", "--text", "L", "--dry-run", "--rig"])
-            .arg(&rig)
-            .arg("--out")
-            .arg(&out)
-            .output()
-            .unwrap();
+        let run = assemble_dry_run(&rig, &out);
         let stderr = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success(), "attempt {attempt}: {stderr}");
         assert!(

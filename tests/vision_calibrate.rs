@@ -42,11 +42,7 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
     // Saved as a spreadsheet saves UTF-8: with a byte-order mark.
     std::fs::write(dir.path().join("stage.csv"), format!("\u{feff}{csv}")).unwrap();
     let exe = env!("CARGO_BIN_EXE_nanopush");
-    let out = Command::new(exe)
-        .args(["calibrate", "--recording"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = calibrate(dir.path(), &[]);
     let text = String::from_utf8_lossy(&out.stdout);
     println!("{text}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success());
@@ -60,12 +56,7 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
 
     // A second fit keeps the first unless told, and never writes over an input.
     let again = |extra: &[&str]| {
-        let out = Command::new(exe)
-            .args(["calibrate", "--recording"])
-            .arg(dir.path())
-            .args(extra)
-            .output()
-            .unwrap();
+        let out = calibrate(dir.path(), extra);
         (
             out.status.success(),
             String::from_utf8_lossy(&out.stderr).to_string(),
@@ -104,18 +95,10 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
 fn calibrate_and_detect_fail_cleanly_on_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let exe = env!("CARGO_BIN_EXE_nanopush");
-    let out = Command::new(exe)
-        .args(["calibrate", "--recording"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = calibrate(dir.path(), &[]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("stage.csv"));
-    let out = Command::new(exe)
-        .args(["calibrate", "--threshold-px=0", "--recording"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = calibrate(dir.path(), &["--threshold-px=0"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--threshold-px must be a positive"));
     // Frames of two sizes are refused by name before any tip is fitted.
@@ -128,11 +111,7 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
         "frame,x_um,y_um\na.png,0,0\nb.png,1,0\n",
     )
     .unwrap();
-    let out = Command::new(exe)
-        .args(["calibrate", "--recording"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = calibrate(dir.path(), &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
@@ -147,4 +126,14 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.png"));
+}
+
+/// `nanopush calibrate --recording DIR EXTRA...`.
+fn calibrate(dir: &std::path::Path, extra: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args(["calibrate", "--recording"])
+        .arg(dir)
+        .args(extra)
+        .output()
+        .unwrap()
 }
