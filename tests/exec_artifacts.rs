@@ -27,18 +27,23 @@ fn binary() -> Command {
 }
 
 /// One run shared by the tests: (temp dir kept alive, output folder, recording folder).
+/// `nanopush assemble --out OUT --record REC` with the run's arguments.
+fn assemble_recorded(out: &Path, rec: &Path) -> std::process::Output {
+    binary()
+        .args(["assemble", "--out", out.to_str().unwrap()])
+        .args(["--record", rec.to_str().unwrap()])
+        .args(RUN)
+        .output()
+        .unwrap()
+}
+
 fn run() -> &'static (tempfile::TempDir, PathBuf, PathBuf) {
     static RUN_DIR: OnceLock<(tempfile::TempDir, PathBuf, PathBuf)> = OnceLock::new();
     RUN_DIR.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("out");
         let rec = dir.path().join("rec");
-        let o = binary()
-            .args(["assemble", "--out", out.to_str().unwrap()])
-            .args(["--record", rec.to_str().unwrap()])
-            .args(RUN)
-            .output()
-            .unwrap();
+        let o = assemble_recorded(&out, &rec);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         (dir, out, rec)
     })
@@ -227,12 +232,7 @@ fn a_record_folder_that_cannot_be_made_leaves_out_unwritten_and_retryable() {
     std::fs::write(&blocker, "a file, not a folder").unwrap();
     let record = blocker.join("rec");
     for attempt in 0..2 {
-        let o = binary()
-            .args(["assemble", "--out", out.to_str().unwrap()])
-            .args(["--record", record.to_str().unwrap()])
-            .args(RUN)
-            .output()
-            .unwrap();
+        let o = assemble_recorded(&out, &record);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success(), "attempt {attempt}: {err}");
         assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
