@@ -92,14 +92,15 @@ pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
 /// a re-run).
 fn check_output(
     out: &Path,
-    inputs: impl Iterator<Item = PathBuf>,
+    mut inputs: impl Iterator<Item = PathBuf>,
     force: bool,
 ) -> anyhow::Result<()> {
-    if !out.exists() {
+    // Exists, so it canonicalizes; an input that does not is not it.
+    let Ok(out_real) = std::fs::canonicalize(out) else {
         return Ok(());
-    }
-    let same = |p: &Path| std::fs::canonicalize(p).ok() == std::fs::canonicalize(out).ok();
-    if let Some(input) = inputs.into_iter().find(|p| same(p)) {
+    };
+    let same = |p: &Path| std::fs::canonicalize(p).is_ok_and(|p| p == out_real);
+    if let Some(input) = inputs.find(|p| same(p)) {
         anyhow::bail!(
             "--out {} is the recording's own {}: choose another file",
             out.display(),
