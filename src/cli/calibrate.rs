@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
+use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::tip::{TipSettings, detect_tip};
 
@@ -136,26 +137,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();
-    let mut size: Option<(String, (usize, usize))> = None;
+    let mut sizes = Vec::new();
     for row in &rows {
         let path = dir.join(&row.frame);
         let frame = load_frame(&path, Channel::Luminance)
             .with_context(|| format!("loading {}", path.display()))?;
-        // One camera, one pixel grid: a frame of another size is a crop or
-        // another camera, and its tip position would bend the map.
-        let this = (frame.width(), frame.height());
-        match &size {
-            Some((first, s)) if *s != this => anyhow::bail!(
-                "{} is {}x{} px but {first} is {}x{} px: a recording's frames must share one size",
-                row.frame,
-                this.0,
-                this.1,
-                s.0,
-                s.1
-            ),
-            Some(_) => {}
-            None => size = Some((row.frame.clone(), this)),
-        }
+        sizes.push((frame.width(), frame.height()));
         match detect_tip(&frame, &TipSettings::default()) {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
@@ -165,6 +152,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None => eprintln!("{}: no tip found, frame skipped", row.frame),
         }
     }
+    check_one_size(&sizes, |k| rows[k].frame.clone()).map_err(anyhow::Error::msg)?;
     let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px)
         .context("fitting the calibration")?;
     println!("frame                          dx_px     dy_px  inlier");

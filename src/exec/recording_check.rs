@@ -8,7 +8,7 @@ use super::recording::{RecordingSpec, StageLogEntry};
 use crate::calib::affine::AffineCalibration;
 use crate::plan::layout::{UM_PER_M, um_text};
 use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
-use crate::vision::frame::Frame;
+use crate::vision::frame::{Frame, check_one_size};
 use crate::vision::frame_input::image_files;
 use nalgebra::Vector2;
 use std::path::Path;
@@ -140,39 +140,16 @@ pub(super) fn check_stage_entry(e: &StageLogEntry) -> Result<(), String> {
 /// Every frame is the size of the first (the animation and the view are
 /// one size); the message names the odd frame (its file, in a folder).
 pub(super) fn check_frame_sizes(frames: &[Frame], frames_path: &Path) -> Result<(), String> {
-    let size = |f: &Frame| (f.width(), f.height());
-    let Some(first) = frames.first().map(size) else {
-        return Ok(());
-    };
-    let Some(i) = frames.iter().position(|f| size(f) != first) else {
-        return Ok(());
-    };
-    let names: Vec<String> = if frames_path.is_dir() {
-        let files = image_files(frames_path).unwrap_or_default();
-        files
-            .iter()
-            .map(|f| {
-                f.file_name()
-                    .unwrap_or_default()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let name = |k: usize| {
-        names
-            .get(k)
-            .cloned()
-            .unwrap_or_else(|| format!("frame {k}"))
-    };
-    let (w, h) = size(&frames[i]);
-    Err(format!(
-        "{} is {w}x{h} px but {} is {}x{} px: every frame of a recording must be one size",
-        name(i),
-        name(0),
-        first.0,
-        first.1
-    ))
+    let sizes: Vec<_> = frames.iter().map(|f| (f.width(), f.height())).collect();
+    check_one_size(&sizes, |k| {
+        let files = if frames_path.is_dir() {
+            image_files(frames_path).unwrap_or_default()
+        } else {
+            Vec::new()
+        };
+        files.get(k).and_then(|f| f.file_name()).map_or_else(
+            || format!("frame {k}"),
+            |n| n.to_string_lossy().into_owned(),
+        )
+    })
 }

@@ -96,6 +96,31 @@ impl Frame {
     }
 }
 
+/// Fails, naming the first odd frame and the first one, unless every size
+/// in `sizes` (width, height) is the first's: one camera, one pixel grid
+/// (a recording's frames; a calibration's, where a crop's tip position
+/// would bend the map). `name` gives frame k's name, asked only on failure.
+pub fn check_one_size(
+    sizes: &[(usize, usize)],
+    name: impl Fn(usize) -> String,
+) -> Result<(), String> {
+    let Some(&first) = sizes.first() else {
+        return Ok(());
+    };
+    match sizes.iter().position(|&s| s != first) {
+        None => Ok(()),
+        Some(i) => Err(format!(
+            "{} is {}x{} px but {} is {}x{} px: every frame of a recording must be one size",
+            name(i),
+            sizes[i].0,
+            sizes[i].1,
+            name(0),
+            first.0,
+            first.1
+        )),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
