@@ -112,3 +112,61 @@ fn same_particles_found_in_8_and_16_bit_frames() {
         assert_eq!(m.n_found, t.len());
     }
 }
+
+/// A lab's software exports the same frame as a normalised, offset 32-bit
+/// float TIFF (ImageJ's "32-bit"): read back, it must give the particles the
+/// 16-bit frame gives. Fails when such a TIFF cannot be read, or when its
+/// values are taken as counts (a 0..1 frame is below the noise floor of one
+/// count's quantisation, and its negative half would read as clipped).
+#[test]
+fn a_float_tiff_of_a_frame_gives_the_frames_particles() {
+    use nanopush::vision::frame_input::{Channel, load_frame};
+    use opencv::core::{Mat, MatTrait, Scalar, Vector};
+    let size = 384;
+    let scene = random_scene(25, size, size, RADIUS, 21);
+    let frame = render_frame(&scene, &RenderSettings::with_snr(8.0, 16), 21).unwrap();
+    let mut mat = Mat::new_rows_cols_with_default(
+        size as i32,
+        size as i32,
+        opencv::core::CV_32FC1,
+        Scalar::all(0.0),
+    )
+    .unwrap();
+    for y in 0..size {
+        for x in 0..size {
+            *mat.at_2d_mut::<f32>(y as i32, x as i32).unwrap() = frame.at(x, y) / 65535.0 - 0.25;
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("float.tif");
+    let params = Vector::<i32>::new();
+    assert!(opencv::imgcodecs::imwrite(&path.to_string_lossy(), &mat, &params).unwrap());
+    let back = load_frame(&path, Channel::Luminance).unwrap();
+
+    let settings = DetectSettings {
+        diameter_px: 2.0 * RADIUS + 1.0,
+        ..DetectSettings::default()
+    };
+    let counts = detect_particles(&frame, &settings).unwrap();
+    let floats = detect_particles(&back, &settings).unwrap();
+    let m = match_points(
+        &truth(&scene),
+        &floats.iter().map(|d| [d.x_px, d.y_px]).collect::<Vec<_>>(),
+        RADIUS,
+    );
+    assert_eq!((m.pairs.len(), m.n_found), (25, 25));
+    assert_eq!(floats.len(), counts.len());
+    let worst = counts
+        .iter()
+        .map(|c| {
+            floats
+                .iter()
+                .map(|f| (f.x_px - c.x_px).hypot(f.y_px - c.y_px) + (f.r_px - c.r_px).abs())
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max);
+    println!(
+        "float TIFF against the 16-bit frame: worst centre + radius difference {worst:.2e} px"
+    );
+    assert!(worst < 0.01, "worst difference {worst} px");
+}

@@ -1,9 +1,12 @@
 //! Reading frames from files: single images (PNG, TIFF, BMP, JPEG; 8/16-bit,
-//! grey or colour), multi-page TIFF stacks, image-sequence folders and video.
+//! grey or colour; TIFFs also 32-bit float or integer and signed 16-bit),
+//! multi-page TIFF stacks, image-sequence folders and video.
 //!
 //! Single images go through the pure-Rust `image` crate (clear errors on
-//! truncated files); multi-page TIFF stacks and video go through OpenCV
-//! (imgcodecs `imreadmulti`, videoio `VideoCapture`), which `image` cannot read.
+//! truncated files); multi-page TIFF stacks, video and the TIFF sample types
+//! `image` does not decode go through OpenCV (imgcodecs `imreadmulti` and
+//! `imdecode`, videoio `VideoCapture`). Samples other than 8/16-bit counts
+//! are mapped onto 16-bit counts (`wide_samples`).
 
 use std::path::{Path, PathBuf};
 
@@ -13,6 +16,7 @@ use opencv::prelude::VideoCaptureTrait;
 use thiserror::Error;
 
 use super::frame::{Frame, FrameError};
+use super::wide_samples::frame_from_wide;
 
 /// Which part of a colour frame becomes the grey frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -166,9 +170,14 @@ pub fn decode_image(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame
             "unsupported or unknown image format".into(),
         ));
     }
-    let img = reader
-        .decode()
-        .map_err(|e| decode_error(path, e.to_string()))?;
+    let format = reader.format();
+    let img = match reader.decode() {
+        Ok(img) => img,
+        Err(image::ImageError::Unsupported(_)) if format == Some(image::ImageFormat::Tiff) => {
+            return decode_wide_tiff(bytes, path, channel);
+        }
+        Err(e) => return Err(decode_error(path, e.to_string())),
+    };
     image_to_frame(&img, channel).map_err(|source| FrameInputError::Invalid {
         path: path.to_owned(),
         source,
@@ -184,9 +193,22 @@ fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
     }
 }
 
-/// Converts a decoded image to a grey frame, keeping 16-bit depth when present.
+/// Converts a decoded image to a grey frame, keeping 16-bit depth when
+/// present; float colour images are mapped onto 16-bit counts
+/// ([`frame_from_wide`]).
 pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, FrameError> {
     let (w, h) = (img.width() as usize, img.height() as usize);
+    if matches!(
+        img,
+        DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)
+    ) {
+        let pixels: Vec<f32> = img
+            .to_rgb32f()
+            .pixels()
+            .map(|p| pick(channel, p[0], p[1], p[2]))
+            .collect();
+        return frame_from_wide(w, h, &pixels);
+    }
     let sixteen = matches!(
         img,
         DynamicImage::ImageLuma16(_)
@@ -229,7 +251,8 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
     Frame::new(w, h, pixels, if sixteen { 16 } else { 8 })
 }
 
-/// Converts an OpenCV matrix (8U/16U, 1/3/4 channels, BGR order) to a frame.
+/// Converts an OpenCV matrix (1/3/4 channels, BGR order) to a frame: 8U and
+/// 16U as counts, the [`WIDE_DEPTHS`] mapped onto 16-bit counts.
 pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
     let (w, h) = (mat.cols().max(0) as usize, mat.rows().max(0) as usize);
     let nch = mat.channels().max(1) as usize;
@@ -243,12 +266,23 @@ pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, F
         .data_bytes()
         .map_err(|e| decode_error(path, e.to_string()))?;
     let depth = mat.depth();
+    let wide = WIDE_DEPTHS.contains(&depth);
     let samples: Vec<f32> = if depth == opencv::core::CV_8U {
         bytes.iter().map(|&b| b as f32).collect()
     } else if depth == opencv::core::CV_16U {
         bytes
             .chunks_exact(2)
             .map(|c| u16::from_ne_bytes([c[0], c[1]]) as f32)
+            .collect()
+    } else if wide {
+        let mut floats = Mat::default();
+        mat.convert_to(&mut floats, opencv::core::CV_32F, 1.0, 0.0)
+            .map_err(|e| decode_error(path, e.to_string()))?;
+        floats
+            .data_bytes()
+            .map_err(|e| decode_error(path, e.to_string()))?
+            .chunks_exact(4)
+            .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
             .collect()
     } else {
         return Err(decode_error(
@@ -264,11 +298,40 @@ pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, F
             .map(|p| pick(channel, p[2], p[1], p[0]))
             .collect()
     };
-    let bit_depth = if depth == opencv::core::CV_16U { 16 } else { 8 };
-    Frame::new(w, h, pixels, bit_depth).map_err(|source| FrameInputError::Invalid {
+    let frame = if wide {
+        frame_from_wide(w, h, &pixels)
+    } else {
+        let bit_depth = if depth == opencv::core::CV_16U { 16 } else { 8 };
+        Frame::new(w, h, pixels, bit_depth)
+    };
+    frame.map_err(|source| FrameInputError::Invalid {
         path: path.to_owned(),
         source,
     })
+}
+
+/// OpenCV depths read as wide samples (mapped onto 16-bit counts by
+/// [`frame_from_wide`]): signed 16-bit, 32-bit integer, 32- and 64-bit float.
+const WIDE_DEPTHS: [i32; 4] = [
+    opencv::core::CV_16S,
+    opencv::core::CV_32S,
+    opencv::core::CV_32F,
+    opencv::core::CV_64F,
+];
+
+/// Decodes a TIFF the `image` crate does not take (32-bit float or integer
+/// grey, signed samples) with OpenCV: its first page.
+fn decode_wide_tiff(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
+    let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
+    let mat = opencv::imgcodecs::imdecode(&Vector::<u8>::from_slice(bytes), flags)
+        .map_err(|e| decode_error(path, e.to_string()))?;
+    if mat.empty() {
+        return Err(decode_error(
+            path,
+            "OpenCV could not decode the TIFF".into(),
+        ));
+    }
+    mat_to_frame(&mat, path, channel)
 }
 
 fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
@@ -369,5 +432,100 @@ mod tests {
         assert!((lum - (0.299 * 10.0 + 0.587 * 200.0 + 0.114 * 30.0)).abs() < 1e-3);
         assert_eq!("green".parse::<Channel>(), Ok(Channel::Green));
         assert!("purple".parse::<Channel>().is_err());
+    }
+
+    use opencv::prelude::MatTrait;
+
+    /// A one-channel OpenCV matrix of `depth` holding `samples` (row-major).
+    fn mat_of(w: usize, h: usize, depth: i32, samples: &[f64]) -> Mat {
+        let mut mat = Mat::new_rows_cols_with_default(
+            h as i32,
+            w as i32,
+            opencv::core::CV_MAKETYPE(depth, 1),
+            opencv::core::Scalar::all(0.0),
+        )
+        .unwrap();
+        for (i, &v) in samples.iter().enumerate() {
+            let (x, y) = ((i % w) as i32, (i / w) as i32);
+            if depth == opencv::core::CV_32F {
+                *mat.at_2d_mut::<f32>(y, x).unwrap() = v as f32;
+            } else {
+                *mat.at_2d_mut::<i16>(y, x).unwrap() = v as i16;
+            }
+        }
+        mat
+    }
+
+    fn as_f32(samples: &[f64]) -> Vec<f32> {
+        samples.iter().map(|&v| v as f32).collect()
+    }
+
+    #[test]
+    fn float_and_signed_tiffs_read_as_their_samples_mapped_onto_counts() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (5, 3);
+        let float: Vec<f64> = (0..w * h).map(|i| (i as f64 * 0.37).sin() * 0.01).collect();
+        let signed: Vec<f64> = (0..w * h)
+            .map(|i| (i as f64 * 997.0) % 600.0 - 300.0)
+            .collect();
+        for (depth, samples) in [
+            (opencv::core::CV_32F, &float),
+            (opencv::core::CV_16S, &signed),
+        ] {
+            let path = dir.path().join(format!("wide_{depth}.tif"));
+            let params = Vector::<i32>::new();
+            assert!(
+                opencv::imgcodecs::imwrite(
+                    &path.to_string_lossy(),
+                    &mat_of(w, h, depth, samples),
+                    &params
+                )
+                .unwrap()
+            );
+            let want = frame_from_wide(w, h, &as_f32(samples)).unwrap();
+            assert_eq!(load_frame(&path, Channel::Luminance).unwrap(), want);
+            assert_eq!(load_frames(&path, Channel::Luminance).unwrap(), vec![want]);
+        }
+    }
+
+    #[test]
+    fn a_float_tiff_stack_reads_page_by_page() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("stack.tif");
+        let pages: Vec<Vec<f64>> = (0..3)
+            .map(|k| {
+                (0..12)
+                    .map(|i| (i * (k + 2)) as f64 * 1e-3 - 0.004)
+                    .collect()
+            })
+            .collect();
+        let mats: Vector<Mat> = pages
+            .iter()
+            .map(|p| mat_of(4, 3, opencv::core::CV_32F, p))
+            .collect();
+        let params = Vector::<i32>::new();
+        assert!(opencv::imgcodecs::imwritemulti(&path.to_string_lossy(), &mats, &params).unwrap());
+        let want: Vec<Frame> = pages
+            .iter()
+            .map(|p| frame_from_wide(4, 3, &as_f32(p)).unwrap())
+            .collect();
+        assert_eq!(load_frames(&path, Channel::Luminance).unwrap(), want);
+    }
+
+    #[test]
+    fn a_float_colour_tiff_reads_the_chosen_channel_mapped_onto_counts() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("colour.tif");
+        let img = image::Rgb32FImage::from_fn(3, 2, |x, y| {
+            image::Rgb([x as f32, 0.5 * y as f32, -(x as f32) - y as f32])
+        });
+        image::DynamicImage::ImageRgb32F(img.clone())
+            .save(&path)
+            .unwrap();
+        let green: Vec<f32> = img.pixels().map(|p| p[1]).collect();
+        assert_eq!(
+            load_frame(&path, Channel::Green).unwrap(),
+            frame_from_wide(3, 2, &green).unwrap()
+        );
     }
 }

@@ -22,3 +22,4 @@ pub mod radial_symmetry;
 pub mod ring_edge;
 pub mod roi;
 pub mod tip;
+pub mod wide_samples;
