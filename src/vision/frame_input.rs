@@ -252,7 +252,7 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
 }
 
 /// Converts an OpenCV matrix (1/3/4 channels, BGR order) to a frame: 8U and
-/// 16U as counts, the [`WIDE_DEPTHS`] mapped onto 16-bit counts.
+/// 16U as counts, signed 16-bit, 32-bit integer and float 32/64 mapped onto 16-bit counts.
 pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
     let (w, h) = (mat.cols().max(0) as usize, mat.rows().max(0) as usize);
     let nch = mat.channels().max(1) as usize;
