@@ -256,6 +256,43 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
     assert!(!dir.path().join("f.png").exists() && !dir.path().join("t.json").exists());
 }
 
+/// A failed `synth frame` leaves nothing behind: a lossy or unknown format
+/// is refused before rendering, and a truth that cannot be written takes the
+/// frame with it (a frame without its truth, or an empty file, would pass for
+/// a study's input).
+#[test]
+fn synth_frame_writes_the_frame_and_its_truth_or_neither() {
+    let dir = tempfile::tempdir().unwrap();
+    let outputs = dir.path().join("outputs");
+    std::fs::create_dir(&outputs).unwrap();
+    let at = |name: &str| outputs.join(name).display().to_string();
+    for (out, truth, needle) in [
+        (at("f.jpg"), at("t.json"), "--out must end in .png or .tif"),
+        (at("f.xyz"), at("t.json"), "--out must end in .png or .tif"),
+        (
+            at("f.png"),
+            at("no/such/folder/t.json"),
+            "no/such/folder/t.json",
+        ),
+    ] {
+        let args = [
+            "synth", "frame", "--n", "3", "--bits", "16", "--out", &out, "--truth", &truth,
+        ];
+        let err = refused(dir.path(), &args);
+        assert!(err.contains(needle), "{out}: {err}");
+        let left: Vec<_> = std::fs::read_dir(&outputs).unwrap().collect();
+        assert!(left.is_empty(), "{out}: left {left:?}");
+    }
+    let (out, truth) = (at("f.tif"), at("t.json"));
+    let args = [
+        "synth", "frame", "--n", "3", "--bits", "16", "--out", &out, "--truth", &truth,
+    ];
+    assert!(deadline::nanopush_within(dir.path(), &args, 20).ok);
+    let frame = load_frame(std::path::Path::new(&out), Channel::Luminance).unwrap();
+    assert_eq!(frame.bit_depth(), 16);
+    assert!(std::path::Path::new(&truth).is_file());
+}
+
 /// `study vision` checks its particles before the expensive bound: a
 /// radius wider than the frame and zero particles are refused, and a
 /// frame too small for the particles asked says how many it holds.

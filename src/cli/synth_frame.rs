@@ -1,6 +1,6 @@
 //! `nanopush synth frame`: render a synthetic microscope frame and its truth.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
@@ -23,7 +23,7 @@ pub struct Args {
     /// Seed: the same seed gives the same frame.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Output PNG (8- or 16-bit grey).
+    /// Output image, .png or .tif (8- or 16-bit grey).
     #[arg(long)]
     pub out: PathBuf,
     /// Ground-truth JSON ("nanopush.truth/1").
@@ -68,6 +68,13 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.bits != 8 && args.bits != 16 {
         anyhow::bail!("--bits must be 8 or 16, got {}", args.bits);
+    }
+    let ext = args.out.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !["png", "tif", "tiff"].contains(&ext.to_ascii_lowercase().as_str()) {
+        anyhow::bail!(
+            "--out must end in .png or .tif (lossless, so the counts are the ones the truth describes), got {}",
+            args.out.display()
+        );
     }
     if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
         anyhow::bail!(
@@ -114,15 +121,38 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     settings.optics.defocus_px = args.defocus_px;
     settings.optics.inverted = args.inverted;
     let frame = render_frame(&scene, &settings, args.seed).context("rendering the frame")?;
-    save_png(&frame, &args.out).with_context(|| format!("writing {}", args.out.display()))?;
-    if let Some(path) = &args.truth {
-        let r = scene
-            .particles
-            .first()
-            .map_or(args.radius_px, |p| p.radius_px);
-        let truth = Truth::of(&scene, args.seed, args.snr, centre_crb_px(r, &settings));
-        std::fs::write(path, serde_json::to_string_pretty(&truth)?)
-            .with_context(|| format!("writing {}", path.display()))?;
+    let truth = match &args.truth {
+        None => None,
+        Some(path) => {
+            let r = scene
+                .particles
+                .first()
+                .map_or(args.radius_px, |p| p.radius_px);
+            let truth = Truth::of(&scene, args.seed, args.snr, centre_crb_px(r, &settings));
+            Some((path, serde_json::to_string_pretty(&truth)?))
+        }
+    };
+    // Both files or neither: each is written under a hidden name first, and
+    // renamed once both are (a frame without its truth passes for a study's input).
+    let frame_tmp = hidden_sibling(&args.out);
+    let mut written = vec![(frame_tmp.clone(), args.out.clone())];
+    let mut write = || -> anyhow::Result<()> {
+        save_png(&frame, &frame_tmp).with_context(|| format!("writing {}", args.out.display()))?;
+        if let Some((path, text)) = &truth {
+            let tmp = hidden_sibling(path);
+            written.push((tmp.clone(), path.to_path_buf()));
+            std::fs::write(&tmp, text).with_context(|| format!("writing {}", path.display()))?;
+        }
+        for (tmp, path) in &written {
+            std::fs::rename(tmp, path).with_context(|| format!("writing {}", path.display()))?;
+        }
+        Ok(())
+    };
+    if let Err(e) = write() {
+        for (tmp, _) in &written {
+            let _ = std::fs::remove_file(tmp);
+        }
+        return Err(e);
     }
     eprintln!(
         "wrote {} ({}x{}, {} particles, {}-bit, SNR {})",
@@ -134,4 +164,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.snr
     );
     Ok(())
+}
+
+/// `path` with a dot before its file name: where a file is written before it
+/// is renamed into place (same folder, so the rename is atomic; same
+/// extension, so the image encoder is chosen by it).
+fn hidden_sibling(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    path.with_file_name(format!(".{name}"))
 }
