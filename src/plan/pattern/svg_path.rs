@@ -6,6 +6,10 @@
 //! divider walked along it), so a corner does not bring two sites closer
 //! than the pitch; a site that would fall within a pitch of an earlier one
 //! (where paths cross, touch or close) is left out.
+//!
+//! Only outlines give sites: a fill's interior gives none (a filled shape is
+//! a bitmap pattern) and embedded images are ignored. Text is refused: there
+//! are no fonts to draw it with, and dropping it would drop the letters.
 
 use super::{Pattern, PatternError};
 use crate::plan::occupancy::Occupancy;
@@ -39,6 +43,7 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
             path: origin.into(),
             message: format!("not an SVG drawing: {e}"),
         })?;
+    refuse_text(text, origin)?;
     let pitch_um = pitch_m * 1e6;
     let mut polylines = Vec::new();
     collect_polylines(tree.root(), pitch_um, &mut polylines);
@@ -68,6 +73,35 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
         .map(|p| Vector2::new(p.x, -p.y) * 1e-6)
         .collect();
     Pattern::from_offsets(offsets, &format!("{origin} has no path"))
+}
+
+/// Refuses a drawing with text in it. usvg (built without fonts) drops text
+/// without a word, and a drawing's letters are most likely the pattern: the
+/// user would get the other paths' sites and never know the letters were
+/// left out.
+fn refuse_text(text: &str, origin: &str) -> Result<(), PatternError> {
+    // usvg reports a document that does not parse; nothing to add here.
+    let Ok(doc) = roxmltree::Document::parse(text) else {
+        return Ok(());
+    };
+    let texts = doc
+        .descendants()
+        .filter(|n| n.has_tag_name(("http://www.w3.org/2000/svg", "text")))
+        .filter(|n| {
+            n.descendants()
+                .any(|d| d.text().is_some_and(|t| !t.trim().is_empty()))
+        })
+        .count();
+    if texts == 0 {
+        return Ok(());
+    }
+    Err(PatternError::File {
+        path: origin.into(),
+        message: format!(
+            "holds {texts} text element(s), which nanopush cannot turn into sites (no fonts): \
+             convert the text to paths (Inkscape: Path > Object to Path) or give the letters with --text"
+        ),
+    })
 }
 
 /// Each subpath of every path under `group`, flattened, in user units with
@@ -361,5 +395,26 @@ mod tests {
         )
         .unwrap_err();
         assert!(tiny_line.to_string().contains("more than"), "{tiny_line}");
+    }
+
+    #[test]
+    fn a_drawing_with_text_is_refused_not_read_without_its_letters() {
+        let line = r#"<path d="M 10 20 L 10 72.5" stroke="black"/>"#;
+        let lettered = format!(r#"{line}<g><text x="50" y="50">C<tspan>MU</tspan></text></g>"#);
+        let e = pattern_from_svg(&svg(&lettered), 10e-6, "letters.svg").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("letters.svg: holds 1 text element(s)"),
+            "{e}"
+        );
+        // An empty text element (an editor's leftover) holds no letters.
+        let empty_text = format!(r#"{line}<text x="5" y="5">  </text>"#);
+        assert_eq!(
+            pattern_from_svg(&svg(&empty_text), 10.5e-6, "mem")
+                .unwrap()
+                .offsets_m
+                .len(),
+            6
+        );
     }
 }
