@@ -2,47 +2,75 @@
 //! integer, signed 16-bit (ImageJ's "32-bit" TIFFs, background-subtracted or
 //! normalised exports).
 //!
-//! Such a frame is mapped, per frame and affinely, onto 16-bit counts: its
-//! darkest pixel to [`WIDE_FLOOR`], its brightest to 65535 - [`WIDE_FLOOR`],
-//! rounded. Why: every detection threshold is in units of the frame's
-//! measured noise, so the scale does not matter, but the pipeline takes 0 and
-//! the full count as clipped, and its noise floor is a quantisation step of
-//! one count; a 0..1 float frame would be all "quantisation noise" and a
-//! background-subtracted one half "clipped". After the map the frame is an
-//! ordinary 16-bit frame: written to a recording as PNG and read back equal.
-//! The source's own saturation, if it had one, is not known and not flagged.
+//! Such a frame is mapped, per frame and affinely, onto 16-bit counts: the
+//! range between its [`OUTLIER_FRACTION`] darkest and brightest pixels onto
+//! the middle half of the counts, [`INLIER_COUNTS`], rounded, and whatever
+//! falls beyond 0 or 65535 clipped there. Why: every detection threshold is
+//! in units of the frame's measured noise, so the scale does not matter, but
+//! the pipeline takes 0 and the full count as clipped, and its noise floor
+//! is a quantisation step of one count: a 0..1 float frame would be all
+//! "quantisation noise" and a background-subtracted one half "clipped".
+//! Why the middle half of a robust range: a hot or dead pixel of a
+//! scientific camera, 1000 times the frame's range, would squeeze the rest
+//! into 65 counts (centres 0.03 px off, about the Cramer-Rao bound); it now
+//! clips and reads as clipped, as on the camera itself, while a particle's
+//! core just above the brightest 0.01 % keeps the headroom of a quarter of
+//! the counts. After the map the frame is an ordinary 16-bit frame: written
+//! to a recording as PNG and read back equal. The source's own saturation,
+//! if it had one, is not known.
 
 use super::frame::{Frame, FrameError};
 
-/// Counts kept free at both ends of the 16-bit range, so no mapped pixel
-/// reads as clipped (0) or saturated (65535).
-pub const WIDE_FLOOR: f32 = 64.0;
+/// Counts the frame's robust range is mapped onto (the middle half).
+pub const INLIER_COUNTS: (f32, f32) = (16384.0, 49151.0);
+
+/// Fraction of the pixels at either end of a wide frame's range left out of
+/// its robust range (15 of a 384 x 384 frame, none of one under 10,000
+/// pixels): they are mapped too, and clip only beyond the headroom.
+pub const OUTLIER_FRACTION: f64 = 1e-4;
 
 /// Bit depth of a mapped frame.
 const MAPPED_BITS: u8 = 16;
 
 /// Maps row-major wide samples onto 16-bit counts (see the module docs). A
-/// flat frame maps to the floor. A NaN or infinite sample is refused by its
-/// index (ImageJ writes NaN for masked pixels: the frame is then not a
-/// camera's).
+/// flat frame maps to the middle's lower end. A NaN or infinite sample is
+/// refused by its index (ImageJ writes NaN for masked pixels: the frame is
+/// then not a camera's).
 pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<Frame, FrameError> {
     if let Some(index) = samples.iter().position(|v| !v.is_finite()) {
         return Err(FrameError::NotFinite { index });
     }
-    let lo = samples.iter().copied().fold(f32::INFINITY, f32::min);
-    let hi = samples.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let (lo, hi) = robust_range(samples);
+    let (floor, ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
     // In f64: a span of f32::MAX minus f32::MIN overflows f32.
-    let span = f64::from(hi) - f64::from(lo);
-    let scale = if span > 0.0 {
-        (65535.0 - 2.0 * f64::from(WIDE_FLOOR)) / span
+    let scale = if hi > lo {
+        (ceiling - floor) / (hi - lo)
     } else {
         0.0
     };
     let counts = samples
         .iter()
-        .map(|&v| (f64::from(WIDE_FLOOR) + (f64::from(v) - f64::from(lo)) * scale).round() as f32)
+        .map(|&v| {
+            (floor + (f64::from(v) - lo) * scale)
+                .round()
+                .clamp(0.0, 65535.0) as f32
+        })
         .collect();
     Frame::new(width, height, counts, MAPPED_BITS)
+}
+
+/// The darkest and brightest samples once the [`OUTLIER_FRACTION`] at
+/// either end is set aside.
+fn robust_range(samples: &[f32]) -> (f64, f64) {
+    let n = samples.len();
+    if n == 0 {
+        return (0.0, 0.0);
+    }
+    let k = (n as f64 * OUTLIER_FRACTION) as usize;
+    let mut ranked = samples.to_vec();
+    let lo = *ranked.select_nth_unstable_by(k, f32::total_cmp).1;
+    let hi = *ranked.select_nth_unstable_by(n - 1 - k, f32::total_cmp).1;
+    (f64::from(lo), f64::from(hi))
 }
 
 #[cfg(test)]
@@ -50,14 +78,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn darkest_and_brightest_land_inside_the_16_bit_range_in_order() {
+    fn a_small_frame_spans_the_middle_half_in_order() {
         let samples = [-0.5f32, 0.0, 0.25, 1.5];
         let f = frame_from_wide(2, 2, &samples).unwrap();
         assert_eq!(f.bit_depth(), 16);
-        assert_eq!(f.at(0, 0), WIDE_FLOOR);
-        assert_eq!(f.at(1, 1), 65535.0 - WIDE_FLOOR);
+        let (floor, ceiling) = INLIER_COUNTS;
+        assert_eq!((f.at(0, 0), f.at(1, 1)), (floor, ceiling));
         // Affine: 0.0 is a quarter of the way from -0.5 to 1.5.
-        let quarter = WIDE_FLOOR + 0.25 * (65535.0 - 2.0 * WIDE_FLOOR);
+        let quarter = floor + 0.25 * (ceiling - floor);
         assert!((f.at(1, 0) - quarter).abs() <= 0.5, "{}", f.at(1, 0));
         assert!(f.at(1, 0) < f.at(0, 1));
     }
@@ -65,9 +93,29 @@ mod tests {
     #[test]
     fn extreme_and_flat_frames_map_without_overflow() {
         let f = frame_from_wide(2, 1, &[f32::MIN, f32::MAX]).unwrap();
-        assert_eq!(f.pixels(), &[WIDE_FLOOR, 65535.0 - WIDE_FLOOR]);
+        assert_eq!(f.pixels(), &[INLIER_COUNTS.0, INLIER_COUNTS.1]);
         let flat = frame_from_wide(3, 1, &[7.5; 3]).unwrap();
-        assert_eq!(flat.pixels(), &[WIDE_FLOOR; 3]);
+        assert_eq!(flat.pixels(), &[INLIER_COUNTS.0; 3]);
+    }
+
+    #[test]
+    fn hot_and_dead_pixels_clip_and_the_rest_keeps_its_range() {
+        // 20,000 pixels: the 2 most extreme at either end fall outside the
+        // robust range; a slightly bright one keeps its headroom.
+        let mut samples: Vec<f32> = (0..20_000).map(|i| (i % 100) as f32 * 0.01).collect();
+        samples[5] = 1e4;
+        samples[6] = -1e4;
+        samples[7] = 1.2;
+        let f = frame_from_wide(200, 100, &samples).unwrap();
+        assert_eq!((f.pixels()[5], f.pixels()[6]), (65535.0, 0.0));
+        let (floor, ceiling) = INLIER_COUNTS;
+        let per_unit = (ceiling - floor) / 0.99;
+        assert!((f.pixels()[7] - (floor + 1.2 * per_unit)).abs() <= 0.5);
+        let inliers = f.pixels().iter().filter(|&&v| v > 0.0 && v < 65535.0);
+        let (lo, hi) = inliers.fold((f32::INFINITY, 0.0f32), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+        assert_eq!((lo, hi), (floor, f.pixels()[7]));
     }
 
     #[test]
