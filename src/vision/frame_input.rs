@@ -3,10 +3,12 @@
 //! multi-page TIFF stacks, image-sequence folders and video.
 //!
 //! Single images go through the pure-Rust `image` crate (clear errors on
-//! truncated files); multi-page TIFF stacks, video and the TIFF sample types
-//! `image` does not decode go through OpenCV (imgcodecs `imreadmulti` and
-//! `imdecode`, videoio `VideoCapture`). Samples other than 8/16-bit counts
-//! are mapped onto 16-bit counts (`wide_samples`).
+//! truncated files); multi-page TIFF stacks and video go through OpenCV
+//! (imgcodecs `imreadmulti`, videoio `VideoCapture`); TIFF sample types
+//! neither decodes (32-bit float or integer grey for `image`, unsigned
+//! 32-bit and half floats for OpenCV) go through the `tiff` crate
+//! (`tiff_fallback`). Samples other than 8/16-bit counts are mapped onto
+//! 16-bit counts (`wide_samples`).
 
 use std::path::{Path, PathBuf};
 
@@ -16,6 +18,7 @@ use opencv::prelude::VideoCaptureTrait;
 use thiserror::Error;
 
 use super::frame::{Frame, FrameError};
+use super::tiff_fallback;
 use super::wide_samples::frame_from_wide;
 
 /// Which part of a colour frame becomes the grey frame.
@@ -130,17 +133,22 @@ pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInp
         }
         let mut mats = Vector::<Mat>::new();
         let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
-        let ok = opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags)
-            .map_err(|e| decode_error(path, e.to_string()))?;
-        if !ok {
-            return Err(decode_error(
-                path,
-                "OpenCV could not read the TIFF stack".into(),
-            ));
+        let read =
+            quietly(|| opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags));
+        if read.is_ok_and(|ok| ok) {
+            mats.iter()
+                .map(|m| mat_to_frame(&m, path, channel))
+                .collect::<Result<Vec<_>, _>>()?
+        } else {
+            // Sample types OpenCV has not (unsigned 32-bit, half floats).
+            let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
+                path: path.to_owned(),
+                source,
+            })?;
+            tiff_fallback::decode_pages(&bytes, channel, false).map_err(|reason| {
+                decode_error(path, format!("cannot read the TIFF stack: {reason}"))
+            })?
         }
-        mats.iter()
-            .map(|m| mat_to_frame(&m, path, channel))
-            .collect::<Result<Vec<_>, _>>()?
     } else {
         vec![load_frame(path, channel)?]
     };
@@ -174,7 +182,7 @@ pub fn decode_image(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame
     let img = match reader.decode() {
         Ok(img) => img,
         Err(image::ImageError::Unsupported(_)) if format == Some(image::ImageFormat::Tiff) => {
-            return decode_wide_tiff(bytes, path, channel);
+            return first_page_of_wide_tiff(bytes, path, channel);
         }
         Err(e) => return Err(decode_error(path, e.to_string())),
     };
@@ -184,7 +192,24 @@ pub fn decode_image(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame
     })
 }
 
-fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
+/// The first page of a TIFF the `image` crate does not take (32-bit float or
+/// integer grey, signed or half-float samples), read by [`tiff_fallback`].
+fn first_page_of_wide_tiff(
+    bytes: &[u8],
+    path: &Path,
+    channel: Channel,
+) -> Result<Frame, FrameInputError> {
+    tiff_fallback::decode_pages(bytes, channel, true)
+        .map_err(|reason| decode_error(path, reason))?
+        .into_iter()
+        .next()
+        .ok_or_else(|| FrameInputError::Empty {
+            path: path.to_owned(),
+        })
+}
+
+/// One grey value of an RGB sample, as `channel` says.
+pub(crate) fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
     match channel {
         Channel::Luminance => 0.299 * r + 0.587 * g + 0.114 * b,
         Channel::Red => r,
@@ -318,21 +343,6 @@ const WIDE_DEPTHS: [i32; 4] = [
     opencv::core::CV_32F,
     opencv::core::CV_64F,
 ];
-
-/// Decodes a TIFF the `image` crate does not take (32-bit float or integer
-/// grey, signed samples) with OpenCV: its first page.
-fn decode_wide_tiff(bytes: &[u8], path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
-    let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
-    let mat = opencv::imgcodecs::imdecode(&Vector::<u8>::from_slice(bytes), flags)
-        .map_err(|e| decode_error(path, e.to_string()))?;
-    if mat.empty() {
-        return Err(decode_error(
-            path,
-            "OpenCV could not decode the TIFF".into(),
-        ));
-    }
-    mat_to_frame(&mat, path, channel)
-}
 
 fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
     if !path.is_file() {
@@ -510,6 +520,36 @@ mod tests {
             .map(|p| frame_from_wide(4, 3, &as_f32(p)).unwrap())
             .collect();
         assert_eq!(load_frames(&path, Channel::Luminance).unwrap(), want);
+    }
+
+    #[test]
+    fn unsigned_32_bit_tiffs_opencv_cannot_read_come_through_the_tiff_crate() {
+        let dir = tempfile::tempdir().unwrap();
+        let pages: Vec<Vec<u32>> = (0..2u32)
+            .map(|k| {
+                (0..12u32)
+                    .map(|i| 4_000_000_000 - i * 1_000 * (k + 1))
+                    .collect()
+            })
+            .collect();
+        let path = dir.path().join("u32.tif");
+        let mut encoder =
+            tiff::encoder::TiffEncoder::new(std::fs::File::create(&path).unwrap()).unwrap();
+        for page in &pages {
+            encoder
+                .write_image::<tiff::encoder::colortype::Gray32>(4, 3, page)
+                .unwrap();
+        }
+        drop(encoder);
+        let want: Vec<Frame> = pages
+            .iter()
+            .map(|p| {
+                let samples: Vec<f32> = p.iter().map(|&v| v as f32).collect();
+                frame_from_wide(4, 3, &samples).unwrap()
+            })
+            .collect();
+        assert_eq!(load_frames(&path, Channel::Luminance).unwrap(), want);
+        assert_eq!(load_frame(&path, Channel::Luminance).unwrap(), want[0]);
     }
 
     #[test]

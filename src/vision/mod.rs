@@ -21,5 +21,6 @@ pub mod profile_fit;
 pub mod radial_symmetry;
 pub mod ring_edge;
 pub mod roi;
+pub mod tiff_fallback;
 pub mod tip;
 pub mod wide_samples;
