@@ -19,9 +19,9 @@ pub enum FrameError {
         expected: usize,
         got: usize,
     },
-    /// A pixel is NaN or infinite.
-    #[error("frame pixel {index} is not finite")]
-    NotFinite { index: usize },
+    /// A pixel is NaN or infinite (image x right, y down).
+    #[error("pixel ({x}, {y}) is not a finite value (NaN or infinite: a masked pixel?)")]
+    NotFinite { x: usize, y: usize },
 }
 
 /// A grey frame: row-major counts, pixel centres at integer coordinates.
@@ -54,7 +54,10 @@ impl Frame {
             });
         }
         if let Some(index) = pixels.iter().position(|p| !p.is_finite()) {
-            return Err(FrameError::NotFinite { index });
+            return Err(FrameError::NotFinite {
+                x: index % width,
+                y: index / width,
+            });
         }
         Ok(Self {
             width,
@@ -137,7 +140,7 @@ mod tests {
         ));
         assert_eq!(
             Frame::new(1, 2, vec![0.0, f32::NAN], 8),
-            Err(FrameError::NotFinite { index: 1 })
+            Err(FrameError::NotFinite { x: 0, y: 1 })
         );
         let f = Frame::new(2, 1, vec![1.0, 2.0], 16).unwrap();
         assert_eq!(f.at(1, 0), 2.0);

@@ -34,11 +34,14 @@ const MAPPED_BITS: u8 = 16;
 
 /// Maps row-major wide samples onto 16-bit counts (see the module docs). A
 /// flat frame maps to the middle's lower end. A NaN or infinite sample is
-/// refused by its index (ImageJ writes NaN for masked pixels: the frame is
+/// refused by its place (ImageJ writes NaN for masked pixels: the frame is
 /// then not a camera's).
 pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<Frame, FrameError> {
     if let Some(index) = samples.iter().position(|v| !v.is_finite()) {
-        return Err(FrameError::NotFinite { index });
+        return Err(FrameError::NotFinite {
+            x: index % width.max(1),
+            y: index / width.max(1),
+        });
     }
     let (lo, hi) = robust_range(samples);
     let (floor, ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
@@ -122,7 +125,7 @@ mod tests {
     fn a_nan_sample_is_refused_by_its_index() {
         assert_eq!(
             frame_from_wide(2, 1, &[0.0, f32::NAN]),
-            Err(FrameError::NotFinite { index: 1 })
+            Err(FrameError::NotFinite { x: 1, y: 0 })
         );
     }
 }
