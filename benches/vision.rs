@@ -17,6 +17,7 @@ use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_c
 use nanopush::vision::frame_input::{Channel, load_frame};
 use nanopush::vision::noise::estimate_noise_sigma;
 use nanopush::vision::tip::{TipSettings, detect_tip};
+use nanopush::vision::wide_samples::frame_from_wide;
 
 /// CPU time consumed by this thread so far.
 fn thread_cpu_time() -> Duration {
@@ -85,6 +86,18 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("particles_ProfileFit", |b| {
         cpu_timed(b, || detect_particles(&frame, &settings))
+    });
+    g.finish();
+
+    // What a 32-bit float camera frame adds before detection: the map onto
+    // 16-bit counts (two rank selections over a copy, then the map).
+    let floats: Vec<f32> = frame.pixels().iter().map(|v| v / 65535.0 - 0.25).collect();
+    let mut g = c.benchmark_group("vision_1024x1024_float_map");
+    g.warm_up_time(Duration::from_secs(1));
+    g.measurement_time(Duration::from_secs(3));
+    g.sample_size(20);
+    g.bench_function("frame_from_wide_cpu_time", |b| {
+        cpu_timed(b, || frame_from_wide(1024, 1024, &floats))
     });
     g.finish();
 

@@ -3,7 +3,8 @@
 //! normalised exports).
 //!
 //! Such a frame is mapped, per frame and affinely, onto 16-bit counts: the
-//! range between its [`OUTLIER_FRACTION`] darkest and brightest pixels onto
+//! range between its [`OUTLIER_FRACTION`] darkest and brightest pixels (of
+//! a strided sample of at most [`RANKED_SAMPLES`] pixels) onto
 //! the middle half of the counts, [`INLIER_COUNTS`], rounded, and whatever
 //! falls beyond 0 or 65535 clipped there. Why: every detection threshold is
 //! in units of the frame's measured noise, so the scale does not matter, but
@@ -45,32 +46,39 @@ pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<F
     }
     let (lo, hi) = robust_range(samples);
     let (floor, ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
-    // In f64: a span of f32::MAX minus f32::MIN overflows f32.
+    // count = offset + v * scale, the offset folded in f64 so that the f32
+    // map never forms v - lo (f32::MAX - f32::MIN overflows).
     let scale = if hi > lo {
         (ceiling - floor) / (hi - lo)
     } else {
         0.0
     };
+    let (offset, scale) = ((floor - lo * scale) as f32, scale as f32);
+    // Rounded by adding a half and truncating (the value is clamped
+    // non-negative first): the loop stays vectorised, where `round` is a call.
     let counts = samples
         .iter()
-        .map(|&v| {
-            (floor + (f64::from(v) - lo) * scale)
-                .round()
-                .clamp(0.0, 65535.0) as f32
-        })
+        .map(|&v| ((offset + v * scale).clamp(0.0, 65535.0) + 0.5) as u32 as f32)
         .collect();
     Frame::new(width, height, counts, MAPPED_BITS)
 }
 
+/// Most samples the robust range is ranked from: a larger frame is sampled
+/// with a fixed stride (ranking all of a 1024 x 1024 frame took 7.0 ms, as
+/// long as detecting its particles; the range only sets a scale with a
+/// quarter of the counts as headroom, so a sample's estimate does).
+pub const RANKED_SAMPLES: usize = 1 << 16;
+
 /// The darkest and brightest samples once the [`OUTLIER_FRACTION`] at
-/// either end is set aside.
+/// either end is set aside (of a strided sample of large frames).
 fn robust_range(samples: &[f32]) -> (f64, f64) {
-    let n = samples.len();
-    if n == 0 {
+    if samples.is_empty() {
         return (0.0, 0.0);
     }
+    let stride = samples.len().div_ceil(RANKED_SAMPLES);
+    let mut ranked: Vec<f32> = samples.iter().step_by(stride).copied().collect();
+    let n = ranked.len();
     let k = (n as f64 * OUTLIER_FRACTION) as usize;
-    let mut ranked = samples.to_vec();
     let lo = *ranked.select_nth_unstable_by(k, f32::total_cmp).1;
     let hi = *ranked.select_nth_unstable_by(n - 1 - k, f32::total_cmp).1;
     (f64::from(lo), f64::from(hi))
