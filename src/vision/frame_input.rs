@@ -277,7 +277,8 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
 }
 
 /// Converts an OpenCV matrix (1/3/4 channels, BGR order) to a frame: 8U and
-/// 16U as counts, signed 16-bit, 32-bit integer and float 32/64 mapped onto 16-bit counts.
+/// 16U as counts, signed 8/16-bit, 32-bit integer and float 32/64 mapped
+/// onto 16-bit counts.
 pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
     let (w, h) = (mat.cols().max(0) as usize, mat.rows().max(0) as usize);
     let nch = mat.channels().max(1) as usize;
@@ -336,8 +337,10 @@ pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, F
 }
 
 /// OpenCV depths read as wide samples (mapped onto 16-bit counts by
-/// [`frame_from_wide`]): signed 16-bit, 32-bit integer, 32- and 64-bit float.
-const WIDE_DEPTHS: [i32; 4] = [
+/// [`frame_from_wide`]): signed 8- and 16-bit, 32-bit integer, 32- and
+/// 64-bit float.
+const WIDE_DEPTHS: [i32; 5] = [
+    opencv::core::CV_8S,
     opencv::core::CV_16S,
     opencv::core::CV_32S,
     opencv::core::CV_32F,
