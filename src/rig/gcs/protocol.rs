@@ -36,12 +36,14 @@ pub fn validate_axis(axis: &str) -> Result<(), GcsError> {
     }
 }
 
-/// The first axis identifier named twice in `axes`, if any. A stage with a
-/// repeated axis would send two targets to one motor and none to another.
+/// The first axis identifier named twice in `axes`, if any, ignoring case.
+/// A stage with a repeated axis would send two targets to one motor and
+/// none to another; "x" and "X" count as one, since a controller that
+/// takes either for the same axis would do just that (the safe reading).
 pub fn repeated_axis(axes: &[String]) -> Option<&str> {
     axes.iter()
         .enumerate()
-        .find(|(i, a)| axes[..*i].contains(a))
+        .find(|(i, a)| axes[..*i].iter().any(|b| b.eq_ignore_ascii_case(a)))
         .map(|(_, a)| a.as_str())
 }
 
@@ -209,6 +211,14 @@ pub fn encode_reply(lines: &[String]) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_axis_named_twice_in_any_case_is_repeated() {
+        let axes = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<Vec<_>>();
+        assert_eq!(repeated_axis(&axes(&["1", "2", "3"])), None);
+        assert_eq!(repeated_axis(&axes(&["1", "2", "1"])), Some("1"));
+        assert_eq!(repeated_axis(&axes(&["x", "y", "X"])), Some("X"));
+    }
 
     #[test]
     fn commands_are_formatted_with_plain_decimals() {
