@@ -5,25 +5,30 @@
 //! Such a frame is mapped, per frame and affinely, onto 16-bit counts: the
 //! range between its [`OUTLIER_FRACTION`] darkest and brightest pixels (of
 //! a strided sample of at most [`RANKED_SAMPLES`] pixels) onto
-//! the middle half of the counts, [`INLIER_COUNTS`], rounded, and whatever
-//! falls beyond 0 or 65535 clipped there. Why: every detection threshold is
-//! in units of the frame's measured noise, so the scale does not matter, but
-//! the pipeline takes 0 and the full count as clipped, and its noise floor
-//! is a quantisation step of one count: a 0..1 float frame would be all
-//! "quantisation noise" and a background-subtracted one half "clipped".
-//! Why the middle half of a robust range: a hot or dead pixel of a
-//! scientific camera, 1000 times the frame's range, would squeeze the rest
-//! into 65 counts (centres 0.03 px off, about the Cramer-Rao bound); it now
-//! clips and reads as clipped, as on the camera itself, while a particle's
-//! core just above the brightest 0.01 % keeps the headroom of a quarter of
-//! the counts. After the map the frame is an ordinary 16-bit frame: written
-//! to a recording as PNG and read back equal. The source's own saturation,
-//! if it had one, is not known.
+//! [`INLIER_COUNTS`], rounded, and whatever falls beyond 0 or 65535 clipped
+//! there. Why a map: every detection threshold is in units of the frame's
+//! measured noise, so the scale does not matter, but the pipeline takes 0
+//! and the full count as clipped, and its noise floor is a quantisation
+//! step of one count: a 0..1 float frame would be all "quantisation noise"
+//! and a background-subtracted one half "clipped". Why a robust range: a
+//! hot or dead pixel of a scientific camera, 1000 times the frame's range,
+//! would squeeze the rest into 65 counts (centres 0.03 px off, about the
+//! Cramer-Rao bound); it now clips and reads as clipped, as on the camera
+//! itself. Why these counts: a quarter of the counts above keeps a
+//! particle's core just brighter than the brightest 0.01 % unclipped, and
+//! the dark end sits near zero as a camera's dark level does (the probe's
+//! dark-region threshold is a fraction of the way from the darkest pixel to
+//! the median: with the dark end at a quarter of the counts, a dead pixel
+//! clipped to 0 moved that threshold below the probe, which was then not
+//! found). After the map the frame is an ordinary 16-bit frame: written to
+//! a recording as PNG and read back equal. The source's own saturation, if
+//! it had one, is not known.
 
 use super::frame::{Frame, FrameError};
 
-/// Counts the frame's robust range is mapped onto (the middle half).
-pub const INLIER_COUNTS: (f32, f32) = (16384.0, 49151.0);
+/// Counts the frame's robust range is mapped onto: 1/16 of the counts below
+/// it, 1/4 above (see the module docs).
+pub const INLIER_COUNTS: (f32, f32) = (4096.0, 49151.0);
 
 /// Fraction of the pixels at either end of a wide frame's range left out of
 /// its robust range (15 of a 384 x 384 frame, none of one under 10,000
@@ -34,7 +39,7 @@ pub const OUTLIER_FRACTION: f64 = 1e-4;
 const MAPPED_BITS: u8 = 16;
 
 /// Maps row-major wide samples onto 16-bit counts (see the module docs). A
-/// flat frame maps to the middle's lower end. A NaN or infinite sample is
+/// flat frame maps to the dark end. A NaN or infinite sample is
 /// refused by its place (ImageJ writes NaN for masked pixels: the frame is
 /// then not a camera's).
 pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<Frame, FrameError> {
@@ -89,7 +94,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_small_frame_spans_the_middle_half_in_order() {
+    fn a_small_frame_spans_the_inlier_counts_in_order() {
         let samples = [-0.5f32, 0.0, 0.25, 1.5];
         let f = frame_from_wide(2, 2, &samples).unwrap();
         assert_eq!(f.bit_depth(), 16);
