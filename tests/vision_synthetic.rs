@@ -114,8 +114,8 @@ fn same_particles_found_in_8_and_16_bit_frames() {
 }
 
 /// A lab's software exports the same frame as a normalised, offset 32-bit
-/// float TIFF (ImageJ's "32-bit") with a hot and a dead pixel: read back, it
-/// must give the particles the 16-bit frame gives. Fails when such a TIFF cannot be read, or when its
+/// float TIFF (ImageJ's "32-bit") with hot and dead pixels: read back, it
+/// must give the particles and the probe the 16-bit frame gives. Fails when such a TIFF cannot be read, or when its
 /// values are taken as counts (a 0..1 frame is below the noise floor of one
 /// count's quantisation, and its negative half would read as clipped).
 #[test]
@@ -138,10 +138,14 @@ fn a_float_tiff_of_a_frame_gives_the_frames_particles() {
             *mat.at_2d_mut::<f32>(y as i32, x as i32).unwrap() = frame.at(x, y) / 65535.0 - 0.25;
         }
     }
-    // A hot and a dead pixel of the camera, in a corner: 1000 times the
-    // frame's range, they would squeeze the rest into 65 counts (0.03 px).
-    *mat.at_2d_mut::<f32>(1, 1).unwrap() = 1000.0;
-    *mat.at_2d_mut::<f32>(1, 2).unwrap() = -1000.0;
+    // Hot and dead pixels of the camera, along two rows of a corner, at
+    // 1000 times the frame's range: read as values they would squeeze the
+    // rest into 65 counts. (A row, so that the range's strided sample of
+    // every 16th pixel meets some of them, as it would on a real camera.)
+    for x in 1..=32 {
+        *mat.at_2d_mut::<f32>(1, x).unwrap() = 1000.0;
+        *mat.at_2d_mut::<f32>(2, x).unwrap() = -1000.0;
+    }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("float.tif");
     let params = Vector::<i32>::new();
