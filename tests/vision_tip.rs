@@ -129,3 +129,45 @@ fn particles_beside_the_probe_are_located_as_well_as_the_others() {
     // SNR 10, 8 px spheres: the CRB is about 0.03 px; 5 sigma is 0.15 px.
     assert!(worst < 0.15, "worst centre error {worst:.3} px");
 }
+
+/// A camera's dead pixel (0 counts) must not hide a probe of low contrast
+/// (half the background: a bright-field probe seen through a thin
+/// cantilever): the dark-region threshold starts from the darkest level.
+#[test]
+fn a_dead_pixel_does_not_hide_a_low_contrast_probe() {
+    use nanopush::vision::frame::Frame;
+    let tip = TipView {
+        apex_x_px: 128.0,
+        apex_y_px: 120.0,
+        angle_rad: 0.7,
+    };
+    let scene = SceneView {
+        width_px: 256,
+        height_px: 256,
+        particles: vec![],
+        tip: Some(tip),
+    };
+    let frame = render_frame(&scene, &RenderSettings::with_snr(20.0, 8), 3).unwrap();
+    // Halve the contrast about the background.
+    let mut sorted = frame.pixels().to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let background = sorted[sorted.len() / 2];
+    let low: Vec<f32> = frame
+        .pixels()
+        .iter()
+        .map(|&v| (background + 0.5 * (v - background)).round())
+        .collect();
+    let mut dead = low.clone();
+    dead[5 * 256 + 250] = 0.0;
+    for (name, px) in [
+        ("low contrast", low),
+        ("low contrast, one dead pixel", dead),
+    ] {
+        let f = Frame::new(256, 256, px, 8).unwrap();
+        let t = detect_tip(&f, &TipSettings::default())
+            .unwrap_or_else(|| panic!("{name}: no tip found"));
+        let err = (t.x_px - tip.apex_x_px).hypot(t.y_px - tip.apex_y_px);
+        println!("{name}: apex error {err:.3} px");
+        assert!(err < 1.0, "{name}: apex error {err} px");
+    }
+}

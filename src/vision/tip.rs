@@ -97,16 +97,30 @@ fn background_median(frame: &Frame) -> f32 {
 /// per-pixel fold or an early-exit test runs one pixel per cycle or worse.
 const SCAN_LANES: usize = 16;
 
-/// Smallest pixel value (NaN-free frames; a NaN would be skipped).
+/// The darkest level two neighbouring pixels share: the least, over every
+/// pixel and the next in the buffer, of the brighter of the two. A camera's
+/// dead pixel (0 counts) next to normal ones is not the frame's dark level:
+/// taken as it, it moved the dark-region threshold below a low-contrast
+/// probe, which was then not found. The probe is hundreds of pixels wide.
+/// (NaN-free frames; a NaN would be skipped.)
 #[inline(always)]
 fn darkest(px: &[f32]) -> f32 {
-    let chunks = px.chunks_exact(SCAN_LANES);
-    let mut lanes = [f32::INFINITY; SCAN_LANES];
-    for v in chunks.remainder() {
-        lanes[0] = if *v < lanes[0] { *v } else { lanes[0] };
+    if px.len() < 2 {
+        return px.first().copied().unwrap_or(f32::INFINITY);
     }
-    for chunk in chunks {
-        for (m, &v) in lanes.iter_mut().zip(chunk) {
+    let (here, next) = (&px[..px.len() - 1], &px[1..]);
+    let mut lanes = [f32::INFINITY; SCAN_LANES];
+    let pairs = here
+        .chunks_exact(SCAN_LANES)
+        .zip(next.chunks_exact(SCAN_LANES));
+    let tail = here.len() - here.len() % SCAN_LANES;
+    for (a, b) in here[tail..].iter().zip(&next[tail..]) {
+        let v = if a > b { *a } else { *b };
+        lanes[0] = if v < lanes[0] { v } else { lanes[0] };
+    }
+    for (a, b) in pairs {
+        for ((m, &a), &b) in lanes.iter_mut().zip(a).zip(b) {
+            let v = if a > b { a } else { b };
             *m = if v < *m { v } else { *m };
         }
     }
@@ -115,7 +129,7 @@ fn darkest(px: &[f32]) -> f32 {
 
 avx2_dispatch!(
     /// The largest dark connected region, as pixel (x, y); its two
-    /// whole-frame scans (darkest pixel, dark chunks) run 8 lanes with AVX2.
+    /// whole-frame scans (dark level, dark chunks) run 8 lanes with AVX2.
     fn dark_region(
         frame: &Frame,
         settings: &TipSettings,
