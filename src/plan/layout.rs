@@ -86,25 +86,15 @@ pub enum LayoutError {
     /// A particle far outside the field: coordinates in another unit or
     /// from another origin, most often.
     #[error(
-        "layout: particle {} at ({}, {}) um lies outside the {} x {} um field \
-         (positions are in um from the field's lower-left corner)",
-        .0.id,
-        um_text(.0.x_um, 3),
-        um_text(.0.y_um, 3),
-        um_text(.0.width_um, 1),
-        um_text(.0.height_um, 1)
+        "layout: particle {} (positions are in um from the field's lower-left corner)",
+        .0.where_off()
     )]
     OutsideField(OffField),
     /// A target site far outside the field: the planner would push a
     /// particle there in pieces the nanostage can reach, without bound.
     #[error(
-        "site {} at ({}, {}) um lies outside the {} x {} um field \
-         (sites are in um from the field's lower-left corner)",
-        .0.id,
-        um_text(.0.x_um, 3),
-        um_text(.0.y_um, 3),
-        um_text(.0.width_um, 1),
-        um_text(.0.height_um, 1)
+        "site {} (sites are in um from the field's lower-left corner)",
+        .0.where_off()
     )]
     SiteOutsideField(OffField),
     /// A field wider than any stage: a size in another unit, most often.
@@ -188,6 +178,21 @@ pub struct OffField {
     pub width_um: f64,
     /// Field height, micrometres.
     pub height_um: f64,
+}
+
+impl OffField {
+    /// "ID at (X, Y) um lies outside the W x H um field", for the errors of
+    /// a particle and of a site.
+    fn where_off(&self) -> String {
+        format!(
+            "{} at ({}, {}) um lies outside the {} x {} um field",
+            self.id,
+            um_text(self.x_um, 3),
+            um_text(self.y_um, 3),
+            um_text(self.width_um, 1),
+            um_text(self.height_um, 1)
+        )
+    }
 }
 
 pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
