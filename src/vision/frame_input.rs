@@ -209,7 +209,7 @@ fn first_page_of_wide_tiff(
 }
 
 /// One grey value of an RGB sample, as `channel` says.
-pub(crate) fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
+fn pick(channel: Channel, r: f32, g: f32, b: f32) -> f32 {
     match channel {
         Channel::Luminance => 0.299 * r + 0.587 * g + 0.114 * b,
         Channel::Red => r,
@@ -227,12 +227,11 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
         img,
         DynamicImage::ImageRgb32F(_) | DynamicImage::ImageRgba32F(_)
     ) {
-        let pixels: Vec<f32> = img
-            .to_rgb32f()
-            .pixels()
-            .map(|p| pick(channel, p[0], p[1], p[2]))
-            .collect();
-        return frame_from_wide(w, h, &pixels);
+        let rgb = Interleaved {
+            channels: 3,
+            bgr: false,
+        };
+        return grey_frame(w, h, img.to_rgb32f().into_raw(), rgb, channel, None);
     }
     let sixteen = matches!(
         img,
@@ -316,24 +315,58 @@ pub fn mat_to_frame(mat: &Mat, path: &Path, channel: Channel) -> Result<Frame, F
             format!("unsupported pixel depth code {depth}"),
         ));
     };
-    let pixels: Vec<f32> = if nch == 1 {
-        samples
-    } else {
-        samples
-            .chunks_exact(nch)
-            .map(|p| pick(channel, p[2], p[1], p[0]))
-            .collect()
+    let bits = match (wide, depth == opencv::core::CV_16U) {
+        (true, _) => None,
+        (false, true) => Some(16),
+        (false, false) => Some(8),
     };
-    let frame = if wide {
-        frame_from_wide(w, h, &pixels)
-    } else {
-        let bit_depth = if depth == opencv::core::CV_16U { 16 } else { 8 };
-        Frame::new(w, h, pixels, bit_depth)
+    let layout = Interleaved {
+        channels: nch,
+        bgr: true,
     };
-    frame.map_err(|source| FrameInputError::Invalid {
+    grey_frame(w, h, samples, layout, channel, bits).map_err(|source| FrameInputError::Invalid {
         path: path.to_owned(),
         source,
     })
+}
+
+/// How a decoder interleaves a pixel's samples: 1 grey, 2 grey and alpha,
+/// 3 or 4 colour (and alpha), blue first when `bgr` (OpenCV's order).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Interleaved {
+    pub channels: usize,
+    pub bgr: bool,
+}
+
+/// The grey frame of row-major interleaved `samples` (`channel` of a colour
+/// one): 8/16-bit counts as they are (`bits`), other samples (`bits` None)
+/// mapped by [`frame_from_wide`]. Shared by every decoder.
+pub(crate) fn grey_frame(
+    w: usize,
+    h: usize,
+    samples: Vec<f32>,
+    layout: Interleaved,
+    channel: Channel,
+    bits: Option<u8>,
+) -> Result<Frame, FrameError> {
+    let pixels: Vec<f32> = match layout.channels {
+        0 | 1 => samples,
+        2 => samples.chunks_exact(2).map(|p| p[0]).collect(),
+        n => samples
+            .chunks_exact(n)
+            .map(|p| {
+                if layout.bgr {
+                    pick(channel, p[2], p[1], p[0])
+                } else {
+                    pick(channel, p[0], p[1], p[2])
+                }
+            })
+            .collect(),
+    };
+    match bits {
+        Some(bits) => Frame::new(w, h, pixels, bits),
+        None => frame_from_wide(w, h, &pixels),
+    }
 }
 
 /// OpenCV depths read as wide samples (mapped onto 16-bit counts by

@@ -2,7 +2,8 @@
 //! 32-bit and half-float samples, and 32/64-bit float or integer grey that
 //! `image` refuses (OpenCV has no unsigned 32-bit type and no half-float
 //! TIFFs). Read with the `tiff` crate, which takes every sample format;
-//! samples other than 8/16-bit counts are mapped by [`frame_from_wide`].
+//! samples other than 8/16-bit counts are mapped by
+//! [`frame_from_wide`](super::wide_samples::frame_from_wide).
 
 use std::io::Cursor;
 
@@ -10,8 +11,7 @@ use tiff::ColorType;
 use tiff::decoder::{Decoder, DecodingResult};
 
 use super::frame::Frame;
-use super::frame_input::{Channel, pick};
-use super::wide_samples::frame_from_wide;
+use super::frame_input::{Channel, Interleaved, grey_frame};
 
 /// The pages of the TIFF file `bytes` as frames (only the first when
 /// `first_only`). Errors are the `tiff` crate's, or name the colour type.
@@ -48,22 +48,20 @@ fn decode_page(decoder: &mut Decoder<Cursor<&[u8]>>, channel: Channel) -> Result
     };
     let decoded = decoder.read_image().map_err(|e| e.to_string())?;
     let counts = matches!(decoded, DecodingResult::U8(_) | DecodingResult::U16(_));
-    let samples = samples_as_f32(decoded);
-    let pixels: Vec<f32> = match channels {
-        1 => samples,
-        2 => samples.chunks_exact(2).map(|p| p[0]).collect(),
-        n => samples
-            .chunks_exact(n)
-            .map(|p| pick(channel, p[0], p[1], p[2]))
-            .collect(),
+    let layout = Interleaved {
+        channels,
+        bgr: false,
     };
-    let (w, h) = (w as usize, h as usize);
-    let frame = if counts {
-        Frame::new(w, h, pixels, bits.min(16))
-    } else {
-        frame_from_wide(w, h, &pixels)
-    };
-    frame.map_err(|e| e.to_string())
+    let bits = counts.then_some(bits.min(16));
+    grey_frame(
+        w as usize,
+        h as usize,
+        samples_as_f32(decoded),
+        layout,
+        channel,
+        bits,
+    )
+    .map_err(|e| e.to_string())
 }
 
 /// Every sample as f32 (64-bit values round to the nearest f32: a frame's
