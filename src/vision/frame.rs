@@ -24,6 +24,18 @@ pub enum FrameError {
     NotFinite { x: usize, y: usize },
 }
 
+/// Fails on the first NaN or infinite sample of a row-major buffer `width`
+/// wide, naming its place.
+pub fn check_finite(samples: &[f32], width: usize) -> Result<(), FrameError> {
+    match samples.iter().position(|p| !p.is_finite()) {
+        None => Ok(()),
+        Some(index) => Err(FrameError::NotFinite {
+            x: index % width.max(1),
+            y: index / width.max(1),
+        }),
+    }
+}
+
 /// A grey frame: row-major counts, pixel centres at integer coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Frame {
@@ -53,12 +65,7 @@ impl Frame {
                 got: pixels.len(),
             });
         }
-        if let Some(index) = pixels.iter().position(|p| !p.is_finite()) {
-            return Err(FrameError::NotFinite {
-                x: index % width,
-                y: index / width,
-            });
-        }
+        check_finite(&pixels, width)?;
         Ok(Self {
             width,
             height,

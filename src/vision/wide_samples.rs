@@ -24,7 +24,7 @@
 //! a recording as PNG and read back equal. The source's own saturation, if
 //! it had one, is not known.
 
-use super::frame::{Frame, FrameError};
+use super::frame::{Frame, FrameError, check_finite};
 
 /// Counts the frame's robust range is mapped onto: 1/16 of the counts below
 /// it, 1/4 above (see the module docs).
@@ -43,12 +43,8 @@ const MAPPED_BITS: u8 = 16;
 /// refused by its place (ImageJ writes NaN for masked pixels: the frame is
 /// then not a camera's).
 pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<Frame, FrameError> {
-    if let Some(index) = samples.iter().position(|v| !v.is_finite()) {
-        return Err(FrameError::NotFinite {
-            x: index % width.max(1),
-            y: index / width.max(1),
-        });
-    }
+    // Before the map, which would turn a NaN into 0 counts.
+    check_finite(samples, width)?;
     let (lo, hi) = robust_range(samples);
     let (floor, ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
     // count = offset + v * scale, the offset folded in f64 so that the f32
