@@ -1,6 +1,6 @@
 //! `nanopush synth frame`: render a synthetic microscope frame and its truth.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 
@@ -9,7 +9,7 @@ use crate::render::microscope_truth::{
     Truth, check_particle_fits, random_scene, scene_from_layout,
 };
 use crate::vision::cramer_rao::centre_crb_px;
-use crate::vision::frame_input::save_png;
+use crate::vision::frame_input::{hidden_sibling, save_png};
 
 /// Arguments of `nanopush synth frame`.
 #[derive(clap::Args, Debug)]
@@ -164,14 +164,4 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.snr
     );
     Ok(())
-}
-
-/// `path` with a dot before its file name: where a file is written before it
-/// is renamed into place (same folder, so the rename is atomic; same
-/// extension, so the image encoder is chosen by it).
-fn hidden_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
-    path.with_file_name(format!(".{name}"))
 }

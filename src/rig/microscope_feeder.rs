@@ -26,7 +26,7 @@ use crate::calib::affine::AffineCalibration;
 use crate::model::Scene;
 use crate::plan::Layout;
 use crate::render::microscope::{RenderSettings, render_frame};
-use crate::vision::frame_input::save_png;
+use crate::vision::frame_input::{hidden_sibling, save_png};
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -438,11 +438,7 @@ fn write_atomically(
     path: &Path,
     exposed: SystemTime,
 ) -> Result<(), FeederError> {
-    let name = path.file_name().map_or_else(
-        || "frame.png".to_owned(),
-        |n| n.to_string_lossy().into_owned(),
-    );
-    let tmp = path.with_file_name(format!(".{name}"));
+    let tmp = hidden_sibling(path);
     let fail = |message: String| FeederError::Write {
         path: path.to_path_buf(),
         message,

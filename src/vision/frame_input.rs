@@ -418,6 +418,18 @@ fn quietly<T>(f: impl FnOnce() -> T) -> T {
     out
 }
 
+/// `path` with a dot before its file name: where a frame (or a file written
+/// with it) goes before it is renamed into place, so a reader of the folder
+/// never sees half a file (same folder, so the rename is atomic; same
+/// extension, so the image encoder is chosen by it).
+pub(crate) fn hidden_sibling(path: &Path) -> PathBuf {
+    let name = path.file_name().map_or_else(
+        || "frame.png".to_owned(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    path.with_file_name(format!(".{name}"))
+}
+
 /// Writes a frame as a grey PNG of its own bit depth (counts clamped, rounded).
 pub fn save_png(frame: &Frame, path: &Path) -> Result<(), image::ImageError> {
     let (w, h) = (frame.width() as u32, frame.height() as u32);
