@@ -237,26 +237,38 @@ fn initial_guess(region: &[(usize, usize)], w: usize, h: usize) -> (f64, f64, f6
     let angle = (far.1 - base.1).atan2(far.0 - base.0);
     let (s, c) = angle.sin_cos();
     // Width profile along the axis: pixels per unit length behind the apex.
+    // Each pixel is shared between the two bins beside it: counted whole
+    // into one, an axis along a pixel diagonal puts one diagonal line of
+    // pixels in some bins and two in others, and the median width came out
+    // 1/sqrt(2) of the probe's, a start the fit never recovered from.
     let len = ((far.0 - base.0).powi(2) + (far.1 - base.1).powi(2))
         .sqrt()
         .max(1.0);
     let nbins = len.ceil() as usize + 2;
-    let mut counts = vec![0usize; nbins];
+    let mut counts = vec![0.0f64; nbins + 1];
     for p in region {
         let (x, y) = xy(p);
         let u = -((x - far.0) * c + (y - far.1) * s);
         if u >= 0.0 && (u as usize) < nbins {
-            counts[u as usize] += 1;
+            let (bin, frac) = (u as usize, u.fract());
+            counts[bin] += 1.0 - frac;
+            counts[bin + 1] += frac;
         }
     }
+    counts.truncate(nbins);
     let lo = (0.5 * len) as usize;
     let hi = ((0.9 * len) as usize).max(lo + 1).min(nbins);
-    let mut body: Vec<usize> = counts[lo..hi].to_vec();
-    body.sort_unstable();
-    let width = body.get(body.len() / 2).copied().unwrap_or(10).max(3) as f64;
+    let mut body: Vec<f64> = counts[lo..hi].to_vec();
+    body.sort_unstable_by(f64::total_cmp);
+    let width = body
+        .get(body.len() / 2)
+        .copied()
+        .unwrap_or(10.0)
+        .round()
+        .max(3.0);
     let taper = counts
         .iter()
-        .position(|&n| n as f64 >= 0.9 * width)
+        .position(|&n| n >= 0.9 * width)
         .unwrap_or(width as usize) as f64;
     (far.0, far.1, angle, width, taper.max(2.0))
 }
