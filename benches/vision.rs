@@ -15,6 +15,7 @@ use nanopush::vision::analyse::analyse_frame;
 use nanopush::vision::crocker_grier::{LocateParams, locate};
 use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_candidates};
 use nanopush::vision::frame_input::{Channel, load_frame};
+use nanopush::vision::line_defects::repair_line_defects;
 use nanopush::vision::noise::estimate_noise_sigma;
 use nanopush::vision::tip::{TipSettings, detect_tip};
 use nanopush::vision::wide_samples::frame_from_wide;
@@ -58,6 +59,11 @@ fn bench(c: &mut Criterion) {
     // Stages, to see where the time goes.
     g.bench_function("stage_noise_sigma", |b| {
         b.iter(|| estimate_noise_sigma(&frame))
+    });
+    // The line-defect search analyse_frame starts with (a clean frame: the
+    // search only, no repair).
+    g.bench_function("stage_line_defects", |b| {
+        b.iter(|| repair_line_defects(&frame).1.len())
     });
     g.bench_function("stage_candidates", |b| {
         b.iter(|| find_candidates(&frame, &settings))

@@ -406,3 +406,34 @@ fn detect_cli_ring_edge_centres_on_brightfield() {
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("ring-edge"));
 }
+
+/// The camera line-defect repair (vision::line_defects) must leave real
+/// frames alone: every frame of the fixtures, stacks included, has none.
+#[test]
+fn real_frames_have_no_line_defects() {
+    use nanopush::vision::line_defects::repair_line_defects;
+    let mut frames = 0;
+    for dir in ["brightfield", "bulk_water", "trackpy_tests"] {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(fixture(dir))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        files.sort();
+        for path in files {
+            for (k, frame) in load_frames(&path, Channel::Luminance)
+                .unwrap()
+                .iter()
+                .enumerate()
+            {
+                let defects = repair_line_defects(frame).1;
+                assert!(
+                    defects.is_empty(),
+                    "{} frame {k}: {defects:?}",
+                    path.display()
+                );
+                frames += 1;
+            }
+        }
+    }
+    assert!(frames >= 7, "{frames} frames");
+}

@@ -12,6 +12,7 @@ use anyhow::Context;
 use crate::calib::affine::AffineCalibration;
 use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::line_defects::repaired;
 use crate::vision::tip::{TipSettings, detect_tip};
 
 /// Arguments of `nanopush calibrate`.
@@ -143,7 +144,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let frame = load_frame(&path, Channel::Luminance)
             .with_context(|| format!("loading {}", path.display()))?;
         sizes.push((frame.width(), frame.height()));
-        match detect_tip(&frame, &TipSettings::default()) {
+        match detect_tip(&repaired(&frame, &row.frame), &TipSettings::default()) {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
                 stage.push([row.x_um * 1e-6, row.y_um * 1e-6]);

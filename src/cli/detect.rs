@@ -10,6 +10,7 @@ use crate::vision::crocker_grier::{LocateParams, locate};
 use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
 use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::line_defects::{repair_line_defects, report};
 use crate::vision::overlay::draw_overlay;
 use crate::vision::ring_edge::CentreEstimate;
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -121,13 +122,18 @@ fn crocker_grier_analysis(
         invert: args.polarity.as_deref() == Some("dark"),
         ..LocateParams::new(diameter_px as u32)
     };
-    let particles = locate(frame, &params)
+    let (frame, repaired_lines) = repair_line_defects(frame);
+    let particles = locate(&frame, &params)
         .context("locating particles (crocker-grier)")?
         .into_iter()
         .map(Into::into)
         .collect();
-    let tip = tip_settings.and_then(|t| detect_tip(frame, t));
-    Ok(FrameAnalysis { particles, tip })
+    let tip = tip_settings.and_then(|t| detect_tip(&frame, t));
+    Ok(FrameAnalysis {
+        particles,
+        tip,
+        repaired_lines,
+    })
 }
 
 /// The diameter hint in pixels for `--radius-um` at the calibration's
@@ -161,7 +167,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => DetectSettings::default().diameter_px,
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);
-    let FrameAnalysis { particles, tip } = match args.locator.detector_locator() {
+    let FrameAnalysis {
+        particles,
+        tip,
+        repaired_lines,
+    } = match args.locator.detector_locator() {
         Some(locator) => {
             let settings = DetectSettings {
                 diameter_px,
@@ -183,6 +193,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         None => crocker_grier_analysis(&frame, &args, diameter_px, tip_settings.as_ref())?,
     };
+    report(&args.frame.display().to_string(), &repaired_lines);
     if let Some(path) = &args.overlay {
         draw_overlay(&frame, &particles, tip.as_ref())
             .save(path)

@@ -8,6 +8,7 @@ use crate::rig::RigError;
 use crate::rig::camera::Camera;
 use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
 use crate::vision::frame::Frame;
+use crate::vision::line_defects::repaired;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
@@ -134,7 +135,8 @@ impl Perception {
         // The size hint is the particles' known size: a detection far from it is
         // not one of them (the probe's outline, debris), and must not reach the planner.
         let expected_r_px = self.detect.diameter_px / 2.0;
-        let probe = detect_tip(&timed.frame, &self.tip);
+        let seen = repaired(&timed.frame, "camera");
+        let probe = detect_tip(&seen, &self.tip);
         let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
         // A ring touching the probe is cut by it: its centre is not measured.
         let probe_shadow_px = expected_r_px + PROBE_SHADOW_MARGIN_PX;
@@ -143,7 +145,7 @@ impl Perception {
         // Candidates in the probe's shadow are not fitted at all (its edges
         // give many, and fitting them took two thirds of the frame's time).
         let detections =
-            detect_particles_excluding(&timed.frame, &self.detect, &|x, y| !clear_of_probe(x, y))
+            detect_particles_excluding(&seen, &self.detect, &|x, y| !clear_of_probe(x, y))
                 .map_err(|e| ObserveError::Detect(e.to_string()))?;
         let on_sample_at = |x_px: f64, y_px: f64, r_px: f64| {
             let [x_m, y_m] = on_sample(x_px, y_px);

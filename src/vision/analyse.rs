@@ -1,11 +1,13 @@
 //! One call for a whole frame: the tip first, then the particles away from the
 //! probe silhouette (its edges would otherwise look like particles). This is
-//! what the simulated and real rigs call per frame.
+//! what the simulated and real rigs call per frame. A camera's dead or hot
+//! lines are filled in first (`line_defects`).
 
 use super::detect::{
     DetectError, DetectSettings, Detection, detect_particles, detect_particles_excluding,
 };
 use super::frame::Frame;
+use super::line_defects::{LineDefect, repair_line_defects};
 use super::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Everything found in one frame, in pixels.
@@ -15,14 +17,19 @@ pub struct FrameAnalysis {
     pub particles: Vec<Detection>,
     /// The probe tip, if in view.
     pub tip: Option<TipDetection>,
+    /// Camera lines filled in from their neighbours before detection.
+    pub repaired_lines: Vec<LineDefect>,
 }
 
-/// Finds the tip (unless `tip` is `None`) and the particles clear of it.
+/// Finds the tip (unless `tip` is `None`) and the particles clear of it,
+/// in the frame with its defective lines repaired.
 pub fn analyse_frame(
     frame: &Frame,
     settings: &DetectSettings,
     tip: Option<&TipSettings>,
 ) -> Result<FrameAnalysis, DetectError> {
+    let (frame, repaired_lines) = repair_line_defects(frame);
+    let frame = frame.as_ref();
     let tip = tip.and_then(|t| detect_tip(frame, t));
     let margin = 0.5 * settings.diameter_px;
     let mut particles = match &tip {
@@ -34,5 +41,9 @@ pub fn analyse_frame(
     if let Some(t) = &tip {
         particles.retain(|d| t.signed_distance(d.x_px, d.y_px) > 0.5 * settings.diameter_px);
     }
-    Ok(FrameAnalysis { particles, tip })
+    Ok(FrameAnalysis {
+        particles,
+        tip,
+        repaired_lines,
+    })
 }

@@ -72,11 +72,11 @@ mod tests {
 
     #[test]
     fn an_absurd_radius_gives_no_bound_at_once() {
+        // Without the support cap a radius of 1e4 px gives Some after about
+        // a hundred seconds and 1e300 never returns: no clock needed.
         let s = RenderSettings::with_snr(8.0, 16);
-        let t0 = std::time::Instant::now();
         for r in [1e4, 1e300, f64::INFINITY, f64::NAN, 0.0, -8.0] {
             assert_eq!(centre_crb_px(r, &s), None, "radius {r}");
         }
-        assert!(t0.elapsed().as_secs_f64() < 1.0, "{:?}", t0.elapsed());
     }
 }

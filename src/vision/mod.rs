@@ -13,6 +13,7 @@ pub mod frame;
 pub mod frame_input;
 pub mod frame_pool;
 pub mod least_squares;
+pub mod line_defects;
 pub mod matching;
 pub mod noise;
 pub mod overlay;

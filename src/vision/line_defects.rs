@@ -1,0 +1,447 @@
+//! Camera line defects: a dead, hot or off-gain sensor column or row (or two
+//! side by side). One such line sets the probe search's dark level at its
+//! counts and cuts the probe's silhouette in two, and the particle search
+//! takes its ends for rings, so it is found and filled in from the lines
+//! beside it before any stage sees the frame.
+//!
+//! A line is defective when its mean stands off from the lines on both sides
+//! in the same direction while those two agree: a blurred edge of the scene
+//! (the probe's, a particle's) lies between its neighbours, so only a feature
+//! one or two pixels wide and as long as the frame qualifies. How far off is
+//! measured against the frame itself (the spread of every line's second
+//! difference, and the per-pixel noise), so 8- and 16-bit cameras, column
+//! fixed-pattern noise and interlaced rows do not count.
+
+use std::borrow::Cow;
+use std::fmt;
+use std::sync::Mutex;
+
+use super::cpu_dispatch::avx2_dispatch;
+use super::frame::Frame;
+use super::noise::estimate_noise_sigma;
+
+/// Widest run of neighbouring defective lines repaired as one.
+pub const MAX_RUN: usize = 2;
+
+/// Fewest lines along an axis for that axis to be looked at: the robust
+/// spread needs a population of lines.
+const MIN_LINES: usize = 16;
+
+/// A defect's mean is off by at least this many robust spreads of the
+/// frame's line second differences (a frame's own column-to-column texture).
+const SPREAD_MULTIPLE: f64 = 20.0;
+
+/// ... and by at least this many per-pixel noise sigmas: fainter stripes are
+/// lost in the noise of each pixel and do not mislead the detectors.
+const NOISE_MULTIPLE: f64 = 4.0;
+
+/// Sensor column (x) or row (y).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineAxis {
+    /// A column of pixels (fixed x).
+    Column,
+    /// A row of pixels (fixed y).
+    Row,
+}
+
+/// One repaired line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LineDefect {
+    /// Column or row.
+    pub axis: LineAxis,
+    /// Its x (column) or y (row), pixels.
+    pub index: usize,
+    /// Its mean count as read.
+    pub mean_counts: f64,
+    /// The mean of the good lines beside it (what it was repaired towards).
+    pub beside_counts: f64,
+}
+
+impl fmt::Display for LineDefect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let axis = match self.axis {
+            LineAxis::Column => "column",
+            LineAxis::Row => "row",
+        };
+        write!(
+            f,
+            "{axis} {} (mean {:.0} counts, {:.0} beside it)",
+            self.index, self.mean_counts, self.beside_counts
+        )
+    }
+}
+
+/// The frame with its defective lines filled in from the lines beside them
+/// (borrowed unchanged when it has none), and the lines repaired.
+pub fn repair_line_defects(frame: &Frame) -> (Cow<'_, Frame>, Vec<LineDefect>) {
+    let (w, h) = (frame.width(), frame.height());
+    let (column_means, row_means) = line_means(frame);
+    // The per-pixel noise floor is asked only when the lines' own spread
+    // finds a candidate (most frames have none, and it is most of the cost).
+    let runs = |noise_sigma| {
+        (
+            defective_runs(&column_means, noise_sigma),
+            defective_runs(&row_means, noise_sigma),
+        )
+    };
+    let (mut columns, mut rows) = runs(0.0);
+    if !(columns.is_empty() && rows.is_empty()) {
+        (columns, rows) = runs(estimate_noise_sigma(frame));
+    }
+    if columns.is_empty() && rows.is_empty() {
+        return (Cow::Borrowed(frame), Vec::new());
+    }
+    let mut pixels = frame.pixels().to_vec();
+    let mut defects = Vec::new();
+    for run in &columns {
+        fill_run(run, h, &mut pixels, |line, along| along * w + line);
+        defects.extend(run.defects(LineAxis::Column, &column_means));
+    }
+    for run in &rows {
+        fill_run(run, w, &mut pixels, |line, along| line * w + along);
+        defects.extend(run.defects(LineAxis::Row, &row_means));
+    }
+    let repaired = Frame::new(w, h, pixels, frame.bit_depth())
+        .expect("same size as a valid frame, filled with its own finite counts");
+    (Cow::Owned(repaired), defects)
+}
+
+/// [`repair_line_defects`], then [`report`] under `source`.
+pub fn repaired<'a>(frame: &'a Frame, source: &str) -> Cow<'a, Frame> {
+    let (frame, defects) = repair_line_defects(frame);
+    report(source, &defects);
+    frame
+}
+
+/// Warns when `source`'s set of repaired lines first appears or changes (a
+/// camera's defects persist frame after frame: the log says so once, not
+/// thirty times a second).
+pub fn report(source: &str, defects: &[LineDefect]) {
+    /// A source and the lines last warned of for it.
+    type Warned = (String, Vec<(LineAxis, usize)>);
+    static LAST_WARNED: Mutex<Vec<Warned>> = Mutex::new(Vec::new());
+    if defects.is_empty() {
+        return;
+    }
+    let key = (
+        source.to_owned(),
+        defects
+            .iter()
+            .map(|d| (d.axis, d.index))
+            .collect::<Vec<_>>(),
+    );
+    let mut warned = LAST_WARNED.lock().unwrap_or_else(|p| p.into_inner());
+    if !warned.contains(&key) {
+        let list: Vec<String> = defects.iter().map(ToString::to_string).collect();
+        tracing::warn!(
+            "{source}: camera line defect repaired from the lines beside it: {} \
+             (a dead, hot or off-gain sensor line; detections there rest on its neighbours)",
+            list.join(", ")
+        );
+        warned.retain(|(s, _)| s != source);
+        warned.push(key);
+    }
+}
+
+/// Rows summed in f32 before the column sums take them into f64: 128 rows
+/// of 16-bit counts stay below 2^24, exact in f32, and the f32 adds
+/// vectorise (f64 sums took four times as long).
+const ROW_BLOCK: usize = 128;
+
+avx2_dispatch!(
+    /// Mean count of every column and of every row, in one pass.
+    fn line_means(frame: &Frame) -> (Vec<f64>, Vec<f64>) => line_means_lanes
+);
+
+#[inline(always)]
+fn line_means_lanes(frame: &Frame) -> (Vec<f64>, Vec<f64>) {
+    let (w, h) = (frame.width(), frame.height());
+    let mut columns = vec![0.0f64; w];
+    let mut block = vec![0.0f32; w];
+    let mut rows = Vec::with_capacity(h);
+    for rows_block in frame.pixels().chunks(ROW_BLOCK * w) {
+        block.fill(0.0);
+        for row in rows_block.chunks_exact(w) {
+            for (sum, &p) in block.iter_mut().zip(row) {
+                *sum += p;
+            }
+            rows.push(lane_sum(row) / w as f64);
+        }
+        for (sum, &b) in columns.iter_mut().zip(&block) {
+            *sum += f64::from(b);
+        }
+    }
+    for sum in &mut columns {
+        *sum /= h as f64;
+    }
+    (columns, rows)
+}
+
+/// Sum of a row in sixteen f32 lanes, vectorised (each lane adds at most a
+/// few hundred counts of 16 bits, exact in f32 for integer counts).
+#[inline(always)]
+fn lane_sum(row: &[f32]) -> f64 {
+    let mut lanes = [0.0f32; 16];
+    let chunks = row.chunks_exact(16);
+    let rest: f64 = chunks.remainder().iter().map(|&p| f64::from(p)).sum();
+    for chunk in chunks {
+        for (lane, &p) in lanes.iter_mut().zip(chunk) {
+            *lane += p;
+        }
+    }
+    rest + lanes.iter().map(|&l| f64::from(l)).sum::<f64>()
+}
+
+/// Neighbouring defective lines `first..first + len`, with the good lines
+/// beside them (one at a frame edge).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Run {
+    first: usize,
+    len: usize,
+    before: Option<usize>,
+    after: Option<usize>,
+}
+
+impl Run {
+    fn lines(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.len
+    }
+
+    fn beside_mean(&self, means: &[f64]) -> f64 {
+        let beside: Vec<f64> = [self.before, self.after]
+            .into_iter()
+            .flatten()
+            .map(|l| means[l])
+            .collect();
+        beside.iter().sum::<f64>() / beside.len() as f64
+    }
+
+    fn defects(&self, axis: LineAxis, means: &[f64]) -> Vec<LineDefect> {
+        let beside_counts = self.beside_mean(means);
+        self.lines()
+            .map(|index| LineDefect {
+                axis,
+                index,
+                mean_counts: means[index],
+                beside_counts,
+            })
+            .collect()
+    }
+}
+
+/// The runs of at most [`MAX_RUN`] lines whose means all stand off the same
+/// way, by more than the threshold, from the line between the good lines
+/// beside them, while those two differ by less than half that (at a frame
+/// edge: the good line and the next one in). A blurred edge of the scene
+/// fails the second test: its neighbours differ by its whole step.
+fn defective_runs(means: &[f64], noise_sigma: f64) -> Vec<Run> {
+    let n = means.len();
+    if n < MIN_LINES {
+        return Vec::new();
+    }
+    let threshold = threshold(means, noise_sigma);
+    let mut runs = Vec::new();
+    let mut first = 0;
+    while first < n {
+        let found = (1..=MAX_RUN).find_map(|len| {
+            let end = first + len;
+            if end > n {
+                return None;
+            }
+            let before = first.checked_sub(1);
+            let after = (end < n).then_some(end);
+            // The run's expected means (the line between its neighbours, or
+            // the one neighbour's level at an edge) and how far apart the
+            // neighbours are.
+            let (from, to, spread) = match (before, after) {
+                (Some(b), Some(a)) => (means[b], means[a], (means[a] - means[b]).abs()),
+                (None, Some(a)) if a + 1 < n => {
+                    (means[a], means[a], (means[a] - means[a + 1]).abs())
+                }
+                (Some(b), None) if b >= 1 => (means[b], means[b], (means[b] - means[b - 1]).abs()),
+                _ => return None,
+            };
+            let offs: Vec<f64> = (first..end)
+                .map(|k| {
+                    let t = (k + 1 - first) as f64 / (len + 1) as f64;
+                    means[k] - (from + t * (to - from))
+                })
+                .collect();
+            let least = offs.iter().map(|o| o.abs()).fold(f64::INFINITY, f64::min);
+            let one_way = offs.iter().all(|&o| o > 0.0) || offs.iter().all(|&o| o < 0.0);
+            (one_way && least > threshold && spread <= 0.5 * least).then_some(Run {
+                first,
+                len,
+                before,
+                after,
+            })
+        });
+        match found {
+            Some(run) => {
+                first += run.len;
+                runs.push(run);
+            }
+            None => first += 1,
+        }
+    }
+    runs
+}
+
+/// How far a line's mean must stand off its neighbours to be a defect: the
+/// larger of [`SPREAD_MULTIPLE`] robust spreads of every interior line's
+/// second difference and [`NOISE_MULTIPLE`] per-pixel noise sigmas.
+fn threshold(means: &[f64], noise_sigma: f64) -> f64 {
+    let mut second: Vec<f64> = means
+        .windows(3)
+        .map(|w| w[1] - 0.5 * (w[0] + w[2]))
+        .collect();
+    let centre = median(&mut second);
+    let mut deviations: Vec<f64> = second.iter().map(|d| (d - centre).abs()).collect();
+    let spread = 1.4826 * median(&mut deviations);
+    (SPREAD_MULTIPLE * spread).max(NOISE_MULTIPLE * noise_sigma)
+}
+
+fn median(values: &mut [f64]) -> f64 {
+    let mid = values.len() / 2;
+    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+}
+
+/// Fills a run's pixels, line by line along its length, by linear
+/// interpolation between the good lines beside it (a copy of the one good
+/// line at a frame edge). `place(line, along)` is the pixel's index.
+fn fill_run(run: &Run, length: usize, pixels: &mut [f32], place: impl Fn(usize, usize) -> usize) {
+    for along in 0..length {
+        let before = run.before.map(|l| pixels[place(l, along)]);
+        let after = run.after.map(|l| pixels[place(l, along)]);
+        for (k, line) in run.lines().enumerate() {
+            pixels[place(line, along)] = match (before, after) {
+                (Some(b), Some(a)) => {
+                    let t = (k + 1) as f32 / (run.len + 1) as f32;
+                    b + t * (a - b)
+                }
+                (Some(v), None) | (None, Some(v)) => v,
+                (None, None) => unreachable!("a run has a good line beside it"),
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    const W: usize = 96;
+    const H: usize = 80;
+
+    /// A smooth background (a gradient), a probe-like dark band with
+    /// blurred vertical and horizontal edges, and Gaussian noise of 20 counts.
+    fn scene(seed: u64) -> Vec<f32> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 20.0).unwrap();
+        let edge = |d: f64| 1.0 / (1.0 + (-d / 0.8).exp());
+        let mut px = Vec::with_capacity(W * H);
+        for y in 0..H {
+            for x in 0..W {
+                let band = edge(x as f64 - 40.0) * edge(60.0 - x as f64) * edge(y as f64 - 30.0);
+                let v = 20_000.0 + 40.0 * x as f64 - 25.0 * y as f64 - 15_000.0 * band;
+                px.push((v + noise.sample(&mut rng)) as f32);
+            }
+        }
+        px
+    }
+
+    fn frame(px: Vec<f32>) -> Frame {
+        Frame::new(W, H, px, 16).unwrap()
+    }
+
+    #[test]
+    fn sharp_edges_interlacing_and_column_offsets_are_not_defects() {
+        let mut px = scene(1);
+        // Interlaced rows (every other row 60 counts up) and column
+        // fixed-pattern offsets of a few counts: the frame's own texture.
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let offsets: Vec<f32> = (0..W)
+            .map(|_| Normal::new(0.0, 8.0).unwrap().sample(&mut rng) as f32)
+            .collect();
+        for y in 0..H {
+            for x in 0..W {
+                px[y * W + x] += offsets[x] + if y % 2 == 0 { 60.0 } else { 0.0 };
+            }
+        }
+        let f = frame(px);
+        let (repaired, defects) = repair_line_defects(&f);
+        assert!(defects.is_empty(), "{defects:?}");
+        assert!(matches!(repaired, Cow::Borrowed(_)));
+    }
+
+    #[test]
+    fn dead_hot_paired_and_edge_lines_are_filled_from_their_neighbours() {
+        let clean = scene(3);
+        let mut px = clean.clone();
+        for y in 0..H {
+            px[y * W + 50] = 0.0; // dead column across the dark band
+            px[y * W + 70] *= 0.6; // off-gain column
+            px[y * W + 71] *= 0.6; // ... and its neighbour
+            px[y * W] = 65_535.0; // hot column at the frame's edge
+        }
+        for x in 0..W {
+            px[20 * W + x] = 65_535.0; // hot row
+        }
+        let f = frame(px);
+        let (repaired, defects) = repair_line_defects(&f);
+        let found: Vec<(LineAxis, usize)> = defects.iter().map(|d| (d.axis, d.index)).collect();
+        assert_eq!(
+            found,
+            [
+                (LineAxis::Column, 0),
+                (LineAxis::Column, 50),
+                (LineAxis::Column, 70),
+                (LineAxis::Column, 71),
+                (LineAxis::Row, 20),
+            ]
+        );
+        // Dead but for the hot row's pixel; beside it the scene, partly the band.
+        assert!(defects[1].mean_counts < 1_000.0, "{}", defects[1]);
+        assert!(defects[1].beside_counts > 10_000.0, "{}", defects[1]);
+        // Every repaired pixel is its neighbours' interpolation (a copy of
+        // the one good neighbour at the edge), so close to the clean frame
+        // where the scene is smooth: within the noise of two pixels.
+        let r = repaired.as_ref();
+        for y in (0..H).filter(|&y| y != 20) {
+            let at = |x: usize| r.at(x, y);
+            assert_eq!(at(50), 0.5 * (at(49) + at(51)), "row {y}");
+            assert_eq!(at(0), at(1), "row {y}");
+            let third = at(69) + (at(72) - at(69)) / 3.0;
+            assert!((at(70) - third).abs() < 1e-2, "row {y}");
+            for x in [70, 71] {
+                assert!((at(x) - clean[y * W + x]).abs() < 100.0, "({x}, {y})");
+            }
+        }
+        for x in 1..W {
+            assert!((r.at(x, 20) - clean[20 * W + x]).abs() < 100.0, "({x}, 20)");
+        }
+    }
+
+    #[test]
+    fn small_frames_and_lines_a_frame_wide_feature_crosses_are_left_alone() {
+        // Too few rows to judge columns by: nothing is touched.
+        let mut px = vec![100.0f32; 10 * 10];
+        px[55] = 0.0;
+        for y in 0..10 {
+            px[y * 10 + 4] = 0.0;
+        }
+        let f = Frame::new(10, 10, px, 8).unwrap();
+        assert!(repair_line_defects(&f).1.is_empty());
+        // A dark band three columns wide is scene, not a sensor line.
+        let mut px = scene(4);
+        for y in 0..H {
+            for x in 20..23 {
+                px[y * W + x] = 100.0;
+            }
+        }
+        assert!(repair_line_defects(&frame(px)).1.is_empty());
+    }
+}
