@@ -133,9 +133,12 @@ pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInp
         }
         let mut mats = Vector::<Mat>::new();
         let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
-        let read =
-            quietly(|| opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags));
-        if read.is_ok_and(|ok| ok) {
+        let read = !tiff_fallback::opencv_lacks_format(path)
+            && quietly(|| {
+                opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags)
+            })
+            .is_ok_and(|ok| ok);
+        if read {
             mats.iter()
                 .map(|m| mat_to_frame(&m, path, channel))
                 .collect::<Result<Vec<_>, _>>()?
