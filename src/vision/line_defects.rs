@@ -35,6 +35,14 @@ const SPREAD_MULTIPLE: f64 = 20.0;
 /// lost in the noise of each pixel and do not mislead the detectors.
 const NOISE_MULTIPLE: f64 = 4.0;
 
+/// Along a defective line, at least this many pixels (or an eighth of the
+/// line, if more; all of a shorter line) stand off their neighbours' line
+/// by [`NOISE_MULTIPLE`] noise sigmas the run's way: a sensor line is off
+/// along its length, while the centre line of a round feature (a particle
+/// in a nearly noiseless frame, whose line means have almost no spread)
+/// is off only across the feature.
+const MIN_LINE_PIXELS: usize = 64;
+
 /// Sensor column (x) or row (y).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LineAxis {
@@ -84,21 +92,28 @@ pub fn repair_line_defects(frame: &Frame) -> (Cow<'_, Frame>, Vec<LineDefect>) {
             defective_runs(&row_means, noise_sigma),
         )
     };
-    let (mut columns, mut rows) = runs(0.0);
-    if !(columns.is_empty() && rows.is_empty()) {
-        (columns, rows) = runs(estimate_noise_sigma(frame));
-    }
+    let (columns, rows) = runs(0.0);
     if columns.is_empty() && rows.is_empty() {
         return (Cow::Borrowed(frame), Vec::new());
     }
-    let mut pixels = frame.pixels().to_vec();
+    let noise = estimate_noise_sigma(frame);
+    let (mut columns, mut rows) = runs(noise);
+    let px = frame.pixels();
+    let column_place = |line, along| along * w + line;
+    let row_place = |line, along| line * w + along;
+    columns.retain(|run| run.off_along(px, h, noise, column_place));
+    rows.retain(|run| run.off_along(px, w, noise, row_place));
+    if columns.is_empty() && rows.is_empty() {
+        return (Cow::Borrowed(frame), Vec::new());
+    }
+    let mut pixels = px.to_vec();
     let mut defects = Vec::new();
     for run in &columns {
-        fill_run(run, h, &mut pixels, |line, along| along * w + line);
+        fill_run(run, h, &mut pixels, column_place);
         defects.extend(run.defects(LineAxis::Column, &column_means));
     }
     for run in &rows {
-        fill_run(run, w, &mut pixels, |line, along| line * w + along);
+        fill_run(run, w, &mut pixels, row_place);
         defects.extend(run.defects(LineAxis::Row, &row_means));
     }
     let repaired = Frame::new(w, h, pixels, frame.bit_depth())
@@ -200,11 +215,47 @@ struct Run {
     len: usize,
     before: Option<usize>,
     after: Option<usize>,
+    /// Its means stand above its neighbours' (else below).
+    bright: bool,
 }
 
 impl Run {
     fn lines(&self) -> std::ops::Range<usize> {
         self.first..self.first + self.len
+    }
+
+    /// What the k-th line of the run would read at one place along it, from
+    /// the good lines beside it there: the line between them, or the one.
+    fn expected(&self, k: usize, before: Option<f32>, after: Option<f32>) -> f32 {
+        match (before, after) {
+            (Some(b), Some(a)) => b + (k + 1) as f32 / (self.len + 1) as f32 * (a - b),
+            (Some(v), None) | (None, Some(v)) => v,
+            (None, None) => unreachable!("a run has a good line beside it"),
+        }
+    }
+
+    /// True when enough of the run's places along its `length` stand off
+    /// (see [`MIN_LINE_PIXELS`]).
+    fn off_along(
+        &self,
+        pixels: &[f32],
+        length: usize,
+        noise_sigma: f64,
+        place: impl Fn(usize, usize) -> usize,
+    ) -> bool {
+        let by = (NOISE_MULTIPLE * noise_sigma) as f32;
+        let needed = MIN_LINE_PIXELS.max(length / 8).min(length);
+        let off = (0..length)
+            .filter(|&along| {
+                let before = self.before.map(|l| pixels[place(l, along)]);
+                let after = self.after.map(|l| pixels[place(l, along)]);
+                self.lines().enumerate().all(|(k, line)| {
+                    let o = pixels[place(line, along)] - self.expected(k, before, after);
+                    if self.bright { o > by } else { o < -by }
+                })
+            })
+            .count();
+        off >= needed
     }
 
     fn beside_mean(&self, means: &[f64]) -> f64 {
@@ -274,6 +325,7 @@ fn defective_runs(means: &[f64], noise_sigma: f64) -> Vec<Run> {
                 len,
                 before,
                 after,
+                bright: offs[0] > 0.0,
             })
         });
         match found {
@@ -314,14 +366,7 @@ fn fill_run(run: &Run, length: usize, pixels: &mut [f32], place: impl Fn(usize, 
         let before = run.before.map(|l| pixels[place(l, along)]);
         let after = run.after.map(|l| pixels[place(l, along)]);
         for (k, line) in run.lines().enumerate() {
-            pixels[place(line, along)] = match (before, after) {
-                (Some(b), Some(a)) => {
-                    let t = (k + 1) as f32 / (run.len + 1) as f32;
-                    b + t * (a - b)
-                }
-                (Some(v), None) | (None, Some(v)) => v,
-                (None, None) => unreachable!("a run has a good line beside it"),
-            };
+            pixels[place(line, along)] = run.expected(k, before, after);
         }
     }
 }
@@ -423,6 +468,33 @@ mod tests {
         for x in 1..W {
             assert!((r.at(x, 20) - clean[20 * W + x]).abs() < 100.0, "({x}, 20)");
         }
+    }
+
+    #[test]
+    fn a_round_feature_of_a_noiseless_frame_is_not_a_defect() {
+        // Without noise the line means have almost no spread, and the
+        // centre lines of a round spot stand off their neighbours (the
+        // same way on both sides): only the pixels along a line tell them
+        // from a sensor line. Rounded to counts, as a 16-bit camera's. (One
+        // spot: with many, the lines through them make the spread.)
+        let spots = [(50.0, 41.0)];
+        let mut px = Vec::with_capacity(W * H);
+        for y in 0..H {
+            for x in 0..W {
+                let spots_here: f64 = spots
+                    .iter()
+                    .map(|&(sx, sy)| {
+                        let r2 = (x as f64 - sx).powi(2) + (y as f64 - sy).powi(2);
+                        5_000.0 * (-r2 / 18.0).exp()
+                    })
+                    .sum();
+                px.push((20_000.0 + spots_here).round() as f32);
+            }
+        }
+        let f = frame(px);
+        let (repaired, defects) = repair_line_defects(&f);
+        assert!(defects.is_empty(), "{defects:?}");
+        assert!(matches!(repaired, Cow::Borrowed(_)));
     }
 
     #[test]
