@@ -8,6 +8,7 @@ use nanopush::render::microscope::{RenderSettings, render_frame};
 use nanopush::render::microscope_truth::benchmark_scene;
 use nanopush::vision::analyse::analyse_frame;
 use nanopush::vision::detect::DetectSettings;
+use nanopush::vision::detections_file::DetectionsFile;
 use nanopush::vision::frame::Frame;
 use nanopush::vision::line_defects::LineAxis;
 use nanopush::vision::tip::{TipSettings, detect_tip};
@@ -110,4 +111,22 @@ fn detect_names_the_repaired_line_and_finds_the_probe() {
         ran.stderr
     );
     assert!(ran.stdout.contains("tip: x"), "{}", ran.stdout);
+    // The JSON document carries the repaired line, and reads back.
+    let ran = deadline::nanopush_within(
+        dir.path(),
+        &["detect", &path.to_string_lossy(), "--json"],
+        30,
+    );
+    assert!(ran.ok, "{}", ran.stderr);
+    let doc = DetectionsFile::from_json(&ran.stdout).unwrap();
+    assert!(doc.tip.is_some());
+    assert_eq!(doc.repaired_lines.len(), 1, "{:?}", doc.repaired_lines);
+    let line = &doc.repaired_lines[0];
+    assert_eq!((line.axis, line.index), (LineAxis::Column, column));
+    assert_eq!(line.mean_counts, 0.0);
+    assert!(
+        ran.stdout.contains("\"axis\": \"column\""),
+        "{}",
+        ran.stdout
+    );
 }

@@ -199,7 +199,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .save(path)
             .with_context(|| format!("writing overlay {}", path.display()))?;
     }
-    let doc = DetectionsFile::new(&particles, tip.as_ref(), calib.as_ref());
+    let doc = DetectionsFile::new(&particles, tip.as_ref(), &repaired_lines, calib.as_ref());
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {

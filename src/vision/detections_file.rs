@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::detect::Detection;
+use super::line_defects::LineDefect;
 use super::tip::TipDetection;
 use crate::calib::affine::AffineCalibration;
 
@@ -38,6 +39,10 @@ pub struct DetectionsFile {
     pub schema: String,
     pub particles: Vec<ParticleRecord>,
     pub tip: Option<TipRecord>,
+    /// Camera lines filled in before detection (empty: none; absent in
+    /// files written before they were recorded).
+    #[serde(default)]
+    pub repaired_lines: Vec<LineDefect>,
 }
 
 impl DetectionsFile {
@@ -45,6 +50,7 @@ impl DetectionsFile {
     pub fn new(
         particles: &[Detection],
         tip: Option<&TipDetection>,
+        repaired_lines: &[LineDefect],
         calib: Option<&AffineCalibration>,
     ) -> Self {
         let particles = particles
@@ -71,6 +77,7 @@ impl DetectionsFile {
                 angle_deg: t.angle_rad.to_degrees(),
                 score: t.score,
             }),
+            repaired_lines: repaired_lines.to_vec(),
         }
     }
 
@@ -90,6 +97,7 @@ impl DetectionsFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vision::line_defects::LineAxis;
 
     #[test]
     fn json_round_trip_with_calibration() {
@@ -102,11 +110,24 @@ mod tests {
             edge_clipped: false,
         };
         let cal = AffineCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
-        let f = DetectionsFile::new(&[d], None, Some(&cal));
+        let line = LineDefect {
+            axis: LineAxis::Row,
+            index: 7,
+            mean_counts: 65535.0,
+            beside_counts: 1200.5,
+        };
+        let f = DetectionsFile::new(&[d], None, &[line], Some(&cal));
         assert_eq!(f.particles[0].x_um, Some(5.25));
         let text = serde_json::to_string(&f).unwrap();
         assert!(text.contains("\"tip\":null"));
+        assert!(text.contains("\"repaired_lines\":[{\"axis\":\"row\",\"index\":7,"));
         assert_eq!(DetectionsFile::from_json(&text).unwrap(), f);
+        // A document written before lines were recorded reads as none repaired.
+        let old = DetectionsFile::from_json(
+            "{\"schema\":\"nanopush.detections/1\",\"particles\":[],\"tip\":null}",
+        )
+        .unwrap();
+        assert!(old.repaired_lines.is_empty());
         assert!(
             DetectionsFile::from_json("{\"schema\":\"x\",\"particles\":[],\"tip\":null}").is_err()
         );

@@ -16,6 +16,8 @@ use std::borrow::Cow;
 use std::fmt;
 use std::sync::Mutex;
 
+use serde::{Deserialize, Serialize};
+
 use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
 use super::noise::estimate_noise_sigma;
@@ -44,7 +46,8 @@ const NOISE_MULTIPLE: f64 = 4.0;
 const MIN_LINE_PIXELS: usize = 64;
 
 /// Sensor column (x) or row (y).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum LineAxis {
     /// A column of pixels (fixed x).
     Column,
@@ -52,8 +55,8 @@ pub enum LineAxis {
     Row,
 }
 
-/// One repaired line.
-#[derive(Debug, Clone, PartialEq)]
+/// One repaired line (as `nanopush detect --json` writes it too).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LineDefect {
     /// Column or row.
     pub axis: LineAxis,
