@@ -16,18 +16,27 @@ use super::fast_exp::exp_f32;
 use super::frame::Frame;
 use super::least_squares::{Evaluation, NormalEquations};
 
-/// The unsaturated pixels of a square window, coordinates relative to `origin`.
+/// The pixels of a square window, coordinates relative to `origin`.
+/// Saturated pixels are kept as censored samples: their true value is
+/// unknown but at least the camera's full count, so a model brighter there
+/// fits them exactly and only a dimmer one is penalised (leaving them out
+/// threw away where the core is: on a frame whose particle cores clip, one
+/// centre came out 1.2 px off).
 #[derive(Debug, Clone)]
 pub struct PixelWindow {
     origin: (f64, f64),
     x: Vec<f32>,
     y: Vec<f32>,
     v: Vec<f32>,
+    /// Indices of the saturated pixels (value = the full count), ascending.
+    censored: Vec<u32>,
+    /// The frame's full count (what a saturated pixel holds here).
+    full_count: f32,
 }
 
 impl PixelWindow {
-    /// Unsaturated pixels of the square window of half-size `half` around
-    /// (cx, cy), cut at the frame's edges (saturated values are unknown).
+    /// The pixels of the square window of half-size `half` around (cx, cy),
+    /// cut at the frame's edges; saturated ones at the full count, censored.
     pub fn square(frame: &Frame, cx: f64, cy: f64, half: f64) -> Self {
         let (w, h) = (frame.width() as f64, frame.height() as f64);
         let x0 = (cx - half).floor().max(0.0) as usize;
@@ -42,6 +51,8 @@ impl PixelWindow {
             x: Vec::with_capacity(n),
             y: Vec::with_capacity(n),
             v: Vec::with_capacity(n),
+            censored: Vec::new(),
+            full_count: sat,
         };
         if n == 0 {
             return out;
@@ -51,20 +62,17 @@ impl PixelWindow {
             let row = &pixels[y * w + x0..=y * w + x1];
             let dy = (y as f64 - origin.1) as f32;
             let dx0 = (x0 as f64 - origin.0) as f32;
+            out.x.extend((0..row.len()).map(|k| dx0 + k as f32));
+            out.y.extend(std::iter::repeat_n(dy, row.len()));
             if row.iter().all(|&v| v < sat) {
-                // No saturated pixel (almost every row): whole-row copies.
+                // No saturated pixel (almost every row): a whole-row copy.
                 out.v.extend_from_slice(row);
-                out.x.extend((0..row.len()).map(|k| dx0 + k as f32));
-                out.y.extend(std::iter::repeat_n(dy, row.len()));
                 continue;
             }
-            for (k, &v) in row.iter().enumerate() {
-                if v < sat {
-                    out.x.push(dx0 + k as f32);
-                    out.y.push(dy);
-                    out.v.push(v);
-                }
-            }
+            let start = out.v.len();
+            out.v.extend(row.iter().map(|&v| v.min(sat)));
+            let at = row.iter().enumerate().filter(|(_, v)| **v >= sat);
+            out.censored.extend(at.map(|(k, _)| (start + k) as u32));
         }
         out
     }
@@ -94,6 +102,17 @@ impl PixelWindow {
         self.x.truncate(j);
         self.y.truncate(j);
         self.v.truncate(j);
+        if !self.censored.is_empty() {
+            // The saturated pixels hold the full count, the others less.
+            let full = self.full_count;
+            let at = self.v.iter().enumerate().filter(|(_, v)| **v >= full);
+            self.censored = at.map(|(i, _)| i as u32).collect();
+        }
+    }
+
+    /// Number of saturated (censored) pixels.
+    pub fn censored_len(&self) -> usize {
+        self.censored.len()
     }
 
     fn absolute(&self, i: usize) -> (f64, f64) {
@@ -128,6 +147,27 @@ impl<const N: usize> Columns<N> {
             residual: vec![0.0; n],
             jacobian: std::array::from_fn(|_| vec![0.0; n]),
             rss: 0.0,
+        }
+    }
+
+    /// A saturated pixel the model reaches (residual full count - model <= 0)
+    /// is fitted exactly: no residual and no gradient; one the model falls
+    /// short of keeps its residual like any pixel. A few pixels a window,
+    /// after the vector loop, which stays as it is.
+    fn censor(&mut self, censored: &[u32]) {
+        let mut reached = false;
+        for &i in censored {
+            let i = i as usize;
+            if self.residual[i] <= 0.0 {
+                reached = true;
+                self.residual[i] = 0.0;
+                for column in &mut self.jacobian {
+                    column[i] = 0.0;
+                }
+            }
+        }
+        if reached {
+            self.rss = sum_of_squares_f64(&self.residual);
         }
     }
 
@@ -283,6 +323,7 @@ impl<'a> WindowModel<'a, 5> {
 impl<const N: usize> Evaluation<N> for WindowModel<'_, N> {
     fn rss(&mut self, p: &SVector<f64, N>) -> f64 {
         (self.columns)(self.win, p, &mut self.cols);
+        self.cols.censor(&self.win.censored);
         self.cols.rss
     }
 
@@ -417,6 +458,8 @@ mod tests {
     }
 
     /// The batch normal equations equal the per-pixel f64 ones to f32 precision.
+    /// The per-pixel f64 normal equations, a saturated pixel the model
+    /// reaches left out (`censored`: those the window marked).
     fn compare<const N: usize>(
         batch: NormalEquations<N>,
         win: &PixelWindow,
@@ -427,8 +470,11 @@ mod tests {
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
         let mut rss = 0.0;
-        for (x, y, v) in win.pixels() {
+        for (i, (x, y, v)) in win.pixels().enumerate() {
             let r = v - model(x, y, p, &mut g);
+            if win.censored.contains(&(i as u32)) && r <= 0.0 {
+                continue;
+            }
             rss += r * r;
             jtr += g * r;
             jtj += g * g.transpose();
@@ -457,7 +503,8 @@ mod tests {
     fn ring_and_spot_normal_equations_match_the_per_pixel_models() {
         let f = frame();
         let win = PixelWindow::square(&f, 15.0, 15.0, 12.0);
-        assert_eq!(win.len(), 25 * 25 - 1, "the saturated pixel is left out");
+        assert_eq!(win.len(), 25 * 25);
+        assert_eq!(win.censored_len(), 1, "the saturated pixel is censored");
         let p = SVector::<f64, 8>::from_column_slice(&[
             15.2, 14.9, 1005.0, 380.0, 2.1, 290.0, 6.8, 1.3,
         ]);
@@ -472,23 +519,64 @@ mod tests {
         compare(spot.normal_equations(), &win, &q, spot_model);
     }
 
+    /// A saturated pixel tells only that the true value is at least the
+    /// full count: a model above it there fits it exactly (no residual, no
+    /// gradient), a model below it is pulled up like by any pixel.
     #[test]
-    fn square_lists_the_unsaturated_pixels_in_raster_order() {
+    fn a_saturated_pixel_counts_only_where_the_model_falls_short_of_it() {
+        // A bright core clipped at 255 counts (8-bit) on a background of 50.
+        let (w, h) = (21, 21);
+        let px: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let r2 = ((i % w) as f64 - 10.2).powi(2) + ((i / w) as f64 - 9.9).powi(2);
+                let texture = ((i * 7919) % 7) as f64;
+                (50.0 + texture + 400.0 * (-r2 / 6.0).exp()).min(255.0) as f32
+            })
+            .collect();
+        let f = Frame::new(w, h, px, 8).unwrap();
+        let win = PixelWindow::square(&f, 10.0, 10.0, 7.0);
+        let clipped = win.censored_len();
+        assert!(clipped >= 5, "{clipped} clipped pixels");
+        // Spot models whose peak is above the full count (the clipped
+        // pixels reached: no residual at most of them) and below it (every
+        // one pulls).
+        for (amplitude, expect_reached) in [(400.0, true), (150.0, false)] {
+            let q =
+                SVector::<f64, 5>::from_column_slice(&[10.2, 9.9, 50.0, amplitude, 3.0f64.sqrt()]);
+            let mut spot = WindowModel::spot(&win);
+            spot.rss(&q);
+            let reached = (0..win.len())
+                .filter(|&i| win.censored.contains(&(i as u32)) && spot.cols.residual[i] == 0.0)
+                .count();
+            assert_eq!(
+                reached > 0,
+                expect_reached,
+                "amplitude {amplitude}: {reached}"
+            );
+            compare(spot.normal_equations(), &win, &q, spot_model);
+        }
+    }
+
+    #[test]
+    fn square_lists_every_pixel_in_raster_order_the_saturated_censored() {
         let f = frame();
         // Around the saturated pixel (4, 3), cut by the frame's top-left edge.
         for (cx, cy, half) in [(4.4, 3.0, 6.0), (15.0, 15.0, 12.0), (29.6, 30.2, 2.5)] {
             let win = PixelWindow::square(&f, cx, cy, half);
             let mut want = Vec::new();
+            let mut saturated = Vec::new();
             let lo = |c: f64| (c - half).floor().max(0.0) as usize;
             let hi = |c: f64| ((c + half).ceil() as usize).min(30);
             for y in lo(cy)..=hi(cy) {
                 for x in lo(cx)..=hi(cx) {
-                    if f.at(x, y) < f.max_count() {
-                        want.push((x as f64, y as f64, f.at(x, y) as f64));
+                    if f.at(x, y) >= f.max_count() {
+                        saturated.push(want.len() as u32);
                     }
+                    want.push((x as f64, y as f64, f.at(x, y).min(f.max_count()) as f64));
                 }
             }
             assert_eq!(win.pixels().collect::<Vec<_>>(), want, "({cx}, {cy})");
+            assert_eq!(win.censored, saturated, "({cx}, {cy})");
         }
     }
 
@@ -502,5 +590,14 @@ mod tests {
             win.pixels()
                 .all(|(x, y, v)| x >= 15.0 && f.at(x as usize, y as usize) as f64 == v)
         );
+        // The saturated pixel (4, 3) keeps its mark when pixels before it go.
+        let mut win = PixelWindow::square(&f, 4.0, 3.0, 3.0);
+        win.retain(|x, y| x >= 3.0 && y >= 2.0);
+        let marked: Vec<(f64, f64, f64)> = win
+            .censored
+            .iter()
+            .map(|&i| win.pixels().nth(i as usize).unwrap())
+            .collect();
+        assert_eq!(marked, vec![(4.0, 3.0, f.max_count() as f64)]);
     }
 }

@@ -4,7 +4,9 @@
 //!   spheres of either contrast, in or out of focus; the renderer's model);
 //! - spot: background + Gaussian (dark spots, fluorescent spots).
 //!
-//! Saturated pixels are left out (their true value is unknown).
+//! Saturated pixels are censored samples: their true value is unknown but
+//! at least the full count, so they pull only a model that falls short of
+//! it there ([`super::pixel_window::PixelWindow`]).
 
 use nalgebra::SVector;
 use thiserror::Error;
