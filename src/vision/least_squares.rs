@@ -68,6 +68,10 @@ pub struct NormalEquations<const N: usize> {
     pub jtr: SVector<f64, N>,
     /// sum w r^2.
     pub rss: f64,
+    /// Samples that carry information at this point: all of them, but a
+    /// censored one the model reaches (a saturated pixel, fitted exactly),
+    /// which adds no residual and so no degree of freedom either.
+    pub observations: usize,
 }
 
 /// A least-squares problem evaluated in two parts, so that a trial point the
@@ -110,7 +114,12 @@ where
         // syger fills the lower triangle only (enough for the Cholesky step);
         // the covariance is an inverse of the whole matrix.
         jtj.fill_upper_triangle_with_lower_triangle();
-        self.last = Some(NormalEquations { jtj, jtr, rss });
+        self.last = Some(NormalEquations {
+            jtj,
+            jtr,
+            rss,
+            observations: self.samples.len(),
+        });
         rss
     }
 
@@ -211,7 +220,7 @@ pub fn levenberg_marquardt_with<const N: usize>(
     for _ in 0..max_iterations {
         iterations += 1;
         let mut improved = false;
-        let variance = at_p.rss / (n_samples - N) as f64;
+        let variance = at_p.residual_variance();
         for trial_no in 0..8 {
             let mut a = at_p.jtj;
             for i in 0..N {
@@ -230,7 +239,7 @@ pub fn levenberg_marquardt_with<const N: usize>(
                 && predicted.abs() < CONVERGED_DECREASE * variance
                 && trial.iter().all(|v| v.is_finite())
             {
-                return finish(n_samples, trial, at_p.jtj, at_p.rss, iterations);
+                return finish(trial, &at_p, iterations);
             }
             let trial_rss = problem.rss(&trial);
             if trial_rss.is_finite() && trial_rss < at_p.rss {
@@ -252,9 +261,9 @@ pub fn levenberg_marquardt_with<const N: usize>(
                 lambda = (lambda * 0.2).max(1e-9);
                 improved = true;
                 if small {
-                    return finish(n_samples, p, at_p.jtj, at_p.rss, iterations);
+                    return finish(p, &at_p, iterations);
                 }
-                if let Some(reason) = give_up(iterations, &p, at_p.rss / (n_samples - N) as f64) {
+                if let Some(reason) = give_up(iterations, &p, at_p.residual_variance()) {
                     return Err(FitError::GivenUp(reason));
                 }
                 break;
@@ -262,7 +271,7 @@ pub fn levenberg_marquardt_with<const N: usize>(
             // A Gauss-Newton step this small that does not lower the rss is
             // below the evaluation's rounding (f32 batch models): converged.
             if trial_no == 0 && lambda <= 1e-2 && predicted.abs() < ROUNDING_DECREASE * variance {
-                return finish(n_samples, p, at_p.jtj, at_p.rss, iterations);
+                return finish(p, &at_p, iterations);
             }
             lambda *= 10.0;
         }
@@ -270,18 +279,31 @@ pub fn levenberg_marquardt_with<const N: usize>(
             break;
         }
     }
-    finish(n_samples, p, at_p.jtj, at_p.rss, iterations)
+    finish(p, &at_p, iterations)
+}
+
+impl<const N: usize> NormalEquations<N> {
+    /// rss per degree of freedom (the observations beyond the parameters;
+    /// at least one, [`finish`] refuses fewer).
+    fn residual_variance(&self) -> f64 {
+        self.rss / self.observations.saturating_sub(N).max(1) as f64
+    }
 }
 
 fn finish<const N: usize>(
-    n: usize,
     params: SVector<f64, N>,
-    jtj: SMatrix<f64, N, N>,
-    rss: f64,
+    at_p: &NormalEquations<N>,
     iterations: usize,
 ) -> Result<FitOutcome<N>, FitError> {
+    if at_p.observations <= N {
+        return Err(FitError::TooFewSamples {
+            got: at_p.observations,
+            params: N,
+        });
+    }
+    let (jtj, rss) = (at_p.jtj, at_p.rss);
     let inv = jtj.try_inverse().ok_or(FitError::Singular)?;
-    let residual_variance = rss / (n - N) as f64;
+    let residual_variance = at_p.residual_variance();
     let covariance = inv * residual_variance;
     if !(0..N).all(|i| covariance[(i, i)].is_finite() && covariance[(i, i)] >= 0.0) {
         return Err(FitError::Singular);

@@ -138,6 +138,8 @@ struct Columns<const N: usize> {
     jacobian: [Vec<f32>; N],
     /// r^T r of the evaluation, in f64.
     rss: f64,
+    /// Pixels that carry information (all but the censored ones reached).
+    observations: usize,
 }
 
 impl<const N: usize> Columns<N> {
@@ -147,6 +149,7 @@ impl<const N: usize> Columns<N> {
             residual: vec![0.0; n],
             jacobian: std::array::from_fn(|_| vec![0.0; n]),
             rss: 0.0,
+            observations: n,
         }
     }
 
@@ -155,18 +158,19 @@ impl<const N: usize> Columns<N> {
     /// short of keeps its residual like any pixel. A few pixels a window,
     /// after the vector loop, which stays as it is.
     fn censor(&mut self, censored: &[u32]) {
-        let mut reached = false;
+        let mut reached = 0;
         for &i in censored {
             let i = i as usize;
             if self.residual[i] <= 0.0 {
-                reached = true;
+                reached += 1;
                 self.residual[i] = 0.0;
                 for column in &mut self.jacobian {
                     column[i] = 0.0;
                 }
             }
         }
-        if reached {
+        self.observations = self.residual.len() - reached;
+        if reached > 0 {
             self.rss = sum_of_squares_f64(&self.residual);
         }
     }
@@ -220,6 +224,7 @@ impl<const N: usize> Columns<N> {
             jtj,
             jtr,
             rss: self.rss,
+            observations: self.observations,
         }
     }
 }
@@ -553,7 +558,10 @@ mod tests {
                 expect_reached,
                 "amplitude {amplitude}: {reached}"
             );
-            compare(spot.normal_equations(), &win, &q, spot_model);
+            let at_q = spot.normal_equations();
+            // A pixel fitted exactly adds no degree of freedom to the noise.
+            assert_eq!(at_q.observations, win.len() - reached);
+            compare(at_q, &win, &q, spot_model);
         }
     }
 

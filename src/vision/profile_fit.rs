@@ -6,7 +6,8 @@
 //!
 //! Saturated pixels are censored samples: their true value is unknown but
 //! at least the full count, so they pull only a model that falls short of
-//! it there ([`super::pixel_window::PixelWindow`]).
+//! it there ([`super::pixel_window::PixelWindow`]); a clipped core starts
+//! the fit at least as bright as the ring is dark.
 
 use nalgebra::SVector;
 use thiserror::Error;
@@ -235,6 +236,12 @@ fn fit_ring(
     } else {
         0.5 * a
     };
+    // A core clipped at the full count is brighter than read, by an unknown
+    // amount: on a clipped background too, core - b reads 0 and the fit
+    // would start without a core. Start it at least as bright as the ring
+    // is dark.
+    let clipped_core = core >= frame.max_count() as f64;
+    let a = if clipped_core { a.max(bb.abs()) } else { a };
     let init =
         SVector::<f64, 8>::from_column_slice(&[cx, cy, b, a, (0.45 * rr).max(1.0), bb, rr, 1.5]);
     let implausible = |p: &SVector<f64, 8>, noise: f64| ring_implausible(p, (cx, cy), r0, noise);
