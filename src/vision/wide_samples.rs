@@ -21,8 +21,10 @@
 //! the median: with the dark end at a quarter of the counts, a dead pixel
 //! clipped to 0 moved that threshold below the probe, which was then not
 //! found). After the map the frame is an ordinary 16-bit frame: written to
-//! a recording as PNG and read back equal. The source's own saturation, if
-//! it had one, is not known.
+//! a recording as PNG and read back equal. The source's own clipping (a
+//! level many pixels share at either end, `ClipLevels`) maps onto 0 or the
+//! full count, so the pipeline reads those pixels as clipped: the profile
+//! fit takes them as censored, not as values.
 
 use super::frame::{Frame, FrameError, check_finite};
 
@@ -45,8 +47,17 @@ const MAPPED_BITS: u8 = 16;
 pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<Frame, FrameError> {
     // Before the map, which would turn a NaN into 0 counts.
     check_finite(samples, width)?;
-    let (lo, hi) = robust_range(samples);
-    let (floor, ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
+    let (mut lo, mut hi) = robust_range(samples);
+    let (mut floor, mut ceiling) = (f64::from(INLIER_COUNTS.0), f64::from(INLIER_COUNTS.1));
+    // The source's own clipping becomes the frame's: its level maps onto 0
+    // or the full count, which the pipeline reads as clipped.
+    let clipped = ClipLevels::of(samples);
+    if let Some(level) = clipped.bright {
+        (hi, ceiling) = (f64::from(level), 65535.0);
+    }
+    if let Some(level) = clipped.dark {
+        (lo, floor) = (f64::from(level), 0.0);
+    }
     // count = offset + v * scale, the offset folded in f64 so that the f32
     // map never forms v - lo (f32::MAX - f32::MIN overflows).
     let scale = if hi > lo {
@@ -57,11 +68,157 @@ pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<F
     let (offset, scale) = ((floor - lo * scale) as f32, scale as f32);
     // Rounded by adding a half and truncating (the value is clamped
     // non-negative first): the loop stays vectorised, where `round` is a call.
-    let counts = samples
+    let mut counts: Vec<f32> = samples
         .iter()
         .map(|&v| ((offset + v * scale).clamp(0.0, 65535.0) + 0.5) as u32 as f32)
         .collect();
+    // The clip levels exactly at the ends, whatever the map's rounding.
+    for (level, count) in [(clipped.dark, 0.0), (clipped.bright, 65535.0)] {
+        if let Some(level) = level {
+            for (c, &v) in counts.iter_mut().zip(samples) {
+                if v == level {
+                    *c = count;
+                }
+            }
+        }
+    }
     Frame::new(width, height, counts, MAPPED_BITS)
+}
+
+/// Fewest pixels that share a level for it to be the source's clipping.
+const MIN_CLIPPED_PIXELS: usize = 8;
+
+/// The source's own clip levels: the frame's brightest (darkest) value when
+/// more pixels share it than the [`OUTLIER_FRACTION`] (so it bounds the
+/// robust range itself), at least [`MIN_CLIPPED_PIXELS`], and more than
+/// twice as many as the next value in. A camera's full count or black level
+/// in a float or 32-bit export piles up so; a tail of noise thins out
+/// towards its end, and a few hot pixels at one value stay outliers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ClipLevels {
+    dark: Option<f32>,
+    bright: Option<f32>,
+}
+
+impl ClipLevels {
+    fn of(samples: &[f32]) -> Self {
+        let none = Self {
+            dark: None,
+            bright: None,
+        };
+        let ends = Ends::of(samples);
+        if ends.min >= ends.max {
+            return none;
+        }
+        let least = ((samples.len() as f64 * OUTLIER_FRACTION) as usize).max(MIN_CLIPPED_PIXELS);
+        // Almost every frame ends here: neither end is shared widely.
+        if (ends.at_min as usize) < least && (ends.at_max as usize) < least {
+            return none;
+        }
+        // The next values in from either end, and how many pixels hold them.
+        let inner: Vec<f32> = samples
+            .iter()
+            .copied()
+            .filter(|&v| v > ends.min && v < ends.max)
+            .collect();
+        let next = Ends::of(&inner);
+        let plateau = |at_end: u32, next_in: u32| at_end as usize >= least && at_end > 2 * next_in;
+        Self {
+            dark: plateau(ends.at_min, next.at_min).then_some(ends.min),
+            bright: plateau(ends.at_max, next.at_max).then_some(ends.max),
+        }
+    }
+}
+
+/// The smallest and largest sample and how many pixels hold each, found in
+/// one pass of eight independent lanes (the loop vectorises: the map of a
+/// 1024 x 1024 frame reads 4 MB a pass).
+#[derive(Debug, Clone, Copy)]
+struct Ends {
+    min: f32,
+    at_min: u32,
+    max: f32,
+    at_max: u32,
+}
+
+impl Ends {
+    const EMPTY: Self = Self {
+        min: f32::INFINITY,
+        at_min: 0,
+        max: f32::NEG_INFINITY,
+        at_max: 0,
+    };
+
+    fn of(samples: &[f32]) -> Self {
+        // Lanes as separate arrays (not eight structs), so each update is
+        // one vector instruction over the eight.
+        let (mut min, mut at_min) = ([f32::INFINITY; 8], [0u32; 8]);
+        let (mut max, mut at_max) = ([f32::NEG_INFINITY; 8], [0u32; 8]);
+        let chunks = samples.chunks_exact(8);
+        let tail = chunks.remainder();
+        for chunk in chunks {
+            for l in 0..8 {
+                let v = chunk[l];
+                at_min[l] = if v < min[l] {
+                    1
+                } else {
+                    at_min[l] + u32::from(v == min[l])
+                };
+                min[l] = if v < min[l] { v } else { min[l] };
+                at_max[l] = if v > max[l] {
+                    1
+                } else {
+                    at_max[l] + u32::from(v == max[l])
+                };
+                max[l] = if v > max[l] { v } else { max[l] };
+            }
+        }
+        let mut out = Self::EMPTY;
+        for &v in tail {
+            out = out.merge(&Self {
+                min: v,
+                at_min: 1,
+                max: v,
+                at_max: 1,
+            });
+        }
+        (0..8).fold(out, |a, l| {
+            a.merge(&Self {
+                min: min[l],
+                at_min: at_min[l],
+                max: max[l],
+                at_max: at_max[l],
+            })
+        })
+    }
+
+    fn merge(self, other: &Self) -> Self {
+        let join = |a: f32, na: u32, b: f32, nb: u32, first: bool| match (a == b, first) {
+            (true, _) => (a, na + nb),
+            (false, true) => (a, na),
+            (false, false) => (b, nb),
+        };
+        let (min, at_min) = join(
+            self.min,
+            self.at_min,
+            other.min,
+            other.at_min,
+            self.min < other.min,
+        );
+        let (max, at_max) = join(
+            self.max,
+            self.at_max,
+            other.max,
+            other.at_max,
+            self.max > other.max,
+        );
+        Self {
+            min,
+            at_min,
+            max,
+            at_max,
+        }
+    }
 }
 
 /// Most samples the robust range is ranked from: a larger frame is sampled
@@ -128,6 +285,52 @@ mod tests {
             (lo.min(v), hi.max(v))
         });
         assert_eq!((lo, hi), (floor, f.pixels()[7]));
+    }
+
+    /// A level many pixels share at an end is the source's clipping; the
+    /// thinning tail of integer noise and a few hot pixels at one value are
+    /// not.
+    #[test]
+    fn clip_levels_are_plateaus_at_the_ends_not_tails_or_hot_pixels() {
+        // Integer counts, a triangular histogram: 1 pixel at 0 and at 200,
+        // 100 at 100.
+        let tail: Vec<f32> = (0..=200i32)
+            .flat_map(|v| std::iter::repeat_n(v as f32, (100 - (v - 100).abs()).max(1) as usize))
+            .collect();
+        let none = ClipLevels {
+            dark: None,
+            bright: None,
+        };
+        assert_eq!(ClipLevels::of(&tail), none);
+        // The same clipped at 150 (the 50 values above piled up there) and
+        // at 20 below.
+        let clipped: Vec<f32> = tail.iter().map(|v| v.clamp(20.0, 150.0)).collect();
+        let levels = ClipLevels::of(&clipped);
+        assert_eq!(
+            levels,
+            ClipLevels {
+                dark: Some(20.0),
+                bright: Some(150.0)
+            }
+        );
+        // Mapped: the clipped pixels at the ends, the rest strictly inside.
+        let f = frame_from_wide(clipped.len(), 1, &clipped).unwrap();
+        for (&v, &c) in clipped.iter().zip(f.pixels()) {
+            match v {
+                150.0 => assert_eq!(c, 65535.0),
+                20.0 => assert_eq!(c, 0.0),
+                _ => assert!(c > 0.0 && c < 65535.0, "{v} -> {c}"),
+            }
+        }
+        // Nine hot pixels at one value, under the outlier fraction's 10 of
+        // 100,000 pixels, stay outliers.
+        let mut hot: Vec<f32> = (0..100_000).map(|i| (i % 1000) as f32 * 1e-3).collect();
+        for v in hot.iter_mut().step_by(12_000) {
+            *v = 500.0;
+        }
+        assert_eq!(ClipLevels::of(&hot).bright, None);
+        // A flat frame has no ends.
+        assert_eq!(ClipLevels::of(&[3.0; 50]), none);
     }
 
     #[test]
