@@ -121,6 +121,10 @@ impl ClipLevels {
             .copied()
             .filter(|&v| v > ends.min && v < ends.max)
             .collect();
+        // Two levels and nothing between is a mask, not a clipped frame.
+        if inner.is_empty() {
+            return none;
+        }
         let next = Ends::of(&inner);
         let plateau = |at_end: u32, next_in: u32| at_end as usize >= least && at_end > 2 * next_in;
         Self {
@@ -329,8 +333,12 @@ mod tests {
             *v = 500.0;
         }
         assert_eq!(ClipLevels::of(&hot).bright, None);
-        // A flat frame has no ends.
+        // A flat frame has no ends, and a two-level mask no clipping.
         assert_eq!(ClipLevels::of(&[3.0; 50]), none);
+        let mask: Vec<f32> = (0..100)
+            .map(|i| if i % 3 == 0 { 1.0 } else { 0.0 })
+            .collect();
+        assert_eq!(ClipLevels::of(&mask), none);
     }
 
     #[test]
