@@ -98,14 +98,9 @@ fn clipped_pixels(frame: &Frame) -> usize {
     frame.pixels().iter().filter(|&&v| v >= 65535.0).count()
 }
 
-/// How the particles found in `frame` sit on the scene's: every one found
-/// and nothing else, centre RMS within 1.3 the (unclipped) Cramer-Rao bound
-/// and the worst within 0.3 px. Returns the detections and their matching.
-fn assert_centres_near_the_bound(
-    what: &str,
-    scene: &SceneView,
-    frame: &Frame,
-) -> (Vec<Detection>, MatchReport) {
+/// The particles found in `frame`, their matching to the scene's, and the
+/// worst centre error in pixels.
+fn located(scene: &SceneView, frame: &Frame) -> (Vec<Detection>, MatchReport, f64) {
     let found = detect_particles(
         frame,
         &DetectSettings {
@@ -117,6 +112,18 @@ fn assert_centres_near_the_bound(
     let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
     let m = match_points(&truth(scene), &pts, RADIUS);
     let worst = m.pairs.iter().map(|p| p.2.hypot(p.3)).fold(0.0, f64::max);
+    (found, m, worst)
+}
+
+/// How the particles found in `frame` sit on the scene's: every one found
+/// and nothing else, centre RMS within 1.3 the (unclipped) Cramer-Rao bound
+/// and the worst within 0.3 px. Returns the detections and their matching.
+fn assert_centres_near_the_bound(
+    what: &str,
+    scene: &SceneView,
+    frame: &Frame,
+) -> (Vec<Detection>, MatchReport) {
+    let (found, m, worst) = located(scene, frame);
     let rms = m.rms_per_axis();
     let crb = centre_crb_px(RADIUS, &RenderSettings::with_snr(8.0, 16)).unwrap();
     println!(
@@ -178,18 +185,8 @@ fn a_clipped_background_keeps_most_particles_and_their_centres() {
         let mut settings = RenderSettings::with_snr(8.0, 16);
         settings.camera.gain_counts_per_e *= gain;
         let frame = render_frame(&scene, &settings, 3).unwrap();
-        let clipped = frame.pixels().iter().filter(|&&v| v >= 65535.0).count();
-        let found = detect_particles(
-            &frame,
-            &DetectSettings {
-                diameter_px: 17.0,
-                ..DetectSettings::default()
-            },
-        )
-        .unwrap();
-        let pts: Vec<[f64; 2]> = found.iter().map(|d| [d.x_px, d.y_px]).collect();
-        let m = match_points(&truth(&scene), &pts, RADIUS);
-        let worst = m.pairs.iter().map(|p| p.2.hypot(p.3)).fold(0.0, f64::max);
+        let clipped = clipped_pixels(&frame);
+        let (_, m, worst) = located(&scene, &frame);
         println!(
             "gain {gain}x ({clipped} pixels clipped): recall {:.2}, precision {:.2}, centre RMS {:.4} px, worst {worst:.3} px",
             m.recall(),

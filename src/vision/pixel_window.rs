@@ -28,9 +28,7 @@ pub struct PixelWindow {
     x: Vec<f32>,
     y: Vec<f32>,
     v: Vec<f32>,
-    /// Indices of the saturated pixels (value = the full count), ascending.
-    censored: Vec<u32>,
-    /// The frame's full count (what a saturated pixel holds here).
+    /// The frame's full count: a pixel holding it is saturated (censored).
     full_count: f32,
 }
 
@@ -51,7 +49,6 @@ impl PixelWindow {
             x: Vec::with_capacity(n),
             y: Vec::with_capacity(n),
             v: Vec::with_capacity(n),
-            censored: Vec::new(),
             full_count: sat,
         };
         if n == 0 {
@@ -67,12 +64,9 @@ impl PixelWindow {
             if row.iter().all(|&v| v < sat) {
                 // No saturated pixel (almost every row): a whole-row copy.
                 out.v.extend_from_slice(row);
-                continue;
+            } else {
+                out.v.extend(row.iter().map(|&v| v.min(sat)));
             }
-            let start = out.v.len();
-            out.v.extend(row.iter().map(|&v| v.min(sat)));
-            let at = row.iter().enumerate().filter(|(_, v)| **v >= sat);
-            out.censored.extend(at.map(|(k, _)| (start + k) as u32));
         }
         out
     }
@@ -102,17 +96,17 @@ impl PixelWindow {
         self.x.truncate(j);
         self.y.truncate(j);
         self.v.truncate(j);
-        if !self.censored.is_empty() {
-            // The saturated pixels hold the full count, the others less.
-            let full = self.full_count;
-            let at = self.v.iter().enumerate().filter(|(_, v)| **v >= full);
-            self.censored = at.map(|(i, _)| i as u32).collect();
-        }
     }
 
-    /// Number of saturated (censored) pixels.
-    pub fn censored_len(&self) -> usize {
-        self.censored.len()
+    /// Indices of the saturated (censored) pixels, ascending: those at the
+    /// full count.
+    pub fn censored(&self) -> Vec<u32> {
+        let at = self
+            .v
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| **v >= self.full_count);
+        at.map(|(i, _)| i as u32).collect()
     }
 
     fn absolute(&self, i: usize) -> (f64, f64) {
@@ -294,6 +288,8 @@ fn sum_of_squares_f64(r: &[f32]) -> f64 {
 /// trial points are rejected).
 pub struct WindowModel<'a, const N: usize> {
     win: &'a PixelWindow,
+    /// The window's saturated pixels, found once for the fit.
+    censored: Vec<u32>,
     cols: Columns<N>,
     columns: fn(&PixelWindow, &SVector<f64, N>, &mut Columns<N>),
     normal: fn(&Columns<N>) -> NormalEquations<N>,
@@ -303,12 +299,7 @@ impl<'a> WindowModel<'a, 8> {
     /// The ring model (`profile_fit::ring_model`, parameters x, y, b, A, s,
     /// B, R, w) over the window.
     pub fn ring(win: &'a PixelWindow) -> Self {
-        Self {
-            win,
-            cols: Columns::new(win.len()),
-            columns: ring_columns,
-            normal: normal_equations_8,
-        }
+        Self::over(win, ring_columns, normal_equations_8)
     }
 }
 
@@ -316,11 +307,22 @@ impl<'a> WindowModel<'a, 5> {
     /// The spot model (`profile_fit::spot_model`, parameters x, y, b, A, s)
     /// over the window.
     pub fn spot(win: &'a PixelWindow) -> Self {
+        Self::over(win, spot_columns, normal_equations_5)
+    }
+}
+
+impl<'a, const N: usize> WindowModel<'a, N> {
+    fn over(
+        win: &'a PixelWindow,
+        columns: fn(&PixelWindow, &SVector<f64, N>, &mut Columns<N>),
+        normal: fn(&Columns<N>) -> NormalEquations<N>,
+    ) -> Self {
         Self {
             win,
+            censored: win.censored(),
             cols: Columns::new(win.len()),
-            columns: spot_columns,
-            normal: normal_equations_5,
+            columns,
+            normal,
         }
     }
 }
@@ -328,7 +330,7 @@ impl<'a> WindowModel<'a, 5> {
 impl<const N: usize> Evaluation<N> for WindowModel<'_, N> {
     fn rss(&mut self, p: &SVector<f64, N>) -> f64 {
         (self.columns)(self.win, p, &mut self.cols);
-        self.cols.censor(&self.win.censored);
+        self.cols.censor(&self.censored);
         self.cols.rss
     }
 
@@ -462,9 +464,8 @@ mod tests {
         Frame::new(w, h, px, 16).unwrap()
     }
 
-    /// The batch normal equations equal the per-pixel f64 ones to f32 precision.
-    /// The per-pixel f64 normal equations, a saturated pixel the model
-    /// reaches left out (`censored`: those the window marked).
+    /// The batch normal equations equal the per-pixel f64 ones to f32
+    /// precision, a saturated pixel the model reaches left out.
     fn compare<const N: usize>(
         batch: NormalEquations<N>,
         win: &PixelWindow,
@@ -475,9 +476,10 @@ mod tests {
         let mut jtj = SMatrix::<f64, N, N>::zeros();
         let mut jtr = SVector::<f64, N>::zeros();
         let mut rss = 0.0;
+        let censored = win.censored();
         for (i, (x, y, v)) in win.pixels().enumerate() {
             let r = v - model(x, y, p, &mut g);
-            if win.censored.contains(&(i as u32)) && r <= 0.0 {
+            if censored.contains(&(i as u32)) && r <= 0.0 {
                 continue;
             }
             rss += r * r;
@@ -509,7 +511,7 @@ mod tests {
         let f = frame();
         let win = PixelWindow::square(&f, 15.0, 15.0, 12.0);
         assert_eq!(win.len(), 25 * 25);
-        assert_eq!(win.censored_len(), 1, "the saturated pixel is censored");
+        assert_eq!(win.censored().len(), 1, "the saturated pixel is censored");
         let p = SVector::<f64, 8>::from_column_slice(&[
             15.2, 14.9, 1005.0, 380.0, 2.1, 290.0, 6.8, 1.3,
         ]);
@@ -540,7 +542,8 @@ mod tests {
             .collect();
         let f = Frame::new(w, h, px, 8).unwrap();
         let win = PixelWindow::square(&f, 10.0, 10.0, 7.0);
-        let clipped = win.censored_len();
+        let censored = win.censored();
+        let clipped = censored.len();
         assert!(clipped >= 5, "{clipped} clipped pixels");
         // Spot models whose peak is above the full count (the clipped
         // pixels reached: no residual at most of them) and below it (every
@@ -551,7 +554,7 @@ mod tests {
             let mut spot = WindowModel::spot(&win);
             spot.rss(&q);
             let reached = (0..win.len())
-                .filter(|&i| win.censored.contains(&(i as u32)) && spot.cols.residual[i] == 0.0)
+                .filter(|&i| censored.contains(&(i as u32)) && spot.cols.residual[i] == 0.0)
                 .count();
             assert_eq!(
                 reached > 0,
@@ -584,7 +587,7 @@ mod tests {
                 }
             }
             assert_eq!(win.pixels().collect::<Vec<_>>(), want, "({cx}, {cy})");
-            assert_eq!(win.censored, saturated, "({cx}, {cy})");
+            assert_eq!(win.censored(), saturated, "({cx}, {cy})");
         }
     }
 
@@ -602,7 +605,7 @@ mod tests {
         let mut win = PixelWindow::square(&f, 4.0, 3.0, 3.0);
         win.retain(|x, y| x >= 3.0 && y >= 2.0);
         let marked: Vec<(f64, f64, f64)> = win
-            .censored
+            .censored()
             .iter()
             .map(|&i| win.pixels().nth(i as usize).unwrap())
             .collect();

@@ -94,7 +94,7 @@ const MIN_CLIPPED_PIXELS: usize = 8;
 /// twice as many as the next value in. A camera's full count or black level
 /// in a float or 32-bit export piles up so; a tail of noise thins out
 /// towards its end, and a few hot pixels at one value stay outliers.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 struct ClipLevels {
     dark: Option<f32>,
     bright: Option<f32>,
@@ -102,10 +102,7 @@ struct ClipLevels {
 
 impl ClipLevels {
     fn of(samples: &[f32]) -> Self {
-        let none = Self {
-            dark: None,
-            bright: None,
-        };
+        let none = Self::default();
         let ends = Ends::of(samples);
         if ends.min >= ends.max {
             return none;
@@ -301,10 +298,7 @@ mod tests {
         let tail: Vec<f32> = (0..=200i32)
             .flat_map(|v| std::iter::repeat_n(v as f32, (100 - (v - 100).abs()).max(1) as usize))
             .collect();
-        let none = ClipLevels {
-            dark: None,
-            bright: None,
-        };
+        let none = ClipLevels::default();
         assert_eq!(ClipLevels::of(&tail), none);
         // The same clipped at 150 (the 50 values above piled up there) and
         // at 20 below.
