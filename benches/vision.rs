@@ -14,6 +14,7 @@ use nanopush::render::microscope_truth::benchmark_scene;
 use nanopush::vision::analyse::analyse_frame;
 use nanopush::vision::crocker_grier::{LocateParams, locate};
 use nanopush::vision::detect::{DetectSettings, Locator, detect_particles, find_candidates};
+use nanopush::vision::exposure::Exposure;
 use nanopush::vision::frame_input::{Channel, load_frame};
 use nanopush::vision::line_defects::repair_line_defects;
 use nanopush::vision::noise::estimate_noise_sigma;
@@ -65,6 +66,8 @@ fn bench(c: &mut Criterion) {
     g.bench_function("stage_line_defects", |b| {
         b.iter(|| repair_line_defects(&frame).1.len())
     });
+    // The clipped fractions analyse_frame measures (one pass).
+    g.bench_function("stage_exposure", |b| b.iter(|| Exposure::of(&frame)));
     g.bench_function("stage_candidates", |b| {
         b.iter(|| find_candidates(&frame, &settings))
     });

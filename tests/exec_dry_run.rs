@@ -5,7 +5,9 @@
 use nanopush::exec::dry_run::{DryCommand, DryRunReport};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
-use nanopush::vision::frame_input::{Channel, load_frames};
+use nanopush::vision::frame::Frame;
+use nanopush::vision::frame_input::{Channel, load_frame, load_frames, save_png};
+use nanopush::vision::line_defects::LineAxis;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -122,6 +124,92 @@ fn the_real_recording_replays_with_five_particles_per_frame() {
             f.command
         );
     }
+}
+
+/// A camera with a dead column: the dry-run names the repaired line in every
+/// frame, in dry-run.json and in the printed frame lines, and sees and
+/// commands what it does on the undamaged recording.
+#[test]
+fn a_dead_camera_column_is_named_in_every_frame_and_changes_nothing_seen() {
+    const DEAD_COLUMN: usize = 280;
+    let dir = tempfile::tempdir().unwrap();
+    let fixture = root().join("fixtures/recordings/sim-L-seed6");
+    let rec = dir.path().join("rec");
+    copy_dir(&fixture, &rec);
+    for e in std::fs::read_dir(rec.join("frames")).unwrap() {
+        let path = e.unwrap().path();
+        let frame = load_frame(&path, Channel::Luminance).unwrap();
+        let mut px = frame.pixels().to_vec();
+        for y in 0..frame.height() {
+            px[y * frame.width() + DEAD_COLUMN] = 0.0;
+        }
+        let dead = Frame::new(frame.width(), frame.height(), px, frame.bit_depth()).unwrap();
+        save_png(&dead, &path).unwrap();
+    }
+    let clean_out = dir.path().join("clean");
+    let clean = ok_report(&dry_run(&fixture, &clean_out, &[]), &clean_out);
+    let broken_out = dir.path().join("broken");
+    let broken = ok_report(&dry_run(&rec, &broken_out, &[]), &broken_out);
+    assert_eq!(broken.frames.len(), clean.frames.len());
+    for (c, b) in clean.frames.iter().zip(&broken.frames) {
+        assert!(c.repaired_lines.is_empty(), "{:?}", c.repaired_lines);
+        let lines: Vec<_> = b.repaired_lines.iter().map(|l| (l.axis, l.index)).collect();
+        assert_eq!(
+            lines,
+            [(LineAxis::Column, DEAD_COLUMN)],
+            "frame {}",
+            b.frame
+        );
+        assert_eq!(b.particles.len(), c.particles.len(), "frame {}", b.frame);
+        for (pc, pb) in c.particles.iter().zip(&b.particles) {
+            assert_eq!(pb.id, pc.id);
+            let moved_um = (pb.x_um - pc.x_um).hypot(pb.y_um - pc.y_um);
+            assert!(
+                moved_um < 0.15,
+                "frame {} particle {}: {moved_um} um",
+                b.frame,
+                pb.id
+            );
+        }
+        match (&c.command, &b.command) {
+            (
+                DryCommand::Push {
+                    particle: pc,
+                    to_um: tc,
+                    ..
+                },
+                DryCommand::Push {
+                    particle: pb,
+                    to_um: tb,
+                    ..
+                },
+            ) => {
+                assert_eq!((pb, tb), (pc, tc), "frame {}", b.frame);
+            }
+            (clean_command, broken_command) => {
+                assert_eq!(broken_command, clean_command, "frame {}", b.frame)
+            }
+        }
+    }
+    let printed = nanopush(&[
+        "dry-run",
+        "--recording",
+        rec.to_str().unwrap(),
+        "--out",
+        dir.path().join("text").to_str().unwrap(),
+    ]);
+    assert!(
+        printed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&printed.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&printed.stdout);
+    let named = format!("camera lines repaired: column {DEAD_COLUMN}");
+    assert_eq!(
+        stdout.matches(&named).count(),
+        clean.frames.len(),
+        "{stdout}"
+    );
 }
 
 #[test]

@@ -6,6 +6,7 @@ use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
 use nanopush::render::microscope_truth::random_scene;
 use nanopush::vision::cramer_rao::centre_crb_px;
 use nanopush::vision::detect::{DetectSettings, Detection, detect_particles};
+use nanopush::vision::exposure::Exposure;
 use nanopush::vision::frame::Frame;
 use nanopush::vision::matching::{MatchReport, match_points};
 
@@ -95,7 +96,7 @@ fn clipped_cores_scene() -> (SceneView, Frame) {
 
 /// Pixels at the full count.
 fn clipped_pixels(frame: &Frame) -> usize {
-    frame.pixels().iter().filter(|&&v| v >= 65535.0).count()
+    (Exposure::of(frame).saturated_fraction * frame.pixels().len() as f64).round() as usize
 }
 
 /// The particles found in `frame`, their matching to the scene's, and the
@@ -199,6 +200,52 @@ fn a_clipped_background_keeps_most_particles_and_their_centres() {
         assert!(m.rms_per_axis() <= 0.1, "RMS {}", m.rms_per_axis());
         assert!(worst <= 1.0, "worst centre {worst} px");
     }
+}
+
+/// `nanopush detect` tells an over-exposed camera once, and its JSON
+/// carries the clipped fraction; clipped particle cores alone (the 2.2x
+/// frame, 0.85 % of the pixels) are no warning: the fit censors them.
+#[test]
+fn detect_warns_of_a_clipped_background_not_of_clipped_cores() {
+    use nanopush::render::microscope_truth::benchmark_scene;
+    use nanopush::vision::detections_file::DetectionsFile;
+    use nanopush::vision::frame_input::save_png;
+    let dir = tempfile::tempdir().unwrap();
+    let detect = |frame: &Frame, name: &str, json: bool| {
+        let path = dir.path().join(name);
+        save_png(frame, &path).unwrap();
+        let mut args = vec!["detect", path.to_str().unwrap()];
+        if json {
+            args.push("--json");
+        }
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        (
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (_, cores) = clipped_cores_scene();
+    let (_, said) = detect(&cores, "cores.png", false);
+    assert!(!said.contains("full count"), "{said}");
+    let mut settings = RenderSettings::with_snr(8.0, 16);
+    settings.camera.gain_counts_per_e *= 2.7;
+    let over = render_frame(&benchmark_scene(), &settings, 3).unwrap();
+    let (_, said) = detect(&over, "over.png", false);
+    assert_eq!(
+        said.matches("of the pixels at the camera's full count (65535): over-exposed")
+            .count(),
+        1,
+        "{said}"
+    );
+    let (printed, _) = detect(&over, "over.png", true);
+    let doc = DetectionsFile::from_json(&printed).unwrap();
+    let expected = Exposure::of(&over);
+    assert!(expected.saturated_fraction > 0.6, "{expected:?}");
+    assert_eq!(doc.exposure, expected);
 }
 
 #[test]

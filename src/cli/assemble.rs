@@ -450,6 +450,7 @@ fn json_summary(r: &AssemblyReport) -> serde_json::Value {
         "time_s": r.time_s,
         "lower_bound_s": r.lower_bound_s,
         "active_effects": r.active_effects,
+        "repaired_lines": r.repaired_lines,
         "outcome": r.outcome,
     })
 }
@@ -472,6 +473,9 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
     println!("  time             {}", r.time_summary());
     for e in &r.active_effects {
         println!("  effect           {}: {}", e.name, e.reason);
+    }
+    if let Some(lines) = r.repaired_lines_summary() {
+        println!("  camera lines     repaired: {lines}");
     }
     println!("report: {}", out.join("report.md").display());
 }

@@ -352,6 +352,9 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
         r.pushes, r.repushes, r.lost_contacts_detected
     );
     println!("  wall time        {:.1} s", r.time_s);
+    if let Some(lines) = r.repaired_lines_summary() {
+        println!("  camera lines     repaired: {lines}");
+    }
     println!("report: {}", out.join("report.json").display());
 }
 

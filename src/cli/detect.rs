@@ -9,6 +9,7 @@ use crate::vision::analyse::{FrameAnalysis, analyse_frame};
 use crate::vision::crocker_grier::{LocateParams, locate};
 use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
+use crate::vision::exposure::{self, Exposure};
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::line_defects::{repair_line_defects, report};
 use crate::vision::overlay::draw_overlay;
@@ -133,6 +134,7 @@ fn crocker_grier_analysis(
         particles,
         tip,
         repaired_lines,
+        exposure: Exposure::of(&frame),
     })
 }
 
@@ -167,11 +169,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => DetectSettings::default().diameter_px,
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);
-    let FrameAnalysis {
-        particles,
-        tip,
-        repaired_lines,
-    } = match args.locator.detector_locator() {
+    let analysis = match args.locator.detector_locator() {
         Some(locator) => {
             let settings = DetectSettings {
                 diameter_px,
@@ -193,18 +191,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         None => crocker_grier_analysis(&frame, &args, diameter_px, tip_settings.as_ref())?,
     };
-    report(&args.frame.display().to_string(), &repaired_lines);
+    let source = args.frame.display().to_string();
+    report(&source, &analysis.repaired_lines);
+    exposure::report(&source, &analysis.exposure, frame.max_count());
+    let FrameAnalysis { particles, tip, .. } = &analysis;
     if let Some(path) = &args.overlay {
-        draw_overlay(&frame, &particles, tip.as_ref())
+        draw_overlay(&frame, particles, tip.as_ref())
             .save(path)
             .with_context(|| format!("writing overlay {}", path.display()))?;
     }
-    let doc = DetectionsFile::new(&particles, tip.as_ref(), &repaired_lines, calib.as_ref());
+    let doc = DetectionsFile::new(&analysis, calib.as_ref());
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         println!("{} particles", doc.particles.len());
-        for (p, d) in doc.particles.iter().zip(&particles) {
+        for (p, d) in doc.particles.iter().zip(particles) {
             println!(
                 "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}",
                 p.x_px,

@@ -80,8 +80,18 @@ fn print_frames(r: &DryRunReport) {
         let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
             format!("tip ({:.1}, {:.1}) um", t[0], t[1])
         });
+        let repaired: Vec<String> = f
+            .repaired_lines
+            .iter()
+            .map(|l| format!("{} {}", l.axis, l.index))
+            .collect();
+        let repaired = if repaired.is_empty() {
+            String::new()
+        } else {
+            format!("  (camera lines repaired: {})", repaired.join(", "))
+        };
         println!(
-            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}",
+            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{repaired}",
             f.frame,
             f.t_s,
             f.particles.len(),

@@ -1,16 +1,10 @@
 //! `nanopush study model`: solver settings against error and wall time.
 
 use crate::model::Scene;
+use crate::model::scene::built_in_scene_paths;
 use crate::model::study::{run_study, to_markdown, write_outputs};
 use anyhow::Context;
 use std::path::PathBuf;
-
-/// The scenes of the study: the paper scene and the hard cases.
-pub const STUDY_SCENES: [&str; 3] = [
-    "calib/paper-ps-ito.toml",
-    "calib/hard-nanoparticle-sliding.toml",
-    "calib/hard-high-adhesion.toml",
-];
 
 /// Arguments of `nanopush study model`.
 #[derive(clap::Args, Debug)]
@@ -29,7 +23,7 @@ pub struct Args {
 /// Runs the study, prints the table, optionally writes it.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let paths: Vec<PathBuf> = if args.scenes.is_empty() {
-        STUDY_SCENES.iter().map(PathBuf::from).collect()
+        built_in_scene_paths().map(PathBuf::from).collect()
     } else {
         args.scenes.clone()
     };

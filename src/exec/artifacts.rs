@@ -155,7 +155,7 @@ pub fn write_report_md(
     let _ = writeln!(md, "# Assembly report\n");
     let _ = writeln!(md, "Outcome: **{}**\n", report.outcome);
     let _ = writeln!(md, "| figure | value |\n|---|---|");
-    let rows = [
+    let mut rows = vec![
         (
             "sites filled",
             format!("{}/{}", report.filled, report.sites),
@@ -183,6 +183,9 @@ pub fn write_report_md(
         ),
         ("time", report.time_summary()),
     ];
+    if let Some(lines) = report.repaired_lines_summary() {
+        rows.push(("camera lines repaired", lines));
+    }
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");
     }

@@ -476,6 +476,7 @@ impl<'a> Assembly<'a> {
                 frame: self.frames_seen,
                 particles: tracks.clone(),
                 tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
+                repaired_lines: sighting.repaired_lines.clone(),
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {

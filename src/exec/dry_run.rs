@@ -19,6 +19,7 @@ use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
+use crate::vision::line_defects::LineDefect;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
@@ -73,6 +74,10 @@ pub struct DryRunFrame {
     pub filled: usize,
     /// What the loop would command.
     pub command: DryCommand,
+    /// Camera lines repaired from their neighbours before detection (absent
+    /// when none, and in files written before this field).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub repaired_lines: Vec<LineDefect>,
 }
 
 /// The whole dry-run (`dry-run.json`).
@@ -217,6 +222,7 @@ pub fn dry_run(
             tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
             filled,
             command,
+            repaired_lines: sighting.repaired_lines,
         });
     }
     Ok(DryRunReport {

@@ -2,6 +2,7 @@
 //! decision, in lab units. The journal is enough to resume a run and to
 //! rebuild its report.
 
+use crate::vision::line_defects::LineDefect;
 use serde::{Deserialize, Serialize};
 
 /// What a run was asked to do; the first journal entry, and what `--resume` restarts from.
@@ -59,6 +60,10 @@ pub enum RunEvent {
         particles: Vec<SeenParticle>,
         /// Tip apex on the sample, micrometres, when seen.
         tip_um: Option<[f64; 2]>,
+        /// Camera lines repaired from their neighbours in this frame (absent
+        /// when none, and in journals written before this field).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        repaired_lines: Vec<LineDefect>,
     },
     /// The camera dropped a frame.
     FrameDropped,

@@ -7,8 +7,9 @@ use crate::calib::affine::AffineCalibration;
 use crate::rig::RigError;
 use crate::rig::camera::Camera;
 use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
+use crate::vision::exposure::{self, Exposure};
 use crate::vision::frame::Frame;
-use crate::vision::line_defects::repaired;
+use crate::vision::line_defects::{LineDefect, repair_line_defects, report};
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
@@ -35,6 +36,9 @@ pub struct Sighting {
     pub tip_m: Option<[f64; 2]>,
     /// Frames dropped before this one was had.
     pub dropped: usize,
+    /// Camera lines (dead, hot or off-gain) filled in from their neighbours
+    /// before detection: detections on them rest on the lines beside them.
+    pub repaired_lines: Vec<LineDefect>,
     /// The part of the sample the frame shows (x, y lower and upper corners), metres,
     /// shrunk by the particle size hint so that clipped particles count as unseen.
     pub view_m: [[f64; 2]; 2],
@@ -135,7 +139,9 @@ impl Perception {
         // The size hint is the particles' known size: a detection far from it is
         // not one of them (the probe's outline, debris), and must not reach the planner.
         let expected_r_px = self.detect.diameter_px / 2.0;
-        let seen = repaired(&timed.frame, "camera");
+        let (seen, repaired_lines) = repair_line_defects(&timed.frame);
+        report("camera", &repaired_lines);
+        exposure::report("camera", &Exposure::of(&seen), seen.max_count());
         let probe = detect_tip(&seen, &self.tip);
         let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
         // A ring touching the probe is cut by it: its centre is not measured.
@@ -190,6 +196,7 @@ impl Perception {
             cut_by_edge,
             tip_m,
             dropped,
+            repaired_lines,
             view_m: [lo, hi],
             coarse_offset_m,
             stage_m: None,

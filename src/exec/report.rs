@@ -14,6 +14,7 @@ use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
 use crate::plan::pattern::sites_um;
+use crate::vision::line_defects::LineAxis;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -58,6 +59,29 @@ pub struct AssemblyReport {
     /// an effect the scene turns off never appears. Null on a real rig.
     #[serde(default)]
     pub effect_work: Option<BTreeMap<String, u64>>,
+    /// Camera lines (dead, hot or off-gain) the frames were repaired along
+    /// before detection, with how many frames each was repaired in: a
+    /// particle placed on one was measured from the lines beside it. Empty
+    /// when none (and in reports written before this field).
+    #[serde(default)]
+    pub repaired_lines: Vec<RepairedLine>,
+}
+
+/// A camera line repaired in some of a run's frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RepairedLine {
+    /// Column or row.
+    pub axis: LineAxis,
+    /// Its x (column) or y (row), pixels.
+    pub index: usize,
+    /// Frames it was repaired in.
+    pub frames: usize,
+}
+
+impl std::fmt::Display for RepairedLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} {} ({} frames)", self.axis, self.index, self.frames)
+    }
 }
 
 /// What a finished run tells the report besides its journal; the parts that
@@ -94,6 +118,17 @@ impl AssemblyReport {
         } else {
             format!("{:.0} s (no lower bound: no push was planned)", self.time_s)
         }
+    }
+
+    /// "column 200 (12 frames), row 7 (3 frames)"; None when no camera
+    /// line was repaired.
+    pub fn repaired_lines_summary(&self) -> Option<String> {
+        let lines: Vec<String> = self
+            .repaired_lines
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        (!lines.is_empty()).then(|| lines.join(", "))
     }
 
     /// The report of a run: counts from its journal, errors and the rest from `facts`.
@@ -139,6 +174,7 @@ impl AssemblyReport {
                 .map(|r| r.active_effects)
                 .unwrap_or_default(),
             effect_work: facts.effect_work,
+            repaired_lines: counts.repaired_lines,
         }
     }
 }
@@ -162,6 +198,8 @@ pub struct JournalCounts {
     pub last_t_s: f64,
     /// `"done"`, or `"stopped: <reason>"` of the last end entry; None while running.
     pub outcome: Option<String>,
+    /// Camera lines repaired in the observations, columns first, by index.
+    pub repaired_lines: Vec<RepairedLine>,
 }
 
 /// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
@@ -193,16 +231,24 @@ pub fn count_journal(
                 c.first_plan_bounds_um
                     .get_or_insert((*lb_push_um, *lb_tip_um));
             }
-            RunEvent::Observation { particles, .. } if c.sites_to_fill.is_none() => {
-                let empty = sites_um
-                    .iter()
-                    .filter(|s| {
-                        !particles
-                            .iter()
-                            .any(|p| (p.x_um - s[0]).hypot(p.y_um - s[1]) <= tolerance_um)
-                    })
-                    .count();
-                c.sites_to_fill = Some(empty);
+            RunEvent::Observation {
+                particles,
+                repaired_lines,
+                ..
+            } => {
+                for line in repaired_lines {
+                    count_repaired(&mut c.repaired_lines, line.axis, line.index);
+                }
+                c.sites_to_fill.get_or_insert_with(|| {
+                    sites_um
+                        .iter()
+                        .filter(|s| {
+                            !particles
+                                .iter()
+                                .any(|p| (p.x_um - s[0]).hypot(p.y_um - s[1]) <= tolerance_um)
+                        })
+                        .count()
+                });
             }
             RunEvent::Done => c.outcome = Some("done".to_owned()),
             RunEvent::Stopped { reason } => c.outcome = Some(format!("stopped: {reason}")),
@@ -211,6 +257,24 @@ pub fn count_journal(
         }
     }
     c
+}
+
+/// One more frame for the line at `axis`, `index`; the list stays sorted
+/// (columns first, by index) so that reports compare and read the same.
+fn count_repaired(lines: &mut Vec<RepairedLine>, axis: LineAxis, index: usize) {
+    let key = |l: &RepairedLine| (l.axis == LineAxis::Row, l.index);
+    let wanted = (axis == LineAxis::Row, index);
+    match lines.binary_search_by_key(&wanted, key) {
+        Ok(i) => lines[i].frames += 1,
+        Err(i) => lines.insert(
+            i,
+            RepairedLine {
+                axis,
+                index,
+                frames: 1,
+            },
+        ),
+    }
 }
 
 /// The time lower bound (module doc), seconds.
@@ -236,6 +300,7 @@ pub fn error_figures_nm(errors_m: &[f64]) -> (f64, f64) {
 mod tests {
     use super::*;
     use crate::exec::events::SeenParticle;
+    use crate::vision::line_defects::LineDefect;
 
     fn entry(seq: u64, t_s: f64, event: RunEvent) -> Entry<RunEvent> {
         Entry { seq, t_s, event }
@@ -272,6 +337,7 @@ mod tests {
                     frame: 0,
                     particles: vec![seen(0.0), seen(50.0)],
                     tip_um: None,
+                    repaired_lines: Vec::new(),
                 },
             ),
             entry(
@@ -315,6 +381,58 @@ mod tests {
         assert!((lower_bound_s(&c, 1e-6, 10e-6) - 19.5).abs() < 1e-9);
     }
 
+    /// Each repaired camera line is counted once per frame it was repaired
+    /// in, columns before rows; a journal line written before the field
+    /// reads as a frame without any.
+    #[test]
+    fn repaired_lines_are_counted_per_frame_from_the_journal() {
+        let line = |axis, index| LineDefect {
+            axis,
+            index,
+            mean_counts: 0.0,
+            beside_counts: 900.0,
+        };
+        let observation = |repaired_lines| RunEvent::Observation {
+            frame: 0,
+            particles: Vec::new(),
+            tip_um: None,
+            repaired_lines,
+        };
+        let older: RunEvent = serde_json::from_str(
+            r#"{"kind":"observation","frame":0,"particles":[],"tip_um":null}"#,
+        )
+        .unwrap();
+        assert_eq!(older, observation(Vec::new()));
+        let events = [
+            observation(vec![line(LineAxis::Column, 200)]),
+            observation(vec![line(LineAxis::Row, 7), line(LineAxis::Column, 200)]),
+            older,
+            observation(vec![line(LineAxis::Column, 3), line(LineAxis::Column, 200)]),
+        ];
+        let entries: Vec<_> = events
+            .into_iter()
+            .enumerate()
+            .map(|(i, e)| entry(i as u64, i as f64, e))
+            .collect();
+        let c = count_journal(&entries, &[], 0.1);
+        let counted = |axis, index, frames| RepairedLine {
+            axis,
+            index,
+            frames,
+        };
+        assert_eq!(
+            c.repaired_lines,
+            [
+                counted(LineAxis::Column, 3, 1),
+                counted(LineAxis::Column, 200, 3),
+                counted(LineAxis::Row, 7, 1),
+            ]
+        );
+        // A frame without defects writes no field at all.
+        let text = serde_json::to_string(&observation(Vec::new())).unwrap();
+        assert!(!text.contains("repaired_lines"), "{text}");
+    }
+
     #[test]
     fn error_figures_are_rms_and_max() {
         let (rms, max) = error_figures_nm(&[3e-9, 4e-9]);
@@ -323,9 +441,9 @@ mod tests {
         assert_eq!(error_figures_nm(&[]), (0.0, 0.0));
     }
 
-    #[test]
-    fn time_summary_gives_no_ratio_without_a_lower_bound() {
-        let mut r = AssemblyReport {
+    /// A finished one-site run, 30 s against a 20 s bound.
+    fn small_report() -> AssemblyReport {
+        AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
             outcome: "done".into(),
             sites: 1,
@@ -342,9 +460,48 @@ mod tests {
             lower_bound_s: 20.0,
             active_effects: Vec::new(),
             effect_work: None,
-        };
+            repaired_lines: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn time_summary_gives_no_ratio_without_a_lower_bound() {
+        let mut r = small_report();
         assert_eq!(r.time_summary(), "30 s (lower bound 20 s, ratio 1.50)");
         r.lower_bound_s = 0.0;
         assert!(!r.time_summary().contains("ratio"), "{}", r.time_summary());
+    }
+
+    /// The repaired lines read back from report.json and are named in the
+    /// summary; a report written before the field reads as none.
+    #[test]
+    fn a_report_names_its_repaired_lines_and_reads_back() {
+        let mut r = small_report();
+        assert_eq!(r.repaired_lines_summary(), None);
+        r.repaired_lines = vec![RepairedLine {
+            axis: LineAxis::Column,
+            index: 200,
+            frames: 12,
+        }];
+        assert_eq!(
+            r.repaired_lines_summary().as_deref(),
+            Some("column 200 (12 frames)")
+        );
+        let text = serde_json::to_string(&r).unwrap();
+        assert!(
+            text.contains(r#""repaired_lines":[{"axis":"column","index":200,"frames":12}]"#),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+        let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
+        older.as_object_mut().unwrap().remove("repaired_lines");
+        let older: AssemblyReport = serde_json::from_value(older).unwrap();
+        assert_eq!(
+            older,
+            AssemblyReport {
+                repaired_lines: Vec::new(),
+                ..r
+            }
+        );
     }
 }

@@ -280,8 +280,9 @@ fn reduced_modulus(a: &(f64, f64), b: &(f64, f64)) -> f64 {
 /// The commands' default scene, relative to the project folder.
 pub const DEFAULT_SCENE_PATH: &str = "calib/paper-ps-ito.toml";
 
-/// The scenes commands use by default, built in for commands run outside
-/// the project folder (path relative to it, text).
+/// The scenes commands use by default (the paper scene and the two hard
+/// cases the model study runs), built in for commands run outside the
+/// project folder (path relative to it, text).
 const BUILT_IN_SCENES: [(&str, &str); 3] = [
     (
         DEFAULT_SCENE_PATH,
@@ -296,6 +297,11 @@ const BUILT_IN_SCENES: [(&str, &str); 3] = [
         include_str!("../../calib/hard-high-adhesion.toml"),
     ),
 ];
+
+/// Paths of the built-in scenes, the paper scene first.
+pub fn built_in_scene_paths() -> impl Iterator<Item = &'static str> {
+    BUILT_IN_SCENES.iter().map(|(path, _)| *path)
+}
 
 impl Scene {
     /// Reads and validates a scene file. A built-in scene's path falls back

@@ -2,9 +2,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::detect::Detection;
+use super::analyse::FrameAnalysis;
+use super::exposure::Exposure;
 use super::line_defects::LineDefect;
-use super::tip::TipDetection;
 use crate::calib::affine::AffineCalibration;
 
 /// Schema tag of detection files.
@@ -43,17 +43,17 @@ pub struct DetectionsFile {
     /// files written before they were recorded).
     #[serde(default)]
     pub repaired_lines: Vec<LineDefect>,
+    /// Fractions of the frame's pixels at the full count and at 0 (absent
+    /// in files written before they were recorded: read as none).
+    #[serde(default)]
+    pub exposure: Exposure,
 }
 
 impl DetectionsFile {
     /// Builds the document, adding stage micrometres when calibrated.
-    pub fn new(
-        particles: &[Detection],
-        tip: Option<&TipDetection>,
-        repaired_lines: &[LineDefect],
-        calib: Option<&AffineCalibration>,
-    ) -> Self {
-        let particles = particles
+    pub fn new(analysis: &FrameAnalysis, calib: Option<&AffineCalibration>) -> Self {
+        let particles = analysis
+            .particles
             .iter()
             .map(|d| {
                 let um = calib.map(|c| c.pixel_to_stage_m(d.x_px, d.y_px));
@@ -71,13 +71,14 @@ impl DetectionsFile {
         Self {
             schema: DETECTIONS_SCHEMA.into(),
             particles,
-            tip: tip.map(|t| TipRecord {
+            tip: analysis.tip.as_ref().map(|t| TipRecord {
                 x_px: t.x_px,
                 y_px: t.y_px,
                 angle_deg: t.angle_rad.to_degrees(),
                 score: t.score,
             }),
-            repaired_lines: repaired_lines.to_vec(),
+            repaired_lines: analysis.repaired_lines.clone(),
+            exposure: analysis.exposure,
         }
     }
 
@@ -97,6 +98,7 @@ impl DetectionsFile {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vision::detect::Detection;
     use crate::vision::line_defects::LineAxis;
 
     #[test]
@@ -116,11 +118,21 @@ mod tests {
             mean_counts: 65535.0,
             beside_counts: 1200.5,
         };
-        let f = DetectionsFile::new(&[d], None, &[line], Some(&cal));
+        let analysis = FrameAnalysis {
+            particles: vec![d],
+            tip: None,
+            repaired_lines: vec![line],
+            exposure: Exposure {
+                saturated_fraction: 0.25,
+                dark_fraction: 0.0,
+            },
+        };
+        let f = DetectionsFile::new(&analysis, Some(&cal));
         assert_eq!(f.particles[0].x_um, Some(5.25));
         let text = serde_json::to_string(&f).unwrap();
         assert!(text.contains("\"tip\":null"));
         assert!(text.contains("\"repaired_lines\":[{\"axis\":\"row\",\"index\":7,"));
+        assert!(text.contains("\"exposure\":{\"saturated_fraction\":0.25,\"dark_fraction\":0.0}"));
         assert_eq!(DetectionsFile::from_json(&text).unwrap(), f);
         // A document written before lines were recorded reads as none repaired.
         let old = DetectionsFile::from_json(
@@ -128,6 +140,7 @@ mod tests {
         )
         .unwrap();
         assert!(old.repaired_lines.is_empty());
+        assert_eq!(old.exposure, Exposure::default());
         assert!(
             DetectionsFile::from_json("{\"schema\":\"x\",\"particles\":[],\"tip\":null}").is_err()
         );

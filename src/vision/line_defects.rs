@@ -14,12 +14,12 @@
 
 use std::borrow::Cow;
 use std::fmt;
-use std::sync::Mutex;
 
 use serde::{Deserialize, Serialize};
 
 use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
+use super::log_on_change::changed;
 use super::noise::estimate_noise_sigma;
 
 /// Widest run of neighbouring defective lines repaired as one.
@@ -68,16 +68,21 @@ pub struct LineDefect {
     pub beside_counts: f64,
 }
 
-impl fmt::Display for LineDefect {
+impl fmt::Display for LineAxis {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let axis = match self.axis {
+        f.write_str(match self {
             LineAxis::Column => "column",
             LineAxis::Row => "row",
-        };
+        })
+    }
+}
+
+impl fmt::Display for LineDefect {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{axis} {} (mean {:.0} counts, {:.0} beside it)",
-            self.index, self.mean_counts, self.beside_counts
+            "{} {} (mean {:.0} counts, {:.0} beside it)",
+            self.axis, self.index, self.mean_counts, self.beside_counts
         )
     }
 }
@@ -135,29 +140,20 @@ pub fn repaired<'a>(frame: &'a Frame, source: &str) -> Cow<'a, Frame> {
 /// camera's defects persist frame after frame: the log says so once, not
 /// thirty times a second).
 pub fn report(source: &str, defects: &[LineDefect]) {
-    /// A source and the lines last warned of for it.
-    type Warned = (String, Vec<(LineAxis, usize)>);
-    static LAST_WARNED: Mutex<Vec<Warned>> = Mutex::new(Vec::new());
     if defects.is_empty() {
         return;
     }
-    let key = (
-        source.to_owned(),
-        defects
-            .iter()
-            .map(|d| (d.axis, d.index))
-            .collect::<Vec<_>>(),
-    );
-    let mut warned = LAST_WARNED.lock().unwrap_or_else(|p| p.into_inner());
-    if !warned.contains(&key) {
+    let lines: Vec<String> = defects
+        .iter()
+        .map(|d| format!("{} {}", d.axis, d.index))
+        .collect();
+    if changed(format!("line defects of {source}"), lines.join(", ")) {
         let list: Vec<String> = defects.iter().map(ToString::to_string).collect();
         tracing::warn!(
             "{source}: camera line defect repaired from the lines beside it: {} \
              (a dead, hot or off-gain sensor line; detections there rest on its neighbours)",
             list.join(", ")
         );
-        warned.retain(|(s, _)| s != source);
-        warned.push(key);
     }
 }
 
