@@ -1,9 +1,8 @@
 //! Over- and under-exposure: how much of a frame sits at the camera's full
 //! count or at zero. The fit takes saturated pixels as censored (a
 //! particle's clipped core keeps its centre), but where the background
-//! itself clips, rings and the probe's edge are cut off: at a tenth of the
-//! frame clipped particles start to go missing and the probe's apex drifts
-//! (docs/vision.md). A camera set that way should be told, once, not
+//! itself clips, rings are cut off: at a tenth of the frame clipped
+//! particles start to go missing and centres to drift (docs/vision.md). A camera set that way should be told, once, not
 //! silently measured worse. Zero counts are the other end: a black level
 //! set too low clips the dark probe and dim backgrounds to 0.
 

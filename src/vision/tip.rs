@@ -291,9 +291,15 @@ fn edge_sigma(p: &SVector<f64, 8>) -> f64 {
 }
 
 /// The tip model at parameters p, placed once: f(x, y) = level * (1 -
-/// opacity * Phi(-d / blur)), d the signed distance to the silhouette.
+/// opacity * Phi(-d / blur)), d the signed distance to the silhouette, seen
+/// through the camera: at most its full count. Where the background clips
+/// (an over-exposed frame) the model clips with it, so a saturated pixel
+/// the model reaches fits exactly and pulls nothing; without the clip the
+/// fit bent the edge to meet the flat clipped level (apex 0.67 px off at
+/// three times the gain, tests/vision_tip.rs).
 struct TipModel {
     placed: PlacedSilhouette,
+    full_count: f64,
     level: f64,
     opacity: f64,
     sigma: f64,
@@ -301,9 +307,10 @@ struct TipModel {
 }
 
 impl TipModel {
-    fn at(p: &SVector<f64, 8>) -> Self {
+    fn at(p: &SVector<f64, 8>, full_count: f64) -> Self {
         Self {
             placed: silhouette_of(p).placed(),
+            full_count,
             level: p[5],
             opacity: p[6],
             sigma: edge_sigma(p),
@@ -318,7 +325,7 @@ impl TipModel {
 
     fn value(&self, x: f64, y: f64) -> f64 {
         let d = self.placed.signed_distance(x, y);
-        self.level * (1.0 - self.opacity * normal_cdf(-d / self.sigma))
+        (self.level * (1.0 - self.opacity * normal_cdf(-d / self.sigma))).min(self.full_count)
     }
 
     /// Value and analytic gradient (the geometry through the signed
@@ -336,13 +343,19 @@ impl TipModel {
         g[5] = 1.0 - self.opacity * covered;
         g[6] = -self.level * covered;
         g[7] = -df_dd * (d / self.sigma) * self.blur_sign;
-        self.level * (1.0 - self.opacity * covered)
+        let value = self.level * (1.0 - self.opacity * covered);
+        if value > self.full_count {
+            // Clipped: no parameter moves what the camera shows here.
+            g.fill(0.0);
+            return self.full_count;
+        }
+        value
     }
 }
 
 #[cfg(test)]
 fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
-    TipModel::at(p).value(px, py)
+    TipModel::at(p, f64::INFINITY).value(px, py)
 }
 
 /// Side of the pixel blocks [`edge_band`] tests as a whole.
@@ -400,6 +413,7 @@ fn edge_band(
 /// Finds the probe tip, or `None` when no probe silhouette is in view.
 pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection> {
     let (w, h) = (frame.width(), frame.height());
+    let full = f64::from(frame.max_count());
     let median = background_median(frame);
     let region = dark_region(frame, settings, median)?;
     let (ax, ay, angle, width, taper) = initial_guess(&region, w, h);
@@ -414,7 +428,7 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let mut score = 0.0;
     for _round in 0..3 {
         let sil = silhouette_of(&p).placed();
-        let weighting = weights_from.map(|(q, s)| (TipModel::at(&q), s));
+        let weighting = weights_from.map(|(q, s)| (TipModel::at(&q, full), s));
         let band = 3.0 * p[7].abs() + 3.0;
         let (x0, x1) = (
             (p[0] - radius).max(0.0) as usize,
@@ -438,13 +452,13 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             samples.push((xf, yf, v, wgt));
         }
         let fit = levenberg_marquardt(&samples, p, 40, |q| {
-            let model = TipModel::at(q);
+            let model = TipModel::at(q, full);
             move |x, y, g: &mut SVector<f64, 8>| model.value_grad(x, y, g)
         })
         .ok()?;
         p = fit.params;
         // Robust noise scale for the next round's weights.
-        let model = TipModel::at(&p);
+        let model = TipModel::at(&p, full);
         let mut abs_res: Vec<f64> = samples
             .iter()
             .map(|s| (s.2 - model.value(s.0, s.1)).abs())
@@ -528,7 +542,7 @@ mod tests {
         let mut g = SVector::<f64, 8>::zeros();
         // Pixels near the taper edges, the side edges and the apex.
         for &(x, y) in &[(98.0, 83.0), (70.0, 85.0), (60.0, 40.0), (101.0, 81.0)] {
-            TipModel::at(&p).value_grad(x, y, &mut g);
+            TipModel::at(&p, f64::INFINITY).value_grad(x, y, &mut g);
             for i in 0..8 {
                 let h = [1e-3, 1e-3, 1e-5, 1e-3, 1e-3, 1e-3, 1e-5, 1e-4][i];
                 let (mut a, mut b) = (p, p);
