@@ -7,6 +7,7 @@ use crate::exec::animation::AnimationWriter;
 use crate::exec::dry_run::{DryRunReport, dry_run};
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
+use crate::vision::line_defects::LineDefect;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 
@@ -80,11 +81,7 @@ fn print_frames(r: &DryRunReport) {
         let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
             format!("tip ({:.1}, {:.1}) um", t[0], t[1])
         });
-        let repaired: Vec<String> = f
-            .repaired_lines
-            .iter()
-            .map(|l| format!("{} {}", l.axis, l.index))
-            .collect();
+        let repaired: Vec<String> = f.repaired_lines.iter().map(LineDefect::place).collect();
         let repaired = if repaired.is_empty() {
             String::new()
         } else {

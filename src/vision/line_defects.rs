@@ -77,12 +77,21 @@ impl fmt::Display for LineAxis {
     }
 }
 
+impl LineDefect {
+    /// Where it is: "column 200", "row 7".
+    pub fn place(&self) -> String {
+        format!("{} {}", self.axis, self.index)
+    }
+}
+
 impl fmt::Display for LineDefect {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} {} (mean {:.0} counts, {:.0} beside it)",
-            self.axis, self.index, self.mean_counts, self.beside_counts
+            "{} (mean {:.0} counts, {:.0} beside it)",
+            self.place(),
+            self.mean_counts,
+            self.beside_counts
         )
     }
 }
