@@ -292,14 +292,19 @@ fn edge_sigma(p: &SVector<f64, 8>) -> f64 {
 
 /// The tip model at parameters p, placed once: f(x, y) = level * (1 -
 /// opacity * Phi(-d / blur)), d the signed distance to the silhouette, seen
-/// through the camera: at most its full count. Where the background clips
-/// (an over-exposed frame) the model clips with it, so a saturated pixel
-/// the model reaches fits exactly and pulls nothing; without the clip the
-/// fit bent the edge to meet the flat clipped level (apex 0.67 px off at
-/// three times the gain, tests/vision_tip.rs).
+/// through the camera: the mean of a noisy value clipped at the full count
+/// ([`TipModel::clipped`]). Where the background clips (an over-exposed
+/// frame) the model clips with it, so saturated pixels pull nothing;
+/// without the clip the fit bent the edge to meet the flat clipped level
+/// (apex 0.67 px off at three times the gain), and without the noise the
+/// pixels of a background at the clip level, saturated or not, read low
+/// (0.58 px at 2.7x; tests/vision_tip.rs).
 struct TipModel {
     placed: PlacedSilhouette,
     full_count: f64,
+    /// Per-pixel noise sigma, counts (0: clip without noise, the first
+    /// round, before the residuals give it).
+    noise: f64,
     level: f64,
     opacity: f64,
     sigma: f64,
@@ -307,10 +312,11 @@ struct TipModel {
 }
 
 impl TipModel {
-    fn at(p: &SVector<f64, 8>, full_count: f64) -> Self {
+    fn at(p: &SVector<f64, 8>, full_count: f64, noise: f64) -> Self {
         Self {
             placed: silhouette_of(p).placed(),
             full_count,
+            noise,
             level: p[5],
             opacity: p[6],
             sigma: edge_sigma(p),
@@ -325,7 +331,28 @@ impl TipModel {
 
     fn value(&self, x: f64, y: f64) -> f64 {
         let d = self.placed.signed_distance(x, y);
-        (self.level * (1.0 - self.opacity * normal_cdf(-d / self.sigma))).min(self.full_count)
+        self.clipped(self.level * (1.0 - self.opacity * normal_cdf(-d / self.sigma)))
+            .0
+    }
+
+    /// What the camera shows on average of a true value f with Gaussian
+    /// noise, clipped at the full count c, and its derivative in f:
+    /// E[min(X, c)] = f - (f - c) Phi(b) - noise phi(b) with
+    /// b = (f - c) / noise, derivative Phi(-b); min(f, c) without noise.
+    fn clipped(&self, f: f64) -> (f64, f64) {
+        let c = self.full_count;
+        if self.noise <= 0.0 || !c.is_finite() {
+            return if f > c { (c, 0.0) } else { (f, 1.0) };
+        }
+        let b = (f - c) / self.noise;
+        if b < -8.0 {
+            return (f, 1.0);
+        }
+        let density = (-0.5 * b * b).exp() / (2.0 * std::f64::consts::PI).sqrt();
+        (
+            f - (f - c) * normal_cdf(b) - self.noise * density,
+            normal_cdf(-b),
+        )
     }
 
     /// Value and analytic gradient (the geometry through the signed
@@ -343,19 +370,10 @@ impl TipModel {
         g[5] = 1.0 - self.opacity * covered;
         g[6] = -self.level * covered;
         g[7] = -df_dd * (d / self.sigma) * self.blur_sign;
-        let value = self.level * (1.0 - self.opacity * covered);
-        if value > self.full_count {
-            // Clipped: no parameter moves what the camera shows here.
-            g.fill(0.0);
-            return self.full_count;
-        }
+        let (value, slope) = self.clipped(self.level * (1.0 - self.opacity * covered));
+        *g *= slope;
         value
     }
-}
-
-#[cfg(test)]
-fn tip_model(px: f64, py: f64, p: &SVector<f64, 8>) -> f64 {
-    TipModel::at(p, f64::INFINITY).value(px, py)
 }
 
 /// Side of the pixel blocks [`edge_band`] tests as a whole.
@@ -428,7 +446,8 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let mut score = 0.0;
     for _round in 0..3 {
         let sil = silhouette_of(&p).placed();
-        let weighting = weights_from.map(|(q, s)| (TipModel::at(&q, full), s));
+        let noise = weights_from.map_or(0.0, |(_, s)| s);
+        let weighting = weights_from.map(|(q, s)| (TipModel::at(&q, full, noise), s));
         let band = 3.0 * p[7].abs() + 3.0;
         let (x0, x1) = (
             (p[0] - radius).max(0.0) as usize,
@@ -452,13 +471,13 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             samples.push((xf, yf, v, wgt));
         }
         let fit = levenberg_marquardt(&samples, p, 40, |q| {
-            let model = TipModel::at(q, full);
+            let model = TipModel::at(q, full, noise);
             move |x, y, g: &mut SVector<f64, 8>| model.value_grad(x, y, g)
         })
         .ok()?;
         p = fit.params;
         // Robust noise scale for the next round's weights.
-        let model = TipModel::at(&p, full);
+        let model = TipModel::at(&p, full, noise);
         let mut abs_res: Vec<f64> = samples
             .iter()
             .map(|s| (s.2 - model.value(s.0, s.1)).abs())
@@ -540,21 +559,54 @@ mod tests {
         let p =
             SVector::<f64, 8>::from_column_slice(&[100.3, 80.6, 0.4, 38.0, 47.0, 900.0, 0.8, 1.7]);
         let mut g = SVector::<f64, 8>::zeros();
-        // Pixels near the taper edges, the side edges and the apex.
-        for &(x, y) in &[(98.0, 83.0), (70.0, 85.0), (60.0, 40.0), (101.0, 81.0)] {
-            TipModel::at(&p, f64::INFINITY).value_grad(x, y, &mut g);
-            for i in 0..8 {
-                let h = [1e-3, 1e-3, 1e-5, 1e-3, 1e-3, 1e-3, 1e-5, 1e-4][i];
-                let (mut a, mut b) = (p, p);
-                a[i] += h;
-                b[i] -= h;
-                let fd = (tip_model(x, y, &a) - tip_model(x, y, &b)) / (2.0 * h);
-                assert!(
-                    (fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()),
-                    "({x}, {y}) param {i}: {fd} vs {}",
-                    g[i]
-                );
+        // Unclipped; clipped below the background (850 counts) with noise,
+        // and without.
+        for (full, noise) in [(f64::INFINITY, 0.0), (850.0, 30.0), (850.0, 0.0)] {
+            let value = |q: &SVector<f64, 8>, x, y| TipModel::at(q, full, noise).value(x, y);
+            // Pixels near the taper edges, the side edges and the apex.
+            for &(x, y) in &[(98.0, 83.0), (70.0, 85.0), (60.0, 40.0), (101.0, 81.0)] {
+                let v = TipModel::at(&p, full, noise).value_grad(x, y, &mut g);
+                assert_eq!(v, value(&p, x, y));
+                for i in 0..8 {
+                    let h = [1e-3, 1e-3, 1e-5, 1e-3, 1e-3, 1e-3, 1e-5, 1e-4][i];
+                    let (mut a, mut b) = (p, p);
+                    a[i] += h;
+                    b[i] -= h;
+                    let fd = (value(&a, x, y) - value(&b, x, y)) / (2.0 * h);
+                    assert!(
+                        (fd - g[i]).abs() < 1e-3 * (1.0 + fd.abs()),
+                        "full {full}, noise {noise}: ({x}, {y}) param {i}: {fd} vs {}",
+                        g[i]
+                    );
+                }
             }
+        }
+    }
+
+    /// The clipped mean: the value itself far below the clip, the clip far
+    /// above it, and at the clip level the mean of min(X, c) by brute force.
+    #[test]
+    fn a_clipped_noisy_value_averages_as_sampled() {
+        let model = TipModel::at(
+            &SVector::<f64, 8>::from_column_slice(&[0.0, 0.0, 0.0, 10.0, 10.0, 1.0, 0.5, 1.0]),
+            1000.0,
+            50.0,
+        );
+        assert_eq!(model.clipped(100.0), (100.0, 1.0));
+        let (far_above, slope) = model.clipped(2000.0);
+        assert!((far_above - 1000.0).abs() < 1e-9 && slope < 1e-9);
+        for f in [950.0, 1000.0, 1040.0] {
+            // Midpoint quadrature of E[min(X, 1000)], X ~ N(f, 50^2).
+            let n = 20_000;
+            let mean: f64 = (0..n)
+                .map(|k| {
+                    let z = -8.0 + 16.0 * (k as f64 + 0.5) / n as f64;
+                    let weight = (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt();
+                    (f + 50.0 * z).min(1000.0) * weight * 16.0 / n as f64
+                })
+                .sum();
+            let (value, _) = model.clipped(f);
+            assert!((value - mean).abs() < 1e-3, "f {f}: {value} vs {mean}");
         }
     }
 }
