@@ -126,6 +126,43 @@ fn the_real_recording_replays_with_five_particles_per_frame() {
     }
 }
 
+/// The sim-L recording copied under `dir` with every frame passed through
+/// `camera` (a defect the recording's camera did not have), and the
+/// fixture itself.
+fn recording_through(dir: &Path, camera: impl Fn(&Frame) -> Vec<f32>) -> (PathBuf, PathBuf) {
+    let fixture = root().join("fixtures/recordings/sim-L-seed6");
+    let rec = dir.join("rec");
+    copy_dir(&fixture, &rec);
+    for e in std::fs::read_dir(rec.join("frames")).unwrap() {
+        let path = e.unwrap().path();
+        let frame = load_frame(&path, Channel::Luminance).unwrap();
+        let seen = Frame::new(
+            frame.width(),
+            frame.height(),
+            camera(&frame),
+            frame.bit_depth(),
+        );
+        save_png(&seen.unwrap(), &path).unwrap();
+    }
+    (rec, fixture)
+}
+
+/// The dry-run of `rec` as printed for people: stdout and stderr.
+fn printed_dry_run(rec: &Path, out: &Path) -> (String, String) {
+    let o = nanopush(&[
+        "dry-run",
+        "--recording",
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
 /// A camera with a dead column: the dry-run names the repaired line in every
 /// frame, in dry-run.json and in the printed frame lines, and sees and
 /// commands what it does on the undamaged recording.
@@ -133,19 +170,13 @@ fn the_real_recording_replays_with_five_particles_per_frame() {
 fn a_dead_camera_column_is_named_in_every_frame_and_changes_nothing_seen() {
     const DEAD_COLUMN: usize = 280;
     let dir = tempfile::tempdir().unwrap();
-    let fixture = root().join("fixtures/recordings/sim-L-seed6");
-    let rec = dir.path().join("rec");
-    copy_dir(&fixture, &rec);
-    for e in std::fs::read_dir(rec.join("frames")).unwrap() {
-        let path = e.unwrap().path();
-        let frame = load_frame(&path, Channel::Luminance).unwrap();
+    let (rec, fixture) = recording_through(dir.path(), |frame| {
         let mut px = frame.pixels().to_vec();
         for y in 0..frame.height() {
             px[y * frame.width() + DEAD_COLUMN] = 0.0;
         }
-        let dead = Frame::new(frame.width(), frame.height(), px, frame.bit_depth()).unwrap();
-        save_png(&dead, &path).unwrap();
-    }
+        px
+    });
     let clean_out = dir.path().join("clean");
     let clean = ok_report(&dry_run(&fixture, &clean_out, &[]), &clean_out);
     let broken_out = dir.path().join("broken");
@@ -191,24 +222,51 @@ fn a_dead_camera_column_is_named_in_every_frame_and_changes_nothing_seen() {
             }
         }
     }
-    let printed = nanopush(&[
-        "dry-run",
-        "--recording",
-        rec.to_str().unwrap(),
-        "--out",
-        dir.path().join("text").to_str().unwrap(),
-    ]);
-    assert!(
-        printed.status.success(),
-        "{}",
-        String::from_utf8_lossy(&printed.stderr)
-    );
-    let stdout = String::from_utf8_lossy(&printed.stdout);
+    let (stdout, _) = printed_dry_run(&rec, &dir.path().join("text"));
     let named = format!("camera lines repaired: column {DEAD_COLUMN}");
     assert_eq!(
         stdout.matches(&named).count(),
         clean.frames.len(),
         "{stdout}"
+    );
+}
+
+/// An over-exposed recording (every frame's counts scaled so that its
+/// median reaches the full count): every frame says so, in dry-run.json
+/// and in its printed line; the undamaged recording's frames do not.
+#[test]
+fn an_over_exposed_recording_is_named_in_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rec, fixture) = recording_through(dir.path(), |frame| {
+        let mut sorted = frame.pixels().to_vec();
+        sorted.sort_by(f32::total_cmp);
+        let gain = frame.max_count() / sorted[sorted.len() / 2];
+        let full = frame.max_count();
+        frame
+            .pixels()
+            .iter()
+            .map(|p| (p * gain).min(full))
+            .collect()
+    });
+    let clean_out = dir.path().join("clean");
+    let clean = ok_report(&dry_run(&fixture, &clean_out, &[]), &clean_out);
+    assert!(clean.frames.iter().all(|f| f.clipped.is_none()));
+    let over_out = dir.path().join("over");
+    let over = ok_report(&dry_run(&rec, &over_out, &[]), &over_out);
+    for f in &over.frames {
+        let e = f.clipped.expect("a clipped frame");
+        assert!(e.saturated_fraction >= 0.5, "frame {}: {e:?}", f.frame);
+    }
+    let (stdout, stderr) = printed_dry_run(&rec, &dir.path().join("text"));
+    assert_eq!(
+        stdout.matches("(camera clipped: ").count(),
+        over.frames.len(),
+        "{stdout}"
+    );
+    assert_eq!(
+        stderr.matches("over-exposed").count(),
+        1,
+        "warned once: {stderr}"
     );
 }
 

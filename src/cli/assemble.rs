@@ -451,6 +451,7 @@ fn json_summary(r: &AssemblyReport) -> serde_json::Value {
         "lower_bound_s": r.lower_bound_s,
         "active_effects": r.active_effects,
         "repaired_lines": r.repaired_lines,
+        "clipped_frames": r.clipped_frames,
         "outcome": r.outcome,
     })
 }
@@ -474,8 +475,8 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
     for e in &r.active_effects {
         println!("  effect           {}: {}", e.name, e.reason);
     }
-    if let Some(lines) = r.repaired_lines_summary() {
-        println!("  camera lines     repaired: {lines}");
+    for (what, note) in r.camera_notes() {
+        println!("  {what}: {note}");
     }
     println!("report: {}", out.join("report.md").display());
 }

@@ -352,8 +352,8 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
         r.pushes, r.repushes, r.lost_contacts_detected
     );
     println!("  wall time        {:.1} s", r.time_s);
-    if let Some(lines) = r.repaired_lines_summary() {
-        println!("  camera lines     repaired: {lines}");
+    for (what, note) in r.camera_notes() {
+        println!("  {what}: {note}");
     }
     println!("report: {}", out.join("report.json").display());
 }

@@ -183,9 +183,7 @@ pub fn write_report_md(
         ),
         ("time", report.time_summary()),
     ];
-    if let Some(lines) = report.repaired_lines_summary() {
-        rows.push(("camera lines repaired", lines));
-    }
+    rows.extend(report.camera_notes());
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");
     }

@@ -19,6 +19,7 @@ use crate::plan::placement::{PlacementGoal, place_by_plan};
 use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
+use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineDefect;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
@@ -78,6 +79,10 @@ pub struct DryRunFrame {
     /// when none, and in files written before this field).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub repaired_lines: Vec<LineDefect>,
+    /// The frame's clipped fractions when either is above the warning level
+    /// (absent otherwise, and in files written before this field).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clipped: Option<Exposure>,
 }
 
 /// The whole dry-run (`dry-run.json`).
@@ -223,6 +228,7 @@ pub fn dry_run(
             filled,
             command,
             repaired_lines: sighting.repaired_lines,
+            clipped: sighting.exposure.is_clipped().then_some(sighting.exposure),
         });
     }
     Ok(DryRunReport {

@@ -2,6 +2,7 @@
 //! decision, in lab units. The journal is enough to resume a run and to
 //! rebuild its report.
 
+use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineDefect;
 use serde::{Deserialize, Serialize};
 
@@ -64,6 +65,10 @@ pub enum RunEvent {
         /// when none, and in journals written before this field).
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         repaired_lines: Vec<LineDefect>,
+        /// The frame's clipped fractions when either is above the warning
+        /// level (absent otherwise, and in journals written before this field).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        clipped: Option<Exposure>,
     },
     /// The camera dropped a frame.
     FrameDropped,

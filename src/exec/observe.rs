@@ -39,6 +39,8 @@ pub struct Sighting {
     /// Camera lines (dead, hot or off-gain) filled in from their neighbours
     /// before detection: detections on them rest on the lines beside them.
     pub repaired_lines: Vec<LineDefect>,
+    /// How much of the (repaired) frame is clipped at either end.
+    pub exposure: Exposure,
     /// The part of the sample the frame shows (x, y lower and upper corners), metres,
     /// shrunk by the particle size hint so that clipped particles count as unseen.
     pub view_m: [[f64; 2]; 2],
@@ -141,7 +143,8 @@ impl Perception {
         let expected_r_px = self.detect.diameter_px / 2.0;
         let (seen, repaired_lines) = repair_line_defects(&timed.frame);
         report("camera", &repaired_lines);
-        exposure::report("camera", &Exposure::of(&seen), seen.max_count());
+        let exposure = Exposure::of(&seen);
+        exposure::report("camera", &exposure, seen.max_count());
         let probe = detect_tip(&seen, &self.tip);
         let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
         // A ring touching the probe is cut by it: its centre is not measured.
@@ -197,6 +200,7 @@ impl Perception {
             tip_m,
             dropped,
             repaired_lines,
+            exposure,
             view_m: [lo, hi],
             coarse_offset_m,
             stage_m: None,

@@ -14,6 +14,7 @@ use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
 use crate::plan::pattern::sites_um;
+use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineAxis;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -65,6 +66,31 @@ pub struct AssemblyReport {
     /// when none (and in reports written before this field).
     #[serde(default)]
     pub repaired_lines: Vec<RepairedLine>,
+    /// Frames clipped beyond the warning level (over-exposed or with the
+    /// black level clipping), and the worst fractions seen; zero when none
+    /// (and in reports written before this field).
+    #[serde(default)]
+    pub clipped_frames: ClippedFrames,
+}
+
+/// The frames of a run whose camera clipped more than the warning level.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct ClippedFrames {
+    /// How many.
+    pub frames: usize,
+    /// The largest fraction of a frame at the full count.
+    pub max_saturated_fraction: f64,
+    /// The largest fraction of a frame at 0.
+    pub max_dark_fraction: f64,
+}
+
+impl ClippedFrames {
+    /// One more clipped frame.
+    fn add(&mut self, e: &Exposure) {
+        self.frames += 1;
+        self.max_saturated_fraction = self.max_saturated_fraction.max(e.saturated_fraction);
+        self.max_dark_fraction = self.max_dark_fraction.max(e.dark_fraction);
+    }
 }
 
 /// A camera line repaired in some of a run's frames.
@@ -120,6 +146,17 @@ impl AssemblyReport {
         }
     }
 
+    /// What went wrong at the camera, for the summaries: ("camera lines
+    /// repaired", ...) and ("camera clipped", ...), each only when it
+    /// happened.
+    pub fn camera_notes(&self) -> Vec<(&'static str, String)> {
+        let lines = self
+            .repaired_lines_summary()
+            .map(|s| ("camera lines repaired", s));
+        let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
+        lines.into_iter().chain(clipped).collect()
+    }
+
     /// "column 200 (12 frames), row 7 (3 frames)"; None when no camera
     /// line was repaired.
     pub fn repaired_lines_summary(&self) -> Option<String> {
@@ -129,6 +166,20 @@ impl AssemblyReport {
             .map(ToString::to_string)
             .collect();
         (!lines.is_empty()).then(|| lines.join(", "))
+    }
+
+    /// "12 frames (up to 61.0 % saturated, 0.0 % at 0 counts)"; None when
+    /// no frame clipped beyond the warning level.
+    pub fn clipped_frames_summary(&self) -> Option<String> {
+        let c = &self.clipped_frames;
+        (c.frames > 0).then(|| {
+            format!(
+                "{} frames (up to {:.1} % saturated, {:.1} % at 0 counts)",
+                c.frames,
+                100.0 * c.max_saturated_fraction,
+                100.0 * c.max_dark_fraction
+            )
+        })
     }
 
     /// The report of a run: counts from its journal, errors and the rest from `facts`.
@@ -175,6 +226,7 @@ impl AssemblyReport {
                 .unwrap_or_default(),
             effect_work: facts.effect_work,
             repaired_lines: counts.repaired_lines,
+            clipped_frames: counts.clipped_frames,
         }
     }
 }
@@ -200,6 +252,8 @@ pub struct JournalCounts {
     pub outcome: Option<String>,
     /// Camera lines repaired in the observations, columns first, by index.
     pub repaired_lines: Vec<RepairedLine>,
+    /// Observations whose frame clipped beyond the warning level.
+    pub clipped_frames: ClippedFrames,
 }
 
 /// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
@@ -234,10 +288,14 @@ pub fn count_journal(
             RunEvent::Observation {
                 particles,
                 repaired_lines,
+                clipped,
                 ..
             } => {
                 for line in repaired_lines {
                     count_repaired(&mut c.repaired_lines, line.axis, line.index);
+                }
+                if let Some(exposure) = clipped {
+                    c.clipped_frames.add(exposure);
                 }
                 c.sites_to_fill.get_or_insert_with(|| {
                     sites_um
@@ -338,6 +396,7 @@ mod tests {
                     particles: vec![seen(0.0), seen(50.0)],
                     tip_um: None,
                     repaired_lines: Vec::new(),
+                    clipped: None,
                 },
             ),
             entry(
@@ -382,32 +441,46 @@ mod tests {
     }
 
     /// Each repaired camera line is counted once per frame it was repaired
-    /// in, columns before rows; a journal line written before the field
-    /// reads as a frame without any.
+    /// in, columns before rows, and the clipped frames with their worst
+    /// fractions; a journal line written before the fields reads as a frame
+    /// without either.
     #[test]
-    fn repaired_lines_are_counted_per_frame_from_the_journal() {
+    fn camera_lines_and_clipped_frames_are_counted_from_the_journal() {
         let line = |axis, index| LineDefect {
             axis,
             index,
             mean_counts: 0.0,
             beside_counts: 900.0,
         };
-        let observation = |repaired_lines| RunEvent::Observation {
+        let observation = |repaired_lines, clipped| RunEvent::Observation {
             frame: 0,
             particles: Vec::new(),
             tip_um: None,
             repaired_lines,
+            clipped,
+        };
+        let clipped = |saturated_fraction, dark_fraction| {
+            Some(Exposure {
+                saturated_fraction,
+                dark_fraction,
+            })
         };
         let older: RunEvent = serde_json::from_str(
             r#"{"kind":"observation","frame":0,"particles":[],"tip_um":null}"#,
         )
         .unwrap();
-        assert_eq!(older, observation(Vec::new()));
+        assert_eq!(older, observation(Vec::new(), None));
         let events = [
-            observation(vec![line(LineAxis::Column, 200)]),
-            observation(vec![line(LineAxis::Row, 7), line(LineAxis::Column, 200)]),
+            observation(vec![line(LineAxis::Column, 200)], clipped(0.3, 0.0)),
+            observation(
+                vec![line(LineAxis::Row, 7), line(LineAxis::Column, 200)],
+                None,
+            ),
             older,
-            observation(vec![line(LineAxis::Column, 3), line(LineAxis::Column, 200)]),
+            observation(
+                vec![line(LineAxis::Column, 3), line(LineAxis::Column, 200)],
+                clipped(0.6, 0.02),
+            ),
         ];
         let entries: Vec<_> = events
             .into_iter()
@@ -428,9 +501,20 @@ mod tests {
                 counted(LineAxis::Row, 7, 1),
             ]
         );
-        // A frame without defects writes no field at all.
-        let text = serde_json::to_string(&observation(Vec::new())).unwrap();
-        assert!(!text.contains("repaired_lines"), "{text}");
+        assert_eq!(
+            c.clipped_frames,
+            ClippedFrames {
+                frames: 2,
+                max_saturated_fraction: 0.6,
+                max_dark_fraction: 0.02
+            }
+        );
+        // A frame without defects or clipping writes neither field.
+        let text = serde_json::to_string(&observation(Vec::new(), None)).unwrap();
+        assert!(
+            !text.contains("repaired_lines") && !text.contains("clipped"),
+            "{text}"
+        );
     }
 
     #[test]
@@ -461,6 +545,7 @@ mod tests {
             active_effects: Vec::new(),
             effect_work: None,
             repaired_lines: Vec::new(),
+            clipped_frames: ClippedFrames::default(),
         }
     }
 
@@ -472,12 +557,23 @@ mod tests {
         assert!(!r.time_summary().contains("ratio"), "{}", r.time_summary());
     }
 
-    /// The repaired lines read back from report.json and are named in the
-    /// summary; a report written before the field reads as none.
+    /// The repaired lines and the clipped frames read back from report.json
+    /// and are named in the summary; a report written before the fields
+    /// reads as none.
     #[test]
-    fn a_report_names_its_repaired_lines_and_reads_back() {
+    fn a_report_names_its_camera_troubles_and_reads_back() {
         let mut r = small_report();
         assert_eq!(r.repaired_lines_summary(), None);
+        assert_eq!(r.clipped_frames_summary(), None);
+        r.clipped_frames = ClippedFrames {
+            frames: 12,
+            max_saturated_fraction: 0.61,
+            max_dark_fraction: 0.0,
+        };
+        assert_eq!(
+            r.clipped_frames_summary().as_deref(),
+            Some("12 frames (up to 61.0 % saturated, 0.0 % at 0 counts)")
+        );
         r.repaired_lines = vec![RepairedLine {
             axis: LineAxis::Column,
             index: 200,
@@ -495,11 +591,13 @@ mod tests {
         assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
         let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
         older.as_object_mut().unwrap().remove("repaired_lines");
+        older.as_object_mut().unwrap().remove("clipped_frames");
         let older: AssemblyReport = serde_json::from_value(older).unwrap();
         assert_eq!(
             older,
             AssemblyReport {
                 repaired_lines: Vec::new(),
+                clipped_frames: ClippedFrames::default(),
                 ..r
             }
         );

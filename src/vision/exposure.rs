@@ -48,6 +48,11 @@ impl Exposure {
         }
     }
 
+    /// True when either end holds more than [`CLIPPED_WARN_FRACTION`].
+    pub fn is_clipped(&self) -> bool {
+        self.saturated_fraction.max(self.dark_fraction) > CLIPPED_WARN_FRACTION
+    }
+
     /// What a user should hear about this frame's exposure, by the end
     /// that clips ("saturated" or "dark").
     pub fn warnings(&self, full_count: f32) -> Vec<(&'static str, String)> {
