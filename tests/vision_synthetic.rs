@@ -94,6 +94,15 @@ fn clipped_cores_scene() -> (SceneView, Frame) {
     (scene, frame)
 }
 
+/// The bench frame (100 particles, the probe) at `gain` times the SNR 8
+/// camera's gain.
+fn bench_frame_at_gain(gain: f64) -> Frame {
+    let mut settings = RenderSettings::with_snr(8.0, 16);
+    settings.camera.gain_counts_per_e *= gain;
+    let scene = nanopush::render::microscope_truth::benchmark_scene();
+    render_frame(&scene, &settings, 3).unwrap()
+}
+
 /// Pixels at the full count.
 fn clipped_pixels(frame: &Frame) -> usize {
     (Exposure::of(frame).saturated_fraction * frame.pixels().len() as f64).round() as usize
@@ -183,9 +192,7 @@ fn a_clipped_background_keeps_most_particles_and_their_centres() {
     use nanopush::render::microscope_truth::benchmark_scene;
     let scene = benchmark_scene();
     for (gain, min_recall) in [(2.7, 0.85), (3.0, 0.75)] {
-        let mut settings = RenderSettings::with_snr(8.0, 16);
-        settings.camera.gain_counts_per_e *= gain;
-        let frame = render_frame(&scene, &settings, 3).unwrap();
+        let frame = bench_frame_at_gain(gain);
         let clipped = clipped_pixels(&frame);
         let (_, m, worst) = located(&scene, &frame);
         println!(
@@ -207,7 +214,6 @@ fn a_clipped_background_keeps_most_particles_and_their_centres() {
 /// frame, 0.85 % of the pixels) are no warning: the fit censors them.
 #[test]
 fn detect_warns_of_a_clipped_background_not_of_clipped_cores() {
-    use nanopush::render::microscope_truth::benchmark_scene;
     use nanopush::vision::detections_file::DetectionsFile;
     use nanopush::vision::frame_input::save_png;
     let dir = tempfile::tempdir().unwrap();
@@ -231,9 +237,7 @@ fn detect_warns_of_a_clipped_background_not_of_clipped_cores() {
     let (_, cores) = clipped_cores_scene();
     let (_, said) = detect(&cores, "cores.png", false);
     assert!(!said.contains("full count"), "{said}");
-    let mut settings = RenderSettings::with_snr(8.0, 16);
-    settings.camera.gain_counts_per_e *= 2.7;
-    let over = render_frame(&benchmark_scene(), &settings, 3).unwrap();
+    let over = bench_frame_at_gain(2.7);
     let (_, said) = detect(&over, "over.png", false);
     assert_eq!(
         said.matches("of the pixels at the camera's full count (65535): over-exposed")

@@ -5,13 +5,13 @@ use std::path::PathBuf;
 use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
-use crate::vision::analyse::{FrameAnalysis, analyse_frame};
+use crate::vision::analyse::{
+    FrameAnalysis, PreparedFrame, analyse_frame, prepare_frame, report_camera_state,
+};
 use crate::vision::crocker_grier::{LocateParams, locate};
 use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
-use crate::vision::exposure::{self, Exposure};
 use crate::vision::frame_input::{Channel, load_frame};
-use crate::vision::line_defects::{repair_line_defects, report};
 use crate::vision::overlay::draw_overlay;
 use crate::vision::ring_edge::CentreEstimate;
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -123,7 +123,11 @@ fn crocker_grier_analysis(
         invert: args.polarity.as_deref() == Some("dark"),
         ..LocateParams::new(diameter_px as u32)
     };
-    let (frame, repaired_lines) = repair_line_defects(frame);
+    let PreparedFrame {
+        frame,
+        repaired_lines,
+        exposure,
+    } = prepare_frame(frame);
     let particles = locate(&frame, &params)
         .context("locating particles (crocker-grier)")?
         .into_iter()
@@ -134,7 +138,7 @@ fn crocker_grier_analysis(
         particles,
         tip,
         repaired_lines,
-        exposure: Exposure::of(&frame),
+        exposure,
     })
 }
 
@@ -191,9 +195,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         None => crocker_grier_analysis(&frame, &args, diameter_px, tip_settings.as_ref())?,
     };
-    let source = args.frame.display().to_string();
-    report(&source, &analysis.repaired_lines);
-    exposure::report(&source, &analysis.exposure, frame.max_count());
+    report_camera_state(
+        &args.frame.display().to_string(),
+        &analysis.repaired_lines,
+        &analysis.exposure,
+        frame.max_count(),
+    );
     let FrameAnalysis { particles, tip, .. } = &analysis;
     if let Some(path) = &args.overlay {
         draw_overlay(&frame, particles, tip.as_ref())

@@ -87,13 +87,9 @@ fn print_frames(r: &DryRunReport) {
         } else {
             format!("  (camera lines repaired: {})", repaired.join(", "))
         };
-        let clipped = f.clipped.map_or(String::new(), |e| {
-            format!(
-                "  (camera clipped: {:.1} % saturated, {:.1} % at 0 counts)",
-                100.0 * e.saturated_fraction,
-                100.0 * e.dark_fraction
-            )
-        });
+        let clipped = f
+            .clipped
+            .map_or(String::new(), |e| format!("  (camera clipped: {e})"));
         println!(
             "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{repaired}{clipped}",
             f.frame,

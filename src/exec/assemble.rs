@@ -477,7 +477,7 @@ impl<'a> Assembly<'a> {
                 particles: tracks.clone(),
                 tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
                 repaired_lines: sighting.repaired_lines.clone(),
-                clipped: sighting.exposure.is_clipped().then_some(sighting.exposure),
+                clipped: sighting.exposure.clipped(),
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {

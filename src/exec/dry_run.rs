@@ -228,7 +228,7 @@ pub fn dry_run(
             filled,
             command,
             repaired_lines: sighting.repaired_lines,
-            clipped: sighting.exposure.is_clipped().then_some(sighting.exposure),
+            clipped: sighting.exposure.clipped(),
         });
     }
     Ok(DryRunReport {

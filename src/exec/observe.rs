@@ -6,10 +6,11 @@ use super::tracker::Observation;
 use crate::calib::affine::AffineCalibration;
 use crate::rig::RigError;
 use crate::rig::camera::Camera;
+use crate::vision::analyse::{PreparedFrame, prepare_frame, report_camera_state};
 use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
-use crate::vision::exposure::{self, Exposure};
+use crate::vision::exposure::Exposure;
 use crate::vision::frame::Frame;
-use crate::vision::line_defects::{LineDefect, repair_line_defects, report};
+use crate::vision::line_defects::LineDefect;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
@@ -141,10 +142,12 @@ impl Perception {
         // The size hint is the particles' known size: a detection far from it is
         // not one of them (the probe's outline, debris), and must not reach the planner.
         let expected_r_px = self.detect.diameter_px / 2.0;
-        let (seen, repaired_lines) = repair_line_defects(&timed.frame);
-        report("camera", &repaired_lines);
-        let exposure = Exposure::of(&seen);
-        exposure::report("camera", &exposure, seen.max_count());
+        let PreparedFrame {
+            frame: seen,
+            repaired_lines,
+            exposure,
+        } = prepare_frame(&timed.frame);
+        report_camera_state("camera", &repaired_lines, &exposure, seen.max_count());
         let probe = detect_tip(&seen, &self.tip);
         let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
         // A ring touching the probe is cut by it: its centre is not measured.

@@ -172,14 +172,11 @@ impl AssemblyReport {
     /// no frame clipped beyond the warning level.
     pub fn clipped_frames_summary(&self) -> Option<String> {
         let c = &self.clipped_frames;
-        (c.frames > 0).then(|| {
-            format!(
-                "{} frames (up to {:.1} % saturated, {:.1} % at 0 counts)",
-                c.frames,
-                100.0 * c.max_saturated_fraction,
-                100.0 * c.max_dark_fraction
-            )
-        })
+        let worst = Exposure {
+            saturated_fraction: c.max_saturated_fraction,
+            dark_fraction: c.max_dark_fraction,
+        };
+        (c.frames > 0).then(|| format!("{} frames (up to {worst})", c.frames))
     }
 
     /// The report of a run: counts from its journal, errors and the rest from `facts`.

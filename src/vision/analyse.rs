@@ -7,10 +7,47 @@
 use super::detect::{
     DetectError, DetectSettings, Detection, detect_particles, detect_particles_excluding,
 };
-use super::exposure::Exposure;
+use std::borrow::Cow;
+
+use super::exposure::{self, Exposure};
 use super::frame::Frame;
-use super::line_defects::{LineDefect, repair_line_defects};
+use super::line_defects::{self, LineDefect, repair_line_defects};
 use super::tip::{TipDetection, TipSettings, detect_tip};
+
+/// A frame as every detector sees it: its defective lines repaired, and
+/// how much of it clips.
+pub struct PreparedFrame<'a> {
+    /// The frame, repaired (borrowed unchanged when no line needed it).
+    pub frame: Cow<'a, Frame>,
+    /// Camera lines filled in from their neighbours.
+    pub repaired_lines: Vec<LineDefect>,
+    /// How much of the repaired frame is clipped at either end.
+    pub exposure: Exposure,
+}
+
+/// Repairs `frame`'s defective lines and measures its clipping: the first
+/// step of the whole-frame analysis, the Crocker-Grier mode and the loop.
+pub fn prepare_frame(frame: &Frame) -> PreparedFrame<'_> {
+    let (frame, repaired_lines) = repair_line_defects(frame);
+    let exposure = Exposure::of(&frame);
+    PreparedFrame {
+        frame,
+        repaired_lines,
+        exposure,
+    }
+}
+
+/// Warns of `source`'s camera state (repaired lines, clipping), each when it
+/// first appears or changes.
+pub fn report_camera_state(
+    source: &str,
+    repaired_lines: &[LineDefect],
+    exposure: &Exposure,
+    full_count: f32,
+) {
+    line_defects::report(source, repaired_lines);
+    exposure::report(source, exposure, full_count);
+}
 
 /// Everything found in one frame, in pixels.
 #[derive(Debug, Clone, PartialEq)]
@@ -32,9 +69,12 @@ pub fn analyse_frame(
     settings: &DetectSettings,
     tip: Option<&TipSettings>,
 ) -> Result<FrameAnalysis, DetectError> {
-    let (frame, repaired_lines) = repair_line_defects(frame);
+    let PreparedFrame {
+        frame,
+        repaired_lines,
+        exposure,
+    } = prepare_frame(frame);
     let frame = frame.as_ref();
-    let exposure = Exposure::of(frame);
     let tip = tip.and_then(|t| detect_tip(frame, t));
     let margin = 0.5 * settings.diameter_px;
     let mut particles = match &tip {

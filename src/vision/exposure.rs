@@ -48,9 +48,10 @@ impl Exposure {
         }
     }
 
-    /// True when either end holds more than [`CLIPPED_WARN_FRACTION`].
-    pub fn is_clipped(&self) -> bool {
-        self.saturated_fraction.max(self.dark_fraction) > CLIPPED_WARN_FRACTION
+    /// Itself when either end holds more than [`CLIPPED_WARN_FRACTION`]
+    /// (what the journal and the dry-run record), else None.
+    pub fn clipped(self) -> Option<Self> {
+        (self.saturated_fraction.max(self.dark_fraction) > CLIPPED_WARN_FRACTION).then_some(self)
     }
 
     /// What a user should hear about this frame's exposure, by the end
@@ -79,6 +80,18 @@ impl Exposure {
             ));
         }
         said
+    }
+}
+
+impl std::fmt::Display for Exposure {
+    /// "61.0 % saturated, 0.0 % at 0 counts".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{:.1} % saturated, {:.1} % at 0 counts",
+            100.0 * self.saturated_fraction,
+            100.0 * self.dark_fraction
+        )
     }
 }
 
