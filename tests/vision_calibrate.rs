@@ -12,46 +12,17 @@ use nanopush::vision::frame_input::save_png;
 #[test]
 fn calibrate_recovers_a_known_map_and_detect_uses_it() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = AffineCalibration::from_scale_rotation(0.25e-6, 0.03, [-20e-6, 15e-6]);
-    let mut csv = String::from("frame,x_um,y_um\n");
-    let mut k = 0;
-    for i in 0..3 {
-        for j in 0..3 {
-            let (px, py) = (90.0 + 40.0 * i as f64, 80.0 + 45.0 * j as f64);
-            let scene = SceneView {
-                width_px: 256,
-                height_px: 256,
-                particles: vec![],
-                tip: Some(TipView {
-                    apex_x_px: px,
-                    apex_y_px: py,
-                    angle_rad: 0.7,
-                }),
-            };
-            let frame = render_frame(&scene, &RenderSettings::with_snr(20.0, 16), k).unwrap();
-            let name = format!("f{k:02}.png");
-            save_png(&frame, &dir.path().join(&name)).unwrap();
-            let mut s = truth.pixel_to_stage_m(px, py);
-            if k == 4 {
-                s[0] += 5e-6; // a logging glitch: 20 px off
-            }
-            csv += &format!("{name},{},{}\n", s[0] * 1e6, s[1] * 1e6);
-            k += 1;
-        }
-    }
-    // Saved as a spreadsheet saves UTF-8: with a byte-order mark.
-    std::fs::write(dir.path().join("stage.csv"), format!("\u{feff}{csv}")).unwrap();
+    let truth = truth();
+    write_recording(dir.path(), &truth, 1.0);
     let exe = env!("CARGO_BIN_EXE_nanopush");
     let out = calibrate(dir.path(), &[]);
     let text = String::from_utf8_lossy(&out.stdout);
-    println!("{text}{}", String::from_utf8_lossy(&out.stderr));
+    let err = String::from_utf8_lossy(&out.stderr);
+    println!("{text}{err}");
     assert!(out.status.success());
     assert!(text.contains("inliers 8/9"), "{text}");
-    let fitted = AffineCalibration::load(&dir.path().join("calibration.toml")).unwrap();
-    let s = fitted.pixel_to_stage_m(128.0, 128.0);
-    let t = truth.pixel_to_stage_m(128.0, 128.0);
-    let err_px = ((s[0] - t[0]).hypot(s[1] - t[1])) / truth.m_per_px();
-    println!("map error at the frame centre: {err_px:.3} px");
+    assert!(!err.contains("over-exposed"), "{err}");
+    let err_px = map_error_px(dir.path(), &truth);
     assert!(err_px < 0.3, "{err_px}");
 
     // A second fit keeps the first unless told, and never writes over an input.
@@ -92,6 +63,29 @@ fn calibrate_recovers_a_known_map_and_detect_uses_it() {
 }
 
 #[test]
+fn an_over_exposed_recording_is_named_and_still_calibrates() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = truth();
+    write_recording(dir.path(), &truth, 3.0);
+    let out = calibrate(dir.path(), &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    println!("{}{err}", String::from_utf8_lossy(&out.stdout));
+    assert!(out.status.success(), "{err}");
+    for k in 0..9 {
+        let warned = err
+            .lines()
+            .any(|l| l.contains(&format!("f{k:02}.png: ")) && l.contains("over-exposed"));
+        assert!(
+            warned,
+            "frame f{k:02}.png not named as over-exposed:\n{err}"
+        );
+    }
+    // The clipped-probe model keeps the apex, so the map holds.
+    let err_px = map_error_px(dir.path(), &truth);
+    assert!(err_px < 0.5, "{err_px}");
+}
+
+#[test]
 fn calibrate_and_detect_fail_cleanly_on_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let exe = env!("CARGO_BIN_EXE_nanopush");
@@ -126,6 +120,54 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("x.png"));
+}
+
+/// The map the recordings are made with.
+fn truth() -> AffineCalibration {
+    AffineCalibration::from_scale_rotation(0.25e-6, 0.03, [-20e-6, 15e-6])
+}
+
+/// A 3 x 3 grid of tip positions at the camera's `gain` (times the
+/// default), frames f00.png..f08.png and stage.csv under `truth`, with one
+/// logging glitch (frame 4, 20 px off) for RANSAC to reject.
+fn write_recording(dir: &std::path::Path, truth: &AffineCalibration, gain: f64) {
+    let mut settings = RenderSettings::with_snr(20.0, 16);
+    settings.camera.gain_counts_per_e *= gain;
+    let mut csv = String::from("frame,x_um,y_um\n");
+    for k in 0..9 {
+        let (i, j) = (k / 3, k % 3);
+        let (px, py) = (90.0 + 40.0 * i as f64, 80.0 + 45.0 * j as f64);
+        let scene = SceneView {
+            width_px: 256,
+            height_px: 256,
+            particles: vec![],
+            tip: Some(TipView {
+                apex_x_px: px,
+                apex_y_px: py,
+                angle_rad: 0.7,
+            }),
+        };
+        let frame = render_frame(&scene, &settings, k as u64).unwrap();
+        let name = format!("f{k:02}.png");
+        save_png(&frame, &dir.join(&name)).unwrap();
+        let mut s = truth.pixel_to_stage_m(px, py);
+        if k == 4 {
+            s[0] += 5e-6;
+        }
+        csv += &format!("{name},{},{}\n", s[0] * 1e6, s[1] * 1e6);
+    }
+    // Saved as a spreadsheet saves UTF-8: with a byte-order mark.
+    std::fs::write(dir.join("stage.csv"), format!("\u{feff}{csv}")).unwrap();
+}
+
+/// How far the fitted calibration.toml maps the frame centre from `truth`, px.
+fn map_error_px(dir: &std::path::Path, truth: &AffineCalibration) -> f64 {
+    let fitted = AffineCalibration::load(&dir.join("calibration.toml")).unwrap();
+    let s = fitted.pixel_to_stage_m(128.0, 128.0);
+    let t = truth.pixel_to_stage_m(128.0, 128.0);
+    let err_px = ((s[0] - t[0]).hypot(s[1] - t[1])) / truth.m_per_px();
+    println!("map error at the frame centre: {err_px:.3} px");
+    err_px
 }
 
 /// `nanopush calibrate --recording DIR EXTRA...`.

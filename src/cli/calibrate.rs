@@ -10,9 +10,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
+use crate::vision::analyse::{prepare_frame, report_camera_state};
 use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
-use crate::vision::line_defects::repaired;
 use crate::vision::tip::{TipSettings, detect_tip};
 
 /// Arguments of `nanopush calibrate`.
@@ -144,7 +144,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let frame = load_frame(&path, Channel::Luminance)
             .with_context(|| format!("loading {}", path.display()))?;
         sizes.push((frame.width(), frame.height()));
-        match detect_tip(&repaired(&frame, &row.frame), &TipSettings::default()) {
+        let prepared = prepare_frame(&frame);
+        // A clipped or line-damaged calibration frame is named: its apex is
+        // the one the map is fitted to.
+        report_camera_state(
+            &row.frame,
+            &prepared.repaired_lines,
+            &prepared.exposure,
+            frame.max_count(),
+        );
+        match detect_tip(&prepared.frame, &TipSettings::default()) {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
                 stage.push([row.x_um * 1e-6, row.y_um * 1e-6]);

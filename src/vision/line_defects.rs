@@ -138,13 +138,6 @@ pub fn repair_line_defects(frame: &Frame) -> (Cow<'_, Frame>, Vec<LineDefect>) {
     (Cow::Owned(repaired), defects)
 }
 
-/// [`repair_line_defects`], then [`report`] under `source`.
-pub fn repaired<'a>(frame: &'a Frame, source: &str) -> Cow<'a, Frame> {
-    let (frame, defects) = repair_line_defects(frame);
-    report(source, &defects);
-    frame
-}
-
 /// Warns when `source`'s set of repaired lines first appears or changes (a
 /// camera's defects persist frame after frame: the log says so once, not
 /// thirty times a second).
