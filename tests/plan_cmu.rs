@@ -141,6 +141,38 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
 /// named; planned at half the standoff otherwise, and the plan file keeps
 /// that standoff, so the independent replay of the file lands the tip where
 /// the plan does.
+/// An order that spends its search effort on repairs is refused and says
+/// so: adversarial seed 1 needs buffer moves and detours, and plans with
+/// the default effort.
+#[test]
+fn an_order_out_of_search_effort_is_refused_with_its_reason() {
+    let (layout, sites) = cmu_scene(LayoutKind::Adversarial, 1);
+    let config = PlanConfig::default();
+    let plan = plan_assembly(&layout, &sites, &config).expect("plans with the default effort");
+    assert!(plan.summary.buffer_pushes > 0, "{:?}", plan.summary);
+    let thrifty = PlanConfig {
+        search_effort: 1,
+        ..config
+    };
+    match plan_assembly(&layout, &sites, &thrifty) {
+        Err(PlanError::Blocked(reason)) => {
+            assert!(
+                reason.contains("collision tests of buffer moves and detours"),
+                "{reason}"
+            )
+        }
+        other => panic!("not refused for its effort: {other:?}"),
+    }
+    let none = PlanConfig {
+        search_effort: 0,
+        ..PlanConfig::default()
+    };
+    assert!(matches!(
+        plan_assembly(&layout, &sites, &none),
+        Err(PlanError::Config(_))
+    ));
+}
+
 #[test]
 fn a_dense_core_plans_with_the_tip_landing_nearer() {
     use nanopush::plan::plan_file;

@@ -24,6 +24,8 @@ pub struct Occupancy {
     cells: Cells,
     /// Largest radius.
     pub max_radius_m: f64,
+    /// Queries answered so far (corridor and disc tests).
+    queries: std::cell::Cell<u64>,
 }
 
 impl Occupancy {
@@ -36,6 +38,7 @@ impl Occupancy {
             cell_m: (4.0 * max_radius_m).max(1e-9),
             cells: Cells::default(),
             max_radius_m,
+            queries: Default::default(),
         };
         for i in 0..o.pos.len() {
             let k = o.key(o.pos[i]);
@@ -53,6 +56,7 @@ impl Occupancy {
             cell_m: cell_m.max(1e-9),
             cells: Cells::default(),
             max_radius_m: 0.0,
+            queries: Default::default(),
         }
     }
     /// Adds a particle at `p` of radius `r`; its index.
@@ -64,6 +68,13 @@ impl Occupancy {
         let k = self.key(p);
         self.cells.entry(k).or_default().push(i);
         i
+    }
+    /// Corridor and disc tests answered so far: the work a search spent.
+    pub fn queries(&self) -> u64 {
+        self.queries.get()
+    }
+    fn count(&self) {
+        self.queries.set(self.queries.get() + 1);
     }
     fn key(&self, p: Vector2<f64>) -> (i64, i64) {
         (
@@ -145,6 +156,7 @@ impl Occupancy {
     }
     /// First particle other than `except` that the corridor hits.
     pub fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {
+        self.count();
         let mut hit = None;
         self.for_each_near_corridor(c, clearance, |i| {
             if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
@@ -157,6 +169,7 @@ impl Occupancy {
     }
     /// Every particle other than `except` that the corridor hits.
     pub fn all_hits(&self, c: &Corridor, except: usize, clearance: f64) -> Vec<usize> {
+        self.count();
         let mut hits = Vec::new();
         self.for_each_near_corridor(c, clearance, |i| {
             if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
@@ -175,6 +188,7 @@ impl Occupancy {
         except: Option<usize>,
         clearance: f64,
     ) -> bool {
+        self.count();
         let mut free = true;
         self.for_each_near(p, r + self.max_radius_m + clearance, |i| {
             if Some(i) != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {

@@ -475,6 +475,13 @@ impl Scheduler<'_> {
         let total = self.moves.len();
         let mut repairs = 0usize;
         let max_repairs = 4 * total + 20;
+        // Collision tests of the particles (`Occupancy`'s queries, most of
+        // a long search's time) this order may spend.
+        let moves_and_particles = (total as u64).saturating_mul(self.layout.particles.len() as u64);
+        let max_queries = self
+            .config
+            .search_effort
+            .saturating_mul(moves_and_particles);
         loop {
             let tip = self.tip;
             let mut ready: Vec<(f64, usize)> = (0..total)
@@ -506,10 +513,20 @@ impl Scheduler<'_> {
             }
             repairs += 1;
             let stuck: Vec<usize> = blocked.iter().map(|&(k, _)| k).collect();
+            let remaining = || self.moves.iter().filter(|m| m.pending).count();
             if repairs > max_repairs {
-                let remaining = self.moves.iter().filter(|m| m.pending).count();
                 let reason = format!(
-                    "{remaining} of {total} moves still blocked after {max_repairs} buffer moves and detours; {}",
+                    "{} of {total} moves still blocked after {max_repairs} buffer moves and detours; {}",
+                    remaining(),
+                    self.blocked_reason(&blocked)
+                );
+                return Err(self.refusal(reason, &stuck));
+            }
+            if self.occ.queries() > max_queries {
+                let reason = format!(
+                    "{} of {total} moves still blocked after {} collision tests of buffer moves and detours; {}",
+                    remaining(),
+                    self.occ.queries(),
                     self.blocked_reason(&blocked)
                 );
                 return Err(self.refusal(reason, &stuck));
