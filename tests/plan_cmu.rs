@@ -157,7 +157,7 @@ fn an_order_out_of_search_effort_is_refused_with_its_reason() {
     match plan_assembly(&layout, &sites, &thrifty) {
         Err(PlanError::Blocked(reason)) => {
             assert!(
-                reason.contains("collision tests of buffer moves and detours"),
+                reason.contains("when the search effort ran out"),
                 "{reason}"
             )
         }

@@ -77,10 +77,10 @@ pub struct PlanConfig {
     /// Particles never assigned or pushed (the executor gave up on them); they
     /// stay in the layout as obstacles.
     pub immovable: Vec<u32>,
-    /// Collision tests one order may spend per move and particle on buffer
-    /// moves and detours before it is refused (default
-    /// [`DEFAULT_SEARCH_EFFORT`]): a crowded field is refused in seconds,
-    /// not minutes.
+    /// Work one order may spend per move and particle on buffer moves and
+    /// detours before it is refused (cells read and particles tested by its
+    /// collision queries; default [`DEFAULT_SEARCH_EFFORT`]): a crowded
+    /// field is refused in seconds, not minutes.
     pub search_effort: u64,
 }
 
@@ -104,12 +104,13 @@ impl Default for PlanConfig {
     }
 }
 
-/// Default [`PlanConfig::search_effort`]. The ordered CMU plans spent at
-/// most 76 collision tests per move and particle, orders of N = 1,000 0.1;
-/// an order of 27 moves among 120 polydisperse particles at 0.1 um gaps
-/// spent 13,000 (17 s) before it was refused anyway, and `nanopush plan`
-/// on that field tried 834 orders in 150 s (50 s with this cap).
-pub const DEFAULT_SEARCH_EFFORT: u64 = 500;
+/// Default [`PlanConfig::search_effort`], in cells read and particles
+/// tested by the order's collision queries. Orders that planned spent at
+/// most 645 per move and particle on CMU's 120 acceptance layouts, 690 over
+/// a sweep of other fields and texts, 1.6 at N = 1,000; orders refused
+/// anyway ran to 354,000 (tens of seconds each) on crowded fields of small
+/// or polydisperse particles (docs/plan.md, twenty-fifth pass).
+pub const DEFAULT_SEARCH_EFFORT: u64 = 5_000;
 
 /// Default gap between neighbouring sites: pitch = particle diameter + gap.
 /// 0.5 um keeps touching-looking letters while leaving room for the 0.1 um
@@ -280,8 +281,7 @@ impl PlanConfig {
         }
         if self.search_effort == 0 {
             return Err(PlanError::Config(
-                "search_effort is 0 (must be at least 1 collision test per move and particle)"
-                    .into(),
+                "search_effort is 0 (must be at least 1 test per move and particle)".into(),
             ));
         }
         let angle_deg = self.contact_angle_rad.to_degrees();

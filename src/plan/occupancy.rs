@@ -24,8 +24,8 @@ pub struct Occupancy {
     cells: Cells,
     /// Largest radius.
     pub max_radius_m: f64,
-    /// Queries answered so far (corridor and disc tests).
-    queries: std::cell::Cell<u64>,
+    /// Cells read and particles tested so far: the work of the queries.
+    work: std::cell::Cell<u64>,
 }
 
 impl Occupancy {
@@ -38,7 +38,7 @@ impl Occupancy {
             cell_m: (4.0 * max_radius_m).max(1e-9),
             cells: Cells::default(),
             max_radius_m,
-            queries: Default::default(),
+            work: Default::default(),
         };
         for i in 0..o.pos.len() {
             let k = o.key(o.pos[i]);
@@ -56,7 +56,7 @@ impl Occupancy {
             cell_m: cell_m.max(1e-9),
             cells: Cells::default(),
             max_radius_m: 0.0,
-            queries: Default::default(),
+            work: Default::default(),
         }
     }
     /// Adds a particle at `p` of radius `r`; its index.
@@ -69,12 +69,15 @@ impl Occupancy {
         self.cells.entry(k).or_default().push(i);
         i
     }
-    /// Corridor and disc tests answered so far: the work a search spent.
-    pub fn queries(&self) -> u64 {
-        self.queries.get()
+    /// Cells read and particles tested by the queries so far: what a
+    /// search spent, in units that take about the same time whatever the
+    /// particles' size (a long corridor among small particles reads many
+    /// cells).
+    pub fn work(&self) -> u64 {
+        self.work.get()
     }
-    fn count(&self) {
-        self.queries.set(self.queries.get() + 1);
+    fn count(&self, n: usize) {
+        self.work.set(self.work.get() + n as u64);
     }
     fn key(&self, p: Vector2<f64>) -> (i64, i64) {
         (
@@ -118,7 +121,9 @@ impl Occupancy {
         let (x1, y1) = self.key(c + Vector2::new(r, r));
         for x in x0..=x1 {
             for y in y0..=y1 {
+                self.count(1);
                 if let Some(v) = self.cells.get(&(x, y)) {
+                    self.count(v.len());
                     for &i in v {
                         if !f(i) {
                             return;
@@ -148,15 +153,16 @@ impl Occupancy {
             reach,
             anywhere,
             |x, y| {
-                self.cells
-                    .get(&(x, y))
-                    .is_none_or(|v| v.iter().all(|&i| f(i)))
+                self.count(1);
+                self.cells.get(&(x, y)).is_none_or(|v| {
+                    self.count(v.len());
+                    v.iter().all(|&i| f(i))
+                })
             },
         );
     }
     /// First particle other than `except` that the corridor hits.
     pub fn first_hit(&self, c: &Corridor, except: usize, clearance: f64) -> Option<usize> {
-        self.count();
         let mut hit = None;
         self.for_each_near_corridor(c, clearance, |i| {
             if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
@@ -169,7 +175,6 @@ impl Occupancy {
     }
     /// Every particle other than `except` that the corridor hits.
     pub fn all_hits(&self, c: &Corridor, except: usize, clearance: f64) -> Vec<usize> {
-        self.count();
         let mut hits = Vec::new();
         self.for_each_near_corridor(c, clearance, |i| {
             if i != except && c.hits(self.pos[i], self.radius[i], clearance) {
@@ -188,7 +193,6 @@ impl Occupancy {
         except: Option<usize>,
         clearance: f64,
     ) -> bool {
-        self.count();
         let mut free = true;
         self.for_each_near(p, r + self.max_radius_m + clearance, |i| {
             if Some(i) != except && (self.pos[i] - p).norm() < r + self.radius[i] + clearance {

@@ -475,10 +475,10 @@ impl Scheduler<'_> {
         let total = self.moves.len();
         let mut repairs = 0usize;
         let max_repairs = 4 * total + 20;
-        // Collision tests of the particles (`Occupancy`'s queries, most of
-        // a long search's time) this order may spend.
+        // Work of the collision queries (`Occupancy::work`, most of a long
+        // search's time) this order may spend.
         let moves_and_particles = (total as u64).saturating_mul(self.layout.particles.len() as u64);
-        let max_queries = self
+        let max_work = self
             .config
             .search_effort
             .saturating_mul(moves_and_particles);
@@ -522,11 +522,11 @@ impl Scheduler<'_> {
                 );
                 return Err(self.refusal(reason, &stuck));
             }
-            if self.occ.queries() > max_queries {
+            if self.occ.work() > max_work {
                 let reason = format!(
-                    "{} of {total} moves still blocked after {} collision tests of buffer moves and detours; {}",
+                    "{} of {total} moves still blocked when the search effort ran out ({} tests of buffer moves and detours); {}",
                     remaining(),
-                    self.occ.queries(),
+                    self.occ.work(),
                     self.blocked_reason(&blocked)
                 );
                 return Err(self.refusal(reason, &stuck));
