@@ -106,7 +106,7 @@ impl Default for PlanConfig {
 
 /// Default [`PlanConfig::search_effort`], in cells read and particles
 /// tested by the order's collision queries. Orders that planned spent at
-/// most 645 per move and particle on CMU's 120 acceptance layouts, 690 over
+/// most 645 per move and particle on CMU's 120 acceptance layouts, 723 over
 /// a sweep of other fields and texts, 1.6 at N = 1,000; orders refused
 /// anyway ran to 354,000 (tens of seconds each) on crowded fields of small
 /// or polydisperse particles (docs/plan.md, twenty-fifth pass).

@@ -513,20 +513,20 @@ impl Scheduler<'_> {
             }
             repairs += 1;
             let stuck: Vec<usize> = blocked.iter().map(|&(k, _)| k).collect();
-            let remaining = || self.moves.iter().filter(|m| m.pending).count();
-            if repairs > max_repairs {
+            let ran_out = if repairs > max_repairs {
+                Some(format!("after {max_repairs} buffer moves and detours"))
+            } else if self.occ.work() > max_work {
+                Some(format!(
+                    "when the search effort ran out ({} tests of buffer moves and detours)",
+                    self.occ.work()
+                ))
+            } else {
+                None
+            };
+            if let Some(when) = ran_out {
+                let remaining = self.moves.iter().filter(|m| m.pending).count();
                 let reason = format!(
-                    "{} of {total} moves still blocked after {max_repairs} buffer moves and detours; {}",
-                    remaining(),
-                    self.blocked_reason(&blocked)
-                );
-                return Err(self.refusal(reason, &stuck));
-            }
-            if self.occ.work() > max_work {
-                let reason = format!(
-                    "{} of {total} moves still blocked when the search effort ran out ({} tests of buffer moves and detours); {}",
-                    remaining(),
-                    self.occ.work(),
+                    "{remaining} of {total} moves still blocked {when}; {}",
                     self.blocked_reason(&blocked)
                 );
                 return Err(self.refusal(reason, &stuck));
