@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use crate::calib::affine::AffineCalibration;
-use crate::vision::analyse::{prepare_frame, report_camera_state};
+use crate::vision::analyse::{camera_notes, prepare_frame, report_camera_state};
 use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -139,16 +139,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut stage = Vec::new();
     let mut used = Vec::new();
     let mut sizes = Vec::new();
+    let recording = dir.display().to_string();
     for row in &rows {
         let path = dir.join(&row.frame);
         let frame = load_frame(&path, Channel::Luminance)
             .with_context(|| format!("loading {}", path.display()))?;
         sizes.push((frame.width(), frame.height()));
         let prepared = prepare_frame(&frame);
-        // A clipped or line-damaged calibration frame is named: its apex is
-        // the one the map is fitted to.
+        // A clipped or line-damaged camera is warned of once per recording;
+        // the table names the frames (their apexes are what the map is fitted to).
         report_camera_state(
-            &row.frame,
+            &recording,
             &prepared.repaired_lines,
             &prepared.exposure,
             frame.max_count(),
@@ -157,7 +158,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some(t) => {
                 pixels.push([t.x_px, t.y_px]);
                 stage.push([row.x_um * 1e-6, row.y_um * 1e-6]);
-                used.push(row.frame.clone());
+                let camera = camera_notes(&prepared.repaired_lines, prepared.exposure.clipped());
+                used.push((row.frame.clone(), camera));
             }
             None => eprintln!("{}: no tip found, frame skipped", row.frame),
         }
@@ -166,9 +168,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px)
         .context("fitting the calibration")?;
     println!("frame                          dx_px     dy_px  inlier");
-    for (name, r) in used.iter().zip(&fit.residuals_px) {
+    for ((name, camera), r) in used.iter().zip(&fit.residuals_px) {
         println!(
-            "{name:<28} {:9.3} {:9.3}  {}",
+            "{name:<28} {:9.3} {:9.3}  {}{camera}",
             r.0,
             r.1,
             if r.2 { "yes" } else { "NO" }

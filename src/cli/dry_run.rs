@@ -7,7 +7,7 @@ use crate::exec::animation::AnimationWriter;
 use crate::exec::dry_run::{DryRunReport, dry_run};
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
-use crate::vision::line_defects::LineDefect;
+use crate::vision::analyse::camera_notes;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 
@@ -81,17 +81,9 @@ fn print_frames(r: &DryRunReport) {
         let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
             format!("tip ({:.1}, {:.1}) um", t[0], t[1])
         });
-        let repaired: Vec<String> = f.repaired_lines.iter().map(LineDefect::place).collect();
-        let repaired = if repaired.is_empty() {
-            String::new()
-        } else {
-            format!("  (camera lines repaired: {})", repaired.join(", "))
-        };
-        let clipped = f
-            .clipped
-            .map_or(String::new(), |e| format!("  (camera clipped: {e})"));
+        let camera = camera_notes(&f.repaired_lines, f.clipped);
         println!(
-            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{repaired}{clipped}",
+            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
             f.frame,
             f.t_s,
             f.particles.len(),

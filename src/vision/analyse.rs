@@ -49,6 +49,21 @@ pub fn report_camera_state(
     exposure::report(source, exposure, full_count);
 }
 
+/// What a one-line account of a frame ends with about the camera:
+/// "  (camera lines repaired: column 280)  (camera clipped: 61.0 %
+/// saturated, 0.0 % at 0 counts)", each part only when it applies.
+pub fn camera_notes(repaired_lines: &[LineDefect], clipped: Option<Exposure>) -> String {
+    let mut notes = String::new();
+    if !repaired_lines.is_empty() {
+        let places: Vec<String> = repaired_lines.iter().map(LineDefect::place).collect();
+        notes += &format!("  (camera lines repaired: {})", places.join(", "));
+    }
+    if let Some(e) = clipped {
+        notes += &format!("  (camera clipped: {e})");
+    }
+    notes
+}
+
 /// Everything found in one frame, in pixels.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrameAnalysis {
