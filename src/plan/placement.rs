@@ -126,7 +126,18 @@ pub fn place_and_plan(
             }
         }
     }
-    let plan_at = |c: Vector2<f64>| plan_assembly(layout, &sites_at(pattern, c), config);
+    let plan_at = |c: Vector2<f64>| {
+        let start = std::time::Instant::now();
+        let plan = plan_assembly(layout, &sites_at(pattern, c), config);
+        tracing::debug!(
+            "placement: centre ({:.2}, {:.2}) um {} in {:.2} s",
+            c.x * 1e6,
+            c.y * 1e6,
+            if plan.is_ok() { "plans" } else { "refused" },
+            start.elapsed().as_secs_f64()
+        );
+        plan
+    };
     let mut planned = plan_centres(&candidates, &plan_at, |_| false, |_| {});
     // Only a blocked order may plan elsewhere (not too few particles, say).
     let only_blocked = planned
