@@ -344,6 +344,20 @@ fn plan_without_at_places_where_the_plan_pushes_least() {
 }
 
 /// Particles (um) of a layout file.
+/// How far the particle of layout `truth` found furthest from where it
+/// lies is from the nearest particle of layout `found`, um.
+fn worst_miss_um(truth: &Path, found: &Path) -> f64 {
+    let seen = centres_um(found);
+    centres_um(truth)
+        .into_iter()
+        .map(|(x, y)| {
+            seen.iter()
+                .map(|(u, v)| (u - x).hypot(v - y))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .fold(0.0, f64::max)
+}
+
 fn centres_um(path: &Path) -> Vec<(f64, f64)> {
     let layout = nanopush::plan::Layout::read(path).unwrap();
     layout
@@ -408,18 +422,9 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
     // Seed 5 has a particle 5.3 um from the left edge: its ring is cut.
     assert_eq!(summary["particles_cut_by_edge"], 1, "{text}");
     assert_eq!(summary["particles_found"], 24, "{text}");
-    let seen = centres_um(Path::new(&found));
-    assert_eq!(seen.len(), 25);
-    for (x, y) in centres_um(Path::new(&truth)) {
-        let off = seen
-            .iter()
-            .map(|(u, v)| (u - x).hypot(v - y))
-            .fold(f64::INFINITY, f64::min);
-        assert!(
-            off < 0.1,
-            "particle at ({x:.2}, {y:.2}) um found {off:.3} um off"
-        );
-    }
+    assert_eq!(centres_um(Path::new(&found)).len(), 25);
+    let miss = worst_miss_um(Path::new(&truth), Path::new(&found));
+    assert!(miss < 0.1, "a particle found {miss:.3} um off");
     let (ok, text) = nanopush(&["verify-plan", &plan, "--layout", &found]);
     assert!(ok, "{text}");
     let plan_json: serde_json::Value =
@@ -466,6 +471,91 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
         (start.0 - 30.0).hypot(start.1 - 70.0) < 1.0,
         "tour starts at {start:?}"
     );
+}
+
+/// A colour frame whose green channel shows one layout and whose red and
+/// blue show another: `--channel` says which is planned on, and every
+/// particle of that one is found where it lies (luminance would mix both).
+#[test]
+fn plan_from_a_colour_frame_plans_on_the_channel_asked_for() {
+    use nanopush::vision::frame_input::{Channel, load_frame};
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let calib = at("calib.toml");
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n",
+    )
+    .unwrap();
+    // Two layouts, each drawn at 0.5 um a pixel as a grey frame.
+    let grey = |seed: &str| {
+        let (layout, frame) = (at(&format!("l{seed}.json")), at(&format!("f{seed}.png")));
+        let layout_args = [
+            "synth",
+            "layout",
+            "--n",
+            "20",
+            "--field-um",
+            "120x100",
+            "--seed",
+            seed,
+            "--out",
+            &layout,
+        ];
+        let frame_args = [
+            "synth",
+            "frame",
+            "--layout",
+            &layout,
+            "--um-per-px",
+            "0.5",
+            "--out",
+            &frame,
+        ];
+        for args in [layout_args.as_slice(), frame_args.as_slice()] {
+            let (ok, text) = nanopush(args);
+            assert!(ok, "{text}");
+        }
+        (
+            layout,
+            load_frame(Path::new(&frame), Channel::Luminance).unwrap(),
+        )
+    };
+    let (green_layout, green) = grey("5");
+    let (red_layout, red) = grey("8");
+    let colour =
+        image::ImageBuffer::from_fn(green.width() as u32, green.height() as u32, |x, y| {
+            let count = |f: &nanopush::vision::frame::Frame| f.at(x as usize, y as usize) as u16;
+            image::Rgb([count(&red), count(&green), count(&red)])
+        });
+    let frame = at("colour.png");
+    colour.save(&frame).unwrap();
+    for (channel, truth) in [("green", &green_layout), ("red", &red_layout)] {
+        let found = at(&format!("found-{channel}.json"));
+        let args = [
+            "plan",
+            "--text",
+            "I",
+            "--frame",
+            &frame,
+            "--calib",
+            &calib,
+            "--channel",
+            channel,
+            "--save-layout",
+            &found,
+        ];
+        let (ok, text) = nanopush(&args);
+        assert!(ok, "{channel}: {text}");
+        let (found, truth) = (Path::new(&found), Path::new(truth));
+        assert_eq!(
+            centres_um(found).len(),
+            centres_um(truth).len(),
+            "{channel}"
+        );
+        let miss = worst_miss_um(truth, found);
+        assert!(miss < 0.1, "{channel}: a particle found {miss:.3} um off");
+    }
 }
 
 /// `nanopush plan --frame` on a real bright-field frame (trackpy-examples,

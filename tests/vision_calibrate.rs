@@ -86,6 +86,52 @@ fn an_over_exposed_recording_is_warned_of_once_named_per_frame_and_still_calibra
     assert!(err_px < 0.5, "{err_px}");
 }
 
+/// A colour recording whose green channel shows the probe on the grid and
+/// whose red and blue show it turned a quarter turn about the frame's
+/// centre: `--channel` says which the map is fitted to (each channel's map
+/// is a different one, so luminance cannot pass for both).
+#[test]
+fn calibrate_fits_the_channel_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = truth();
+    let settings = RenderSettings::with_snr(20.0, 16);
+    let quarter_turn = |(x, y): (f64, f64)| (256.0 - y, x);
+    write_stage_csv(dir.path(), &truth, |k, name, apex| {
+        let green = render_frame(&tip_scene(apex.0, apex.1, 0.7), &settings, k as u64).unwrap();
+        let (x, y) = quarter_turn(apex);
+        let turned = tip_scene(x, y, 0.7 + std::f64::consts::FRAC_PI_2);
+        let red = render_frame(&turned, &settings, 100 + k as u64).unwrap();
+        let colour = image::ImageBuffer::from_fn(256, 256, |x, y| {
+            let count = |f: &nanopush::vision::frame::Frame| f.at(x as usize, y as usize) as u16;
+            image::Rgb([count(&red), count(&green), count(&red)])
+        });
+        colour.save(dir.path().join(name)).unwrap();
+    });
+    // The red map takes a turned apex to where the grid's stage was.
+    let expected = |channel: &str, x: f64, y: f64| match channel {
+        "green" => truth.pixel_to_stage_m(x, y),
+        _ => truth.pixel_to_stage_m(y, 256.0 - x),
+    };
+    for channel in ["green", "red"] {
+        let out = calibrate(dir.path(), &["--channel", channel, "--force"]);
+        assert!(
+            out.status.success(),
+            "{channel}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let fitted = AffineCalibration::load(&dir.path().join("calibration.toml")).unwrap();
+        // Off the centre, where the two maps part by about 100 px.
+        for (x, y) in [(128.0, 128.0), (60.0, 200.0)] {
+            let (s, t) = (fitted.pixel_to_stage_m(x, y), expected(channel, x, y));
+            let err_px = (s[0] - t[0]).hypot(s[1] - t[1]) / truth.m_per_px();
+            assert!(
+                err_px < 0.3,
+                "{channel}: map off by {err_px:.2} px at ({x}, {y})"
+            );
+        }
+    }
+}
+
 #[test]
 fn calibrate_and_detect_fail_cleanly_on_bad_input() {
     let dir = tempfile::tempdir().unwrap();
@@ -134,23 +180,42 @@ fn truth() -> AffineCalibration {
 fn write_recording(dir: &std::path::Path, truth: &AffineCalibration, gain: f64) {
     let mut settings = RenderSettings::with_snr(20.0, 16);
     settings.camera.gain_counts_per_e *= gain;
+    write_stage_csv(dir, truth, |k, name, (px, py)| {
+        let frame = render_frame(&tip_scene(px, py, 0.7), &settings, k as u64).unwrap();
+        save_png(&frame, &dir.join(name)).unwrap();
+    });
+}
+
+/// The 3 x 3 grid's tip positions, px.
+fn tip_grid() -> impl Iterator<Item = (f64, f64)> {
+    (0..9).map(|k| (90.0 + 40.0 * (k / 3) as f64, 80.0 + 45.0 * (k % 3) as f64))
+}
+
+/// A 256 x 256 frame's scene: the probe alone, its apex at (x, y) px.
+fn tip_scene(x: f64, y: f64, angle_rad: f64) -> SceneView {
+    SceneView {
+        width_px: 256,
+        height_px: 256,
+        particles: vec![],
+        tip: Some(TipView {
+            apex_x_px: x,
+            apex_y_px: y,
+            angle_rad,
+        }),
+    }
+}
+
+/// stage.csv of the grid under `truth` (frame 4 logged 20 px off), after
+/// `write_frame(k, name, apex)` wrote each frame.
+fn write_stage_csv(
+    dir: &std::path::Path,
+    truth: &AffineCalibration,
+    mut write_frame: impl FnMut(usize, &str, (f64, f64)),
+) {
     let mut csv = String::from("frame,x_um,y_um\n");
-    for k in 0..9 {
-        let (i, j) = (k / 3, k % 3);
-        let (px, py) = (90.0 + 40.0 * i as f64, 80.0 + 45.0 * j as f64);
-        let scene = SceneView {
-            width_px: 256,
-            height_px: 256,
-            particles: vec![],
-            tip: Some(TipView {
-                apex_x_px: px,
-                apex_y_px: py,
-                angle_rad: 0.7,
-            }),
-        };
-        let frame = render_frame(&scene, &settings, k as u64).unwrap();
+    for (k, (px, py)) in tip_grid().enumerate() {
         let name = format!("f{k:02}.png");
-        save_png(&frame, &dir.join(&name)).unwrap();
+        write_frame(k, &name, (px, py));
         let mut s = truth.pixel_to_stage_m(px, py);
         if k == 4 {
             s[0] += 5e-6;

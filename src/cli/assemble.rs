@@ -160,6 +160,7 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
                 field_um: Some([layout.field_m[0] * 1e6, layout.field_m[1] * 1e6]),
                 scene: None,
                 detect_tip: true,
+                channel: Default::default(),
             },
             rig.calibration(),
             std::fs::read_to_string(&args.scene).ok().as_deref(),

@@ -28,6 +28,9 @@ pub struct Args {
     /// Replace an existing output file (never one of the recording's inputs).
     #[arg(long)]
     pub force: bool,
+    /// Colour frames: luminance, red, green or blue.
+    #[arg(long, default_value = "luminance")]
+    pub channel: Channel,
     /// RANSAC inlier threshold, pixels.
     #[arg(long, default_value_t = 2.0)]
     pub threshold_px: f64,
@@ -142,7 +145,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let recording = dir.display().to_string();
     for row in &rows {
         let path = dir.join(&row.frame);
-        let frame = load_frame(&path, Channel::Luminance)
+        let frame = load_frame(&path, args.channel)
             .with_context(|| format!("loading {}", path.display()))?;
         sizes.push((frame.width(), frame.height()));
         let prepared = prepare_frame(&frame);

@@ -42,6 +42,9 @@ pub struct Args {
     /// radius of every particle found.
     #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
     pub radius_um: f64,
+    /// With --frame, a colour frame: luminance, red, green or blue.
+    #[arg(long, default_value = "luminance", requires = "frame")]
+    pub channel: Channel,
     /// With --frame: write the particles found as a layout file (what
     /// `verify-plan --layout` replays the plan on).
     #[arg(long, requires = "frame")]
@@ -107,7 +110,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
     let calibration = AffineCalibration::load(calib)?;
-    let frame = load_frame(frame_path, Channel::Luminance)?;
+    let frame = load_frame(frame_path, args.channel)?;
     let found = layout_from_frame(frame.clone(), &calibration, args.radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
     if let Some(path) = &args.save_layout {

@@ -70,6 +70,14 @@ pub struct RecordingSpec {
     /// Look for the probe tip (default true; false for frames without a probe).
     #[serde(default = "yes")]
     pub detect_tip: bool,
+    /// Which part of colour frames is looked at (default luminance; a
+    /// recording this program writes holds grey frames).
+    #[serde(default, skip_serializing_if = "is_luminance")]
+    pub channel: Channel,
+}
+
+fn is_luminance(channel: &Channel) -> bool {
+    *channel == Channel::Luminance
 }
 
 fn yes() -> bool {
@@ -218,11 +226,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     if !frames_path.exists() {
         return Err(RecordingError::Missing { path: frames_path });
     }
-    let frames =
-        load_frames(&frames_path, Channel::Luminance).map_err(|e| RecordingError::Format {
-            path: frames_path.clone(),
-            message: e.to_string(),
-        })?;
+    let frames = load_frames(&frames_path, spec.channel).map_err(|e| RecordingError::Format {
+        path: frames_path.clone(),
+        message: e.to_string(),
+    })?;
     check_frame_sizes(&frames, &frames_path).map_err(|message| RecordingError::Mismatch {
         path: frames_path.clone(),
         message,
@@ -335,6 +342,8 @@ impl RecordingWriter {
         spec.frames = "frames".to_owned();
         spec.calibration = "calibration.toml".to_owned();
         spec.stage_log = Some("stage.jsonl".to_owned());
+        // The frames it writes are the grey ones the loop analysed.
+        spec.channel = Channel::Luminance;
         let cal = dir.join("calibration.toml");
         std::fs::write(&cal, calibration.to_toml(None)).map_err(io(cal.clone()))?;
         if let Some(text) = scene_toml {
@@ -434,6 +443,7 @@ mod tests {
             field_um: Some([100.0, 80.0]),
             scene: None,
             detect_tip: true,
+            channel: Channel::Luminance,
         }
     }
 
@@ -476,6 +486,50 @@ mod tests {
             RecordingWriter::create(&rec_dir, spec(), &cal, None),
             Err(RecordingError::Mismatch { .. })
         ));
+    }
+
+    /// Frames from a colour camera are read in the channel the description
+    /// names; what this program writes is grey and says nothing of it.
+    #[test]
+    fn a_colour_recording_is_read_in_its_channel() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec_dir = dir.path().join("rec");
+        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
+        let asked = RecordingSpec {
+            channel: Channel::Red,
+            ..spec()
+        };
+        let mut w = RecordingWriter::create(&rec_dir, asked, &cal, None).unwrap();
+        let entry = StageLogEntry {
+            frame: 0,
+            t_s: 0.0,
+            coarse_offset_um: [0.0, 0.0],
+            stage_um: None,
+        };
+        w.add(&frame(1.0), entry).unwrap();
+        w.finish().unwrap();
+        let toml_path = rec_dir.join(RECORDING_FILE);
+        let written = std::fs::read_to_string(&toml_path).unwrap();
+        assert!(!written.contains("channel"), "{written}");
+        assert_eq!(
+            open_recording(&rec_dir).unwrap().spec.channel,
+            Channel::Luminance
+        );
+        // The frame replaced by a colour one, and the channel named.
+        let colour = image::RgbImage::from_pixel(16, 12, image::Rgb([10, 200, 30]));
+        colour.save(rec_dir.join("frames/frame_00000.png")).unwrap();
+        for (name, channel, count) in [("green", Channel::Green, 200.0), ("b", Channel::Blue, 30.0)]
+        {
+            std::fs::write(&toml_path, format!("{written}channel = \"{name}\"\n")).unwrap();
+            let r = open_recording(&rec_dir).unwrap();
+            assert_eq!(r.spec.channel, channel);
+            assert_eq!(r.frames[0].at(5, 5), count);
+            let again: RecordingSpec = toml::from_str(&toml::to_string(&r.spec).unwrap()).unwrap();
+            assert_eq!(again, r.spec);
+        }
+        std::fs::write(&toml_path, format!("{written}channel = \"infrared\"\n")).unwrap();
+        let e = open_recording(&rec_dir).unwrap_err().to_string();
+        assert!(e.contains("use luminance, red, green or blue"), "{e}");
     }
 
     #[test]

@@ -77,12 +77,14 @@ impl FolderCameraSettings {
                 skip_existing,
                 stable_ms,
                 timeout_ms,
+                channel,
             } => Some(Self {
                 order: *order,
                 pick: *pick,
                 skip_existing: *skip_existing,
                 stable_for: ms(*stable_ms),
                 timeout: ms(*timeout_ms),
+                channel: *channel,
                 ..Self::new(path)
             }),
             _ => None,

@@ -18,7 +18,8 @@ pub fn open_camera(source: &CameraSource, clock: WallClock) -> Result<BoxedCamer
         return Ok(Box::new(FolderCamera::open(settings, clock)?));
     }
     if let Some(input) = VideoInput::from_source(source) {
-        return Ok(Box::new(VideoCamera::open(input, clock)?));
+        let camera = VideoCamera::open(input, clock)?.with_channel(source.channel());
+        return Ok(Box::new(camera));
     }
     match source {
         CameraSource::Aravis { device, timeout_ms } => open_aravis(device, *timeout_ms, clock),

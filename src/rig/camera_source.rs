@@ -5,6 +5,8 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use crate::vision::frame_input::Channel;
+
 /// Where camera frames come from (`[camera] kind = "..."` in a rig file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
@@ -28,21 +30,33 @@ pub enum CameraSource {
         /// Longest wait for the next frame before `grab` returns "no frame".
         #[serde(default = "default_frame_timeout_ms")]
         timeout_ms: u64,
+        /// Which part of colour frames is looked at.
+        #[serde(default)]
+        channel: Channel,
     },
     /// A video file read through OpenCV VideoCapture (one frame per grab).
     Video {
         /// The file (relative to the rig file).
         path: PathBuf,
+        /// Which part of colour frames is looked at.
+        #[serde(default)]
+        channel: Channel,
     },
     /// A video device (V4L2 `/dev/videoN`, ...) through OpenCV VideoCapture.
     Device {
         /// Device index (`0` for `/dev/video0`).
         index: i32,
+        /// Which part of colour frames is looked at.
+        #[serde(default)]
+        channel: Channel,
     },
     /// A GStreamer pipeline through OpenCV VideoCapture (ends in `appsink`).
     Gstreamer {
         /// The pipeline string.
         pipeline: String,
+        /// Which part of colour frames is looked at.
+        #[serde(default)]
+        channel: Channel,
     },
     /// A GenICam camera (GigE Vision / USB3 Vision) through Aravis; needs the
     /// `aravis` cargo feature.
@@ -95,7 +109,7 @@ impl CameraSource {
     /// Resolves relative file paths against `base` (the rig file's folder).
     pub fn resolve_paths(&mut self, base: &Path) {
         match self {
-            Self::Folder { path, .. } | Self::Video { path } => *path = base.join(&*path),
+            Self::Folder { path, .. } | Self::Video { path, .. } => *path = base.join(&*path),
             _ => {}
         }
     }
@@ -111,13 +125,26 @@ impl CameraSource {
                 "camera.timeout_ms ({timeout_ms}) must be positive and at least camera.stable_ms ({stable_ms})"
             )),
             Self::Aravis { timeout_ms: 0, .. } => Err("camera.timeout_ms must be positive".into()),
-            Self::Device { index } if *index < 0 => {
+            Self::Device { index, .. } if *index < 0 => {
                 Err(format!("camera.index must be >= 0, got {index}"))
             }
-            Self::Gstreamer { pipeline } if pipeline.trim().is_empty() => {
+            Self::Gstreamer { pipeline, .. } if pipeline.trim().is_empty() => {
                 Err("camera.pipeline is empty".into())
             }
             _ => Ok(()),
+        }
+    }
+
+    /// Which part of colour frames the camera gives (luminance for the
+    /// kinds that give grey frames only: Aravis's mono formats, the
+    /// simulated microscope).
+    pub fn channel(&self) -> Channel {
+        match self {
+            Self::Folder { channel, .. }
+            | Self::Video { channel, .. }
+            | Self::Device { channel, .. }
+            | Self::Gstreamer { channel, .. } => *channel,
+            Self::Aravis { .. } | Self::Simulated => Channel::Luminance,
         }
     }
 
@@ -157,13 +184,19 @@ mod tests {
                 skip_existing: false,
                 stable_ms: 80,
                 timeout_ms: 2000,
+                channel: Channel::Green,
             },
             CameraSource::Video {
                 path: "run.avi".into(),
+                channel: Channel::Red,
             },
-            CameraSource::Device { index: 2 },
+            CameraSource::Device {
+                index: 2,
+                channel: Channel::Blue,
+            },
             CameraSource::Gstreamer {
                 pipeline: "videotestsrc ! videoconvert ! appsink".into(),
+                channel: Channel::Luminance,
             },
             CameraSource::Aravis {
                 device: "Aravis-Fake-GV01".into(),
@@ -202,6 +235,7 @@ mod tests {
                 skip_existing: true,
                 stable_ms: 50,
                 timeout_ms: 5000,
+                channel: Channel::Luminance,
             }
         );
         let bad: Section = toml::from_str(
@@ -218,18 +252,31 @@ mod tests {
                 .is_err(),
             "unknown fields are refused"
         );
+        // Aravis reads monochrome formats only: a channel there is a mistake.
+        assert!(
+            toml::from_str::<Section>("[camera]\nkind = \"aravis\"\nchannel = \"green\"\n")
+                .is_err()
+        );
+        let err = toml::from_str::<Section>(
+            "[camera]\nkind = \"device\"\nindex = 0\nchannel = \"purple\"\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("use luminance, red, green or blue"), "{err}");
     }
 
     #[test]
     fn relative_paths_resolve_against_the_rig_folder() {
         let mut cam = CameraSource::Video {
             path: "run.avi".into(),
+            channel: Channel::Green,
         };
         cam.resolve_paths(Path::new("/lab/calib"));
         assert_eq!(
             cam,
             CameraSource::Video {
-                path: "/lab/calib/run.avi".into()
+                path: "/lab/calib/run.avi".into(),
+                channel: Channel::Green,
             }
         );
     }

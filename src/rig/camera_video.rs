@@ -28,9 +28,9 @@ impl VideoInput {
     /// The input a rig file's `video`, `device` or `gstreamer` section names.
     pub fn from_source(source: &CameraSource) -> Option<Self> {
         match source {
-            CameraSource::Video { path } => Some(Self::File(path.clone())),
-            CameraSource::Device { index } => Some(Self::Device(*index)),
-            CameraSource::Gstreamer { pipeline } => Some(Self::Gstreamer(pipeline.clone())),
+            CameraSource::Video { path, .. } => Some(Self::File(path.clone())),
+            CameraSource::Device { index, .. } => Some(Self::Device(*index)),
+            CameraSource::Gstreamer { pipeline, .. } => Some(Self::Gstreamer(pipeline.clone())),
             _ => None,
         }
     }

@@ -21,8 +21,11 @@ use super::frame::{Frame, FrameError};
 use super::tiff_fallback;
 use super::wide_samples::frame_from_wide;
 
-/// Which part of a colour frame becomes the grey frame.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// Which part of a colour frame becomes the grey frame (in files, by its
+/// name: `"luminance"`, `"red"`, `"green"`, `"blue"`, or the short names
+/// the command line takes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "String", into = "String")]
 pub enum Channel {
     /// Rec. 601 luminance (0.299 R + 0.587 G + 0.114 B).
     #[default]
@@ -47,6 +50,30 @@ impl std::str::FromStr for Channel {
                 "unknown channel {other:?}; use luminance, red, green or blue"
             )),
         }
+    }
+}
+
+impl TryFrom<String> for Channel {
+    type Error = String;
+    fn try_from(name: String) -> Result<Self, Self::Error> {
+        name.parse()
+    }
+}
+
+impl From<Channel> for String {
+    fn from(channel: Channel) -> Self {
+        channel.to_string()
+    }
+}
+
+impl std::fmt::Display for Channel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Luminance => "luminance",
+            Self::Red => "red",
+            Self::Green => "green",
+            Self::Blue => "blue",
+        })
     }
 }
 
@@ -493,6 +520,33 @@ mod tests {
         assert!((lum - (0.299 * 10.0 + 0.587 * 200.0 + 0.114 * 30.0)).abs() < 1e-3);
         assert_eq!("green".parse::<Channel>(), Ok(Channel::Green));
         assert!("purple".parse::<Channel>().is_err());
+    }
+
+    /// In a file a channel is its name; it reads back, takes the command
+    /// line's short names, and an unknown one says which there are.
+    #[test]
+    fn a_channel_in_a_file_is_its_name_and_reads_back() {
+        #[derive(serde::Serialize, serde::Deserialize)]
+        struct Section {
+            channel: Channel,
+        }
+        for channel in [
+            Channel::Luminance,
+            Channel::Red,
+            Channel::Green,
+            Channel::Blue,
+        ] {
+            let text = toml::to_string(&Section { channel }).unwrap();
+            assert_eq!(text.trim(), format!("channel = \"{channel}\""));
+            assert_eq!(toml::from_str::<Section>(&text).unwrap().channel, channel);
+        }
+        let short: Section = toml::from_str("channel = \"G\"").unwrap();
+        assert_eq!(short.channel, Channel::Green);
+        let err = toml::from_str::<Section>("channel = \"purple\"")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(err.contains("use luminance, red, green or blue"), "{err}");
     }
 
     use opencv::prelude::MatTrait;
