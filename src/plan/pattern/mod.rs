@@ -86,11 +86,16 @@ pub enum PatternError {
     },
     /// The pattern does not fit the reachable area.
     #[error(
-        "pattern of {} x {} um does not fit the reachable area of {} x {} um",
+        "pattern of {} x {} um does not fit the reachable area of {} x {} um{}",
         um_text(*.w_um, 1),
         um_text(*.h_um, 1),
         um_text(*.aw_um, 1),
-        um_text(*.ah_um, 1)
+        um_text(*.ah_um, 1),
+        if *.h_um <= *.aw_um && *.w_um <= *.ah_um {
+            "; turned a quarter turn it would (rotation 90 deg)"
+        } else {
+            ""
+        }
     )]
     DoesNotFit {
         /// Pattern width including particle radius.
@@ -215,5 +220,27 @@ mod tests {
             err.to_string(),
             "pattern of 2.000e300 x 115.2 um does not fit the reachable area of 120.0 x 100.0 um"
         );
+    }
+
+    /// A tall pattern in a wide field is told that turning it would fit.
+    #[test]
+    fn a_pattern_that_fits_turned_says_so() {
+        let tall = PatternError::DoesNotFit {
+            w_um: 52.0,
+            h_um: 115.0,
+            aw_um: 120.0,
+            ah_um: 100.0,
+        };
+        assert!(
+            tall.to_string()
+                .ends_with("; turned a quarter turn it would (rotation 90 deg)")
+        );
+        let long = PatternError::DoesNotFit {
+            w_um: 451.0,
+            h_um: 52.0,
+            aw_um: 120.0,
+            ah_um: 100.0,
+        };
+        assert!(long.to_string().ends_with("100.0 um"), "{long}");
     }
 }
