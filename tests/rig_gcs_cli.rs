@@ -221,3 +221,121 @@ fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
         assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
     }
 }
+
+/// `rig probe --camera` grabs a frame from the rig file's camera folder and
+/// says what the loop sees in it: every particle of the layout drawn there,
+/// the probe's apex where it was drawn and where the calibration maps it;
+/// a folder nothing is written into is an error saying what to check.
+#[test]
+fn probe_camera_says_what_the_loop_sees_in_a_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let run = |args: &[&str]| nanopush().args(args).output().unwrap();
+    let layout = at("layout.json");
+    let synth = [
+        "synth",
+        "layout",
+        "--n",
+        "12",
+        "--field-um",
+        "100x100",
+        "--seed",
+        "3",
+        "--out",
+    ];
+    assert!(run(&[&synth[..], &[&layout]].concat()).status.success());
+    // Folders of one frame each: the layout alone, the layout and the probe
+    // (apex at (100, 80) px, its body up to the frame's edge), nothing.
+    let probe = [
+        "--tip-x-px",
+        "100",
+        "--tip-y-px",
+        "80",
+        "--tip-angle-deg",
+        "270",
+    ];
+    for (folder, probe) in [("plain", &[][..]), ("tipped", &probe[..])] {
+        std::fs::create_dir(at(folder)).unwrap();
+        let frame = format!("{}/f0001.png", at(folder));
+        // (A temporary folder's path has no spaces.)
+        let draw = format!("synth frame --layout {layout} --um-per-px 0.5 --out {frame}");
+        let draw: Vec<&str> = draw.split(' ').collect();
+        assert!(
+            run(&[&draw[..], probe].concat()).status.success(),
+            "{folder}"
+        );
+    }
+    std::fs::create_dir(at("empty")).unwrap();
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
+    let probe_camera = |folder: &str| {
+        let text = std::fs::read_to_string("calib/rig-gcs-sim-folder.toml")
+            .unwrap()
+            .replace(
+                "\"camera-stage-sim-folder.toml\"",
+                &format!("{:?}", calibration.display().to_string()),
+            )
+            .replace(
+                "\"../out/rig-gcs-sim-folder/frames\"",
+                &format!("{:?}", at(folder)),
+            )
+            .replace("skip_existing = true", "skip_existing = false")
+            .replace("timeout_ms = 5000", "timeout_ms = 300");
+        let rig = at(&format!("{folder}.toml"));
+        std::fs::write(&rig, text).unwrap();
+        let scene = "calib/paper-ps-ito.toml";
+        let out = run(&[
+            "rig",
+            "probe",
+            "--dry-run",
+            "--camera",
+            "--scene",
+            scene,
+            "--rig",
+            &rig,
+        ]);
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        (
+            out.status.success(),
+            text,
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let line = |text: &str, head: &str| {
+        text.lines()
+            .find_map(|l| l.strip_prefix(head))
+            .unwrap_or_else(|| panic!("no {head:?} line in:\n{text}"))
+            .trim()
+            .to_string()
+    };
+    let numbers = |s: &str| -> Vec<f64> {
+        s.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+            .filter_map(|w| w.parse().ok())
+            .collect()
+    };
+
+    let (ok, text, err) = probe_camera("plain");
+    assert!(ok, "{text}{err}");
+    assert!(line(&text, "source:").starts_with("folder "), "{text}");
+    assert_eq!(line(&text, "frame:"), "200 x 200 px, 16-bit", "{text}");
+    let particles = numbers(&line(&text, "particles:"));
+    assert_eq!(particles[0] + particles[1], 12.0, "{text}");
+    assert_eq!(line(&text, "tip:"), "not seen", "{text}");
+
+    let (ok, text, err) = probe_camera("tipped");
+    assert!(ok, "{text}{err}");
+    // apex at (x, y) px = (u, v) um: the calibration maps pixel p to 0.5 p - 10 um.
+    let apex = numbers(&line(&text, "tip:"));
+    assert!(
+        (apex[0] - 100.0).abs() < 0.5 && (apex[1] - 80.0).abs() < 0.5,
+        "{text}"
+    );
+    assert!((apex[2] - (0.5 * apex[0] - 10.0)).abs() < 0.01, "{text}");
+    assert!((apex[3] - (0.5 * apex[1] - 10.0)).abs() < 0.01, "{text}");
+
+    let (ok, text, err) = probe_camera("empty");
+    assert!(!ok, "{text}");
+    assert!(
+        err.contains("no frame from the camera") && err.contains("none was written"),
+        "{err}"
+    );
+}

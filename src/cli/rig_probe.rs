@@ -3,8 +3,15 @@
 //! targets, servo and on-target state, velocities and the pending error.
 //! It sends queries only (and `ERR?`, which clears the error it reports).
 //! A rig file with a `[coarse]` section gets the same look at the coarse
-//! stage's controller.
+//! stage's controller. With `--camera` it also grabs one frame from the
+//! rig file's camera and says what the loop sees in it.
 
+use crate::calib::affine::AffineCalibration;
+use crate::exec::camera_look::look;
+use crate::exec::observe::ObserveError;
+use crate::model::Scene;
+use crate::rig::camera_clock::WallClock;
+use crate::rig::camera_open::open_camera;
 use crate::rig::gcs::{self, GcsController, RigFile};
 use anyhow::Context;
 use std::path::PathBuf;
@@ -18,6 +25,14 @@ pub struct Args {
     /// Do not open the link: log the bytes that would be sent, answer from a simulator.
     #[arg(long)]
     pub dry_run: bool,
+    /// Also grab one frame from the rig file's camera and say what the
+    /// loop sees in it (particles, the tip, exposure, repaired lines).
+    #[arg(long)]
+    pub camera: bool,
+    /// With --camera: the scene whose particle radius sizes the detection
+    /// (as `assemble --rig --scene` does).
+    #[arg(long, default_value = "calib/paper-ps-ito.toml", requires = "camera")]
+    pub scene: PathBuf,
 }
 
 /// Connects, queries and prints; never moves anything.
@@ -32,6 +47,43 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!();
         show("coarse stage", ctrl, log)?;
     }
+    if args.camera {
+        println!();
+        show_camera(&rig, &args)?;
+    }
+    Ok(())
+}
+
+/// One frame of the rig's camera, as the loop sees it.
+fn show_camera(rig: &RigFile, args: &Args) -> anyhow::Result<()> {
+    let scene =
+        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    let calibration = AffineCalibration::load(&rig.calibration).with_context(|| {
+        format!(
+            "calibration {} named by the rig file",
+            rig.calibration.display()
+        )
+    })?;
+    let source = &rig.camera;
+    let mut camera = open_camera(source, WallClock::start())
+        .with_context(|| format!("opening the camera ({})", source.describe()))?;
+    let seen = look(
+        source,
+        camera.as_mut(),
+        &calibration,
+        scene.particle_radius_m,
+    )
+    .map_err(|e| match e {
+        ObserveError::NoFrame(grabs) => anyhow::anyhow!(
+            "no frame from the camera ({}) in {grabs} tries of its timeout: {}",
+            source.describe(),
+            source.when_no_frame()
+        ),
+        other => anyhow::Error::new(other)
+            .context(format!("a frame from the camera ({})", source.describe())),
+    })?;
+    println!("camera:");
+    print!("{seen}");
     Ok(())
 }
 

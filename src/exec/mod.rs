@@ -3,6 +3,7 @@
 pub mod animation;
 pub mod artifacts;
 pub mod assemble;
+pub mod camera_look;
 pub mod dry_run;
 pub mod events;
 pub mod frame_layout;

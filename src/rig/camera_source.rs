@@ -148,6 +148,38 @@ impl CameraSource {
         }
     }
 
+    /// Where frames come from, for a person: "folder /lab/frames, channel green".
+    pub fn describe(&self) -> String {
+        let place = match self {
+            Self::Folder { path, .. } => format!("folder {}", path.display()),
+            Self::Video { path, .. } => format!("video {}", path.display()),
+            Self::Device { index, .. } => format!("device /dev/video{index}"),
+            Self::Gstreamer { pipeline, .. } => format!("gstreamer pipeline {pipeline:?}"),
+            Self::Aravis { device, .. } if device.is_empty() => {
+                return "aravis, the first camera".into();
+            }
+            Self::Aravis { device, .. } => return format!("aravis {device}"),
+            Self::Simulated => return "the simulated microscope".into(),
+        };
+        format!("{place}, channel {}", self.channel())
+    }
+
+    /// What to check when no frame comes (the folder's writer, or the
+    /// device), for an error message.
+    pub fn when_no_frame(&self) -> &'static str {
+        match self {
+            Self::Folder {
+                skip_existing: true,
+                ..
+            } => {
+                "is the camera's software writing new frames into the folder? (skip_existing = true: the files already there are not taken)"
+            }
+            Self::Folder { .. } => "the folder holds no frame, and none was written into it",
+            Self::Video { .. } => "the video file has no frame left",
+            _ => "is the camera on, and streaming?",
+        }
+    }
+
     /// The kind as written in the rig file.
     pub fn kind(&self) -> &'static str {
         match self {
