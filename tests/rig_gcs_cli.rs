@@ -222,6 +222,9 @@ fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
     }
 }
 
+/// The scene `assemble --rig` and `rig probe --camera` size particles by.
+const SCENE: &str = "calib/paper-ps-ito.toml";
+
 /// `rig probe --camera` grabs a frame from the rig file's camera folder and
 /// says what the loop sees in it: every particle of the layout drawn there,
 /// the probe's apex where it was drawn and where the calibration maps it;
@@ -267,7 +270,7 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     }
     std::fs::create_dir(at("empty")).unwrap();
     let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
-    let probe_camera = |folder: &str| {
+    let probe_camera = |folder: &str, scene: &str| {
         let text = std::fs::read_to_string("calib/rig-gcs-sim-folder.toml")
             .unwrap()
             .replace(
@@ -282,7 +285,6 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
             .replace("timeout_ms = 5000", "timeout_ms = 300");
         let rig = at(&format!("{folder}.toml"));
         std::fs::write(&rig, text).unwrap();
-        let scene = "calib/paper-ps-ito.toml";
         let out = run(&[
             "rig",
             "probe",
@@ -313,15 +315,16 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
             .collect()
     };
 
-    let (ok, text, err) = probe_camera("plain");
+    let (ok, text, err) = probe_camera("plain", SCENE);
     assert!(ok, "{text}{err}");
     assert!(line(&text, "source:").starts_with("folder "), "{text}");
     assert_eq!(line(&text, "frame:"), "200 x 200 px, 16-bit", "{text}");
     let particles = numbers(&line(&text, "particles:"));
     assert_eq!(particles[0] + particles[1], 12.0, "{text}");
+    assert!(!text.contains("\nsize:"), "nothing to doubt: {text}");
     assert_eq!(line(&text, "tip:"), "not seen", "{text}");
 
-    let (ok, text, err) = probe_camera("tipped");
+    let (ok, text, err) = probe_camera("tipped", SCENE);
     assert!(ok, "{text}{err}");
     // apex at (x, y) px = (u, v) um: the calibration maps pixel p to 0.5 p - 10 um.
     let apex = numbers(&line(&text, "tip:"));
@@ -332,7 +335,33 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     assert!((apex[2] - (0.5 * apex[0] - 10.0)).abs() < 0.01, "{text}");
     assert!((apex[3] - (0.5 * apex[1] - 10.0)).abs() < 0.01, "{text}");
 
-    let (ok, text, err) = probe_camera("empty");
+    // The scene's particles 3.5 um across instead of 5: none taken, and
+    // both the look and the loop's warning say what was left out.
+    let small = at("small.toml");
+    let scene = std::fs::read_to_string(SCENE).unwrap();
+    assert!(scene.contains("\nradius_um = 5.0"));
+    std::fs::write(
+        &small,
+        scene.replace("\nradius_um = 5.0", "\nradius_um = 3.5"),
+    )
+    .unwrap();
+    let (ok, text, err) = probe_camera("plain", &small);
+    assert!(ok, "{text}{err}");
+    assert!(
+        line(&text, "particles:").starts_with("0 whole, 0 cut"),
+        "{text}"
+    );
+    let size = line(&text, "size:");
+    assert!(
+        size.starts_with("12 more found whole at another size (median radius 5.00 um)"),
+        "{text}"
+    );
+    assert!(
+        err.contains("12 particles of radius 5.00 um (median) left out"),
+        "{err}"
+    );
+
+    let (ok, text, err) = probe_camera("empty", SCENE);
     assert!(!ok, "{text}");
     assert!(
         err.contains("no frame from the camera") && err.contains("none was written"),

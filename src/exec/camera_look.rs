@@ -47,6 +47,25 @@ pub fn look(
     })
 }
 
+impl CameraLook {
+    /// What to doubt when the particles found are not the scene's size:
+    /// whole detections of another size, or none at all.
+    fn size_doubt(&self) -> Option<String> {
+        let s = &self.sighting;
+        let check = "is the scene's particle radius right, and the calibration's um/px?";
+        if s.off_size.is_empty() {
+            return (s.particles.is_empty() && s.cut_by_edge.is_empty())
+                .then(|| format!("no particle found near the size hint: {check}"));
+        }
+        let median = s.off_size_median_radius_m()?;
+        Some(format!(
+            "{} more found whole at another size (median radius {:.2} um) and left out: {check}",
+            s.off_size.len(),
+            median * 1e6
+        ))
+    }
+}
+
 impl fmt::Display for CameraLook {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let s = &self.sighting;
@@ -79,6 +98,9 @@ impl fmt::Display for CameraLook {
             self.radius_m / self.m_per_px,
             um(self.m_per_px)
         )?;
+        if let Some(line) = self.size_doubt() {
+            writeln!(f, "size:           {line}")?;
+        }
         match (&s.probe, s.tip_m) {
             (Some((tip, _)), Some([x, y])) => writeln!(
                 f,

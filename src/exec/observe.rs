@@ -11,10 +11,15 @@ use crate::vision::detect::{DetectSettings, Detection, detect_particles_excludin
 use crate::vision::exposure::Exposure;
 use crate::vision::frame::Frame;
 use crate::vision::line_defects::LineDefect;
+use crate::vision::log_on_change::changed;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
 const RADIUS_TOLERANCE: f64 = 0.3;
+
+/// Fewest detections left out for their size that make a warning (when
+/// they also outnumber those taken): one or two are debris.
+const OFF_SIZE_WARN_COUNT: usize = 3;
 
 /// Gap between a particle's ring and the probe's outline below which the ring
 /// counts as cut by the probe, pixels (the outline's blur).
@@ -33,6 +38,11 @@ pub struct Sighting {
     /// there, but their centres not measured, so not among `particles`; a
     /// plan made from this frame alone must still keep clear of them.
     pub cut_by_edge: Vec<Observation>,
+    /// Whole detections clear of the probe whose radius is off the size
+    /// hint by more than the tolerance: not taken for particles, but a
+    /// frame full of them says the scene's radius or the calibration's
+    /// scale is wrong (`rig probe --camera` tells).
+    pub off_size: Vec<Observation>,
     /// Tip apex on the sample, metres, when found.
     pub tip_m: Option<[f64; 2]>,
     /// Frames dropped before this one was had.
@@ -58,6 +68,35 @@ pub struct Sighting {
 }
 
 impl Sighting {
+    /// The median radius of the detections left out for their size, metres.
+    pub fn off_size_median_radius_m(&self) -> Option<f64> {
+        let mut radii: Vec<f64> = self.off_size.iter().map(|o| o.radius_m).collect();
+        radii.sort_by(f64::total_cmp);
+        radii.get(radii.len() / 2).copied()
+    }
+
+    /// Warns (once per size seen) when most whole detections are left out
+    /// for their size: the scene's radius or the calibration's scale is
+    /// likely wrong, and the loop would see no particles.
+    fn warn_of_off_size(&self, expected_radius_m: f64) {
+        let Some(median) = self.off_size_median_radius_m() else {
+            return;
+        };
+        let (off, fitting) = (self.off_size.len(), self.particles.len());
+        let state = format!("{:.1} um", median * 1e6);
+        if off >= OFF_SIZE_WARN_COUNT
+            && off > fitting
+            && changed("off-size detections of the camera".into(), state)
+        {
+            tracing::warn!(
+                "camera: {off} particles of radius {:.2} um (median) left out, {fitting} of the scene's {:.2} um taken: \
+                 is the scene's particle radius right, and the calibration's um/px? (`nanopush rig probe --camera` shows a frame)",
+                median * 1e6,
+                expected_radius_m * 1e6
+            );
+        }
+    }
+
     /// True when a particle centred here would be seen whole in this frame:
     /// inside the view and clear of the probe.
     pub fn shows(&self, x_m: f64, y_m: f64) -> bool {
@@ -171,11 +210,12 @@ impl Perception {
             .iter()
             .filter(|d| clear_of_probe(d.x_px, d.y_px))
             .partition(|d| d.edge_clipped);
-        let particles = whole
-            .iter()
-            .filter(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
-            .map(|d| on_sample_at(d.x_px, d.y_px, d.r_px))
-            .collect();
+        let (fitting, off): (Vec<&Detection>, Vec<&Detection>) = whole
+            .into_iter()
+            .partition(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE);
+        let measured = |d: &&Detection| on_sample_at(d.x_px, d.y_px, d.r_px);
+        let particles = fitting.iter().map(measured).collect();
+        let off_size = off.iter().map(measured).collect();
         let cut_by_edge = cut
             .iter()
             .map(|d| on_sample_at(d.x_px, d.y_px, expected_r_px))
@@ -195,11 +235,12 @@ impl Perception {
                 .map(|c| c[i])
                 .fold(f64::NEG_INFINITY, f64::max)
         });
-        Ok(Sighting {
+        let sighting = Sighting {
             frame: timed.frame,
             t_s: timed.t_s,
             particles,
             cut_by_edge,
+            off_size,
             tip_m,
             dropped,
             repaired_lines,
@@ -209,6 +250,8 @@ impl Perception {
             stage_m: None,
             probe: probe.map(|t| (t, *calibration)),
             probe_shadow_px,
-        })
+        };
+        sighting.warn_of_off_size(expected_r_px * calibration.m_per_px());
+        Ok(sighting)
     }
 }
