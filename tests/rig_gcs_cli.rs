@@ -335,31 +335,37 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     assert!((apex[2] - (0.5 * apex[0] - 10.0)).abs() < 0.01, "{text}");
     assert!((apex[3] - (0.5 * apex[1] - 10.0)).abs() < 0.01, "{text}");
 
-    // The scene's particles 3.5 um across instead of 5: none taken, and
-    // both the look and the loop's warning say what was left out.
-    let small = at("small.toml");
+    // Scenes whose particles are not the frame's (radius 5 um): none taken,
+    // and the look says what it found instead. At 3.5 um the 12 are found
+    // and left out for their size (the loop warns too); at 2.5 um the
+    // detector, tuned to half the size, finds nothing, and the look tries
+    // other hints.
     let scene = std::fs::read_to_string(SCENE).unwrap();
     assert!(scene.contains("\nradius_um = 5.0"));
-    std::fs::write(
-        &small,
-        scene.replace("\nradius_um = 5.0", "\nradius_um = 3.5"),
-    )
-    .unwrap();
-    let (ok, text, err) = probe_camera("plain", &small);
-    assert!(ok, "{text}{err}");
-    assert!(
-        line(&text, "particles:").starts_with("0 whole, 0 cut"),
-        "{text}"
-    );
-    let size = line(&text, "size:");
-    assert!(
-        size.starts_with("12 more found whole at another size (median radius 5.00 um)"),
-        "{text}"
-    );
-    assert!(
-        err.contains("12 particles of radius 5.00 um (median) left out"),
-        "{err}"
-    );
+    let wrong = [
+        (
+            "3.5",
+            "12 more found whole at another size (median radius 5.00 um)",
+        ),
+        (
+            "2.5",
+            "no particle found near the size hint; with a hint of radius 5.00 um, 12 found whole (median radius 5.00 um)",
+        ),
+    ];
+    for (radius, told) in wrong {
+        let path = at(&format!("scene-{radius}.toml"));
+        let text = scene.replace("\nradius_um = 5.0", &format!("\nradius_um = {radius}"));
+        std::fs::write(&path, text).unwrap();
+        let (ok, text, err) = probe_camera("plain", &path);
+        assert!(ok, "{text}{err}");
+        assert!(
+            line(&text, "particles:").starts_with("0 whole, 0 cut"),
+            "{text}"
+        );
+        assert!(line(&text, "size:").starts_with(told), "{text}");
+        let warned = err.contains("12 particles of radius 5.00 um (median) left out");
+        assert_eq!(warned, radius == "3.5", "{err}");
+    }
 
     let (ok, text, err) = probe_camera("empty", SCENE);
     assert!(!ok, "{text}");

@@ -5,11 +5,13 @@
 
 use std::fmt;
 
-use super::observe::{ObserveError, Perception, Sighting};
+use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, Sighting};
 use crate::calib::affine::AffineCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
-use crate::vision::analyse::camera_notes;
+use crate::vision::analyse::{camera_notes, prepare_frame};
+use crate::vision::detect::{DetectSettings, detect_particles, model_for};
+use crate::vision::profile_fit::ProfileModel;
 
 /// Grabs tried before the look gives up: a camera's own timeout applies
 /// to each (a watched folder's `timeout_ms`).
@@ -26,7 +28,26 @@ pub struct CameraLook {
     pub radius_m: f64,
     /// The calibration's pixel size, metres.
     pub m_per_px: f64,
+    /// When nothing was found near the size hint: the other hint that
+    /// finds most particles of its own size.
+    pub other_size: Option<OtherSize>,
 }
+
+/// Particles found with another size hint than the scene's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OtherSize {
+    /// The hint's radius, metres.
+    pub hint_radius_m: f64,
+    /// Whole particles within the size tolerance of it.
+    pub count: usize,
+    /// Their median radius, metres.
+    pub median_radius_m: f64,
+}
+
+/// Size hints tried, as multiples of the scene's radius, when nothing is
+/// found near it: the detector's band-pass is tuned to its hint, so a
+/// scene or calibration off by 2x finds nothing at all.
+const OTHER_SIZE_FACTORS: [f64; 4] = [0.5, 0.7, 1.4, 2.0];
 
 /// Grabs a frame from `camera` and sees it with the loop's own perception
 /// for particles of `radius_m`.
@@ -39,12 +60,60 @@ pub fn look(
     let m_per_px = calibration.m_per_px();
     let perception = Perception::for_particles(radius_m, m_per_px, LOOK_GRABS);
     let sighting = perception.sight(camera, calibration, [0.0, 0.0])?;
+    let nothing = sighting.particles.is_empty()
+        && sighting.cut_by_edge.is_empty()
+        && sighting.off_size.is_empty();
+    let other_size = if nothing {
+        found_at_other_size(&sighting, &perception.detect, m_per_px)
+    } else {
+        None
+    };
     Ok(CameraLook {
         source: source.describe(),
         sighting,
         radius_m,
         m_per_px,
+        other_size,
     })
+}
+
+/// The size hint of [`OTHER_SIZE_FACTORS`] that finds most whole particles
+/// of its own size in the sighting's frame (the probe not left out), if any.
+/// Only hints the ring model fits: the spot model does not measure a size
+/// (its radius is the hint), and at half a 10 px hint it takes the rings
+/// of the true particles for 83 spots.
+fn found_at_other_size(
+    sighting: &Sighting,
+    detect: &DetectSettings,
+    m_per_px: f64,
+) -> Option<OtherSize> {
+    let frame = prepare_frame(&sighting.frame).frame;
+    OTHER_SIZE_FACTORS
+        .iter()
+        .filter_map(|factor| {
+            let settings = DetectSettings {
+                diameter_px: detect.diameter_px * factor,
+                ..detect.clone()
+            };
+            if model_for(&settings) != ProfileModel::Ring {
+                return None;
+            }
+            let hint_r_px = settings.diameter_px / 2.0;
+            let mut radii: Vec<f64> = detect_particles(&frame, &settings)
+                .ok()?
+                .iter()
+                .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
+                .map(|d| d.r_px * m_per_px)
+                .collect();
+            radii.sort_by(f64::total_cmp);
+            let median_radius_m = *radii.get(radii.len() / 2)?;
+            Some(OtherSize {
+                hint_radius_m: hint_r_px * m_per_px,
+                count: radii.len(),
+                median_radius_m,
+            })
+        })
+        .max_by_key(|found| found.count)
 }
 
 impl CameraLook {
@@ -54,8 +123,20 @@ impl CameraLook {
         let s = &self.sighting;
         let check = "is the scene's particle radius right, and the calibration's um/px?";
         if s.off_size.is_empty() {
-            return (s.particles.is_empty() && s.cut_by_edge.is_empty())
-                .then(|| format!("no particle found near the size hint: {check}"));
+            if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
+                return None;
+            }
+            return Some(match self.other_size {
+                Some(o) => format!(
+                    "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {check}",
+                    o.hint_radius_m * 1e6,
+                    o.count,
+                    o.median_radius_m * 1e6
+                ),
+                None => format!(
+                    "no particle found near the size hint, nor at half or twice it: {check}"
+                ),
+            });
         }
         let median = s.off_size_median_radius_m()?;
         Some(format!(

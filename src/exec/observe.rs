@@ -15,7 +15,7 @@ use crate::vision::log_on_change::changed;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Relative radius error beyond which a detection is not taken for a particle.
-const RADIUS_TOLERANCE: f64 = 0.3;
+pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
 
 /// Fewest detections left out for their size that make a warning (when
 /// they also outnumber those taken): one or two are debris.
