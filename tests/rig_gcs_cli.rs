@@ -227,8 +227,9 @@ const SCENE: &str = "calib/paper-ps-ito.toml";
 
 /// `rig probe --camera` grabs a frame from the rig file's camera folder and
 /// says what the loop sees in it: every particle of the layout drawn there,
-/// the probe's apex where it was drawn and where the calibration maps it;
-/// a folder nothing is written into is an error saying what to check.
+/// the probe's apex where it was drawn and where the calibration maps it,
+/// particles not the scene's size; a folder nothing is written into is an
+/// error saying what to check.
 #[test]
 fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     let dir = tempfile::tempdir().unwrap();
@@ -366,6 +367,26 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
         let warned = err.contains("12 particles of radius 5.00 um (median) left out");
         assert_eq!(warned, radius == "3.5", "{err}");
     }
+    // A run with the 3.5 um scene stops at its first frame saying why.
+    let run = nanopush()
+        .args([
+            "assemble",
+            "--text",
+            "L",
+            "--dry-run",
+            "--scene",
+            &at("scene-3.5.toml"),
+        ])
+        .args(["--rig", &at("plain.toml"), "--out", &at("run")])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{err}");
+    let why = "no particles of radius 3.50 um in the first frame; 12 found at another size (median radius 5.00 um)";
+    assert!(
+        err.contains(why) && err.contains("rig probe --rig"),
+        "{err}"
+    );
 
     let (ok, text, err) = probe_camera("empty", SCENE);
     assert!(!ok, "{text}");

@@ -26,7 +26,7 @@ use crate::exec::assemble::layout_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
-use crate::exec::observe::{Perception, Sighting};
+use crate::exec::observe::{Perception, SIZE_CHECK, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
@@ -159,9 +159,21 @@ fn assemble(
         .sight(rig, &calibration, offset)
         .context("the first frame")?;
     if first.particles.is_empty() {
+        let other = match first.off_size_median_radius_m() {
+            Some(median) => format!(
+                "; {} found at another size (median radius {:.2} um): {SIZE_CHECK}",
+                first.off_size.len(),
+                median * 1e6
+            ),
+            None => String::new(),
+        };
+        let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
         bail!(
-            "no particles of radius {:.2} um in the first frame",
-            r * 1e6
+            "no particles of radius {:.2} um in the first frame{other} \
+             (`nanopush rig probe --rig {} --camera --scene {}` shows what the camera sees)",
+            r * 1e6,
+            rig_file.display(),
+            args.scene.display()
         );
     }
     let reachable = if rig.has_coarse() {

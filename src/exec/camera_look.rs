@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, Sighting};
+use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting};
 use crate::calib::affine::AffineCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
@@ -121,7 +121,7 @@ impl CameraLook {
     /// whole detections of another size, or none at all.
     fn size_doubt(&self) -> Option<String> {
         let s = &self.sighting;
-        let check = "is the scene's particle radius right, and the calibration's um/px?";
+        let check = SIZE_CHECK;
         if s.off_size.is_empty() {
             if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
                 return None;

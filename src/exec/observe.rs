@@ -17,6 +17,9 @@ use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 /// Relative radius error beyond which a detection is not taken for a particle.
 pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
 
+/// What to check when the particles found are not the scene's size.
+pub const SIZE_CHECK: &str = "is the scene's particle radius right, and the calibration's um/px?";
+
 /// Fewest detections left out for their size that make a warning (when
 /// they also outnumber those taken): one or two are debris.
 const OFF_SIZE_WARN_COUNT: usize = 3;
@@ -90,7 +93,7 @@ impl Sighting {
         {
             tracing::warn!(
                 "camera: {off} particles of radius {:.2} um (median) left out, {fitting} of the scene's {:.2} um taken: \
-                 is the scene's particle radius right, and the calibration's um/px? (`nanopush rig probe --camera` shows a frame)",
+                 {SIZE_CHECK} (`nanopush rig probe --camera` shows a frame)",
                 median * 1e6,
                 expected_radius_m * 1e6
             );
