@@ -24,9 +24,10 @@
 use super::assemble::{Args, write_sites};
 use crate::exec::assemble::layout_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
+use crate::exec::camera_look::{other_size_if_none_found, size_doubt};
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
-use crate::exec::observe::{Perception, SIZE_CHECK, Sighting};
+use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
@@ -159,14 +160,9 @@ fn assemble(
         .sight(rig, &calibration, offset)
         .context("the first frame")?;
     if first.particles.is_empty() {
-        let other = match first.off_size_median_radius_m() {
-            Some(median) => format!(
-                "; {} found at another size (median radius {:.2} um): {SIZE_CHECK}",
-                first.off_size.len(),
-                median * 1e6
-            ),
-            None => String::new(),
-        };
+        let other_size =
+            other_size_if_none_found(&first, &perception.detect, calibration.m_per_px());
+        let other = size_doubt(&first, other_size).map_or(String::new(), |d| format!("; {d}"));
         let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
         bail!(
             "no particles of radius {:.2} um in the first frame{other} \

@@ -60,14 +60,7 @@ pub fn look(
     let m_per_px = calibration.m_per_px();
     let perception = Perception::for_particles(radius_m, m_per_px, LOOK_GRABS);
     let sighting = perception.sight(camera, calibration, [0.0, 0.0])?;
-    let nothing = sighting.particles.is_empty()
-        && sighting.cut_by_edge.is_empty()
-        && sighting.off_size.is_empty();
-    let other_size = if nothing {
-        found_at_other_size(&sighting, &perception.detect, m_per_px)
-    } else {
-        None
-    };
+    let other_size = other_size_if_none_found(&sighting, &perception.detect, m_per_px);
     Ok(CameraLook {
         source: source.describe(),
         sighting,
@@ -75,6 +68,20 @@ pub fn look(
         m_per_px,
         other_size,
     })
+}
+
+/// When the sighting found nothing at all near its size hint (`detect`'s),
+/// the other hint that finds particles of its own size
+/// ([`found_at_other_size`]).
+pub fn other_size_if_none_found(
+    sighting: &Sighting,
+    detect: &DetectSettings,
+    m_per_px: f64,
+) -> Option<OtherSize> {
+    let nothing = sighting.particles.is_empty()
+        && sighting.cut_by_edge.is_empty()
+        && sighting.off_size.is_empty();
+    nothing.then(|| found_at_other_size(sighting, detect, m_per_px))?
 }
 
 /// The size hint of [`OTHER_SIZE_FACTORS`] that finds most whole particles
@@ -116,35 +123,31 @@ fn found_at_other_size(
         .max_by_key(|found| found.count)
 }
 
-impl CameraLook {
-    /// What to doubt when the particles found are not the scene's size:
-    /// whole detections of another size, or none at all.
-    fn size_doubt(&self) -> Option<String> {
-        let s = &self.sighting;
-        let check = SIZE_CHECK;
-        if s.off_size.is_empty() {
-            if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
-                return None;
-            }
-            return Some(match self.other_size {
-                Some(o) => format!(
-                    "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {check}",
-                    o.hint_radius_m * 1e6,
-                    o.count,
-                    o.median_radius_m * 1e6
-                ),
-                None => format!(
-                    "no particle found near the size hint, nor at half or twice it: {check}"
-                ),
-            });
-        }
-        let median = s.off_size_median_radius_m()?;
-        Some(format!(
-            "{} more found whole at another size (median radius {:.2} um) and left out: {check}",
+/// What to doubt when the particles a sighting found are not the scene's
+/// size: whole detections of another size, or none at all (and then what
+/// `other_size` found); `None` when particles of the size were found.
+pub fn size_doubt(s: &Sighting, other_size: Option<OtherSize>) -> Option<String> {
+    if let Some(median) = s.off_size_median_radius_m() {
+        return Some(format!(
+            "{} found whole at another size (median radius {:.2} um) and left out: {SIZE_CHECK}",
             s.off_size.len(),
             median * 1e6
-        ))
+        ));
     }
+    if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
+        return None;
+    }
+    Some(match other_size {
+        Some(o) => format!(
+            "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
+            o.hint_radius_m * 1e6,
+            o.count,
+            o.median_radius_m * 1e6
+        ),
+        None => {
+            format!("no particle found near the size hint, nor at half or twice it: {SIZE_CHECK}")
+        }
+    })
 }
 
 impl fmt::Display for CameraLook {
@@ -179,7 +182,7 @@ impl fmt::Display for CameraLook {
             self.radius_m / self.m_per_px,
             um(self.m_per_px)
         )?;
-        if let Some(line) = self.size_doubt() {
+        if let Some(line) = size_doubt(s, self.other_size) {
             writeln!(f, "size:           {line}")?;
         }
         match (&s.probe, s.tip_m) {
