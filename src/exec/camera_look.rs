@@ -72,7 +72,7 @@ pub fn look(
 
 /// When the sighting found nothing at all near its size hint (`detect`'s),
 /// the other hint that finds particles of its own size
-/// ([`found_at_other_size`]).
+/// (0.5 to 2 times it, ring-model hints only).
 pub fn other_size_if_none_found(
     sighting: &Sighting,
     detect: &DetectSettings,
