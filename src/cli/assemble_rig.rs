@@ -24,7 +24,7 @@
 use super::assemble::{Args, write_sites};
 use crate::exec::assemble::layout_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
-use crate::exec::camera_look::{other_size_if_none_found, size_doubt};
+use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
@@ -160,9 +160,8 @@ fn assemble(
         .sight(rig, &calibration, offset)
         .context("the first frame")?;
     if first.particles.is_empty() {
-        let other_size =
-            other_size_if_none_found(&first, &perception.detect, calibration.m_per_px());
-        let other = size_doubt(&first, other_size).map_or(String::new(), |d| format!("; {d}"));
+        let other = size_doubt(&first, &perception.detect, calibration.m_per_px())
+            .map_or(String::new(), |d| format!("; {d}"));
         let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
         bail!(
             "no particles of radius {:.2} um in the first frame{other} \

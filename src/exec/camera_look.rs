@@ -5,7 +5,7 @@
 
 use std::fmt;
 
-use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting};
+use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, median};
 use crate::calib::affine::AffineCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
@@ -28,20 +28,19 @@ pub struct CameraLook {
     pub radius_m: f64,
     /// The calibration's pixel size, metres.
     pub m_per_px: f64,
-    /// When nothing was found near the size hint: the other hint that
-    /// finds most particles of its own size.
-    pub other_size: Option<OtherSize>,
+    /// What to doubt about the particles' size ([`size_doubt`]), if anything.
+    pub size_doubt: Option<String>,
 }
 
 /// Particles found with another size hint than the scene's.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OtherSize {
+struct OtherSize {
     /// The hint's radius, metres.
-    pub hint_radius_m: f64,
+    hint_radius_m: f64,
     /// Whole particles within the size tolerance of it.
-    pub count: usize,
+    count: usize,
     /// Their median radius, metres.
-    pub median_radius_m: f64,
+    median_radius_m: f64,
 }
 
 /// Size hints tried, as multiples of the scene's radius, when nothing is
@@ -60,28 +59,14 @@ pub fn look(
     let m_per_px = calibration.m_per_px();
     let perception = Perception::for_particles(radius_m, m_per_px, LOOK_GRABS);
     let sighting = perception.sight(camera, calibration, [0.0, 0.0])?;
-    let other_size = other_size_if_none_found(&sighting, &perception.detect, m_per_px);
+    let size_doubt = size_doubt(&sighting, &perception.detect, m_per_px);
     Ok(CameraLook {
         source: source.describe(),
         sighting,
         radius_m,
         m_per_px,
-        other_size,
+        size_doubt,
     })
-}
-
-/// When the sighting found nothing at all near its size hint (`detect`'s),
-/// the other hint that finds particles of its own size
-/// (0.5 to 2 times it, ring-model hints only).
-pub fn other_size_if_none_found(
-    sighting: &Sighting,
-    detect: &DetectSettings,
-    m_per_px: f64,
-) -> Option<OtherSize> {
-    let nothing = sighting.particles.is_empty()
-        && sighting.cut_by_edge.is_empty()
-        && sighting.off_size.is_empty();
-    nothing.then(|| found_at_other_size(sighting, detect, m_per_px))?
 }
 
 /// The size hint of [`OTHER_SIZE_FACTORS`] that finds most whole particles
@@ -106,38 +91,37 @@ fn found_at_other_size(
                 return None;
             }
             let hint_r_px = settings.diameter_px / 2.0;
-            let mut radii: Vec<f64> = detect_particles(&frame, &settings)
+            let radii: Vec<f64> = detect_particles(&frame, &settings)
                 .ok()?
                 .iter()
                 .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
                 .map(|d| d.r_px * m_per_px)
                 .collect();
-            radii.sort_by(f64::total_cmp);
-            let median_radius_m = *radii.get(radii.len() / 2)?;
             Some(OtherSize {
                 hint_radius_m: hint_r_px * m_per_px,
                 count: radii.len(),
-                median_radius_m,
+                median_radius_m: median(radii)?,
             })
         })
         .max_by_key(|found| found.count)
 }
 
 /// What to doubt when the particles a sighting found are not the scene's
-/// size: whole detections of another size, or none at all (and then what
-/// `other_size` found); `None` when particles of the size were found.
-pub fn size_doubt(s: &Sighting, other_size: Option<OtherSize>) -> Option<String> {
-    if let Some(median) = s.off_size_median_radius_m() {
+/// size: whole detections of another size, or none at all (and then which
+/// other hint than `detect`'s finds particles, 0.5 to 2 times it); `None`
+/// when particles of the size were found.
+pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Option<String> {
+    if let Some(radius_m) = s.off_size_median_radius_m() {
         return Some(format!(
             "{} found whole at another size (median radius {:.2} um) and left out: {SIZE_CHECK}",
             s.off_size.len(),
-            median * 1e6
+            radius_m * 1e6
         ));
     }
     if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
         return None;
     }
-    Some(match other_size {
+    Some(match found_at_other_size(s, detect, m_per_px) {
         Some(o) => format!(
             "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
             o.hint_radius_m * 1e6,
@@ -182,7 +166,7 @@ impl fmt::Display for CameraLook {
             self.radius_m / self.m_per_px,
             um(self.m_per_px)
         )?;
-        if let Some(line) = size_doubt(s, self.other_size) {
+        if let Some(line) = &self.size_doubt {
             writeln!(f, "size:           {line}")?;
         }
         match (&s.probe, s.tip_m) {

@@ -20,6 +20,12 @@ pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
 /// What to check when the particles found are not the scene's size.
 pub const SIZE_CHECK: &str = "is the scene's particle radius right, and the calibration's um/px?";
 
+/// The middle value (the upper one of an even count); `None` when empty.
+pub(crate) fn median(mut values: Vec<f64>) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
+}
+
 /// Fewest detections left out for their size that make a warning (when
 /// they also outnumber those taken): one or two are debris.
 const OFF_SIZE_WARN_COUNT: usize = 3;
@@ -73,9 +79,7 @@ pub struct Sighting {
 impl Sighting {
     /// The median radius of the detections left out for their size, metres.
     pub fn off_size_median_radius_m(&self) -> Option<f64> {
-        let mut radii: Vec<f64> = self.off_size.iter().map(|o| o.radius_m).collect();
-        radii.sort_by(f64::total_cmp);
-        radii.get(radii.len() / 2).copied()
+        median(self.off_size.iter().map(|o| o.radius_m).collect())
     }
 
     /// Warns (once per size seen) when most whole detections are left out
