@@ -388,4 +388,40 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
         err.contains("no frame from the camera") && err.contains("none was written"),
         "{err}"
     );
+
+    // The controller off (nobody listens at the stage's address): the
+    // camera is still looked at, and the command fails naming the stage;
+    // with no frame either, naming both.
+    let free_port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    for folder in ["plain", "empty"] {
+        let text = std::fs::read_to_string(at(&format!("{folder}.toml"))).unwrap();
+        assert!(text.contains("\"127.0.0.1:50000\""));
+        let rig = at(&format!("{folder}-off.toml"));
+        std::fs::write(
+            &rig,
+            text.replace("127.0.0.1:50000", &free_port.to_string()),
+        )
+        .unwrap();
+        let out = run(&["rig", "probe", "--camera", "--scene", SCENE, "--rig", &rig]);
+        let (text, err) = (
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr),
+        );
+        assert!(!out.status.success(), "{text}");
+        assert!(err.contains("connecting to the stage of"), "{err}");
+        assert!(!text.contains("stage:"), "{text}");
+        if folder == "plain" {
+            let particles = numbers(&line(&text, "particles:"));
+            assert_eq!(particles[0] + particles[1], 12.0, "{text}");
+        } else {
+            assert!(
+                err.contains("2 parts of the rig could not be seen")
+                    && err.contains("no frame from the camera"),
+                "{err}"
+            );
+        }
+    }
 }

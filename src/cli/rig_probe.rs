@@ -6,6 +6,7 @@
 //! stage's controller. With `--camera` it also grabs one frame from the
 //! rig file's camera and says what the loop sees in it.
 
+use super::error_message::error_message;
 use crate::calib::affine::AffineCalibration;
 use crate::exec::camera_look::look;
 use crate::exec::observe::ObserveError;
@@ -35,27 +36,53 @@ pub struct Args {
     pub scene: PathBuf,
 }
 
-/// Connects, queries and prints; never moves anything.
+/// Connects, queries and prints; never moves anything. Each part (stage,
+/// coarse stage, camera) is looked at even when one before it failed, so a
+/// user setting up the camera with the controller off still sees the
+/// frame; the command then fails naming every part that could not be seen.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let rig = RigFile::load(&args.rig)?;
-    let (ctrl, log) = gcs::connect(&rig, args.dry_run)
-        .with_context(|| format!("connecting to the stage of {}", args.rig.display()))?;
-    show("stage", ctrl, log)?;
+    let mut parts = vec![
+        gcs::connect(&rig, args.dry_run)
+            .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
+            .and_then(|(ctrl, log)| controller_section("stage", ctrl, log)),
+    ];
     if let Some(coarse) = &rig.coarse {
-        let (ctrl, log) = gcs::connect_coarse(coarse, args.dry_run)
-            .with_context(|| format!("connecting to the coarse stage of {}", args.rig.display()))?;
-        println!();
-        show("coarse stage", ctrl, log)?;
+        parts.push(
+            gcs::connect_coarse(coarse, args.dry_run)
+                .with_context(|| {
+                    format!("connecting to the coarse stage of {}", args.rig.display())
+                })
+                .and_then(|(ctrl, log)| controller_section("coarse stage", ctrl, log)),
+        );
     }
     if args.camera {
-        println!();
-        show_camera(&rig, &args)?;
+        parts.push(camera_section(&rig, &args));
     }
-    Ok(())
+    let (mut seen, mut failures) = (Vec::new(), Vec::new());
+    for part in parts {
+        match part {
+            Ok(text) => seen.push(text),
+            Err(err) => failures.push(err),
+        }
+    }
+    print!("{}", seen.join("\n"));
+    match failures.len() {
+        0 => Ok(()),
+        1 => Err(failures.remove(0)),
+        n => Err(anyhow::anyhow!(
+            "{n} parts of the rig could not be seen: {}",
+            failures
+                .iter()
+                .map(error_message)
+                .collect::<Vec<_>>()
+                .join("; ")
+        )),
+    }
 }
 
 /// One frame of the rig's camera, as the loop sees it.
-fn show_camera(rig: &RigFile, args: &Args) -> anyhow::Result<()> {
+fn camera_section(rig: &RigFile, args: &Args) -> anyhow::Result<String> {
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
     let calibration = AffineCalibration::load(&rig.calibration).with_context(|| {
@@ -82,28 +109,30 @@ fn show_camera(rig: &RigFile, args: &Args) -> anyhow::Result<()> {
         other => anyhow::Error::new(other)
             .context(format!("a frame from the camera ({})", source.describe())),
     })?;
-    println!("camera:");
-    print!("{seen}");
-    Ok(())
+    Ok(format!("camera:\n{seen}"))
 }
 
-/// Probes one controller and prints the report (and, in a dry run, the bytes).
-fn show(what: &str, mut ctrl: GcsController, log: Option<gcs::SentLog>) -> anyhow::Result<()> {
+/// Probes one controller: its report (and, in a dry run, the bytes).
+fn controller_section(
+    what: &str,
+    mut ctrl: GcsController,
+    log: Option<gcs::SentLog>,
+) -> anyhow::Result<String> {
+    use std::fmt::Write;
     let report =
         probe(&mut ctrl).with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
-    println!("{what}:");
-    print!("{report}");
+    let mut s = format!("{what}:\n{report}");
     if let Some(log) = log {
-        println!("dry run: bytes that would have been sent to the {what}:");
+        let _ = writeln!(s, "dry run: bytes that would have been sent to the {what}:");
         for bytes in log
             .lock()
             .map_err(|_| anyhow::anyhow!("dry-run log poisoned"))?
             .iter()
         {
-            println!("  {:?}", String::from_utf8_lossy(bytes));
+            let _ = writeln!(s, "  {:?}", String::from_utf8_lossy(bytes));
         }
     }
-    Ok(())
+    Ok(s)
 }
 
 fn probe(ctrl: &mut GcsController) -> Result<String, gcs::GcsError> {
