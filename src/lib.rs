@@ -9,6 +9,7 @@
 pub mod calib;
 pub mod cli;
 pub mod exec;
+pub mod median;
 pub mod model;
 pub mod plan;
 pub mod render;

@@ -185,6 +185,9 @@ fn last_line(s: &str) -> String {
         .to_string()
 }
 
+/// The textbook median (the mean of the two middle values of an even count),
+/// as the study's tables report it; the crate's robust statistics use
+/// [`crate::median::upper_median`], always one of the values.
 fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;

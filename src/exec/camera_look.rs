@@ -5,8 +5,9 @@
 
 use std::fmt;
 
-use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, median};
+use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting};
 use crate::calib::affine::AffineCalibration;
+use crate::median::upper_median;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
 use crate::vision::analyse::{camera_notes, prepare_frame};
@@ -91,7 +92,7 @@ fn found_at_other_size(
                 return None;
             }
             let hint_r_px = settings.diameter_px / 2.0;
-            let radii: Vec<f64> = detect_particles(&frame, &settings)
+            let mut radii: Vec<f64> = detect_particles(&frame, &settings)
                 .ok()?
                 .iter()
                 .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
@@ -100,7 +101,7 @@ fn found_at_other_size(
             Some(OtherSize {
                 hint_radius_m: hint_r_px * m_per_px,
                 count: radii.len(),
-                median_radius_m: median(radii)?,
+                median_radius_m: upper_median(&mut radii)?,
             })
         })
         .max_by_key(|found| found.count)

@@ -399,9 +399,5 @@ impl DryCommand {
 /// Median measured radius of the tracks (5 um when there are none).
 fn median_radius_m(tracks: &[super::tracker::Track]) -> f64 {
     let mut r: Vec<f64> = tracks.iter().map(|t| t.last.radius_m).collect();
-    if r.is_empty() {
-        return 5e-6;
-    }
-    r.sort_by(f64::total_cmp);
-    r[r.len() / 2]
+    crate::median::upper_median(&mut r).unwrap_or(5e-6)
 }

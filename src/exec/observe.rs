@@ -4,6 +4,7 @@
 
 use super::tracker::Observation;
 use crate::calib::affine::AffineCalibration;
+use crate::median::upper_median;
 use crate::rig::RigError;
 use crate::rig::camera::Camera;
 use crate::vision::analyse::{PreparedFrame, prepare_frame, report_camera_state};
@@ -19,12 +20,6 @@ pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
 
 /// What to check when the particles found are not the scene's size.
 pub const SIZE_CHECK: &str = "is the scene's particle radius right, and the calibration's um/px?";
-
-/// The middle value (the upper one of an even count); `None` when empty.
-pub(crate) fn median(mut values: Vec<f64>) -> Option<f64> {
-    values.sort_by(f64::total_cmp);
-    values.get(values.len() / 2).copied()
-}
 
 /// Fewest detections left out for their size that make a warning (when
 /// they also outnumber those taken): one or two are debris.
@@ -79,7 +74,7 @@ pub struct Sighting {
 impl Sighting {
     /// The median radius of the detections left out for their size, metres.
     pub fn off_size_median_radius_m(&self) -> Option<f64> {
-        median(self.off_size.iter().map(|o| o.radius_m).collect())
+        upper_median(&mut self.off_size.iter().map(|o| o.radius_m).collect::<Vec<_>>())
     }
 
     /// Warns (once per size seen) when most whole detections are left out

@@ -7,6 +7,7 @@ use super::critical_force::AreaFidelity;
 use super::error::ModelError;
 use super::push_sim::{SolverSettings, simulate_push_with};
 use super::scene::Scene;
+use crate::median::upper_median;
 use crate::render::plot::{LineChart, Series};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -96,7 +97,6 @@ pub fn run_study(scenes: &[(String, Scene)], repeats: usize) -> Result<Vec<Study
                 times.push(t0.elapsed().as_secs_f64() * 1e6);
                 std::hint::black_box(out);
             }
-            times.sort_by(f64::total_cmp);
             rows.push(StudyRow {
                 scene: name.clone(),
                 setting: label.clone(),
@@ -104,7 +104,7 @@ pub fn run_study(scenes: &[(String, Scene)], repeats: usize) -> Result<Vec<Study
                 onset_s: r.onset_s,
                 onset_error_s: r.onset_s.zip(reference.onset_s).map(|(a, b)| (a - b).abs()),
                 displacement_error_um: (r.displacement_m - reference.displacement_m).abs() * 1e6,
-                wall_us: times[times.len() / 2],
+                wall_us: upper_median(&mut times).unwrap_or(0.0),
             });
         }
     }

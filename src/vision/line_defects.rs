@@ -21,6 +21,7 @@ use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
 use super::log_on_change::changed;
 use super::noise::estimate_noise_sigma;
+use crate::median::upper_median;
 
 /// Widest run of neighbouring defective lines repaired as one.
 pub const MAX_RUN: usize = 2;
@@ -348,15 +349,10 @@ fn threshold(means: &[f64], noise_sigma: f64) -> f64 {
         .windows(3)
         .map(|w| w[1] - 0.5 * (w[0] + w[2]))
         .collect();
-    let centre = median(&mut second);
+    let centre = upper_median(&mut second).unwrap_or(0.0);
     let mut deviations: Vec<f64> = second.iter().map(|d| (d - centre).abs()).collect();
-    let spread = 1.4826 * median(&mut deviations);
+    let spread = 1.4826 * upper_median(&mut deviations).unwrap_or(0.0);
     (SPREAD_MULTIPLE * spread).max(NOISE_MULTIPLE * noise_sigma)
-}
-
-fn median(values: &mut [f64]) -> f64 {
-    let mid = values.len() / 2;
-    *values.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
 /// Fills a run's pixels, line by line along its length, by linear

@@ -15,6 +15,7 @@ use thiserror::Error;
 use super::frame::Frame;
 use super::least_squares::{FitError, levenberg_marquardt_with, never_give_up};
 use super::pixel_window::{PixelWindow, WindowModel};
+use crate::median::upper_median;
 
 /// Core and ring must each exceed the residual noise by this factor.
 const RING_MIN_CONTRAST_SNR: f64 = 2.0;
@@ -117,14 +118,6 @@ pub fn spot_model(px: f64, py: f64, p: &SVector<f64, 5>, g: &mut SVector<f64, 5>
     p[2] + p[3] * e
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
-}
-
 /// Fits `model` to the particle near (cx, cy) whose radius is about `radius_px`.
 pub fn fit_particle(
     frame: &Frame,
@@ -187,22 +180,18 @@ fn fit_ring(
         })
         .collect();
     // Background from the window's outer band, core from the centre.
-    let outer: Vec<f64> = polar
+    let mut outer: Vec<f64> = polar
         .iter()
         .filter(|s| s.2 > r0 + 3.0)
         .map(|s| s.0)
         .collect();
-    let b = median(outer);
-    let inner: Vec<f64> = polar
+    let b = upper_median(&mut outer).unwrap_or(0.0);
+    let mut inner: Vec<f64> = polar
         .iter()
         .filter(|s| s.1 < (0.25 * r0).max(1.0).powi(2))
         .map(|s| s.0)
         .collect();
-    let core = if inner.is_empty() {
-        frame.max_count() as f64
-    } else {
-        median(inner)
-    };
+    let core = upper_median(&mut inner).unwrap_or(frame.max_count() as f64);
     let a = core - b;
     // Ring: the annulus (0.5 px bins) whose mean departs most from b against the core.
     let nb = (2.0 * r0) as usize + 1;
@@ -309,12 +298,12 @@ fn ring_implausible(
 fn fit_spot(frame: &Frame, cx: f64, cy: f64, r0: f64) -> Result<ParticleFit, ProfileFitError> {
     let half = (1.5 * r0).max(3.0);
     let win = PixelWindow::square(frame, cx, cy, half);
-    let border: Vec<f64> = win
+    let mut border: Vec<f64> = win
         .pixels()
         .filter(|s| (s.0 - cx).abs().max((s.1 - cy).abs()) > half - 1.5)
         .map(|s| s.2)
         .collect();
-    let b = median(border);
+    let b = upper_median(&mut border).unwrap_or(0.0);
     let core = win
         .pixels()
         .min_by(|p, q| {

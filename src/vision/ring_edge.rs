@@ -32,6 +32,7 @@ use thiserror::Error;
 use super::detect::Detection;
 use super::frame::Frame;
 use super::noise::MIN_NOISE_COUNTS;
+use crate::median::upper_median;
 
 /// Which point of a ring-model particle is reported as its centre.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -480,7 +481,10 @@ fn robust_circle(
         let (p, inverse) = solve_shape(&kept)?;
         let residual = |(a, rho): &(SVector<f64, SHAPE_TERMS>, f64)| rho - a.dot(&p);
         let kept_res: Vec<f64> = kept.iter().map(residual).collect();
-        let scale = (1.4826 * median_abs(&kept_res)).max(MIN_RESIDUAL_SCALE_PX);
+        let scale = (1.4826
+            * upper_median(&mut kept_res.iter().map(|x| x.abs()).collect::<Vec<_>>())
+                .unwrap_or(0.0))
+        .max(MIN_RESIDUAL_SCALE_PX);
         let next: Vec<bool> = rows
             .iter()
             .map(|r| residual(r).abs() <= OUTLIER_SIGMAS * scale)
@@ -529,14 +533,6 @@ fn solve_shape(
         .try_inverse()
         .ok_or(RingEdgeError::OneSided { coverage })?;
     Ok((inverse * atb, inverse))
-}
-
-/// Median of |v|.
-fn median_abs(v: &[f64]) -> f64 {
-    let mut a: Vec<f64> = v.iter().map(|x| x.abs()).collect();
-    let mid = a.len() / 2;
-    a.select_nth_unstable_by(mid, f64::total_cmp);
-    a[mid]
 }
 
 /// Variance inflation for residuals correlated from ray to ray (they share

@@ -16,6 +16,7 @@ use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
 use super::least_squares::{Sample, levenberg_marquardt};
 use super::noise::select_non_negative;
+use crate::median::upper_median;
 use crate::render::probe::{PlacedSilhouette, ProbeShape, ProbeSilhouette, normal_cdf};
 
 /// Tip detection parameters.
@@ -482,8 +483,7 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             .iter()
             .map(|s| (s.2 - model.value(s.0, s.1)).abs())
             .collect();
-        let m = abs_res.len() / 2;
-        let mad = *abs_res.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1;
+        let mad = upper_median(&mut abs_res).unwrap_or(0.0);
         weights_from = Some((p, (1.4826 * mad).max(1e-9)));
         let mean = samples.iter().map(|s| s.2 * s.3).sum::<f64>()
             / samples.iter().map(|s| s.3).sum::<f64>();
