@@ -186,6 +186,93 @@ fn report_md_links_only_to_files_that_exist() {
 }
 
 #[test]
+fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let placed = [
+        "--at",
+        "60,50",
+        "--pitch-um",
+        "11.5",
+        "--rotation-deg",
+        "90",
+    ];
+    let o = binary()
+        .args(["assemble", "--out", out.to_str().unwrap()])
+        .args(RUN)
+        .args(placed)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = sites(&out);
+    let xs: Vec<f64> = s.sites.iter().map(|r| r.x_um).collect();
+    let ys: Vec<f64> = s.sites.iter().map(|r| r.y_um).collect();
+    let span = |v: &[f64]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+        ((lo + hi) / 2.0, hi - lo)
+    };
+    let ((cx, w), (cy, h)) = (span(&xs), span(&ys));
+    assert!(
+        (cx - 60.0).abs() < 1e-6 && (cy - 50.0).abs() < 1e-6,
+        "centre ({cx}, {cy})"
+    );
+    // L stands 4 pitches tall and 2 wide; a quarter turn lays it down.
+    assert!(
+        (w - 46.0).abs() < 1e-6 && (h - 23.0).abs() < 1e-6,
+        "{w} x {h} um"
+    );
+    for (i, a) in s.sites.iter().enumerate() {
+        let nearest = s
+            .sites
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, b)| (a.x_um - b.x_um).hypot(a.y_um - b.y_um))
+            .fold(f64::MAX, f64::min);
+        assert!((nearest - 11.5).abs() < 1e-6, "site {i}: {nearest} um");
+    }
+    // The camera shows the pattern built there.
+    let last = load_frame(&out.join("final.png"), Channel::Luminance).unwrap();
+    assert_eq!(sites_shown(&last, &s), s.sites.len());
+
+    // Asked for what cannot be: refused before the folder is made.
+    let refused = [
+        (&["--at", "5,50"][..], "outside the reachable area"),
+        (
+            &["--pitch-um", "0"][..],
+            "--pitch-um must be finite and > 0",
+        ),
+        (&["--pitch-um", "8"][..], "does not fit the scene"),
+    ];
+    for (flags, why) in refused {
+        let out = dir.path().join("refused");
+        let o = binary()
+            .args(["assemble", "--out", out.to_str().unwrap()])
+            .args(RUN)
+            .args(flags)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(why), "{flags:?}: {err}");
+        assert!(!out.exists(), "{flags:?} made the output folder");
+    }
+    // A resumed run keeps its journal's sites.
+    let o = binary()
+        .args(["assemble", "--resume"])
+        .arg(out.join("journal.jsonl"))
+        .args(["--at", "60,50"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("cannot be used with"),
+        "{err}"
+    );
+}
+
+#[test]
 fn a_pattern_that_does_not_fit_the_scene_is_refused_before_anything_is_written() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");

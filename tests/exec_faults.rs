@@ -13,6 +13,7 @@ use nanopush::exec::assemble::{Assembly, RunEnd};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::{JournalWriter, read_journal};
 use nanopush::exec::sim_run::{SimFaults, SimRunRequest, inputs_for, prepare_sim_run};
+use nanopush::plan::pattern_request::PatternRequest;
 use nanopush::rig::camera::{Camera, TimedFrame};
 use nanopush::rig::sim::rig::SimRig;
 use nanopush::rig::sim::state::SimState;
@@ -35,7 +36,7 @@ const PLACED_M: f64 = 0.2e-6;
 /// The same run as RUN, with faults.
 fn request(faults: SimFaults) -> SimRunRequest {
     SimRunRequest {
-        text: Some("L".into()),
+        target: Some(PatternRequest::text("L")),
         scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"),
         seed: 4,
         particles: 20,

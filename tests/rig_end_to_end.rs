@@ -446,6 +446,41 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
 }
 
 #[test]
+fn a_rig_run_builds_the_pattern_where_asked() {
+    let b = bench(50.0);
+    let placed = ["--at", "50,45", "--pitch-um", "11", "--rotation-deg", "90"];
+    let out = finish(
+        b.assemble("at", &[&["--dry-run"][..], &placed].concat()),
+        RUN_LIMIT,
+    );
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let journal = std::fs::read_to_string(b.dir.path().join("at/journal.jsonl")).unwrap();
+    let start: serde_json::Value = serde_json::from_str(journal.lines().nth(1).unwrap()).unwrap();
+    let sites: Vec<[f64; 2]> = start["event"]["sites_um"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| [s[0].as_f64().unwrap(), s[1].as_f64().unwrap()])
+        .collect();
+    let span = |k: usize| {
+        let (lo, hi) = sites
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s[k]), b.max(s[k])));
+        ((lo + hi) / 2.0, hi - lo)
+    };
+    let ((cx, w), (cy, h)) = (span(0), span(1));
+    assert!(
+        (cx - 50.0).abs() < 1e-6 && (cy - 45.0).abs() < 1e-6,
+        "centre ({cx}, {cy})"
+    );
+    // L stands 4 pitches tall and 2 wide; a quarter turn lays it down.
+    assert!(
+        (w - 44.0).abs() < 1e-6 && (h - 22.0).abs() < 1e-6,
+        "{w} x {h} um"
+    );
+}
+
+#[test]
 fn a_dry_run_that_ends_on_a_stage_error_exits_non_zero_and_still_reports() {
     let b = bench(50.0);
     // The dry run's in-process controller moves in real time: travel moves

@@ -220,6 +220,20 @@ fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
         );
         assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
     }
+    // A pattern that cannot be is refused before the rig is opened.
+    let run = nanopush()
+        .args(["assemble", "--text", "C?", "--dry-run", "--rig"])
+        .arg(&rig)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("unknown glyph '?'") && !stderr.contains("camera folder"),
+        "{stderr}"
+    );
 }
 
 /// The scene `assemble --rig` and `rig probe --camera` size particles by.

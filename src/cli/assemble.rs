@@ -5,6 +5,7 @@
 //! resume), force plots of the pushes, and with `--record` a recording that
 //! `nanopush dry-run` replays.
 
+use super::pattern_args::PatternArgs;
 use crate::calib::affine::AffineCalibration;
 use crate::exec::animation::AnimationWriter;
 use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, write_report_md};
@@ -32,12 +33,9 @@ use std::path::{Path, PathBuf};
 /// Arguments of `nanopush assemble`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Text to assemble in the built-in 3x5 font, e.g. CMU.
-    #[arg(long, conflicts_with = "pattern", required_unless_present_any = ["pattern", "resume"])]
-    pub text: Option<String>,
-    /// Pattern file (site list TOML/JSON or bitmap image).
-    #[arg(long)]
-    pub pattern: Option<PathBuf>,
+    /// What to assemble and where (one of --text and --pattern, unless --resume).
+    #[command(flatten)]
+    pub target: PatternArgs,
     /// Scene: probe, particle, materials, environment, push speed.
     #[arg(long, default_value = "calib/paper-ps-ito.toml")]
     pub scene: PathBuf,
@@ -58,7 +56,7 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Continue the run whose journal this is, on the same world.
-    #[arg(long, conflicts_with_all = ["text", "pattern", "layout"])]
+    #[arg(long, conflicts_with_all = ["text", "pattern", "pitch_um", "rotation_deg", "at", "layout"])]
     pub resume: Option<PathBuf>,
     /// Also write a recording of the run (frames, stage log, calibration) to this folder.
     #[arg(long)]
@@ -117,8 +115,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
         hide.push(parsed);
     }
     Ok(SimRunRequest {
-        text: args.text.clone(),
-        pattern: args.pattern.clone(),
+        target: Some(args.target.request()?),
         scene: args.scene.clone(),
         layout: args.layout.clone(),
         seed: args.seed,

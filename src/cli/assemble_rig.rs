@@ -30,10 +30,11 @@ use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
+use crate::plan::Pattern;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::{PlacementGoal, place_by_plan};
-use crate::plan::{DEFAULT_SITE_GAP_M, Pattern, PlanConfig, Site};
+use crate::plan::pattern_request::PatternRequest;
+use crate::plan::placement::PlacementGoal;
 use crate::rig::Rig;
 use crate::rig::gcs::SentLog;
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
@@ -79,6 +80,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     }
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    // The pattern is checked before the rig is opened.
+    let target = args.target.request()?;
+    let pattern = target.pattern(scene.particle_radius_m)?;
     let journal_path = args.out.join(JOURNAL);
     if journal_path.exists() {
         bail!("{} exists: use another --out", journal_path.display());
@@ -94,7 +98,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let result = assemble(args, &scene, &mut rig, &journal_path);
+    let result = assemble(args, &scene, (&target, &pattern), &mut rig, &journal_path);
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
     if let Some(log) = rig.sent_log() {
@@ -141,6 +145,7 @@ fn check_end(end: &RunEnd, dry_run: bool) -> anyhow::Result<()> {
 fn assemble(
     args: &Args,
     scene: &Scene,
+    (target, pattern): (&PatternRequest, &Pattern),
     rig: &mut HardwareRig,
     journal_path: &Path,
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
@@ -184,16 +189,20 @@ fn assemble(
         reachable_sites(rig, r, settings.clearance_m)
     };
     let plan_config = settings.plan_config(scene);
-    let sites = sites_for(
-        args,
-        scene,
-        &reachable,
-        &first.particles,
-        &settings,
-        &plan_config,
-    )?;
+    // At --at, else where the full plan on the first frame's particles is
+    // fastest, as on the simulated rig.
+    let layout = layout_seen(settings.field_m, &first.particles, r);
+    let sites = target
+        .sites(
+            pattern,
+            &reachable,
+            &layout,
+            &plan_config,
+            PlacementGoal::LeastTime,
+        )
+        .context("placing the pattern among the particles of the first frame")?;
     let spec = RunSpec {
-        pattern: RunSpec::pattern_label(args.text.as_deref(), args.pattern.as_deref()),
+        pattern: target.label(),
         scene: args.scene.display().to_string(),
         layout: None,
         seed: args.seed,
@@ -307,34 +316,6 @@ fn reachable_sites(rig: &HardwareRig, radius_m: f64, clearance_m: f64) -> Reacha
         lo_m: Vector2::new(range[0].min_m + margin, range[1].min_m + margin),
         hi_m: Vector2::new(range[0].max_m - margin, range[1].max_m - margin),
     }
-}
-
-/// The pattern placed where the full plan on the first frame's particles
-/// is fastest, as on the simulated rig ([`place_by_plan`]).
-fn sites_for(
-    args: &Args,
-    scene: &Scene,
-    reachable: &Reachable,
-    seen: &[crate::exec::tracker::Observation],
-    settings: &AssemblySettings,
-    config: &PlanConfig,
-) -> anyhow::Result<Vec<Site>> {
-    let r = scene.particle_radius_m;
-    let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
-    let pattern = match (&args.text, &args.pattern) {
-        (Some(text), _) => Pattern::from_text(text, pitch)?,
-        (None, Some(path)) => crate::plan::pattern::site_list::read_pattern(path, pitch)?,
-        (None, None) => bail!("give --text or --pattern"),
-    };
-    let layout = layout_seen(settings.field_m, seen, r);
-    place_by_plan(
-        &pattern,
-        reachable,
-        &layout,
-        config,
-        PlacementGoal::LeastTime,
-    )
-    .context("placing the pattern among the particles of the first frame")
 }
 
 /// One line per message, bytes outside printable ASCII escaped (`\n` ends each command).

@@ -11,6 +11,7 @@ mod demo;
 mod detect;
 mod dry_run;
 mod error_message;
+mod pattern_args;
 mod plan;
 mod rig_probe;
 mod rig_sim_gcs;

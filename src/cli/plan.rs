@@ -1,5 +1,6 @@
 //! `nanopush plan`: pattern + particles -> ordered push plan, with a summary.
 
+use super::pattern_args::PatternArgs;
 use anyhow::{Context, bail};
 use nanopush_plan_api::*;
 use std::path::PathBuf;
@@ -8,12 +9,10 @@ mod nanopush_plan_api {
     pub use crate::calib::affine::AffineCalibration;
     pub use crate::exec::frame_layout::layout_from_frame;
     pub use crate::plan::layout::Layout;
-    pub use crate::plan::pattern::transform::{Reachable, place_at, rotate};
-    pub use crate::plan::pattern::{Pattern, site_list};
+    pub use crate::plan::pattern::transform::{Reachable, place_at};
     pub use crate::plan::placement::{PlacementGoal, place_and_plan};
     pub use crate::plan::{
-        AssignmentMethod, DEFAULT_SITE_GAP_M, PlanConfig, PlanError, plan_assembly, plan_file,
-        verify,
+        AssignmentMethod, PlanConfig, PlanError, plan_assembly, plan_file, verify,
     };
     pub use crate::render::plan_on_frame::draw_plan_on_frame;
     pub use crate::vision::frame::Frame;
@@ -22,13 +21,11 @@ mod nanopush_plan_api {
 
 /// Arguments of `nanopush plan`.
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("what").args(["text", "pattern"]).required(true)))]
 pub struct Args {
-    /// Text to write with the built-in font (A-Z, 0-9, space).
-    #[arg(long, conflicts_with = "pattern", required_unless_present = "pattern")]
-    pub text: Option<String>,
-    /// Pattern file: site list (.toml/.json, um), SVG drawing (.svg: its paths sampled at the pitch, 1 user unit = 1 um) or bitmap image (dark pixel = site).
-    #[arg(long)]
-    pub pattern: Option<PathBuf>,
+    /// What to assemble and where.
+    #[command(flatten)]
+    pub target: PatternArgs,
     /// Particle layout (nanopush.layout/1 JSON).
     #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
     pub layout: Option<PathBuf>,
@@ -49,17 +46,6 @@ pub struct Args {
     /// `verify-plan --layout` replays the plan on).
     #[arg(long, requires = "frame")]
     pub save_layout: Option<PathBuf>,
-    /// Site pitch in um (default: particle diameter + 0.5 um).
-    #[arg(long, allow_negative_numbers = true)]
-    pub pitch_um: Option<f64>,
-    /// Pattern rotation, degrees counter-clockwise.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    pub rotation_deg: f64,
-    /// Pattern centre "X,Y" in um (default: where the plan pushes least, of
-    /// the two best placements by the push distance's lower bound; when
-    /// both are refused, the first of up to 24 others that plans).
-    #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
-    pub at: Option<(f64, f64)>,
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub contact_angle_deg: f64,
@@ -82,18 +68,6 @@ pub struct Args {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
-}
-
-fn parse_xy(s: &str) -> Result<(f64, f64), String> {
-    let (x, y) = s
-        .split_once(',')
-        .ok_or_else(|| format!("expected X,Y in um, got {s:?}"))?;
-    let x: f64 = x.trim().parse().map_err(|e| format!("bad X {x:?}: {e}"))?;
-    let y: f64 = y.trim().parse().map_err(|e| format!("bad Y {y:?}: {e}"))?;
-    if !x.is_finite() || !y.is_finite() {
-        return Err(format!("X,Y must be finite, got {s:?}"));
-    }
-    Ok((x, y))
 }
 
 /// The particles to plan with: the layout file's, or those found in the
@@ -147,20 +121,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if radius <= 0.0 {
         bail!("no particle to plan with");
     }
-    let pitch_m = match args.pitch_um {
-        Some(p) if !p.is_finite() || p <= 0.0 => {
-            bail!("--pitch-um must be finite and > 0, got {p}")
-        }
-        Some(p) => p * 1e-6,
-        None => 2.0 * radius + DEFAULT_SITE_GAP_M,
-    };
-    let pattern = match (&args.text, &args.pattern) {
-        (Some(t), _) => Pattern::from_text(t, pitch_m)?,
-        (None, Some(p)) => site_list::read_pattern(p, pitch_m)?,
-        (None, None) => bail!("give --text or --pattern"),
-    };
-    let pattern = rotate(&pattern, args.rotation_deg.to_radians())?;
-    pattern.check_no_overlap(2.0 * radius)?;
+    let request = args.target.request()?;
+    let pattern = request.pattern(radius)?;
     let area = Reachable::for_field(layout.field_m, radius);
     let config = PlanConfig {
         contact_angle_rad: args.contact_angle_deg.to_radians(),
@@ -172,11 +134,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..PlanConfig::default()
     };
     let placing = std::time::Instant::now();
-    let plan = match args.at {
-        Some((x, y)) => {
-            let at = nalgebra::Vector2::new(x * 1e-6, y * 1e-6);
-            plan_assembly(&layout, &place_at(&pattern, at, &area, radius)?, &config)?
-        }
+    let plan = match request.at_m {
+        Some(at) => plan_assembly(&layout, &place_at(&pattern, at, &area, radius)?, &config)?,
         None => {
             let placed =
                 place_and_plan(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)?;

@@ -12,11 +12,11 @@ use super::recording::Recording;
 use super::recording_check::{check_sites_in_field, sites_of};
 use super::tracker::Tracker;
 use crate::model::Scene;
-use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::{PlacementGoal, place_by_plan};
-use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, PlanConfig, Site, Step, plan_assembly};
+use crate::plan::pattern_request::{PatternRequest, PatternSource};
+use crate::plan::placement::PlacementGoal;
+use crate::plan::{Layout, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::exposure::Exposure;
@@ -266,15 +266,16 @@ fn target_sites(
         check_sites_in_field(&sites, field_m, radius_m).map_err(DryRunError::Target)?;
         return Ok(sites);
     }
-    let pitch = 2.0 * radius_m + DEFAULT_SITE_GAP_M;
     let target = |e: String| DryRunError::Target(e);
-    let pattern = match (&spec.pattern_text, &spec.pattern) {
-        (Some(text), _) => Pattern::from_text(text, pitch).map_err(|e| target(e.to_string()))?,
-        (None, Some(rel)) => {
-            read_pattern(&recording.file(rel), pitch).map_err(|e| target(e.to_string()))?
-        }
+    let source = match (&spec.pattern_text, &spec.pattern) {
+        (Some(text), _) => PatternSource::Text(text.clone()),
+        (None, Some(rel)) => PatternSource::File(recording.file(rel)),
         (None, None) => return Err(target("the recording names no target".into())),
     };
+    let request = PatternRequest::from(source);
+    let pattern = request
+        .pattern(radius_m)
+        .map_err(|e| target(e.to_string()))?;
     if pattern.offsets_m.len() > first.len() {
         return Err(target(format!(
             "the pattern has {} sites but the first frame shows {} particles",
@@ -282,14 +283,15 @@ fn target_sites(
             first.len()
         )));
     }
-    place_by_plan(
-        &pattern,
-        &Reachable::for_field(field_m, radius_m),
-        &layout_seen(field_m, first, radius_m),
-        config,
-        PlacementGoal::LeastTime,
-    )
-    .map_err(|e| target(e.to_string()))
+    request
+        .sites(
+            &pattern,
+            &Reachable::for_field(field_m, radius_m),
+            &layout_seen(field_m, first, radius_m),
+            config,
+            PlacementGoal::LeastTime,
+        )
+        .map_err(|e| target(e.to_string()))
 }
 
 /// Plans from the tracks and names the first push (with the model's choice).

@@ -23,15 +23,6 @@ pub struct RunSpec {
     pub radius_um: f64,
 }
 
-impl RunSpec {
-    /// The `pattern` field for a run given `--text` or `--pattern FILE`.
-    pub fn pattern_label(text: Option<&str>, pattern: Option<&std::path::Path>) -> String {
-        text.map(str::to_owned)
-            .or_else(|| pattern.map(|p| p.display().to_string()))
-            .unwrap_or_default()
-    }
-}
-
 /// A particle seen in a frame, with its track id.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SeenParticle {

@@ -9,12 +9,12 @@ use super::events::RunSpec;
 use super::observe::Perception;
 use crate::model::{ModelError, Scene};
 use crate::plan::pattern::PatternError;
-use crate::plan::pattern::site_list::read_pattern;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
-use crate::plan::placement::{PlacementGoal, place_by_plan};
+use crate::plan::pattern_request::PatternRequest;
+use crate::plan::placement::PlacementGoal;
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use crate::plan::{DEFAULT_SITE_GAP_M, Layout, Pattern, Site};
+use crate::plan::{Layout, Site};
 use crate::rig::RigError;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
@@ -27,10 +27,8 @@ pub const SIM_FIELD_UM: [f64; 2] = [120.0, 100.0];
 /// What to assemble, on which world.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SimRunRequest {
-    /// Text in the built-in font (or `pattern`).
-    pub text: Option<String>,
-    /// Pattern file (site list or bitmap).
-    pub pattern: Option<PathBuf>,
+    /// The pattern, its pitch, rotation and placement.
+    pub target: Option<PatternRequest>,
     /// Scene TOML.
     pub scene: PathBuf,
     /// Layout file (default: a random layout from `seed`).
@@ -67,7 +65,7 @@ pub enum SimRunError {
     /// The layout file or the random layout.
     #[error("layout: {0}")]
     Layout(String),
-    /// Neither text nor pattern file.
+    /// No pattern asked for.
     #[error("give a text or a pattern file")]
     NoPattern,
     /// The pattern could not be read or placed.
@@ -104,7 +102,11 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
     let layout = layout_for(req.layout.as_deref(), &scene, req.seed, req.particles)?;
     let sites = sites_for(req, &scene, &layout)?;
     let spec = RunSpec {
-        pattern: RunSpec::pattern_label(req.text.as_deref(), req.pattern.as_deref()),
+        pattern: req
+            .target
+            .as_ref()
+            .map(PatternRequest::label)
+            .unwrap_or_default(),
         scene: req.scene.display().to_string(),
         layout: req.layout.as_ref().map(|p| p.display().to_string()),
         seed: req.seed,
@@ -159,19 +161,15 @@ fn sites_for(
     layout: &Layout,
 ) -> Result<Vec<Site>, SimRunError> {
     let r = scene.particle_radius_m;
-    let pitch = 2.0 * r + DEFAULT_SITE_GAP_M;
-    let pattern = match (&req.text, &req.pattern) {
-        (Some(text), _) => Pattern::from_text(text, pitch)?,
-        (None, Some(path)) => read_pattern(path, pitch)?,
-        (None, None) => return Err(SimRunError::NoPattern),
-    };
+    let target = req.target.as_ref().ok_or(SimRunError::NoPattern)?;
     let mismatch = |why: String| SimRunError::Mismatch {
         radius_um: r * 1e6,
         why,
     };
-    pattern
-        .check_no_overlap(2.0 * r)
-        .map_err(|e| mismatch(e.to_string()))?;
+    let pattern = target.pattern(r).map_err(|e| match e {
+        PatternError::OverlappingSites { .. } => mismatch(e.to_string()),
+        e => e.into(),
+    })?;
     if pattern.offsets_m.len() > layout.particles.len() {
         return Err(mismatch(format!(
             "{} sites but only {} particles",
@@ -179,7 +177,7 @@ fn sites_for(
             layout.particles.len()
         )));
     }
-    Ok(place_by_plan(
+    Ok(target.sites(
         &pattern,
         &Reachable::for_field(layout.field_m, r),
         layout,

@@ -23,6 +23,7 @@ pub mod occupancy;
 pub mod order;
 pub mod parking;
 pub mod pattern;
+pub mod pattern_request;
 pub mod peel;
 pub mod placement;
 pub mod plan_file;

@@ -1,0 +1,178 @@
+//! What a user asks to assemble: a text or a pattern file, at a pitch,
+//! turned and placed. `nanopush plan` and `nanopush assemble` (simulated rig
+//! and hardware) read it the same way, so a pattern planned on paper is the
+//! pattern the rig builds.
+
+use super::DEFAULT_SITE_GAP_M;
+use super::PlanConfig;
+use super::layout::Layout;
+use super::pattern::site_list::read_pattern;
+use super::pattern::transform::{Reachable, place_at, rotate};
+use super::pattern::{Pattern, PatternError, Site, check_value};
+use super::placement::{PlacementGoal, place_by_plan};
+use nalgebra::Vector2;
+use std::path::PathBuf;
+
+/// Where the pattern's sites come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PatternSource {
+    /// Text in the built-in font.
+    Text(String),
+    /// A site list (TOML/JSON, um), bitmap or SVG drawing.
+    File(PathBuf),
+}
+
+/// A pattern as asked for: its source, pitch, rotation and placement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatternRequest {
+    /// The sites' source.
+    pub source: PatternSource,
+    /// Site pitch of text, bitmaps and drawings (a site list's positions are
+    /// its own); `None`: a particle diameter plus [`DEFAULT_SITE_GAP_M`].
+    pub pitch_m: Option<f64>,
+    /// Counter-clockwise turn about the pattern's centre.
+    pub rotation_rad: f64,
+    /// The pattern's centre on the stage; `None`: where planning finds it
+    /// best ([`place_by_plan`]).
+    pub at_m: Option<Vector2<f64>>,
+}
+
+/// The source at the default pitch, unturned, placed by planning.
+impl From<PatternSource> for PatternRequest {
+    fn from(source: PatternSource) -> Self {
+        Self {
+            source,
+            pitch_m: None,
+            rotation_rad: 0.0,
+            at_m: None,
+        }
+    }
+}
+
+impl PatternRequest {
+    /// `text` at the default pitch, unturned, placed by planning.
+    pub fn text(text: &str) -> Self {
+        PatternSource::Text(text.to_string()).into()
+    }
+
+    /// The pattern for particles of `radius_m`: built at the pitch, turned,
+    /// and refused when two sites are closer than a particle diameter.
+    pub fn pattern(&self, radius_m: f64) -> Result<Pattern, PatternError> {
+        let pitch_m = self.pitch_m.unwrap_or(2.0 * radius_m + DEFAULT_SITE_GAP_M);
+        check_value("pitch_um", pitch_m * 1e6, true)?;
+        let pattern = match &self.source {
+            PatternSource::Text(text) => Pattern::from_text(text, pitch_m)?,
+            PatternSource::File(path) => read_pattern(path, pitch_m)?,
+        };
+        let pattern = rotate(&pattern, self.rotation_rad)?;
+        pattern.check_no_overlap(2.0 * radius_m)?;
+        Ok(pattern)
+    }
+
+    /// The sites: at the asked centre (refused when a site leaves `area`),
+    /// else where a full plan on `layout` is best by `goal`.
+    pub fn sites(
+        &self,
+        pattern: &Pattern,
+        area: &Reachable,
+        layout: &Layout,
+        config: &PlanConfig,
+        goal: PlacementGoal,
+    ) -> Result<Vec<Site>, PatternError> {
+        match self.at_m {
+            Some(centre_m) => place_at(pattern, centre_m, area, layout.max_radius_m()),
+            None => place_by_plan(pattern, area, layout, config, goal),
+        }
+    }
+
+    /// The text, or the file's path: how reports and journals name the pattern.
+    pub fn label(&self) -> String {
+        match &self.source {
+            PatternSource::Text(text) => text.clone(),
+            PatternSource::File(path) => path.display().to_string(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const R: f64 = 5e-6;
+
+    #[test]
+    fn pitch_and_rotation_shape_the_pattern() {
+        let plain = PatternRequest::text("I").pattern(R).unwrap();
+        // "I" is a 3x5 glyph: its tallest column is 4 default pitches long.
+        let default_pitch = 2.0 * R + DEFAULT_SITE_GAP_M;
+        assert!((plain.extent_m().y - 4.0 * default_pitch).abs() < 1e-12);
+        let wide = PatternRequest {
+            pitch_m: Some(12e-6),
+            ..PatternRequest::text("I")
+        };
+        assert!((wide.pattern(R).unwrap().extent_m().y - 48e-6).abs() < 1e-12);
+        let turned = PatternRequest {
+            rotation_rad: std::f64::consts::FRAC_PI_2,
+            ..wide
+        };
+        let extent = turned.pattern(R).unwrap().extent_m();
+        assert!((extent.x - 48e-6).abs() < 1e-9, "{extent:?}");
+    }
+
+    #[test]
+    fn a_pitch_under_a_diameter_or_not_positive_is_refused() {
+        for pitch in [8e-6, 0.0, -1e-5, f64::NAN] {
+            let request = PatternRequest {
+                pitch_m: Some(pitch),
+                ..PatternRequest::text("I")
+            };
+            let err = request.pattern(R).unwrap_err().to_string();
+            let expected = if pitch > 0.0 { "overlap" } else { "pitch_um" };
+            assert!(err.contains(expected), "{pitch}: {err}");
+        }
+    }
+
+    #[test]
+    fn sites_go_where_asked_or_are_refused_outside_the_area() {
+        let layout = Layout {
+            field_m: [120e-6, 100e-6],
+            particles: (0..20)
+                .map(|i| crate::plan::layout::Particle {
+                    id: i,
+                    centre_m: Vector2::new(
+                        10e-6 + 11e-6 * (i % 10) as f64,
+                        if i < 10 { 10e-6 } else { 90e-6 },
+                    ),
+                    radius_m: R,
+                })
+                .collect(),
+        };
+        let area = Reachable::for_field(layout.field_m, R);
+        let request = PatternRequest {
+            at_m: Some(Vector2::new(60e-6, 50e-6)),
+            ..PatternRequest::text("L")
+        };
+        let pattern = request.pattern(R).unwrap();
+        let config = PlanConfig::default();
+        let sites = request
+            .sites(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)
+            .unwrap();
+        let n = sites.len() as f64;
+        let centre = sites.iter().map(|s| s.centre_m).sum::<Vector2<f64>>() / n;
+        let (lo, hi) =
+            crate::plan::pattern::bbox(&sites.iter().map(|s| s.centre_m).collect::<Vec<_>>());
+        assert!(((lo + hi) / 2.0 - Vector2::new(60e-6, 50e-6)).norm() < 1e-12);
+        assert!(centre.x < 60e-6, "an L leans left: {centre:?}");
+        let off = PatternRequest {
+            at_m: Some(Vector2::new(5e-6, 50e-6)),
+            ..request
+        };
+        let err = off
+            .sites(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)
+            .unwrap_err();
+        assert!(
+            matches!(err, PatternError::OutsideAtPlacement { .. }),
+            "{err}"
+        );
+    }
+}
