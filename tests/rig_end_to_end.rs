@@ -9,6 +9,7 @@
 //! talking garbage must leave the stage still.
 
 use nanopush::calib::affine::AffineCalibration;
+use nanopush::exec::observe::Perception;
 use nanopush::exec::sim_run::layout_for;
 use nanopush::model::Scene;
 use nanopush::plan::Layout;
@@ -16,7 +17,8 @@ use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
 use nanopush::rig::gcs::{RigFile, SimConfig, SimFault, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
 use nanopush::rig::sim::world::World;
-use nanopush::vision::frame_input::save_png;
+use nanopush::vision::detect::detect_particles;
+use nanopush::vision::frame_input::{Channel, load_frame, save_png};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
@@ -629,6 +631,112 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
         world.contacts().iter().any(|c| c.moved_m > 1.0 * UM),
         "the probe pushed nothing"
     );
+}
+
+/// With a coarse stage, `--at` is in the calibration's coordinates (those
+/// `rig probe --camera` prints the view in), not the run's shifted field:
+/// the pattern's centre lies where the calibration puts the asked point
+/// among the particles the camera shows.
+#[test]
+fn a_coarse_rig_run_centres_the_pattern_at_calibrated_coordinates() {
+    let b = coarse_bench(50.0);
+    let calibration =
+        AffineCalibration::load(&manifest().join("calib/camera-stage-sim-coarse.toml")).unwrap();
+    // The view's middle, plus a few um so that no symmetry hides a slip.
+    let [vx, vy] = calibration.pixel_to_stage_m(280.0, 220.0);
+    let at = [vx * 1e6 + 3.0, vy * 1e6 - 2.0];
+    let at_flag = format!("{},{}", at[0], at[1]);
+    let out = finish(
+        b.assemble("at", &["--dry-run", "--at", &at_flag]),
+        RUN_LIMIT,
+    );
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let journal = std::fs::read_to_string(b.dir.path().join("at/journal.jsonl")).unwrap();
+    let events: Vec<serde_json::Value> = journal
+        .lines()
+        .skip(1)
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["event"].clone())
+        .collect();
+    let points = |v: &serde_json::Value| -> Vec<[f64; 2]> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|p| match p {
+                serde_json::Value::Array(xy) => [xy[0].as_f64().unwrap(), xy[1].as_f64().unwrap()],
+                p => [p["x_um"].as_f64().unwrap(), p["y_um"].as_f64().unwrap()],
+            })
+            .collect()
+    };
+    let sites = points(&events[0]["sites_um"]);
+    let first_seen = events
+        .iter()
+        .find(|e| e["kind"] == "observation")
+        .map(|e| points(&e["particles"]))
+        .unwrap();
+    // The particles in the calibration's coordinates: a frame of the
+    // folder (nothing moved in a dry run), detected here.
+    let mut frames: Vec<_> = std::fs::read_dir(&b.frames)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    frames.sort();
+    let frame = frames
+        .iter()
+        .rev()
+        .find_map(|f| load_frame(f, Channel::Luminance).ok())
+        .unwrap();
+    let settings = Perception::for_particles(5e-6, calibration.m_per_px(), 1).detect;
+    let calibrated: Vec<[f64; 2]> = detect_particles(&frame, &settings)
+        .unwrap()
+        .iter()
+        .filter(|d| !d.edge_clipped)
+        .map(|d| {
+            calibration
+                .pixel_to_stage_m(d.x_px, d.y_px)
+                .map(|v| v * 1e6)
+        })
+        .collect();
+    // The run's field is the calibration's coordinates shifted: the shift
+    // that lays most detections onto the run's first sighting.
+    let matches = |shift: [f64; 2]| {
+        calibrated
+            .iter()
+            .filter(|c| {
+                first_seen
+                    .iter()
+                    .any(|p| (p[0] - c[0] - shift[0]).hypot(p[1] - c[1] - shift[1]) < 0.3)
+            })
+            .count()
+    };
+    let shift = first_seen
+        .iter()
+        .flat_map(|p| calibrated.iter().map(move |c| [p[0] - c[0], p[1] - c[1]]))
+        .max_by_key(|&s| matches(s))
+        .unwrap();
+    assert!(
+        matches(shift) * 10 >= calibrated.len() * 8,
+        "{} of {} detections matched",
+        matches(shift),
+        calibrated.len()
+    );
+    let span = |k: usize| {
+        let (lo, hi) = sites
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s[k]), b.max(s[k])));
+        (lo + hi) / 2.0
+    };
+    let centre = [span(0) - shift[0], span(1) - shift[1]];
+    assert!(
+        (centre[0] - at[0]).hypot(centre[1] - at[1]) < 0.3,
+        "centre {centre:?} um in the calibration's coordinates, asked {at:?}"
+    );
+    // A point off the view is refused in the words it was asked in.
+    let off = format!("{},{}", at[0] + 500.0, at[1]);
+    let out = finish(b.assemble("off", &["--dry-run", "--at", &off]), RUN_LIMIT);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    let asked = format!("placed at ({:.1}, {:.1}) um", at[0] + 500.0, at[1]);
+    assert!(stderr.contains(&asked), "{stderr}");
 }
 
 #[test]

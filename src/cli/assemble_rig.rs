@@ -31,6 +31,7 @@ use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::model::Scene;
 use crate::plan::Pattern;
+use crate::plan::pattern::PatternError;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::PatternRequest;
@@ -176,23 +177,34 @@ fn assemble(
             args.scene.display()
         );
     }
-    let reachable = if rig.has_coarse() {
-        let corner = field_on_first_frame(rig, &mut first, &mut settings, r)?;
+    // `--at` is in the calibration's coordinates (those `rig probe --camera`
+    // prints the view in); the run's field is the nanostage's range, or with
+    // a coarse stage what the first frame shows, shifted.
+    let (reachable, calibrated_to_field) = if rig.has_coarse() {
+        let (corner, shift) = field_on_first_frame(rig, &mut first, &mut settings, r)?;
         let margin = r + settings.clearance_m;
-        Reachable {
+        let reachable = Reachable {
             lo_m: Vector2::new(margin, margin),
             hi_m: Vector2::new(corner[0] - margin, corner[1] - margin),
-        }
+        };
+        (reachable, Vector2::from(shift))
     } else {
         let range = rig.range();
         settings.field_m = [range[0].max_m, range[1].max_m];
-        reachable_sites(rig, r, settings.clearance_m)
+        (
+            reachable_sites(rig, r, settings.clearance_m),
+            Vector2::zeros(),
+        )
+    };
+    let in_field = PatternRequest {
+        at_m: target.at_m.map(|at| at + calibrated_to_field),
+        ..target.clone()
     };
     let plan_config = settings.plan_config(scene);
     // At --at, else where the full plan on the first frame's particles is
     // fastest, as on the simulated rig.
     let layout = layout_seen(settings.field_m, &first.particles, r);
-    let sites = target
+    let sites = in_field
         .sites(
             pattern,
             &reachable,
@@ -200,6 +212,16 @@ fn assemble(
             &plan_config,
             PlacementGoal::LeastTime,
         )
+        .map_err(|e| match (e, target.at_m) {
+            // Said where the user asked, not in the shifted field.
+            (PatternError::OutsideAtPlacement { .. }, Some(at)) => {
+                PatternError::OutsideAtPlacement {
+                    x_um: at.x * 1e6,
+                    y_um: at.y * 1e6,
+                }
+            }
+            (e, _) => e,
+        })
         .context("placing the pattern among the particles of the first frame")?;
     let spec = RunSpec {
         pattern: target.label(),
@@ -277,13 +299,15 @@ fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
 /// whole particles in, grown by a particle radius on every side so that
 /// every particle seen lies inside; the sample frame is moved so that the
 /// field's lower-left corner is its origin (the planner's field starts at
-/// 0), and the first frame's particles with it. Returns the field's size.
+/// 0), and the first frame's particles with it. Returns the field's size
+/// and what a point in the calibration's coordinates (no coarse offset)
+/// adds to be in the field's.
 fn field_on_first_frame(
     rig: &mut HardwareRig,
     first: &mut Sighting,
     settings: &mut AssemblySettings,
     radius_m: f64,
-) -> anyhow::Result<[f64; 2]> {
+) -> anyhow::Result<([f64; 2], [f64; 2])> {
     let [lo, hi] = first.view_m;
     let corner = [lo[0] - radius_m, lo[1] - radius_m];
     let offset = [
@@ -300,7 +324,7 @@ fn field_on_first_frame(
         hi[0] - lo[0] + 2.0 * radius_m,
         hi[1] - lo[1] + 2.0 * radius_m,
     ];
-    Ok(settings.field_m)
+    Ok((settings.field_m, offset))
 }
 
 /// Where sites may lie on a rig without a coarse stage: a radius and the
