@@ -304,6 +304,36 @@ fn sites_px(out_dir: &Path) -> Vec<[f64; 2]> {
         .collect()
 }
 
+/// The events of a run's journal, in order (the schema line left out).
+fn journal_events(out_dir: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out_dir.join("journal.jsonl"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["event"].clone())
+        .collect()
+}
+
+/// Points of a journal event, um: `[x, y]` pairs or `{x_um, y_um}` objects.
+fn points_um(v: &serde_json::Value) -> Vec<[f64; 2]> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|p| match p {
+            serde_json::Value::Array(xy) => [xy[0].as_f64().unwrap(), xy[1].as_f64().unwrap()],
+            p => [p["x_um"].as_f64().unwrap(), p["y_um"].as_f64().unwrap()],
+        })
+        .collect()
+}
+
+/// The middle and the size of the points' bounding box along axis `k`.
+fn span(points: &[[f64; 2]], k: usize) -> (f64, f64) {
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p[k]), b.max(p[k])));
+    ((lo + hi) / 2.0, hi - lo)
+}
+
 /// The simulated rig's run of `args` (the reference), as its JSON report.
 fn reference_run(dir: &Path, args: &[&str]) -> serde_json::Value {
     let reference = nanopush()
@@ -456,21 +486,9 @@ fn a_rig_run_builds_the_pattern_where_asked() {
         RUN_LIMIT,
     );
     assert!(out.status.success(), "{}", failed(out.status, &out));
-    let journal = std::fs::read_to_string(b.dir.path().join("at/journal.jsonl")).unwrap();
-    let start: serde_json::Value = serde_json::from_str(journal.lines().nth(1).unwrap()).unwrap();
-    let sites: Vec<[f64; 2]> = start["event"]["sites_um"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| [s[0].as_f64().unwrap(), s[1].as_f64().unwrap()])
-        .collect();
-    let span = |k: usize| {
-        let (lo, hi) = sites
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s[k]), b.max(s[k])));
-        ((lo + hi) / 2.0, hi - lo)
-    };
-    let ((cx, w), (cy, h)) = (span(0), span(1));
+    let events = journal_events(&b.dir.path().join("at"));
+    let sites = points_um(&events[0]["sites_um"]);
+    let ((cx, w), (cy, h)) = (span(&sites, 0), span(&sites, 1));
     assert!(
         (cx - 50.0).abs() < 1e-6 && (cy - 45.0).abs() < 1e-6,
         "centre ({cx}, {cy})"
@@ -651,27 +669,12 @@ fn a_coarse_rig_run_centres_the_pattern_at_calibrated_coordinates() {
         RUN_LIMIT,
     );
     assert!(out.status.success(), "{}", failed(out.status, &out));
-    let journal = std::fs::read_to_string(b.dir.path().join("at/journal.jsonl")).unwrap();
-    let events: Vec<serde_json::Value> = journal
-        .lines()
-        .skip(1)
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["event"].clone())
-        .collect();
-    let points = |v: &serde_json::Value| -> Vec<[f64; 2]> {
-        v.as_array()
-            .unwrap()
-            .iter()
-            .map(|p| match p {
-                serde_json::Value::Array(xy) => [xy[0].as_f64().unwrap(), xy[1].as_f64().unwrap()],
-                p => [p["x_um"].as_f64().unwrap(), p["y_um"].as_f64().unwrap()],
-            })
-            .collect()
-    };
-    let sites = points(&events[0]["sites_um"]);
+    let events = journal_events(&b.dir.path().join("at"));
+    let sites = points_um(&events[0]["sites_um"]);
     let first_seen = events
         .iter()
         .find(|e| e["kind"] == "observation")
-        .map(|e| points(&e["particles"]))
+        .map(|e| points_um(&e["particles"]))
         .unwrap();
     // The particles in the calibration's coordinates: a frame of the
     // folder (nothing moved in a dry run), detected here.
@@ -719,13 +722,7 @@ fn a_coarse_rig_run_centres_the_pattern_at_calibrated_coordinates() {
         matches(shift),
         calibrated.len()
     );
-    let span = |k: usize| {
-        let (lo, hi) = sites
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), s| (a.min(s[k]), b.max(s[k])));
-        (lo + hi) / 2.0
-    };
-    let centre = [span(0) - shift[0], span(1) - shift[1]];
+    let centre = [span(&sites, 0).0 - shift[0], span(&sites, 1).0 - shift[1]];
     assert!(
         (centre[0] - at[0]).hypot(centre[1] - at[1]) < 0.3,
         "centre {centre:?} um in the calibration's coordinates, asked {at:?}"
