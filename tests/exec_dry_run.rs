@@ -107,6 +107,60 @@ fn the_simulated_recording_replays_with_the_models_pushes() {
     assert_eq!(snapshot(&rec), before, "the recording was changed");
 }
 
+/// A pattern asked for on the command line replaces the recording's
+/// target: the dry-run plans it where, at the pitch and turn asked.
+#[test]
+fn a_pattern_asked_for_is_tried_on_the_recording_instead_of_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = root().join("fixtures/recordings/sim-L-seed6");
+    let asked = [
+        "--text",
+        "L",
+        "--at",
+        "60,50",
+        "--pitch-um",
+        "11",
+        "--rotation-deg",
+        "90",
+    ];
+    let r = ok_report(&dry_run(&rec, dir.path(), &asked), dir.path());
+    let (lo, hi) = r
+        .sites_um
+        .iter()
+        .fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), s| {
+            (
+                [lo[0].min(s[0]), lo[1].min(s[1])],
+                [hi[0].max(s[0]), hi[1].max(s[1])],
+            )
+        });
+    let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    assert!(
+        (centre[0] - 60.0).abs() < 1e-6 && (centre[1] - 50.0).abs() < 1e-6,
+        "{centre:?}"
+    );
+    // L stands 4 pitches tall and 2 wide; a quarter turn lays it down.
+    let size = [hi[0] - lo[0], hi[1] - lo[1]];
+    assert!(
+        (size[0] - 44.0).abs() < 1e-6 && (size[1] - 22.0).abs() < 1e-6,
+        "{size:?}"
+    );
+    let DryCommand::Push { to_um, .. } = &r.frames[0].command else {
+        panic!("{:?}", r.frames[0].command);
+    };
+    assert!(
+        r.sites_um
+            .iter()
+            .any(|s| (s[0] - to_um[0]).hypot(s[1] - to_um[1]) < 1e-9)
+    );
+    // A placement without a pattern to place is refused.
+    let o = dry_run(&rec, &dir.path().join("at-only"), &["--at", "60,50"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("give --text or --pattern too"),
+        "{err}"
+    );
+}
+
 #[test]
 fn the_real_recording_replays_with_five_particles_per_frame() {
     let dir = tempfile::tempdir().unwrap();

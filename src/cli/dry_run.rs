@@ -3,6 +3,7 @@
 //! loop would command; writes `dry-run.json` and an annotated animation
 //! `dry-run.mp4` in `--out`. The recording itself is only read.
 
+use super::pattern_args::PatternArgs;
 use crate::exec::animation::AnimationWriter;
 use crate::exec::dry_run::{DryRunReport, dry_run};
 use crate::exec::recording::open_recording;
@@ -26,6 +27,10 @@ pub struct Args {
     /// Print the whole dry-run as JSON instead of one line per frame.
     #[arg(long)]
     pub json: bool,
+    /// A pattern to try on the recording instead of its own target (what
+    /// `assemble` would do with `--text`, `--at`, ... on these frames).
+    #[command(flatten)]
+    pub target: PatternArgs,
 }
 
 /// Replays the recording and prints what would be commanded.
@@ -49,6 +54,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
+    let t = &args.target;
+    let asked = if t.text.is_some() || t.pattern.is_some() {
+        Some(t.request()?)
+    } else if t.pitch_um.is_some() || t.rotation_deg != 0.0 || t.at.is_some() {
+        bail!("--pitch-um, --rotation-deg and --at shape a pattern: give --text or --pattern too");
+    } else {
+        None
+    };
     let report_path = args.out.join("dry-run.json");
     if report_path.exists() {
         bail!(
@@ -59,7 +72,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut animation = AnimationWriter::new(&args.out.join("dry-run.mp4"), 1.0);
-    let report = dry_run(&recording, scene.as_ref(), Some(&mut animation))?;
+    let report = dry_run(
+        &recording,
+        scene.as_ref(),
+        asked.as_ref(),
+        Some(&mut animation),
+    )?;
     animation.finish().context("writing the animation")?;
     std::fs::write(&report_path, serde_json::to_string_pretty(&report)?)
         .with_context(|| format!("writing {}", report_path.display()))?;

@@ -136,11 +136,13 @@ impl Camera for Replay<'_> {
 }
 
 /// Runs perception, tracking and planning over every frame of `recording`;
-/// with a `scene`, also the model's decision for each push. `sink` sees every
-/// frame (the annotated animation).
+/// with a `scene`, also the model's decision for each push; the pattern
+/// `asked` for instead of the recording's target, when given. `sink` sees
+/// every frame (the annotated animation).
 pub fn dry_run(
     recording: &Recording,
     scene: Option<&Scene>,
+    asked: Option<&PatternRequest>,
     mut sink: Option<&mut dyn FrameSink>,
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
@@ -171,6 +173,7 @@ pub fn dry_run(
                 .map_or(sighting.view_m[1], |f| [f[0] * 1e-6, f[1] * 1e-6]);
             sites = Some(target_sites(
                 recording,
+                asked,
                 &sighting.particles,
                 field_m,
                 radius_m,
@@ -249,30 +252,38 @@ fn plan_config(scene: Option<&Scene>) -> PlanConfig {
     }
 }
 
-/// The sites: as recorded, or the pattern placed where the full plan on the
+/// The sites: the pattern `asked` for (the recording's target aside), as
+/// recorded, or the recording's pattern placed where the full plan on the
 /// first frame's particles is fastest, as the closed loop places it.
 fn target_sites(
     recording: &Recording,
+    asked: Option<&PatternRequest>,
     first: &[super::tracker::Observation],
     field_m: [f64; 2],
     radius_m: f64,
     config: &PlanConfig,
 ) -> Result<Vec<Site>, DryRunError> {
     let spec = &recording.spec;
-    if let Some(sites_um) = &spec.sites_um {
-        // Checked on read against `field_um`; here against the field the
-        // first frame shows when the recording gives none.
-        let sites = sites_of(sites_um).map_err(DryRunError::Target)?;
-        check_sites_in_field(&sites, field_m, radius_m).map_err(DryRunError::Target)?;
-        return Ok(sites);
-    }
     let target = |e: String| DryRunError::Target(e);
-    let source = match (&spec.pattern_text, &spec.pattern) {
-        (Some(text), _) => PatternSource::Text(text.clone()),
-        (None, Some(rel)) => PatternSource::File(recording.file(rel)),
-        (None, None) => return Err(target("the recording names no target".into())),
+    let recorded: PatternRequest;
+    let request = match asked {
+        Some(request) => request,
+        None => {
+            if let Some(sites_um) = &spec.sites_um {
+                // Checked on read against `field_um`; here against the field
+                // the first frame shows when the recording gives none.
+                let sites = sites_of(sites_um).map_err(DryRunError::Target)?;
+                check_sites_in_field(&sites, field_m, radius_m).map_err(DryRunError::Target)?;
+                return Ok(sites);
+            }
+            recorded = match (&spec.pattern_text, &spec.pattern) {
+                (Some(text), _) => PatternSource::Text(text.clone()).into(),
+                (None, Some(rel)) => PatternSource::File(recording.file(rel)).into(),
+                (None, None) => return Err(target("the recording names no target".into())),
+            };
+            &recorded
+        }
     };
-    let request = PatternRequest::from(source);
     let pattern = request
         .pattern(radius_m)
         .map_err(|e| target(e.to_string()))?;
