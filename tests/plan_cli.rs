@@ -90,6 +90,20 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
             "outside the reachable area",
         ),
         (on_easy("MMMMMMMMMMMMMMMMMMMMM", &[]), "does not fit"),
+        (
+            [
+                "plan",
+                "--pattern",
+                "patterns/hexagon.toml",
+                "--layout",
+                &easy,
+            ]
+            .iter()
+            .chain(&["--pitch-um", "12"])
+            .map(|s| s.to_string())
+            .collect(),
+            "no pitch applies",
+        ),
         (frame.iter().map(|s| s.to_string()).collect(), "c.toml"),
     ];
     for (args, expect) in cases {

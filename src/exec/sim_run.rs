@@ -69,7 +69,7 @@ pub enum SimRunError {
     #[error("give a text or a pattern file")]
     NoPattern,
     /// The pattern could not be read or placed.
-    #[error("pattern: {0}")]
+    #[error(transparent)]
     Pattern(#[from] PatternError),
     /// Pattern and scene do not fit each other.
     #[error("the pattern does not fit the scene's particles (radius {radius_um:.2} um): {why}")]

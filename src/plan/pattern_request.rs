@@ -6,7 +6,7 @@
 use super::DEFAULT_SITE_GAP_M;
 use super::PlanConfig;
 use super::layout::Layout;
-use super::pattern::site_list::read_pattern;
+use super::pattern::site_list::{is_site_list, read_pattern};
 use super::pattern::transform::{Reachable, place_at, rotate};
 use super::pattern::{Pattern, PatternError, Site, check_value};
 use super::placement::{PlacementGoal, place_by_plan};
@@ -60,6 +60,16 @@ impl PatternRequest {
     pub fn pattern(&self, radius_m: f64) -> Result<Pattern, PatternError> {
         let pitch_m = self.pitch_m.unwrap_or(2.0 * radius_m + DEFAULT_SITE_GAP_M);
         check_value("pitch_um", pitch_m * 1e6, true)?;
+        // A pitch asked for and silently ignored would build another pattern.
+        if let (Some(_), PatternSource::File(path)) = (self.pitch_m, &self.source)
+            && is_site_list(path)
+        {
+            return Err(PatternError::File {
+                path: path.display().to_string(),
+                message: "a site list's positions are its own, in um: no pitch applies to it"
+                    .into(),
+            });
+        }
         let pattern = match &self.source {
             PatternSource::Text(text) => Pattern::from_text(text, pitch_m)?,
             PatternSource::File(path) => read_pattern(path, pitch_m)?,
@@ -117,6 +127,22 @@ mod tests {
         };
         let extent = turned.pattern(R).unwrap().extent_m();
         assert!((extent.x - 48e-6).abs() < 1e-9, "{extent:?}");
+    }
+
+    #[test]
+    fn a_site_list_takes_no_pitch() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("two.toml");
+        let sites = "sites = [ { x_um = 0.0, y_um = 0.0 }, { x_um = 12.0, y_um = 0.0 } ]\n";
+        std::fs::write(&path, sites).unwrap();
+        let listed = PatternRequest::from(PatternSource::File(path));
+        assert!((listed.pattern(R).unwrap().extent_m().x - 12e-6).abs() < 1e-12);
+        let pitched = PatternRequest {
+            pitch_m: Some(20e-6),
+            ..listed
+        };
+        let err = pitched.pattern(R).unwrap_err().to_string();
+        assert!(err.contains("no pitch applies"), "{err}");
     }
 
     #[test]

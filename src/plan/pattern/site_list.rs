@@ -61,6 +61,14 @@ impl SiteList {
     }
 }
 
+/// Whether `path` names a site list (`.toml` / `.json`): positions in um,
+/// which no pitch scales.
+pub fn is_site_list(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml") || e.eq_ignore_ascii_case("json"))
+}
+
 /// Reads a pattern file: `.toml` / `.json` site lists, `.svg` drawings
 /// whose paths are sampled at `pitch_m` (1 user unit = 1 um), or an image
 /// (`.png`, `.bmp`, ...) where every dark pixel is a site at `pitch_m`.
