@@ -239,7 +239,10 @@ fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
 
     // Asked for what cannot be: refused before the folder is made.
     let refused = [
-        (&["--at", "5,50"][..], "outside the reachable area"),
+        (
+            &["--at", "5,50"][..],
+            "outside the reachable area (its centre may lie from (",
+        ),
         (
             &["--pitch-um", "0"][..],
             "--pitch-um must be finite and > 0",

@@ -734,6 +734,20 @@ fn a_coarse_rig_run_centres_the_pattern_at_calibrated_coordinates() {
     assert!(!out.status.success(), "{stderr}");
     let asked = format!("placed at ({:.1}, {:.1}) um", at[0] + 500.0, at[1]);
     assert!(stderr.contains(&asked), "{stderr}");
+    // ... with the centres that fit, in the same coordinates: the point
+    // that planned above lies among them.
+    let range: Vec<f64> = stderr
+        .split("may lie from")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no range in: {stderr}"))
+        .split(|c: char| !(c.is_ascii_digit() || c == '.' || c == '-'))
+        .filter_map(|w| w.parse().ok())
+        .take(4)
+        .collect();
+    assert!(
+        range[0] <= at[0] && at[0] <= range[2] && range[1] <= at[1] && at[1] <= range[3],
+        "{at:?} outside {range:?}: {stderr}"
+    );
 }
 
 #[test]

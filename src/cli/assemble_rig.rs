@@ -214,10 +214,13 @@ fn assemble(
         )
         .map_err(|e| match (e, target.at_m) {
             // Said where the user asked, not in the shifted field.
-            (PatternError::OutsideAtPlacement { .. }, Some(at)) => {
+            (PatternError::OutsideAtPlacement { lo_um, hi_um, .. }, Some(at)) => {
+                let back = |v: [f64; 2]| [0, 1].map(|k| v[k] - calibrated_to_field[k] * 1e6);
                 PatternError::OutsideAtPlacement {
                     x_um: at.x * 1e6,
                     y_um: at.y * 1e6,
+                    lo_um: back(lo_um),
+                    hi_um: back(hi_um),
                 }
             }
             (e, _) => e,

@@ -109,15 +109,24 @@ pub enum PatternError {
     },
     /// A placement point leaves part of the pattern outside the reachable area.
     #[error(
-        "pattern placed at ({}, {}) um leaves sites outside the reachable area",
+        "pattern placed at ({}, {}) um leaves sites outside the reachable area \
+         (its centre may lie from ({}, {}) to ({}, {}) um)",
         um_text(*.x_um, 1),
-        um_text(*.y_um, 1)
+        um_text(*.y_um, 1),
+        um_text(.lo_um[0], 1),
+        um_text(.lo_um[1], 1),
+        um_text(.hi_um[0], 1),
+        um_text(.hi_um[1], 1)
     )]
     OutsideAtPlacement {
         /// Requested centre x.
         x_um: f64,
         /// Requested centre y.
         y_um: f64,
+        /// Lowest centre that keeps every site inside, x and y.
+        lo_um: [f64; 2],
+        /// Highest centre that keeps every site inside, x and y.
+        hi_um: [f64; 2],
     },
     /// A file could not be read or parsed.
     #[error("pattern file {path}: {message}")]

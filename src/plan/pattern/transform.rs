@@ -82,6 +82,8 @@ pub fn place_at(
         return Err(PatternError::OutsideAtPlacement {
             x_um: centre_m.x * 1e6,
             y_um: centre_m.y * 1e6,
+            lo_um: [cmin.x * 1e6, cmin.y * 1e6],
+            hi_um: [cmax.x * 1e6, cmax.y * 1e6],
         });
     }
     Ok(sites_at(pattern, centre_m))
@@ -237,10 +239,18 @@ mod tests {
                 .iter()
                 .all(|s| s.centre_m.x >= 5e-6 - 1e-12 && s.centre_m.x <= 115e-6 + 1e-12)
         );
-        assert!(matches!(
-            place_at(&p, Vector2::new(10e-6, 50e-6), &area, 5e-6),
-            Err(PatternError::OutsideAtPlacement { .. })
-        ));
+        // CMU spans 105 x 42 um between site centres, the area 110 x 90 um:
+        // its centre may move 2.5 um either way in x, 24 um in y.
+        match place_at(&p, Vector2::new(10e-6, 50e-6), &area, 5e-6) {
+            Err(PatternError::OutsideAtPlacement { lo_um, hi_um, .. }) => {
+                let want = ([57.5, 26.0], [62.5, 74.0]);
+                for k in 0..2 {
+                    assert!((lo_um[k] - want.0[k]).abs() < 1e-6, "{lo_um:?}");
+                    assert!((hi_um[k] - want.1[k]).abs() < 1e-6, "{hi_um:?}");
+                }
+            }
+            other => panic!("{other:?}"),
+        }
         let small = Reachable::for_field([60e-6, 100e-6], 5e-6);
         assert!(matches!(
             place_at(&p, Vector2::new(30e-6, 50e-6), &small, 5e-6),
