@@ -189,6 +189,15 @@ fn report_md_links_only_to_files_that_exist() {
 fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
+    // `nanopush assemble --out OUT` with the run's arguments and `flags`.
+    let assemble = |out: &Path, flags: &[&str]| {
+        binary()
+            .args(["assemble", "--out", out.to_str().unwrap()])
+            .args(RUN)
+            .args(flags)
+            .output()
+            .unwrap()
+    };
     let placed = [
         "--at",
         "60,50",
@@ -197,12 +206,7 @@ fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
         "--rotation-deg",
         "90",
     ];
-    let o = binary()
-        .args(["assemble", "--out", out.to_str().unwrap()])
-        .args(RUN)
-        .args(placed)
-        .output()
-        .unwrap();
+    let o = assemble(&out, &placed);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let s = sites(&out);
     let xs: Vec<f64> = s.sites.iter().map(|r| r.x_um).collect();
@@ -251,12 +255,7 @@ fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
     ];
     for (flags, why) in refused {
         let out = dir.path().join("refused");
-        let o = binary()
-            .args(["assemble", "--out", out.to_str().unwrap()])
-            .args(RUN)
-            .args(flags)
-            .output()
-            .unwrap();
+        let o = assemble(&out, flags);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains(why), "{flags:?}: {err}");
         assert!(!out.exists(), "{flags:?} made the output folder");

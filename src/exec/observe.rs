@@ -85,10 +85,12 @@ impl Sighting {
             return;
         };
         let (off, fitting) = (self.off_size.len(), self.particles.len());
-        let state = format!("{:.1} um", median * 1e6);
         if off >= OFF_SIZE_WARN_COUNT
             && off > fitting
-            && changed("off-size detections of the camera".into(), state)
+            && changed(
+                "off-size detections of the camera".into(),
+                format!("{:.1} um", median * 1e6),
+            )
         {
             tracing::warn!(
                 "camera: {off} particles of radius {:.2} um (median) left out, {fitting} of the scene's {:.2} um taken: \

@@ -8,7 +8,7 @@ use super::PlanConfig;
 use super::layout::Layout;
 use super::pattern::site_list::{is_site_list, read_pattern};
 use super::pattern::transform::{Reachable, place_at, rotate};
-use super::pattern::{Pattern, PatternError, Site, check_value};
+use super::pattern::{Pattern, PatternError, Site};
 use super::placement::{PlacementGoal, place_by_plan};
 use nalgebra::Vector2;
 use std::path::PathBuf;
@@ -58,8 +58,9 @@ impl PatternRequest {
     /// The pattern for particles of `radius_m`: built at the pitch, turned,
     /// and refused when two sites are closer than a particle diameter.
     pub fn pattern(&self, radius_m: f64) -> Result<Pattern, PatternError> {
+        // The text, bitmap and drawing readers each refuse a pitch that is
+        // not a length.
         let pitch_m = self.pitch_m.unwrap_or(2.0 * radius_m + DEFAULT_SITE_GAP_M);
-        check_value("pitch_um", pitch_m * 1e6, true)?;
         // A pitch asked for and silently ignored would build another pattern.
         if let (Some(_), PatternSource::File(path)) = (self.pitch_m, &self.source)
             && is_site_list(path)

@@ -64,9 +64,13 @@ impl SiteList {
 /// Whether `path` names a site list (`.toml` / `.json`): positions in um,
 /// which no pitch scales.
 pub fn is_site_list(path: &Path) -> bool {
+    has_extension(path, "toml") || has_extension(path, "json")
+}
+
+fn has_extension(path: &Path, ext: &str) -> bool {
     path.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml") || e.eq_ignore_ascii_case("json"))
+        .is_some_and(|e| e.eq_ignore_ascii_case(ext))
 }
 
 /// Reads a pattern file: `.toml` / `.json` site lists, `.svg` drawings
@@ -74,21 +78,16 @@ pub fn is_site_list(path: &Path) -> bool {
 /// (`.png`, `.bmp`, ...) where every dark pixel is a site at `pitch_m`.
 pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> {
     let origin = path.display().to_string();
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
-        "toml" | "json" => {
-            let text = std::fs::read_to_string(path).map_err(|e| PatternError::File {
-                path: origin.clone(),
-                message: e.to_string(),
-            })?;
-            SiteList::parse(&text, ext == "toml", &origin)?.to_pattern(&origin)
-        }
-        "svg" => super::svg_path::read_svg(path, pitch_m),
-        _ => super::bitmap::read_bitmap(path, pitch_m),
+    if is_site_list(path) {
+        let text = std::fs::read_to_string(path).map_err(|e| PatternError::File {
+            path: origin.clone(),
+            message: e.to_string(),
+        })?;
+        SiteList::parse(&text, has_extension(path, "toml"), &origin)?.to_pattern(&origin)
+    } else if has_extension(path, "svg") {
+        super::svg_path::read_svg(path, pitch_m)
+    } else {
+        super::bitmap::read_bitmap(path, pitch_m)
     }
 }
 
