@@ -1,3 +1,4 @@
 //! Pixel-to-stage calibration.
 
 pub mod affine;
+pub mod calibration_run;

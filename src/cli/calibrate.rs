@@ -95,7 +95,7 @@ pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
 /// Refuses an output that would overwrite one of the recording's inputs,
 /// or an existing file without `force` (a good calibration is not lost to
 /// a re-run).
-fn check_output(
+pub fn check_output(
     out: &Path,
     mut inputs: impl Iterator<Item = PathBuf>,
     force: bool,
@@ -120,24 +120,56 @@ fn check_output(
     Ok(())
 }
 
+/// The text of a stage.csv holding `rows` ([`parse_stage_csv`] reads it back).
+pub fn stage_csv(rows: &[StageRow]) -> String {
+    let mut text = String::from("frame,x_um,y_um\n");
+    for r in rows {
+        text.push_str(&format!("{},{},{}\n", r.frame, r.x_um, r.y_um));
+    }
+    text
+}
+
+/// Refuses an inlier threshold that is not a positive number of pixels.
+pub fn check_threshold(threshold_px: f64) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        threshold_px.is_finite() && threshold_px > 0.0,
+        "--threshold-px must be a positive number of pixels, got {threshold_px}"
+    );
+    Ok(())
+}
+
 /// Detects the tip in every frame of the recording, fits and writes the map.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    anyhow::ensure!(
-        args.threshold_px.is_finite() && args.threshold_px > 0.0,
-        "--threshold-px must be a positive number of pixels, got {}",
-        args.threshold_px
-    );
-    let dir: &Path = &args.recording;
+    check_threshold(args.threshold_px)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| args.recording.join("calibration.toml"));
+    fit_recording(
+        &args.recording,
+        &out,
+        args.channel,
+        args.threshold_px,
+        args.force,
+    )
+}
+
+/// Fits the map to the recording in `dir` and writes it to `out` (kept
+/// when it exists, unless `force`; never one of the recording's files),
+/// printing each frame's residual and the fit's scale, rotation and RMS.
+pub fn fit_recording(
+    dir: &Path,
+    out: &Path,
+    channel: Channel,
+    threshold_px: f64,
+    force: bool,
+) -> anyhow::Result<()> {
     let csv = dir.join("stage.csv");
     let text =
         std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
     let rows = parse_stage_csv(&text)?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| dir.join("calibration.toml"));
     let inputs = std::iter::once(csv).chain(rows.iter().map(|r| dir.join(&r.frame)));
-    check_output(&out, inputs, args.force)?;
+    check_output(out, inputs, force)?;
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();
@@ -145,8 +177,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let recording = dir.display().to_string();
     for row in &rows {
         let path = dir.join(&row.frame);
-        let frame = load_frame(&path, args.channel)
-            .with_context(|| format!("loading {}", path.display()))?;
+        let frame =
+            load_frame(&path, channel).with_context(|| format!("loading {}", path.display()))?;
         sizes.push((frame.width(), frame.height()));
         let prepared = prepare_frame(&frame);
         // A clipped or line-damaged camera is warned of once per recording;
@@ -168,7 +200,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     check_one_size(&sizes, |k| rows[k].frame.clone()).map_err(anyhow::Error::msg)?;
-    let fit = AffineCalibration::fit_ransac(&pixels, &stage, args.threshold_px)
+    let fit = AffineCalibration::fit_ransac(&pixels, &stage, threshold_px)
         .context("fitting the calibration")?;
     println!("frame                          dx_px     dy_px  inlier");
     for ((name, camera), r) in used.iter().zip(&fit.residuals_px) {
@@ -188,7 +220,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         pixels.len(),
         fit.rms_px
     );
-    std::fs::write(&out, c.to_toml(Some((fit.rms_px, fit.inliers))))
+    std::fs::write(out, c.to_toml(Some((fit.rms_px, fit.inliers))))
         .with_context(|| format!("writing {}", out.display()))?;
     println!("wrote {}", out.display());
     Ok(())
@@ -206,5 +238,22 @@ mod tests {
         let e = parse_stage_csv("frame,x_um,y_um\nf0.png,abc,2\n").unwrap_err();
         assert!(format!("{e:#}").contains("line 2"));
         assert!(parse_stage_csv("a,b\n").is_err());
+    }
+
+    #[test]
+    fn stage_csv_reads_back_what_it_writes() {
+        let rows = vec![
+            StageRow {
+                frame: "frame_000.png".into(),
+                x_um: 50.000000001,
+                y_um: -3.25e-3,
+            },
+            StageRow {
+                frame: "frame_001.png".into(),
+                x_um: 1e2 / 3.0,
+                y_um: 98.0,
+            },
+        ];
+        assert_eq!(parse_stage_csv(&stage_csv(&rows)).unwrap(), rows);
     }
 }

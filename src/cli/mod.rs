@@ -13,6 +13,7 @@ mod dry_run;
 mod error_message;
 mod pattern_args;
 mod plan;
+mod rig_calibrate;
 mod rig_probe;
 mod rig_sim_gcs;
 mod simulate;
@@ -87,6 +88,9 @@ enum RigCommand {
     SimGcs(rig_sim_gcs::Args),
     /// Read-only: print identity, axes, ranges, positions and errors of a rig.
     Probe(rig_probe::Args),
+    /// Measure the camera's pixel-to-stage calibration: move the tip over
+    /// the view, record a frame at each stop, fit the map.
+    Calibrate(rig_calibrate::Args),
 }
 
 /// Parses the command line, runs the command and maps errors to a non-zero exit.
@@ -151,5 +155,6 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::DryRun(a) => dry_run::run(a),
         Command::Rig(RigCommand::SimGcs(a)) => rig_sim_gcs::run(a),
         Command::Rig(RigCommand::Probe(a)) => rig_probe::run(a),
+        Command::Rig(RigCommand::Calibrate(a)) => rig_calibrate::run(a),
     }
 }

@@ -93,7 +93,7 @@ impl NanoStage for GcsNanoStage {
 #[derive(Default)]
 pub struct HardwareRigOptions {
     /// Open no stage link: log every byte that would be sent (see
-    /// [`HardwareRig::sent_log`]) while an in-process simulator answers.
+    /// [`RigDevices::sent_log`]) while an in-process simulator answers.
     /// The camera is still opened (reading frames moves nothing).
     pub dry_run: bool,
     /// The explicit CLI flag that waives the confirmation before the first
@@ -137,16 +137,18 @@ pub enum HardwareRigError {
     Interrupt(#[from] ctrlc::Error),
 }
 
-/// A rig of real (or simulated-controller) hardware, driven through [`Rig`].
-pub struct HardwareRig {
+/// The devices a rig file names, opened: the nanostage, the optional coarse
+/// stage and the camera, with the rig's clock. What [`HardwareRig`] drives
+/// once a calibration maps the camera onto the stage, and what `nanopush
+/// rig calibrate` drives to measure that calibration.
+pub struct RigDevices {
     stage: GcsNanoStage,
     coarse: Option<Box<dyn CoarseStage + Send>>,
     /// Subtracted from the coarse stage's offsets: moves the sample frame's
-    /// origin (see [`HardwareRig::reframe_sample`]).
+    /// origin (see [`RigDevices::reframe_sample`]).
     coarse_shift_m: [f64; 2],
     coarse_sent_log: Option<SentLog>,
     camera: BoxedCamera,
-    calibration: AffineCalibration,
     clock: WallClock,
     rig_file: RigFile,
     sent_log: Option<SentLog>,
@@ -154,6 +156,14 @@ pub struct HardwareRig {
     /// Rig time when the stage last came to rest (a move or halt returned).
     settled_at_s: f64,
     stale_frames: usize,
+}
+
+/// A rig of real (or simulated-controller) hardware with its pixel-to-stage
+/// calibration, driven through [`Rig`]. Its devices' queries
+/// ([`RigDevices`]) are reached through it.
+pub struct HardwareRig {
+    devices: RigDevices,
+    calibration: AffineCalibration,
 }
 
 /// Lowest the tip may be below the top of its z travel for a coarse move:
@@ -164,9 +174,8 @@ const RETRACTED_TOLERANCE_M: f64 = 0.1e-6;
 const STALE_FRAME_PATIENCE: std::time::Duration = std::time::Duration::from_secs(5);
 
 impl HardwareRig {
-    /// Opens everything a rig file names: the calibration, the stage (behind
-    /// the safety checks, in dry run if asked), and the camera (unless one is
-    /// given in `opts`). Rig time starts now.
+    /// Opens everything a rig file names: the calibration, then its devices
+    /// ([`RigDevices::open`]).
     pub fn open(rig_file: &Path, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
         let rig = RigFile::load(rig_file)?;
         let calibration = AffineCalibration::load(&rig.calibration).map_err(|source| {
@@ -175,6 +184,32 @@ impl HardwareRig {
                 source,
             }
         })?;
+        Ok(Self {
+            devices: RigDevices::open(rig, opts)?,
+            calibration,
+        })
+    }
+}
+
+impl std::ops::Deref for HardwareRig {
+    type Target = RigDevices;
+    fn deref(&self) -> &RigDevices {
+        &self.devices
+    }
+}
+
+impl std::ops::DerefMut for HardwareRig {
+    fn deref_mut(&mut self) -> &mut RigDevices {
+        &mut self.devices
+    }
+}
+
+impl RigDevices {
+    /// Opens the devices of a loaded rig file: the stage (behind the safety
+    /// checks, in dry run if asked), the coarse stage if it has one, and the
+    /// camera (unless one is given in `opts`). Rig time starts now. The
+    /// calibration the rig file names is not read.
+    pub fn open(rig: RigFile, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
         let clock = WallClock::start();
         let camera = match opts.camera {
             Some(camera) => camera,
@@ -216,7 +251,6 @@ impl HardwareRig {
             coarse_shift_m: [0.0, 0.0],
             coarse_sent_log,
             camera,
-            calibration,
             clock,
             rig_file: rig,
             sent_log,
@@ -283,7 +317,7 @@ impl HardwareRig {
 impl Rig for HardwareRig {
     /// Wall time since the rig was opened.
     fn now_s(&self) -> f64 {
-        self.clock.now_s()
+        self.devices.clock.now_s()
     }
     fn calibration(&self) -> &AffineCalibration {
         &self.calibration
@@ -291,6 +325,39 @@ impl Rig for HardwareRig {
 }
 
 impl NanoStage for HardwareRig {
+    fn range(&self) -> [AxisRange; 3] {
+        self.devices.range()
+    }
+    fn position(&mut self) -> Result<StageXyz, RigError> {
+        self.devices.position()
+    }
+    fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
+        self.devices.move_to(target, speed_m_per_s)
+    }
+    fn halt(&mut self) -> Result<(), RigError> {
+        self.devices.halt()
+    }
+}
+
+impl CoarseStage for HardwareRig {
+    fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
+        self.devices.coarse_position()
+    }
+    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+        self.devices.move_coarse(target)
+    }
+    fn halt_coarse(&mut self) -> Result<(), RigError> {
+        self.devices.halt_coarse()
+    }
+}
+
+impl Camera for HardwareRig {
+    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        self.devices.grab()
+    }
+}
+
+impl NanoStage for RigDevices {
     fn range(&self) -> [AxisRange; 3] {
         self.stage.range()
     }
@@ -311,7 +378,7 @@ impl NanoStage for HardwareRig {
     }
 }
 
-impl CoarseStage for HardwareRig {
+impl CoarseStage for RigDevices {
     fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
         let shift = self.coarse_shift_m;
         match &mut self.coarse {
@@ -356,7 +423,7 @@ impl CoarseStage for HardwareRig {
     }
 }
 
-impl Camera for HardwareRig {
+impl Camera for RigDevices {
     /// The next frame exposed after the stage last came to rest: a frame
     /// from before (a camera program's backlog, or one exposed while the
     /// stage was still moving) shows particles where they no longer are and

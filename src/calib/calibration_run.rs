@@ -1,0 +1,464 @@
+//! A calibration run: the tip moved over a grid of stage positions that
+//! covers the camera's view, one frame at each, for the pixel-to-stage map
+//! to be fitted from (`nanopush rig calibrate`). The run needs no
+//! calibration to keep the tip in view: two small moves first give a rough
+//! map, and the grid is laid out in the frame's pixels through it. The user
+//! only brings the tip into view.
+//!
+//! The tip travels at the top of its z travel (clear of the particles) on a
+//! stage with a z axis, and the stage is put back where it started, also
+//! when the run fails part way.
+
+use super::affine::AffineCalibration;
+use crate::rig::camera::Camera;
+use crate::rig::error::RigError;
+use crate::rig::stage::{NanoStage, StageXyz};
+use crate::vision::analyse::prepare_frame;
+use crate::vision::frame::Frame;
+use crate::vision::tip::{TipSettings, detect_tip};
+
+/// How a calibration run moves and looks.
+#[derive(Debug, Clone)]
+pub struct CalibrationRunSettings {
+    /// Points per side of the grid laid over the view (at least 2).
+    pub grid: usize,
+    /// Length of the two first moves that find the rough map, metres: enough
+    /// to move the tip's apex by several pixels.
+    pub probe_step_m: f64,
+    /// Share of the frame's width and height kept clear at each edge: the
+    /// probe's silhouette must stay in the frame for its apex to be found.
+    pub margin: f64,
+    /// Travel speed, m/s.
+    pub speed_m_per_s: f64,
+    /// Frames asked for at one position before the camera counts as silent
+    /// (a camera may drop frames).
+    pub grabs: usize,
+    /// How the tip is found in a frame.
+    pub tip: TipSettings,
+}
+
+impl Default for CalibrationRunSettings {
+    /// A 4 x 4 grid inside the middle 70 % of the view, 5 um first moves,
+    /// 20 um/s.
+    fn default() -> Self {
+        Self {
+            grid: 4,
+            probe_step_m: 5e-6,
+            margin: 0.15,
+            speed_m_per_s: 20e-6,
+            grabs: 10,
+            tip: TipSettings::default(),
+        }
+    }
+}
+
+/// One stop of the run: where the stage was and what the camera saw.
+#[derive(Debug, Clone)]
+pub struct CalibrationShot {
+    /// The stage's own reading of x and y after the move, metres.
+    pub stage_m: [f64; 2],
+    /// The frame, as the camera gave it.
+    pub frame: Frame,
+    /// The tip's apex found in it, pixels; `None` when not found.
+    pub apex_px: Option<[f64; 2]>,
+}
+
+/// Why a calibration run stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrationRunError {
+    /// A setting out of its range.
+    #[error("calibration run: {0}")]
+    Settings(String),
+    /// The stage or the camera failed.
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    /// The camera gave no frame.
+    #[error("no frame from the camera in {0} tries")]
+    NoFrame(usize),
+    /// No tip in the first frame.
+    #[error(
+        "no probe tip found in the first frame: bring the tip into the camera's view (`nanopush rig probe --rig FILE --camera` shows what the loop sees) and run again"
+    )]
+    NoTipAtStart,
+    /// The tip left the view (or was not found) after a first move.
+    #[error(
+        "the probe tip was not found after a {step_um:.1} um move in {axis}: start with the tip nearer the middle of the view, or give a smaller first step"
+    )]
+    TipLost {
+        /// The axis moved.
+        axis: char,
+        /// The move, micrometres.
+        step_um: f64,
+    },
+    /// The apex hardly moved in the frame when the stage moved.
+    #[error(
+        "the tip moved {moved_px:.2} px in the frame when the stage moved {step_um:.1} um in {axis}: the camera does not see the stage's motion (is it the probe that is in view, and is the step large enough for the camera's scale?)"
+    )]
+    NoMotion {
+        /// The axis moved.
+        axis: char,
+        /// How far the apex moved, pixels.
+        moved_px: f64,
+        /// The move, micrometres.
+        step_um: f64,
+    },
+    /// The x and y moves went (nearly) the same way in the frame.
+    #[error(
+        "the stage's x and y moves run along one line in the frame ({angle_deg:.1} deg apart): the stage's axes or the camera are not what the rig file says"
+    )]
+    Parallel {
+        /// Angle between the two moves in the frame, degrees.
+        angle_deg: f64,
+    },
+    /// No room for a first move.
+    #[error("no room for a {step_um:.1} um move in {axis} either way within the stage's range")]
+    NoRoom {
+        /// The axis.
+        axis: char,
+        /// The move, micrometres.
+        step_um: f64,
+    },
+}
+
+/// The apex must move at least this far for a first move to count.
+const LEAST_MOTION_PX: f64 = 1.0;
+/// Grid points closer than this after clipping to the range are one.
+const SAME_POINT_M: f64 = 0.5e-6;
+
+/// Runs the calibration: the start, two first moves and the grid, each
+/// handed to `on_shot` as it is taken (index, total so far known, shot), so
+/// a caller can save them as they come. Returns every shot. The stage ends
+/// where it started, unless putting it back fails (that error is returned).
+pub fn run_calibration<R: NanoStage + Camera>(
+    rig: &mut R,
+    settings: &CalibrationRunSettings,
+    on_shot: &mut dyn FnMut(&CalibrationShot),
+) -> Result<Vec<CalibrationShot>, CalibrationRunError> {
+    settings.check()?;
+    let start = rig.position()?;
+    let range = rig.range();
+    let has_z = range[2].max_m > range[2].min_m;
+    let travel_z = if has_z { range[2].max_m } else { start[2] };
+    let mut shots = Vec::new();
+    let outcome = (|| -> Result<(), CalibrationRunError> {
+        if has_z {
+            move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
+        }
+        let rough = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut |s| {
+            on_shot(&s);
+            shots.push(s);
+        })?;
+        let (w, h) = (shots[0].frame.width(), shots[0].frame.height());
+        for target in grid_targets(&rough, (w, h), settings, &range) {
+            move_in_steps(
+                rig,
+                [target[0], target[1], travel_z],
+                settings.speed_m_per_s,
+            )?;
+            let shot = take_shot(rig, settings)?;
+            on_shot(&shot);
+            shots.push(shot);
+        }
+        Ok(())
+    })();
+    let back = move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)
+        .and_then(|()| move_in_steps(rig, start, settings.speed_m_per_s));
+    outcome?;
+    back?;
+    Ok(shots)
+}
+
+impl CalibrationRunSettings {
+    /// Refuses settings out of their range (what [`run_calibration`] does
+    /// first; a caller may ask before it opens a rig).
+    pub fn check(&self) -> Result<(), CalibrationRunError> {
+        check(self)
+    }
+}
+
+fn check(s: &CalibrationRunSettings) -> Result<(), CalibrationRunError> {
+    let bad = |what: String| Err(CalibrationRunError::Settings(what));
+    if s.grid < 2 {
+        return bad(format!(
+            "the grid needs at least 2 points a side, got {}",
+            s.grid
+        ));
+    }
+    if !(s.probe_step_m.is_finite() && s.probe_step_m > 0.0) {
+        return bad(format!(
+            "the first step must be a positive length, got {} um",
+            s.probe_step_m * 1e6
+        ));
+    }
+    if !(0.0..0.5).contains(&s.margin) {
+        return bad(format!(
+            "the margin must lie in 0..0.5 of the frame, got {}",
+            s.margin
+        ));
+    }
+    if s.grabs == 0 {
+        return bad("at least one frame must be asked for".into());
+    }
+    Ok(())
+}
+
+/// A frame at the stage's present position, with the apex found in it.
+fn take_shot<R: NanoStage + Camera>(
+    rig: &mut R,
+    settings: &CalibrationRunSettings,
+) -> Result<CalibrationShot, CalibrationRunError> {
+    let frame = (0..settings.grabs)
+        .find_map(|_| rig.grab().transpose())
+        .ok_or(CalibrationRunError::NoFrame(settings.grabs))??
+        .frame;
+    let here = rig.position()?;
+    let prepared = prepare_frame(&frame);
+    let apex_px = detect_tip(&prepared.frame, &settings.tip).map(|t| [t.x_px, t.y_px]);
+    Ok(CalibrationShot {
+        stage_m: [here[0], here[1]],
+        frame,
+        apex_px,
+    })
+}
+
+/// Pixel -> stage from the start and one small move along each axis.
+fn rough_map<R: NanoStage + Camera>(
+    rig: &mut R,
+    settings: &CalibrationRunSettings,
+    start: [f64; 2],
+    z: f64,
+    keep: &mut dyn FnMut(CalibrationShot),
+) -> Result<AffineCalibration, CalibrationRunError> {
+    let first = take_shot(rig, settings)?;
+    let apex0 = first.apex_px.ok_or(CalibrationRunError::NoTipAtStart)?;
+    let stage0 = first.stage_m;
+    keep(first);
+    let range = rig.range();
+    let mut columns = [[0.0; 2]; 2];
+    for (axis, name) in ['x', 'y'].into_iter().enumerate() {
+        let step = settings.probe_step_m;
+        let fits = |t: f64| t >= range[axis].min_m && t <= range[axis].max_m;
+        let signed = if fits(start[axis] + step) {
+            step
+        } else if fits(start[axis] - step) {
+            -step
+        } else {
+            return Err(CalibrationRunError::NoRoom {
+                axis: name,
+                step_um: step * 1e6,
+            });
+        };
+        let mut target = [start[0], start[1], z];
+        target[axis] += signed;
+        move_in_steps(rig, target, settings.speed_m_per_s)?;
+        let shot = take_shot(rig, settings)?;
+        let apex = shot.apex_px.ok_or(CalibrationRunError::TipLost {
+            axis: name,
+            step_um: signed * 1e6,
+        })?;
+        let moved = [apex[0] - apex0[0], apex[1] - apex0[1]];
+        let moved_px = moved[0].hypot(moved[1]);
+        let actual = shot.stage_m[axis] - stage0[axis];
+        if moved_px < LEAST_MOTION_PX || actual.abs() < 0.5 * step {
+            return Err(CalibrationRunError::NoMotion {
+                axis: name,
+                moved_px,
+                step_um: actual * 1e6,
+            });
+        }
+        columns[axis] = [moved[0] / actual, moved[1] / actual];
+        keep(shot);
+    }
+    // Stage -> pixel has the columns found; the rough map is its inverse.
+    let stage_to_px =
+        nalgebra::Matrix2::new(columns[0][0], columns[1][0], columns[0][1], columns[1][1]);
+    let (a, b) = (columns[0], columns[1]);
+    let sin = (a[0] * b[1] - a[1] * b[0]) / (a[0].hypot(a[1]) * b[0].hypot(b[1]));
+    let inverse = stage_to_px.try_inverse().filter(|_| sin.abs() >= 0.1);
+    let Some(linear) = inverse else {
+        return Err(CalibrationRunError::Parallel {
+            angle_deg: sin.clamp(-1.0, 1.0).asin().abs().to_degrees(),
+        });
+    };
+    let offset = nalgebra::Vector2::from(stage0) - linear * nalgebra::Vector2::from(apex0);
+    Ok(AffineCalibration {
+        linear,
+        offset_m: offset,
+    })
+}
+
+/// An n x n grid over the frame inside its margin, mapped onto the stage by
+/// `rough` and clipped to its range; points that clipping made one are one.
+/// Row by row, every other row backwards, so that each move is short.
+fn grid_targets(
+    rough: &AffineCalibration,
+    (w, h): (usize, usize),
+    settings: &CalibrationRunSettings,
+    range: &[crate::rig::stage::AxisRange; 3],
+) -> Vec<[f64; 2]> {
+    let n = settings.grid;
+    let along = |size: usize, k: usize| {
+        let (lo, hi) = (settings.margin, 1.0 - settings.margin);
+        (lo + (hi - lo) * k as f64 / (n - 1) as f64) * (size.max(1) - 1) as f64
+    };
+    let mut out: Vec<[f64; 2]> = Vec::new();
+    for j in 0..n {
+        for k in 0..n {
+            let i = if j % 2 == 0 { k } else { n - 1 - k };
+            let p = rough.pixel_to_stage_m(along(w, i), along(h, j));
+            let t = [0, 1].map(|a| p[a].clamp(range[a].min_m, range[a].max_m));
+            if out
+                .iter()
+                .all(|q| (q[0] - t[0]).hypot(q[1] - t[1]) >= SAME_POINT_M)
+            {
+                out.push(t);
+            }
+        }
+    }
+    out
+}
+
+/// Moves to `target`, in pieces when the rig refuses the move as one step
+/// longer than its largest ([`RigError::StepTooLarge`]).
+fn move_in_steps<R: NanoStage>(
+    rig: &mut R,
+    target: StageXyz,
+    speed_m_per_s: f64,
+) -> Result<(), RigError> {
+    match rig.move_to(target, speed_m_per_s) {
+        Err(RigError::StepTooLarge { step_um, max_um }) if max_um > 0.0 => {
+            let from = rig.position()?;
+            let pieces = (step_um / (0.9 * max_um)).ceil().max(2.0) as usize;
+            for k in 1..=pieces {
+                let t = k as f64 / pieces as f64;
+                let at: StageXyz = std::array::from_fn(|a| from[a] + t * (target[a] - from[a]));
+                rig.move_to(at, speed_m_per_s)?;
+            }
+            Ok(())
+        }
+        other => other,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Scene;
+    use crate::plan::Layout;
+    use crate::render::microscope::RenderSettings;
+    use crate::rig::sim::build::world_for;
+    use crate::rig::sim::model_physics::ModelPhysics;
+    use crate::rig::sim::rig::{SimCameraConfig, SimRig};
+    use crate::rig::sim::stage::{SimStage, SimStageConfig};
+
+    /// A simulated rig whose camera is turned 7 degrees and mirrored in y
+    /// against the stage, 0.4 um a pixel, with a few particles in view.
+    fn rig(truth: &AffineCalibration) -> SimRig {
+        let scene = Scene::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/calib/paper-ps-ito.toml"
+        )))
+        .unwrap();
+        let layout = Layout::of_test_centres_um(&[(20.0, 20.0), (80.0, 30.0), (50.0, 85.0)]);
+        let stage = SimStage::new(
+            world_for(&scene, &layout),
+            Box::new(ModelPhysics::new(scene.clone())),
+            SimStageConfig::default(),
+            3,
+        );
+        let camera = SimCameraConfig {
+            width_px: 300,
+            height_px: 300,
+            calibration: *truth,
+            render: RenderSettings::with_snr(30.0, 16),
+            tip_angle_rad: 60f64.to_radians(),
+            frame_time_s: 0.05,
+        };
+        SimRig::new(stage, camera, 3)
+    }
+
+    fn truth() -> AffineCalibration {
+        let (s, c) = 7f64.to_radians().sin_cos();
+        let k = 0.4e-6;
+        AffineCalibration {
+            linear: nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
+            offset_m: nalgebra::Vector2::new(-5e-6, 105e-6),
+        }
+    }
+
+    #[test]
+    fn the_grid_covers_the_view_and_every_apex_maps_onto_its_stage_position() {
+        let truth = truth();
+        let mut rig = rig(&truth);
+        let top = rig.range()[2].max_m;
+        rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
+        let start = rig.position().unwrap();
+        let mut seen = 0;
+        let shots = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
+            seen += 1
+        })
+        .unwrap();
+        assert_eq!(seen, shots.len());
+        // Start, two first moves, and a 4 x 4 grid (none clipped into another here).
+        assert_eq!(shots.len(), 3 + 16);
+        assert!(same_place(rig.position().unwrap(), start));
+        let mut xs: Vec<f64> = Vec::new();
+        for s in &shots {
+            let apex = s.apex_px.expect("the tip is found at every stop");
+            let p = truth.pixel_to_stage_m(apex[0], apex[1]);
+            let err = (p[0] - s.stage_m[0]).hypot(p[1] - s.stage_m[1]);
+            assert!(err < 0.1e-6, "apex {apex:?} maps {err:e} m off the stage");
+            xs.push(apex[0]);
+        }
+        // The grid spans the view inside its margin: 15 % to 85 % of 299 px.
+        let (lo, hi) = xs
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
+        assert!(lo < 0.16 * 299.0 && hi > 0.84 * 299.0, "{lo} .. {hi}");
+    }
+
+    /// Within five sigmas of the simulated stage's 10 nm precision.
+    fn same_place(a: StageXyz, b: StageXyz) -> bool {
+        (0..3).all(|k| (a[k] - b[k]).abs() < 50e-9)
+    }
+
+    #[test]
+    fn without_a_tip_in_view_the_run_says_so_and_the_stage_goes_back() {
+        // The camera looks at the sample 500 um away from the stage's travel.
+        let off_view = AffineCalibration {
+            offset_m: nalgebra::Vector2::new(-500e-6, 600e-6),
+            ..truth()
+        };
+        let mut rig = rig(&off_view);
+        let start = rig.position().unwrap();
+        let err =
+            run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {}).unwrap_err();
+        assert!(matches!(err, CalibrationRunError::NoTipAtStart), "{err}");
+        assert!(same_place(rig.position().unwrap(), start));
+    }
+
+    #[test]
+    fn bad_settings_are_refused_before_anything_moves() {
+        let mut rig = rig(&truth());
+        let start = rig.position().unwrap();
+        for settings in [
+            CalibrationRunSettings {
+                grid: 1,
+                ..Default::default()
+            },
+            CalibrationRunSettings {
+                probe_step_m: f64::NAN,
+                ..Default::default()
+            },
+            CalibrationRunSettings {
+                margin: 0.5,
+                ..Default::default()
+            },
+        ] {
+            let err = run_calibration(&mut rig, &settings, &mut |_| {}).unwrap_err();
+            assert!(matches!(err, CalibrationRunError::Settings(_)), "{err}");
+        }
+        assert_eq!(rig.frames(), 0);
+        assert_eq!(rig.position().unwrap(), start);
+    }
+}

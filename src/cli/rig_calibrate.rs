@@ -1,0 +1,163 @@
+//! `nanopush rig calibrate --rig FILE`: measures the camera's pixel-to-stage
+//! map on the rig. The tip is moved over a grid that covers the view
+//! ([`run_calibration`]), each frame is saved with the stage's position as
+//! a recording (frames and stage.csv, what `nanopush calibrate` reads), and
+//! the map is fitted from that recording and written where the rig file
+//! looks for it, so that `assemble --rig` uses it next.
+
+use super::calibrate::{StageRow, check_output, check_threshold, fit_recording, stage_csv};
+use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
+use crate::rig::gcs::RigFile;
+use crate::rig::hardware::{HardwareRigOptions, RigDevices};
+use crate::rig::stage::NanoStage;
+use crate::vision::frame_input::{Channel, save_png};
+use anyhow::{Context, bail};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `nanopush rig calibrate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Rig file (TOML, e.g. calib/rig-gcs-sim-folder.toml). Its calibration
+    /// file need not exist yet.
+    #[arg(long)]
+    pub rig: PathBuf,
+    /// Where the calibration is written [default: the file the rig file
+    /// names, so that `assemble --rig` and `rig probe --camera` use it].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Folder for the frames and their stage.csv, which `nanopush calibrate
+    /// --recording` fits again [default: beside the calibration, its name
+    /// with `-recording`].
+    #[arg(long)]
+    pub recording: Option<PathBuf>,
+    /// Replace an existing calibration and recording.
+    #[arg(long)]
+    pub force: bool,
+    /// Points per side of the grid laid over the view.
+    #[arg(long, default_value_t = 4)]
+    pub grid: usize,
+    /// Length of the two first moves (x, then y) that find where the view
+    /// lies on the stage, micrometres.
+    #[arg(long, default_value_t = 5.0)]
+    pub step_um: f64,
+    /// RANSAC inlier threshold of the fit, pixels.
+    #[arg(long, default_value_t = 2.0)]
+    pub threshold_px: f64,
+    /// Move real hardware without asking first (the rig file's
+    /// `real_hardware = true` otherwise asks for `yes` before the first move).
+    #[arg(long)]
+    pub yes_move_hardware: bool,
+}
+
+/// Travel speed of the run: slow enough for any piezo stage, capped by the
+/// rig file's top speed.
+const TRAVEL_SPEED_UM_S: f64 = 20.0;
+
+/// Records the grid, fits the map and writes it.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    check_threshold(args.threshold_px)?;
+    let rig = RigFile::load(&args.rig)?;
+    let rig_calibration = rig.calibration.clone();
+    let out = args.out.clone().unwrap_or_else(|| rig_calibration.clone());
+    let recording = args
+        .recording
+        .clone()
+        .unwrap_or_else(|| recording_beside(&out));
+    // Refused before anything moves: a good calibration or recording is
+    // not lost to a re-run.
+    check_output(&out, std::iter::empty(), args.force)?;
+    let csv = recording.join("stage.csv");
+    if csv.exists() && !args.force {
+        bail!(
+            "{} holds a recording already: pass --force to replace it, or --recording another folder",
+            recording.display()
+        );
+    }
+    let settings = CalibrationRunSettings {
+        grid: args.grid,
+        probe_step_m: args.step_um * 1e-6,
+        speed_m_per_s: TRAVEL_SPEED_UM_S.min(rig.safety.top_speed_um_s) * 1e-6,
+        ..Default::default()
+    };
+    settings.check()?;
+    let mut devices = RigDevices::open(
+        rig,
+        HardwareRigOptions {
+            waive_confirmation: args.yes_move_hardware,
+            ..Default::default()
+        },
+    )
+    .with_context(|| format!("opening the rig {}", args.rig.display()))?;
+    std::fs::create_dir_all(&recording)
+        .with_context(|| format!("creating {}", recording.display()))?;
+    let mut rows: Vec<StageRow> = Vec::new();
+    let mut saved = Ok(());
+    let ran = run_calibration(&mut devices, &settings, &mut |shot| {
+        if saved.is_ok() {
+            saved = save_shot(&recording, shot, &mut rows);
+        }
+    });
+    // Whatever happened, the stage is left still.
+    let _ = devices.halt();
+    saved?;
+    ran.with_context(|| {
+        format!(
+            "calibration run on {} ({} frames saved in {})",
+            args.rig.display(),
+            rows.len(),
+            recording.display()
+        )
+    })?;
+    fit_recording(
+        &recording,
+        &out,
+        Channel::Luminance,
+        args.threshold_px,
+        args.force,
+    )?;
+    println!("recording: {} ({} frames)", recording.display(), rows.len());
+    if std::fs::canonicalize(&out).ok() == std::fs::canonicalize(&rig_calibration).ok() {
+        println!(
+            "the rig file names this calibration: `nanopush rig probe --rig {} --camera` shows the view in stage um",
+            args.rig.display()
+        );
+    } else {
+        println!(
+            "to use it, name it in {}: calibration = {:?}",
+            args.rig.display(),
+            out.display().to_string()
+        );
+    }
+    Ok(())
+}
+
+/// `calibration.toml` -> `calibration-recording/` beside it.
+fn recording_beside(out: &Path) -> PathBuf {
+    let stem = out
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "calibration".into());
+    out.with_file_name(format!("{stem}-recording"))
+}
+
+/// Writes the shot's frame, adds its row and rewrites stage.csv, so that an
+/// interrupted run leaves a recording of what it took.
+fn save_shot(dir: &Path, shot: &CalibrationShot, rows: &mut Vec<StageRow>) -> anyhow::Result<()> {
+    let name = format!("frame_{:03}.png", rows.len());
+    let path = dir.join(&name);
+    save_png(&shot.frame, &path).with_context(|| format!("writing {}", path.display()))?;
+    let (x_um, y_um) = (shot.stage_m[0] * 1e6, shot.stage_m[1] * 1e6);
+    match shot.apex_px {
+        Some([x, y]) => {
+            println!("{name}: stage ({x_um:.3}, {y_um:.3}) um, tip at ({x:.2}, {y:.2}) px")
+        }
+        None => println!("{name}: stage ({x_um:.3}, {y_um:.3}) um, no tip found"),
+    }
+    rows.push(StageRow {
+        frame: name,
+        x_um,
+        y_um,
+    });
+    let csv = dir.join("stage.csv");
+    std::fs::write(&csv, stage_csv(rows)).with_context(|| format!("writing {}", csv.display()))
+}

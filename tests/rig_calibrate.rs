@@ -1,0 +1,208 @@
+//! `nanopush rig calibrate` end to end, with no hardware: the GCS controller
+//! simulator over loopback TCP moves the probe, and the simulated microscope
+//! draws it through a known, turned camera map into a watched folder. The
+//! map the command fits must be that map; its recording must fit the same
+//! map again through `nanopush calibrate`; a second run must not replace
+//! it unasked.
+
+use nanopush::calib::affine::AffineCalibration;
+use nanopush::model::Scene;
+use nanopush::rig::gcs::{RigFile, SimConfig, SimServer};
+use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::Duration;
+
+const UM: f64 = 1e-6;
+
+fn manifest() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The camera map of the simulated microscope: 0.3 um a pixel, turned 5
+/// degrees and mirrored in y against the stage (as a camera looking down
+/// through an objective may be), pixel (0, 0) near stage (-8, 115) um.
+fn truth() -> AffineCalibration {
+    let (s, c) = 5f64.to_radians().sin_cos();
+    let k = 0.3 * UM;
+    AffineCalibration {
+        linear: nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
+        offset_m: nalgebra::Vector2::new(-8.0 * UM, 115.0 * UM),
+    }
+}
+
+/// The simulator and the microscope, and a rig file for the command that
+/// names a calibration not made yet.
+struct Bench {
+    // Field order is drop order: the feeder stops before the server.
+    _feeder: MicroscopeFeeder,
+    _server: SimServer,
+    dir: tempfile::TempDir,
+    rig: PathBuf,
+}
+
+fn bench() -> Bench {
+    let mut server = SimServer::new(SimConfig::default());
+    server.handle().with(|c, now| c.set_time_scale(50.0, now));
+    let addr = server.serve_tcp("127.0.0.1:0").unwrap().to_string();
+    let dir = tempfile::tempdir().unwrap();
+    let truth_path = dir.path().join("truth.toml");
+    std::fs::write(&truth_path, truth().to_toml(None)).unwrap();
+    let frames = dir.path().join("frames");
+    let text = std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
+        .unwrap()
+        .replace("127.0.0.1:50000", &addr)
+        .replace(
+            "\"../out/rig-gcs-sim-folder/frames\"",
+            &format!("{:?}", frames.display().to_string()),
+        );
+    let truth_rig = dir.path().join("truth-rig.toml");
+    std::fs::write(
+        &truth_rig,
+        text.replace("\"camera-stage-sim-folder.toml\"", "\"truth.toml\""),
+    )
+    .unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(
+        &rig,
+        text.replace("\"camera-stage-sim-folder.toml\"", "\"camera.toml\""),
+    )
+    .unwrap();
+    let scene = Scene::load(&manifest().join("calib/paper-ps-ito.toml")).unwrap();
+    let layout = layout_in_travel(&scene, 12, [100.0 * UM, 100.0 * UM], 10.0 * UM, 5).unwrap();
+    let feeder = MicroscopeFeeder::for_rig_file(
+        server.handle(),
+        None,
+        &RigFile::load(&truth_rig).unwrap(),
+        &scene,
+        &layout,
+        5,
+        Duration::from_millis(20),
+    )
+    .unwrap();
+    Bench {
+        _feeder: feeder,
+        _server: server,
+        dir,
+        rig,
+    }
+}
+
+fn nanopush(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(manifest())
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(out: &Output) -> String {
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    text
+}
+
+/// Largest distance, over the corners and the middle of a 400 x 400 px
+/// view, between where two maps put a pixel, micrometres.
+fn worst_um(a: &AffineCalibration, b: &AffineCalibration) -> f64 {
+    [
+        (0.0, 0.0),
+        (400.0, 0.0),
+        (0.0, 400.0),
+        (400.0, 400.0),
+        (200.0, 200.0),
+    ]
+    .iter()
+    .map(|&(x, y)| {
+        let (p, q) = (a.pixel_to_stage_m(x, y), b.pixel_to_stage_m(x, y));
+        (p[0] - q[0]).hypot(p[1] - q[1]) / UM
+    })
+    .fold(0.0, f64::max)
+}
+
+#[test]
+fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recording() {
+    let b = bench();
+    let rig = b.rig.to_str().unwrap();
+    let text = ok(&nanopush(&["rig", "calibrate", "--rig", rig]));
+    assert!(
+        text.contains("the rig file names this calibration"),
+        "{text}"
+    );
+    let written = b.dir.path().join("camera.toml");
+    let fitted = AffineCalibration::load(&written).unwrap();
+    let err = worst_um(&fitted, &truth());
+    println!("fitted map against the camera's: worst {err:.4} um over the view\n{text}");
+    // A third of a pixel (0.1 um) anywhere in the view; a map fitted
+    // without the turn would be 0.3 um/px x 400 px x sin 5 deg = 10 um off.
+    assert!(err < 0.1, "{err} um");
+
+    // The recording fits the same map again.
+    let recording = b.dir.path().join("camera-recording");
+    let csv = std::fs::read_to_string(recording.join("stage.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3 + 16, "{csv}");
+    let again = b.dir.path().join("again.toml");
+    ok(&nanopush(&[
+        "calibrate",
+        "--recording",
+        recording.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]));
+    let refit = AffineCalibration::load(&again).unwrap();
+    assert!(worst_um(&refit, &fitted) < 1e-6);
+
+    // A second run keeps the calibration and moves nothing.
+    let before = std::fs::read_to_string(&written).unwrap();
+    let out = nanopush(&["rig", "calibrate", "--rig", rig]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(message.contains("--force"), "{message}");
+    assert_eq!(std::fs::read_to_string(&written).unwrap(), before);
+    // Neither does a run into the same recording with another output.
+    let out = nanopush(&[
+        "rig",
+        "calibrate",
+        "--rig",
+        rig,
+        "--out",
+        b.dir.path().join("other.toml").to_str().unwrap(),
+        "--recording",
+        recording.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(message.contains("holds a recording already"), "{message}");
+}
+
+#[test]
+fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
+    // Nobody listens at the rig file's address: a flag error must come first.
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(
+        &rig,
+        std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
+            .unwrap()
+            .replace("\"camera-stage-sim-folder.toml\"", "\"camera.toml\""),
+    )
+    .unwrap();
+    let rig = rig.to_str().unwrap();
+    for (flags, says) in [
+        (&["--grid", "1"][..], "at least 2 points"),
+        (&["--step-um=-5"][..], "positive length"),
+        (&["--threshold-px", "0"][..], "--threshold-px"),
+    ] {
+        let mut args = vec!["rig", "calibrate", "--rig", rig];
+        args.extend_from_slice(flags);
+        let out = nanopush(&args);
+        assert!(!out.status.success());
+        let message = String::from_utf8_lossy(&out.stderr);
+        assert!(message.contains(says), "{flags:?}: {message}");
+        assert!(!message.contains("connecting"), "{message}");
+    }
+}
