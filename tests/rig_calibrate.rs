@@ -106,22 +106,10 @@ fn ok(out: &Output) -> String {
     text
 }
 
-/// Largest distance, over the corners and the middle of a 400 x 400 px
-/// view, between where two maps put a pixel, micrometres.
+/// Largest distance between where two maps put a pixel of a 400 x 400 px
+/// view, micrometres.
 fn worst_um(a: &AffineCalibration, b: &AffineCalibration) -> f64 {
-    [
-        (0.0, 0.0),
-        (400.0, 0.0),
-        (0.0, 400.0),
-        (400.0, 400.0),
-        (200.0, 200.0),
-    ]
-    .iter()
-    .map(|&(x, y)| {
-        let (p, q) = (a.pixel_to_stage_m(x, y), b.pixel_to_stage_m(x, y));
-        (p[0] - q[0]).hypot(p[1] - q[1]) / UM
-    })
-    .fold(0.0, f64::max)
+    a.largest_difference_m(b, 401, 401) / UM
 }
 
 #[test]
@@ -177,13 +165,28 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
     assert!(!out.status.success());
     let message = String::from_utf8_lossy(&out.stderr);
     assert!(message.contains("holds a recording already"), "{message}");
+
+    // With --force it measures again and says how far the old map was.
+    let text = ok(&nanopush(&["rig", "calibrate", "--rig", rig, "--force"]));
+    let moved: f64 = text
+        .split("put the view up to ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{text}"));
+    let new = AffineCalibration::load(&written).unwrap();
+    println!("measured again: the two maps differ by up to {moved:.4} um over the view");
+    assert!(
+        (moved - worst_um(&new, &fitted)).abs() < 1e-3,
+        "{moved}\n{text}"
+    );
+    assert!(worst_um(&new, &truth()) < 0.1);
 }
 
-#[test]
-fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
-    // Nobody listens at the rig file's address: a flag error must come first.
-    let dir = tempfile::tempdir().unwrap();
-    let rig = dir.path().join("rig.toml");
+/// A rig file in `dir` naming a calibration not made yet (camera.toml),
+/// with nobody listening at its stage's address.
+fn unreachable_rig(dir: &Path) -> PathBuf {
+    let rig = dir.join("rig.toml");
     std::fs::write(
         &rig,
         std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
@@ -191,6 +194,14 @@ fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
             .replace("\"camera-stage-sim-folder.toml\"", "\"camera.toml\""),
     )
     .unwrap();
+    rig
+}
+
+#[test]
+fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
+    // Nobody listens at the rig file's address: a flag error must come first.
+    let dir = tempfile::tempdir().unwrap();
+    let rig = unreachable_rig(dir.path());
     let rig = rig.to_str().unwrap();
     for (flags, says) in [
         (&["--grid", "1"][..], "at least 2 points"),
@@ -204,5 +215,33 @@ fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
         let message = String::from_utf8_lossy(&out.stderr);
         assert!(message.contains(says), "{flags:?}: {message}");
         assert!(!message.contains("connecting"), "{message}");
+    }
+}
+
+#[test]
+fn a_missing_calibration_is_named_with_how_to_make_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = unreachable_rig(dir.path());
+    let rig = rig.to_str().unwrap();
+    let out_dir = dir.path().join("run");
+    for args in [
+        vec!["rig", "probe", "--rig", rig, "--camera"],
+        vec![
+            "assemble",
+            "--rig",
+            rig,
+            "--text",
+            "L",
+            "--out",
+            out_dir.to_str().unwrap(),
+        ],
+    ] {
+        let out = nanopush(&args);
+        assert!(!out.status.success());
+        let message = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            message.contains("camera.toml") && message.contains("nanopush rig calibrate --rig"),
+            "{args:?}: {message}"
+        );
     }
 }

@@ -101,6 +101,20 @@ impl AffineCalibration {
         self.linear.determinant().abs().sqrt()
     }
 
+    /// Farthest apart, metres, that this map and `other` put a pixel of a
+    /// `width` x `height` frame. Their difference is affine, so its length
+    /// is largest at a corner.
+    pub fn largest_difference_m(&self, other: &Self, width: usize, height: usize) -> f64 {
+        let (w, h) = (width.max(1) as f64 - 1.0, height.max(1) as f64 - 1.0);
+        [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(x, y)| {
+                let (p, q) = (self.pixel_to_stage_m(x, y), other.pixel_to_stage_m(x, y));
+                (p[0] - q[0]).hypot(p[1] - q[1])
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// TOML text of this map (lab units: micrometres).
     pub fn to_toml(&self, fit: Option<(f64, usize)>) -> String {
         let l = self.linear * 1e6;
@@ -244,6 +258,19 @@ impl AffineCalibration {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_largest_difference_of_two_maps_is_at_a_corner_of_the_frame() {
+        let a = AffineCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
+        let shifted = AffineCalibration::from_scale_rotation(0.5e-6, 0.0, [3e-6, 4e-6]);
+        assert!((a.largest_difference_m(&shifted, 100, 100) - 5e-6).abs() < 1e-15);
+        // Turned by 0.01 rad about pixel (0, 0): the far corner, 99 sqrt(2)
+        // px out, moves by about 0.01 of its 70 um.
+        let turned = AffineCalibration::from_scale_rotation(0.5e-6, 0.01, [0.0, 0.0]);
+        let far = 0.5e-6 * 99.0 * 2f64.sqrt();
+        let d = a.largest_difference_m(&turned, 100, 100);
+        assert!((d - 2.0 * far * (0.005f64).sin()).abs() < 1e-12, "{d}");
+    }
+
     use super::*;
 
     #[test]

@@ -30,6 +30,11 @@ pub struct CalibrationRunSettings {
     pub margin: f64,
     /// Travel speed, m/s.
     pub speed_m_per_s: f64,
+    /// Height of the tip during the run, metres; `None`: the top of the
+    /// stage's z travel (clear of the particles). Lower is nearer the
+    /// height the probe pushes at, and so the apex the loop sees then,
+    /// but must still clear every particle on the grid.
+    pub travel_z_m: Option<f64>,
     /// Frames asked for at one position before the camera counts as silent
     /// (a camera may drop frames).
     pub grabs: usize,
@@ -46,6 +51,7 @@ impl Default for CalibrationRunSettings {
             probe_step_m: 5e-6,
             margin: 0.15,
             speed_m_per_s: 20e-6,
+            travel_z_m: None,
             grabs: 10,
             tip: TipSettings::default(),
         }
@@ -110,6 +116,18 @@ pub enum CalibrationRunError {
         /// Angle between the two moves in the frame, degrees.
         angle_deg: f64,
     },
+    /// A travel height the stage cannot take.
+    #[error(
+        "a travel height of {z_um:.3} um is outside the stage's z range {min_um:.3}..{max_um:.3} um"
+    )]
+    HeightOutOfRange {
+        /// The height asked for, micrometres.
+        z_um: f64,
+        /// The range, micrometres.
+        min_um: f64,
+        /// The range, micrometres.
+        max_um: f64,
+    },
     /// No room for a first move.
     #[error("no room for a {step_um:.1} um move in {axis} either way within the stage's range")]
     NoRoom {
@@ -138,12 +156,21 @@ pub fn run_calibration<R: NanoStage + Camera>(
     let start = rig.position()?;
     let range = rig.range();
     let has_z = range[2].max_m > range[2].min_m;
-    let travel_z = if has_z { range[2].max_m } else { start[2] };
+    let travel_z = match settings.travel_z_m {
+        Some(z) if !(z >= range[2].min_m && z <= range[2].max_m) => {
+            return Err(CalibrationRunError::HeightOutOfRange {
+                z_um: z * 1e6,
+                min_um: range[2].min_m * 1e6,
+                max_um: range[2].max_m * 1e6,
+            });
+        }
+        Some(z) => z,
+        None if has_z => range[2].max_m,
+        None => start[2],
+    };
     let mut shots = Vec::new();
     let outcome = (|| -> Result<(), CalibrationRunError> {
-        if has_z {
-            move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
-        }
+        move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
         let rough = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut |s| {
             on_shot(&s);
             shots.push(s);
@@ -435,6 +462,70 @@ mod tests {
             run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {}).unwrap_err();
         assert!(matches!(err, CalibrationRunError::NoTipAtStart), "{err}");
         assert!(same_place(rig.position().unwrap(), start));
+    }
+
+    /// A rig that remembers every target it was sent.
+    struct Logged {
+        rig: SimRig,
+        targets: Vec<StageXyz>,
+    }
+
+    impl NanoStage for Logged {
+        fn range(&self) -> [crate::rig::stage::AxisRange; 3] {
+            self.rig.range()
+        }
+        fn position(&mut self) -> Result<StageXyz, RigError> {
+            self.rig.position()
+        }
+        fn move_to(&mut self, target: StageXyz, speed: f64) -> Result<(), RigError> {
+            self.targets.push(target);
+            self.rig.move_to(target, speed)
+        }
+        fn halt(&mut self) -> Result<(), RigError> {
+            self.rig.halt()
+        }
+    }
+
+    impl Camera for Logged {
+        fn grab(&mut self) -> Result<Option<crate::rig::camera::TimedFrame>, RigError> {
+            self.rig.grab()
+        }
+    }
+
+    #[test]
+    fn the_tip_travels_at_the_height_asked_and_one_off_the_range_is_refused() {
+        let mut rig = rig(&truth());
+        rig.move_to([50e-6, 50e-6, 3e-6], 1e-4).unwrap();
+        let mut logged = Logged {
+            rig,
+            targets: Vec::new(),
+        };
+        let settings = CalibrationRunSettings {
+            grid: 2,
+            travel_z_m: Some(12e-6),
+            ..Default::default()
+        };
+        let shots = run_calibration(&mut logged, &settings, &mut |_| {}).unwrap();
+        assert_eq!(shots.len(), 3 + 4);
+        // Up to 12 um first, every move there, and down to 3 um last.
+        let (last, travel) = logged.targets.split_last().unwrap();
+        assert!(travel.iter().all(|t| t[2] == 12e-6), "{travel:?}");
+        assert_eq!(last[2], 3e-6);
+        logged.targets.clear();
+        let err = run_calibration(
+            &mut logged,
+            &CalibrationRunSettings {
+                travel_z_m: Some(16e-6),
+                ..Default::default()
+            },
+            &mut |_| {},
+        )
+        .unwrap_err();
+        assert!(
+            matches!(err, CalibrationRunError::HeightOutOfRange { .. }),
+            "{err}"
+        );
+        assert!(logged.targets.is_empty());
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! looks for it, so that `assemble --rig` uses it next.
 
 use super::calibrate::{StageRow, check_output, check_threshold, fit_recording, stage_csv};
+use crate::calib::affine::AffineCalibration;
 use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
 use crate::rig::gcs::RigFile;
 use crate::rig::hardware::{HardwareRigOptions, RigDevices};
@@ -40,6 +41,12 @@ pub struct Args {
     /// lies on the stage, micrometres.
     #[arg(long, default_value_t = 5.0)]
     pub step_um: f64,
+    /// Height of the tip during the run, micrometres [default: the top of
+    /// the stage's z travel, clear of the particles]. Nearer the pushing
+    /// height maps the apex as the loop sees it then, but the tip must
+    /// clear every particle in view.
+    #[arg(long)]
+    pub z_um: Option<f64>,
     /// RANSAC inlier threshold of the fit, pixels.
     #[arg(long, default_value_t = 2.0)]
     pub threshold_px: f64,
@@ -77,6 +84,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         grid: args.grid,
         probe_step_m: args.step_um * 1e-6,
         speed_m_per_s: TRAVEL_SPEED_UM_S.min(rig.safety.top_speed_um_s) * 1e-6,
+        travel_z_m: args.z_um.map(|z| z * 1e-6),
         ..Default::default()
     };
     settings.check()?;
@@ -90,9 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     .with_context(|| format!("opening the rig {}", args.rig.display()))?;
     std::fs::create_dir_all(&recording)
         .with_context(|| format!("creating {}", recording.display()))?;
+    let previous = AffineCalibration::load(&out).ok();
     let mut rows: Vec<StageRow> = Vec::new();
     let mut saved = Ok(());
+    let mut view = (0, 0);
     let ran = run_calibration(&mut devices, &settings, &mut |shot| {
+        view = (shot.frame.width(), shot.frame.height());
         if saved.is_ok() {
             saved = save_shot(&recording, shot, &mut rows);
         }
@@ -116,6 +127,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.force,
     )?;
     println!("recording: {} ({} frames)", recording.display(), rows.len());
+    if let (Some(old), Ok(new)) = (previous, AffineCalibration::load(&out)) {
+        // A camera or stage that moved since the last calibration shows here.
+        let moved = new.largest_difference_m(&old, view.0, view.1);
+        println!(
+            "the calibration replaced put the view up to {:.3} um ({:.2} px) elsewhere",
+            moved * 1e6,
+            moved / new.m_per_px()
+        );
+    }
     if std::fs::canonicalize(&out).ok() == std::fs::canonicalize(&rig_calibration).ok() {
         println!(
             "the rig file names this calibration: `nanopush rig probe --rig {} --camera` shows the view in stage um",

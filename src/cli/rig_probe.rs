@@ -7,13 +7,13 @@
 //! rig file's camera and says what the loop sees in it.
 
 use super::error_message::error_message;
-use crate::calib::affine::AffineCalibration;
 use crate::exec::camera_look::look;
 use crate::exec::observe::ObserveError;
 use crate::model::Scene;
 use crate::rig::camera_clock::WallClock;
 use crate::rig::camera_open::open_camera;
 use crate::rig::gcs::{self, GcsController, RigFile};
+use crate::rig::hardware::load_rig_calibration;
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -85,12 +85,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 fn camera_section(rig: &RigFile, args: &Args) -> anyhow::Result<String> {
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    let calibration = AffineCalibration::load(&rig.calibration).with_context(|| {
-        format!(
-            "calibration {} named by the rig file",
-            rig.calibration.display()
-        )
-    })?;
+    let calibration = load_rig_calibration(rig)?;
     let source = &rig.camera;
     let mut camera = open_camera(source, WallClock::start())
         .with_context(|| format!("opening the camera ({})", source.describe()))?;

@@ -116,7 +116,7 @@ pub enum HardwareRigError {
     #[error(transparent)]
     RigFile(#[from] RigFileError),
     /// The calibration the rig file names could not be loaded.
-    #[error("calibration {path} named by the rig file: {source}")]
+    #[error("calibration {path} named by the rig file: {source}{}", not_made_yet(.source))]
     Calibration {
         /// The calibration file.
         path: PathBuf,
@@ -158,6 +158,24 @@ pub struct RigDevices {
     stale_frames: usize,
 }
 
+/// Loads the pixel-to-stage calibration `rig` names.
+pub fn load_rig_calibration(rig: &RigFile) -> Result<AffineCalibration, HardwareRigError> {
+    AffineCalibration::load(&rig.calibration).map_err(|source| HardwareRigError::Calibration {
+        path: rig.calibration.clone(),
+        source,
+    })
+}
+
+/// How to make a calibration that does not exist yet (empty otherwise).
+fn not_made_yet(e: &CalibError) -> &'static str {
+    match e {
+        CalibError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+            " (not made yet? `nanopush rig calibrate --rig FILE` measures it on the rig)"
+        }
+        _ => "",
+    }
+}
+
 /// A rig of real (or simulated-controller) hardware with its pixel-to-stage
 /// calibration, driven through [`Rig`]. Its devices' queries
 /// ([`RigDevices`]) are reached through it.
@@ -178,12 +196,7 @@ impl HardwareRig {
     /// ([`RigDevices::open`]).
     pub fn open(rig_file: &Path, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
         let rig = RigFile::load(rig_file)?;
-        let calibration = AffineCalibration::load(&rig.calibration).map_err(|source| {
-            HardwareRigError::Calibration {
-                path: rig.calibration.clone(),
-                source,
-            }
-        })?;
+        let calibration = load_rig_calibration(&rig)?;
         Ok(Self {
             devices: RigDevices::open(rig, opts)?,
             calibration,
