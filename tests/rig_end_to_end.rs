@@ -203,6 +203,32 @@ impl Bench {
         report
     }
 
+    /// Per site of the run in `run_dir`, the distance from the particle
+    /// nearest to it in the simulated world, nm: the sites as the camera saw
+    /// them at the end (pixels) mapped onto the sample as the simulated
+    /// microscope has it (camera map plus the coarse controller's offset).
+    fn coarse_truth_errors_nm(&self, run_dir: &Path) -> Vec<f64> {
+        let sites = self.coarse_sites_on_sample(run_dir);
+        nearest_particle_nm(&self.feeder.world().world, &sites)
+    }
+
+    /// The sites of the run in `run_dir` on the sample, metres: as the
+    /// camera saw them at the end (pixels), through the camera map plus
+    /// the coarse controller's offset, as the simulated microscope has it.
+    fn coarse_sites_on_sample(&self, run_dir: &Path) -> Vec<[f64; 2]> {
+        let calibration =
+            AffineCalibration::load(&manifest().join("calib/camera-stage-sim-coarse.toml"))
+                .unwrap();
+        let offset = self.feeder.world().coarse_offset_m(&self.coarse_units());
+        sites_px(run_dir)
+            .iter()
+            .map(|px| {
+                let [x, y] = calibration.pixel_to_stage_m(px[0], px[1]);
+                [x + offset[0], y + offset[1]]
+            })
+            .collect()
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -613,21 +639,7 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     let end_units = b.coarse_units();
     assert_ne!(end_units, start_units, "the coarse controller never moved");
 
-    // Ground truth: the sites as the camera saw them at the end (pixels)
-    // are where the world's particles must be, on the sample as the
-    // simulated microscope has it (camera map plus its coarse offset).
-    let calibration =
-        AffineCalibration::load(&manifest().join("calib/camera-stage-sim-coarse.toml")).unwrap();
-    let world = b.feeder.world();
-    let offset = world.coarse_offset_m(&end_units);
-    let sites: Vec<[f64; 2]> = sites_px(&run_dir)
-        .iter()
-        .map(|px| {
-            let [x, y] = calibration.pixel_to_stage_m(px[0], px[1]);
-            [x + offset[0], y + offset[1]]
-        })
-        .collect();
-    let errors_nm = nearest_particle_nm(&world.world, &sites);
+    let errors_nm = b.coarse_truth_errors_nm(&run_dir);
     let (rms, max) = rms_max(&errors_nm);
     eprintln!(
         "GCS rig with coarse stage: {} sites, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes, \
@@ -646,9 +658,107 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     );
     assert!(rms < 200.0, "rms {rms} nm");
     assert!(
-        world.contacts().iter().any(|c| c.moved_m > 1.0 * UM),
+        b.feeder
+            .world()
+            .contacts()
+            .iter()
+            .any(|c| c.moved_m > 1.0 * UM),
         "the probe pushed nothing"
     );
+}
+
+/// A run on a rig with a coarse stage, stopped part way by Ctrl-C, goes on
+/// with `assemble --rig --resume`: the run's sample frame is put back on
+/// the coarse stage, the journal's lines are kept byte for byte, and every
+/// site ends up holding a particle (ground truth).
+#[test]
+fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
+    let b = coarse_bench(100.0);
+    let run_dir = b.dir.path().join("run");
+    let journal = run_dir.join("journal.jsonl");
+    let child = b.assemble("run", &[]);
+    let decisions = || {
+        std::fs::read_to_string(&journal)
+            .map(|t| t.matches("\"kind\":\"decision\"").count())
+            .unwrap_or(0)
+    };
+    let started = Instant::now();
+    while decisions() < 12 {
+        assert!(
+            started.elapsed() < RUN_LIMIT,
+            "the run never pushed twelve times"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .unwrap();
+    let out = finish(child, Duration::from_secs(30));
+    assert!(!out.status.success());
+    let before = std::fs::read_to_string(&journal).unwrap();
+    assert!(
+        !before.contains("\"kind\":\"done\""),
+        "the run finished before the stop"
+    );
+    let at_stop = b.feeder.world().world.clone();
+
+    // Not on the simulated rig: the journal says which rig it was.
+    let out = nanopush()
+        .args(["assemble", "--resume"])
+        .arg(&journal)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("resume it with --rig"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&journal).unwrap(), before);
+
+    let child = nanopush()
+        .args(["assemble", "--json", "--rig"])
+        .arg(&b.rig_path)
+        .arg("--resume")
+        .arg(&journal)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let out = finish(child, RUN_LIMIT);
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let report = json(&out);
+    assert_eq!(report["outcome"], "done", "{report}");
+    assert_eq!(report["filled"], report["sites"], "{report}");
+    let after = std::fs::read_to_string(&journal).unwrap();
+    assert!(
+        after.starts_with(&before),
+        "the stopped run's lines changed"
+    );
+    assert!(after[before.len()..].contains("\"kind\":\"resume\""));
+    let errors_nm = b.coarse_truth_errors_nm(&run_dir);
+    let (rms, max) = rms_max(&errors_nm);
+    // The pattern goes on where the stopped run put it: sites filled before
+    // the stop are sites of the resumed run (with its frame not put back,
+    // the pattern would be built elsewhere and these would be none).
+    let sites = b.coarse_sites_on_sample(&run_dir);
+    let kept = nearest_particle_nm(&at_stop, &sites)
+        .iter()
+        .filter(|e| **e <= 200.0)
+        .count();
+    eprintln!(
+        "resumed after 12 push decisions: {} sites, {kept} filled at the stop, truth rms {rms:.0} nm, max {max:.0} nm, {} pushes in all",
+        errors_nm.len(),
+        report["pushes"]
+    );
+    assert!(
+        kept >= 3,
+        "{kept} sites of the resumed run were filled at the stop"
+    );
+    assert!(
+        errors_nm.iter().all(|e| *e <= 200.0),
+        "true placement errors {errors_nm:?} nm"
+    );
+    assert!(!b.moving(), "a stage was left moving");
 }
 
 /// With a coarse stage, `--at` is in the calibration's coordinates (those

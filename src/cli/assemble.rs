@@ -16,7 +16,8 @@ use crate::exec::events::RunEvent;
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
-use crate::exec::report::{AssemblyReport, RunFacts, count_journal};
+use crate::exec::report::{AssemblyReport, RunFacts};
+use crate::exec::resume_point::ResumePoint;
 use crate::exec::sim_run::{
     SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, missed_lost_contacts, prepare_sim_run,
 };
@@ -55,7 +56,8 @@ pub struct Args {
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
-    /// Continue the run whose journal this is, on the same world.
+    /// Continue the run whose journal this is: on the same simulated world,
+    /// or with --rig on the rig where it stopped.
     #[arg(long, conflicts_with_all = ["text", "pattern", "pitch_um", "rotation_deg", "at", "layout"])]
     pub resume: Option<PathBuf>,
     /// Also write a recording of the run (frames, stage log, calibration) to this folder.
@@ -198,22 +200,15 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
 }
 
 fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
-    // Read-only first: a finished run is left exactly as it is.
-    let finished = read_journal::<RunEvent>(journal_path)?
-        .entries
-        .iter()
-        .find(|e| e.event == RunEvent::Done)
-        .map(|e| e.t_s);
-    if let Some(t_s) = finished {
+    let point = ResumePoint::read(journal_path)?;
+    let spec = &point.spec;
+    if let Some(frame) = &spec.rig {
         bail!(
-            "{}: run already finished at {t_s:.1} s; nothing to resume",
-            journal_path.display()
+            "{} is the journal of a run on the rig {}: resume it with --rig {0}",
+            journal_path.display(),
+            frame.rig_file
         );
     }
-    let (journal, contents) = JournalWriter::resume::<RunEvent>(journal_path)?;
-    let Some(RunEvent::Start(spec)) = contents.entries.first().map(|e| e.event.clone()) else {
-        bail!("{} does not start with a run spec", journal_path.display());
-    };
     let out = journal_path
         .parent()
         .unwrap_or(Path::new("."))
@@ -225,39 +220,26 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
         spec.seed,
         args.particles,
     )?;
-    let sites: Vec<Site> = spec
-        .sites_um
-        .iter()
-        .enumerate()
-        .map(|(id, s)| Site {
-            id: id as u32,
-            centre_m: nalgebra::Vector2::new(s[0] * 1e-6, s[1] * 1e-6),
-        })
-        .collect();
+    let sites = point.sites();
     let mut rig = build_sim_rig(&scene, &layout, spec.seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
-    let tolerance_um = AssemblySettings::default().placed_tolerance_m * 1e6;
-    let pushes_done = count_journal(&contents.entries, &spec.sites_um, tolerance_um).pushes;
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
-    let last_tip = contents.entries.iter().rev().find_map(|e| match &e.event {
-        RunEvent::Move { target_um, .. } => Some([target_um[0] * 1e-6, target_um[1] * 1e-6]),
-        _ => None,
-    });
-    let resumes = contents
-        .entries
-        .iter()
-        .filter(|e| e.event == RunEvent::Resume)
-        .count();
     let mut animation = AnimationWriter::new(
-        &out.join(format!("run-resume-{}.mp4", resumes + 1)),
+        &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
         ANIMATION_SCALE,
     );
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
         let mut fan = FanOut(vec![&mut progress, &mut animation]);
-        let mut assembly =
-            Assembly::resume(&mut rig, inputs, journal, pushes_done, last_tip)?.with_sink(&mut fan);
+        let mut assembly = Assembly::resume(
+            &mut rig,
+            inputs,
+            point.journal,
+            point.pushes_done,
+            point.last_tip_m,
+        )?
+        .with_sink(&mut fan);
         let end = assembly.run()?;
         Finished::of(assembly, end)
     };

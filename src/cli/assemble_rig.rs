@@ -18,6 +18,13 @@
 //! and every byte that would have gone to the stage is written to
 //! `sent-bytes.log` in the output folder.
 //!
+//! A run stopped part way (Ctrl-C, a stage fault) goes on with `--resume
+//! OUT/journal.jsonl`: its sites, field and scene come from the journal's
+//! run spec, and on a rig with a coarse stage its sample frame is put back
+//! (the coarse stage's reading it subtracted), so the pattern is finished
+//! where it was begun; the loop looks first, so particles already on their
+//! sites stay.
+//!
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
@@ -25,10 +32,11 @@ use super::assemble::{Args, write_sites};
 use crate::exec::assemble::layout_seen;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::camera_look::size_doubt;
-use crate::exec::events::{RunEvent, RunSpec};
+use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
+use crate::exec::resume_point::ResumePoint;
 use crate::model::Scene;
 use crate::plan::Pattern;
 use crate::plan::pattern::PatternError;
@@ -67,27 +75,42 @@ const JOURNAL: &str = "journal.jsonl";
 const SENT_BYTES: &str = "sent-bytes.log";
 const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
 
-/// Runs the assembly on the hardware rig named by `args.hardware.rig`.
+/// What a run on the rig starts from, checked before the rig is opened.
+enum RigStart {
+    /// A new run: its scene, pattern, output folder and journal.
+    New {
+        scene: Scene,
+        target: PatternRequest,
+        pattern: Pattern,
+        journal_path: PathBuf,
+    },
+    /// A stopped run to go on with, and its scene.
+    Resume {
+        point: Box<ResumePoint>,
+        scene: Scene,
+        journal_path: PathBuf,
+    },
+}
+
+/// Runs the assembly on the hardware rig named by `args.hardware.rig`, or
+/// resumes the one whose journal `--resume` names.
 pub fn run(args: &Args) -> anyhow::Result<()> {
     let hw = &args.hardware;
     let Some(rig_path) = &hw.rig else {
         bail!("assemble on a rig needs --rig FILE");
     };
-    if args.resume.is_some() {
-        bail!("--resume is not supported with --rig yet: start a new run with another --out");
-    }
     if args.layout.is_some() {
         bail!("--layout is for the simulated rig: with --rig the camera shows the layout");
     }
-    let scene =
-        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    // The pattern is checked before the rig is opened.
-    let target = args.target.request()?;
-    let pattern = target.pattern(scene.particle_radius_m)?;
-    let journal_path = args.out.join(JOURNAL);
-    if journal_path.exists() {
-        bail!("{} exists: use another --out", journal_path.display());
-    }
+    let start = match &args.resume {
+        Some(journal) => resume_start(journal, hw.dry_run)?,
+        None => new_start(args)?,
+    };
+    let (RigStart::New { journal_path, .. } | RigStart::Resume { journal_path, .. }) = &start;
+    let out = journal_path
+        .parent()
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
     let mut rig = HardwareRig::open(
         rig_path,
         HardwareRigOptions {
@@ -97,18 +120,29 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let result = assemble(args, &scene, (&target, &pattern), &mut rig, &journal_path);
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let result = match start {
+        RigStart::New {
+            scene,
+            target,
+            pattern,
+            journal_path,
+        } => assemble(args, &scene, (&target, &pattern), &mut rig, &journal_path),
+        RigStart::Resume {
+            point,
+            scene,
+            journal_path,
+        } => resume(*point, &scene, &mut rig, &journal_path),
+    };
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
     if let Some(log) = rig.sent_log() {
-        let path = args.out.join(SENT_BYTES);
+        let path = out.join(SENT_BYTES);
         write_sent_log(log, &path)?;
         println!("bytes that would have been sent: {}", path.display());
     }
     if let Some(log) = rig.coarse_sent_log() {
-        let path = args.out.join(COARSE_SENT_BYTES);
+        let path = out.join(COARSE_SENT_BYTES);
         write_sent_log(log, &path)?;
         println!(
             "bytes that would have been sent to the coarse stage: {}",
@@ -119,7 +153,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print_summary(&report, rig_path, &args.out);
+        print_summary(&report, rig_path, &out);
     }
     if rig
         .interrupt_flag()
@@ -128,6 +162,45 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         bail!("interrupted: the stage was halted");
     }
     check_end(&end, hw.dry_run)
+}
+
+/// A new run's scene, pattern and journal, checked before the rig is opened.
+fn new_start(args: &Args) -> anyhow::Result<RigStart> {
+    let scene =
+        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
+    let target = args.target.request()?;
+    let pattern = target.pattern(scene.particle_radius_m)?;
+    let journal_path = args.out.join(JOURNAL);
+    if journal_path.exists() {
+        bail!("{} exists: use another --out", journal_path.display());
+    }
+    Ok(RigStart::New {
+        scene,
+        target,
+        pattern,
+        journal_path,
+    })
+}
+
+/// A stopped rig run's journal, reopened, and its scene.
+fn resume_start(journal: &Path, dry_run: bool) -> anyhow::Result<RigStart> {
+    if dry_run {
+        bail!("--dry-run does not go on with a run: resume without it, or dry-run a new --out");
+    }
+    let point = ResumePoint::read(journal)?;
+    if point.spec.rig.is_none() {
+        bail!(
+            "{} is the journal of a run on the simulated rig: resume it without --rig",
+            journal.display()
+        );
+    }
+    let scene = Scene::load(Path::new(&point.spec.scene))
+        .with_context(|| format!("scene {} of the run", point.spec.scene))?;
+    Ok(RigStart::Resume {
+        point: Box::new(point),
+        scene,
+        journal_path: journal.to_path_buf(),
+    })
 }
 
 /// Fails unless every site was filled, or a dry run spent its one push (it
@@ -233,6 +306,17 @@ fn assemble(
         seed: args.seed,
         sites_um: sites_um(&sites),
         radius_um: r * 1e6,
+        rig: Some(RigFrame {
+            rig_file: args
+                .hardware
+                .rig
+                .as_deref()
+                .unwrap_or(Path::new("RIG"))
+                .display()
+                .to_string(),
+            field_um: settings.field_m.map(|v| v * 1e6),
+            coarse_shift_um: rig.sample_frame_shift_m().map(|s| s.map(|v| v * 1e6)),
+        }),
     };
     let inputs = AssemblyInputs {
         scene: scene.clone(),
@@ -245,17 +329,99 @@ fn assemble(
     // (the first frame failed, say) would block this --out for nothing.
     let journal = JournalWriter::create(journal_path)
         .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
-    let (end, sites, errors_m, last) = {
-        let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
-        let end = assembly.run();
-        let errors_m = assembly.site_errors_m();
-        (
-            end,
-            assembly.sites().to_vec(),
-            errors_m,
-            assembly.last_sighting.clone(),
-        )
+    let ran = RunResult::of(Assembly::start(rig, inputs, journal, spec)?);
+    finish_run(ran, rig, &args.out, scene, &settings, journal_path)
+}
+
+/// Goes on with a stopped run: the rig's sample frame put back as the run
+/// had it, its sites, field and scene from the journal; the loop looks
+/// first, so particles already on their sites stay.
+fn resume(
+    point: ResumePoint,
+    scene: &Scene,
+    rig: &mut HardwareRig,
+    journal_path: &Path,
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
+    let frame = point
+        .spec
+        .rig
+        .clone()
+        .context("the run spec names no rig")?;
+    match (frame.coarse_shift_um, rig.has_coarse()) {
+        (Some(shift), true) => rig
+            .restore_sample_frame(shift.map(|v| v * 1e-6))
+            .context("putting the run's sample frame back on the coarse stage")?,
+        (None, false) => {}
+        (Some(_), false) => bail!(
+            "the run was on a rig with a coarse stage ({}); this rig file has none",
+            frame.rig_file
+        ),
+        (None, true) => bail!(
+            "the run was on a rig without a coarse stage ({}); this rig file has one",
+            frame.rig_file
+        ),
+    }
+    let settings = AssemblySettings {
+        field_m: frame.field_um.map(|v| v * 1e-6),
+        ..Default::default()
     };
+    let sites = point.sites();
+    let inputs = AssemblyInputs {
+        scene: scene.clone(),
+        sites,
+        plan_config: settings.plan_config(scene),
+        perception: perception_for(scene, rig),
+        settings: settings.clone(),
+    };
+    let out = journal_path.parent().unwrap_or(Path::new("."));
+    let ran = RunResult::of(Assembly::resume(
+        rig,
+        inputs,
+        point.journal,
+        point.pushes_done,
+        point.last_tip_m,
+    )?);
+    finish_run(ran, rig, out, scene, &settings, journal_path)
+}
+
+/// What a run of the loop left: how it ended, its sites, what the camera
+/// measured of them last, and that last look.
+struct RunResult {
+    end: Result<RunEnd, crate::exec::assemble::ExecError>,
+    sites: Vec<crate::plan::Site>,
+    errors_m: Vec<f64>,
+    last: Option<Sighting>,
+}
+
+impl RunResult {
+    /// Runs the loop to its end.
+    fn of(mut assembly: Assembly<'_>) -> Self {
+        let end = assembly.run();
+        Self {
+            end,
+            errors_m: assembly.site_errors_m(),
+            sites: assembly.sites().to_vec(),
+            last: assembly.last_sighting.clone(),
+        }
+    }
+}
+
+/// Writes report.json, final.png and sites.json into `out` from the
+/// journal and the camera's last look.
+fn finish_run(
+    ran: RunResult,
+    rig: &mut HardwareRig,
+    out: &Path,
+    scene: &Scene,
+    settings: &AssemblySettings,
+    journal_path: &Path,
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
+    let RunResult {
+        end,
+        sites,
+        errors_m,
+        last,
+    } = ran;
     let end = end?;
     let entries = read_journal::<RunEvent>(journal_path)?.entries;
     let facts = RunFacts {
@@ -269,13 +435,13 @@ fn assemble(
         // A hardware rig has no model inside to count.
         effect_work: None,
     };
-    let report = AssemblyReport::from_run(facts, &entries, scene, &settings);
+    let report = AssemblyReport::from_run(facts, &entries, scene, settings);
     std::fs::write(
-        args.out.join("report.json"),
+        out.join("report.json"),
         serde_json::to_string_pretty(&report)?,
     )?;
     if let Some(last) = &last {
-        save_png(&last.frame, &args.out.join("final.png"))?;
+        save_png(&last.frame, &out.join("final.png"))?;
     }
     // Pixels as the camera sees the sites now (the coarse stage may have
     // moved the sample under it).
@@ -284,12 +450,7 @@ fn assemble(
     } else {
         [0.0, 0.0]
     };
-    write_sites(
-        &sites,
-        rig.calibration(),
-        offset,
-        &args.out.join("sites.json"),
-    )?;
+    write_sites(&sites, rig.calibration(), offset, &out.join("sites.json"))?;
     Ok((report, end))
 }
 

@@ -21,6 +21,25 @@ pub struct RunSpec {
     pub sites_um: Vec<[f64; 2]>,
     /// Particle radius the run was planned for, micrometres.
     pub radius_um: f64,
+    /// On a hardware rig, what a resume needs to put the run's frame back;
+    /// absent on the simulated rig (and in journals from before 2026-11-28).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rig: Option<RigFrame>,
+}
+
+/// A hardware run's frame on its rig: the planner's field, and with a
+/// coarse stage where the field's origin lies in the coarse stage's own
+/// coordinates (the run moved its sample frame there).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RigFrame {
+    /// The rig file the run was on, as given.
+    pub rig_file: String,
+    /// The run's field, micrometres.
+    pub field_um: [f64; 2],
+    /// What the run subtracted from the coarse stage's readings (its own
+    /// coordinates, micrometres); absent on a rig without a coarse stage.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coarse_shift_um: Option<[f64; 2]>,
 }
 
 /// A particle seen in a frame, with its track id.

@@ -13,6 +13,7 @@ pub mod push_check;
 pub mod recording;
 mod recording_check;
 pub mod report;
+pub mod resume_point;
 pub mod sim_run;
 pub mod stroke;
 pub mod tracker;

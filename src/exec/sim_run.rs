@@ -112,6 +112,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         seed: req.seed,
         sites_um: sites_um(&sites),
         radius_um: scene.particle_radius_m * 1e6,
+        rig: None,
     };
     let mut rig = build_sim_rig(&scene, &layout, req.seed)?;
     for &n in &req.faults.drop_frames {

@@ -316,6 +316,23 @@ impl RigDevices {
         Ok(())
     }
 
+    /// What the run's sample frame subtracts from the coarse stage's
+    /// readings (its own coordinates, metres); `None` without a coarse stage.
+    pub fn sample_frame_shift_m(&self) -> Option<[f64; 2]> {
+        self.coarse.as_ref().map(|_| self.coarse_shift_m)
+    }
+
+    /// Puts back a sample frame that [`RigDevices::sample_frame_shift_m`]
+    /// read (a resumed run's): the coarse stage's readings mean what they
+    /// meant to the run.
+    pub fn restore_sample_frame(&mut self, shift_m: [f64; 2]) -> Result<(), RigError> {
+        if self.coarse.is_none() {
+            return Err(RigError::NoCoarseStage);
+        }
+        self.coarse_shift_m = shift_m;
+        Ok(())
+    }
+
     /// The nanostage (for GCS queries beyond the trait).
     pub fn nanostage(&mut self) -> &mut GcsNanoStage {
         &mut self.stage
