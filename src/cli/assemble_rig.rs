@@ -316,6 +316,9 @@ fn assemble(
                 .to_string(),
             field_um: settings.field_m.map(|v| v * 1e6),
             coarse_shift_um: rig.sample_frame_shift_m().map(|s| s.map(|v| v * 1e6)),
+            first_view_coarse_um: rig
+                .has_coarse()
+                .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
     };
     let inputs = AssemblyInputs {
@@ -365,6 +368,13 @@ fn resume(
         field_m: frame.field_um.map(|v| v * 1e-6),
         ..Default::default()
     };
+    if let Some(view) = frame.first_view_coarse_um {
+        // The tip up first: the coarse stage refuses to drag it.
+        let (top, here) = (rig.range()[2].max_m, rig.position()?);
+        rig.move_to([here[0], here[1], top], settings.travel_speed_m_per_s)?;
+        rig.move_coarse(view.map(|v| v * 1e-6))
+            .context("moving the coarse stage to where the run first looked")?;
+    }
     let sites = point.sites();
     let inputs = AssemblyInputs {
         scene: scene.clone(),

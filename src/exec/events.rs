@@ -36,10 +36,18 @@ pub struct RigFrame {
     pub rig_file: String,
     /// The run's field, micrometres.
     pub field_um: [f64; 2],
-    /// What the run subtracted from the coarse stage's readings (its own
-    /// coordinates, micrometres); absent on a rig without a coarse stage.
+    /// What the run subtracted from the coarse stage's readings, in the
+    /// stage's own fixed coordinates (not its readings', which start at
+    /// zero where a process opened it), micrometres; absent on a rig
+    /// without a coarse stage.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub coarse_shift_um: Option<[f64; 2]>,
+    /// The coarse stage's reading in the run's sample frame where it first
+    /// looked, micrometres: a resume looks from there first, and so sees
+    /// the field the run planned on (elsewhere a particle may lie out of
+    /// view, and be planned through). Absent without a coarse stage.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_view_coarse_um: Option<[f64; 2]>,
 }
 
 /// A particle seen in a frame, with its track id.

@@ -91,4 +91,9 @@ impl CoarseStage for GcsCoarseStage {
     fn halt_coarse(&mut self) -> Result<(), RigError> {
         self.line.halt()
     }
+
+    /// The controller's position (sign applied) when the stage was opened.
+    fn coarse_zero_m(&self) -> [f64; 2] {
+        self.zero_m
+    }
 }

@@ -317,19 +317,23 @@ impl RigDevices {
     }
 
     /// What the run's sample frame subtracts from the coarse stage's
-    /// readings (its own coordinates, metres); `None` without a coarse stage.
+    /// readings, in the stage's own fixed coordinates (metres, see
+    /// [`CoarseStage::coarse_zero_m`]), so that it means the same to
+    /// another process; `None` without a coarse stage.
     pub fn sample_frame_shift_m(&self) -> Option<[f64; 2]> {
-        self.coarse.as_ref().map(|_| self.coarse_shift_m)
+        let zero = self.coarse.as_ref()?.coarse_zero_m();
+        Some([0, 1].map(|k| self.coarse_shift_m[k] + zero[k]))
     }
 
     /// Puts back a sample frame that [`RigDevices::sample_frame_shift_m`]
-    /// read (a resumed run's): the coarse stage's readings mean what they
-    /// meant to the run.
+    /// read, maybe in another process (a resumed run's): the coarse
+    /// stage's readings then mean what they meant to the run.
     pub fn restore_sample_frame(&mut self, shift_m: [f64; 2]) -> Result<(), RigError> {
-        if self.coarse.is_none() {
+        let Some(c) = &self.coarse else {
             return Err(RigError::NoCoarseStage);
-        }
-        self.coarse_shift_m = shift_m;
+        };
+        let zero = c.coarse_zero_m();
+        self.coarse_shift_m = [0, 1].map(|k| shift_m[k] - zero[k]);
         Ok(())
     }
 

@@ -39,6 +39,14 @@ pub trait CoarseStage {
     fn halt_coarse(&mut self) -> Result<(), RigError> {
         Ok(())
     }
+    /// Where [`CoarseStage::coarse_position`]'s zero lies in the stage's own
+    /// fixed coordinates, metres: a stage whose readings start at zero
+    /// wherever it was opened (a GCS coarse stage) says where that was, so
+    /// that a position kept across processes (a resumed run's) keeps its
+    /// meaning. Zero for a stage that reads absolute positions.
+    fn coarse_zero_m(&self) -> [f64; 2] {
+        [0.0, 0.0]
+    }
 }
 
 /// Checks a target against a range before anything moves.
