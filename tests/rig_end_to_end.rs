@@ -229,6 +229,62 @@ impl Bench {
             .collect()
     }
 
+    /// Starts a run into `out`, stops it with Ctrl-C once its journal
+    /// holds `n` push decisions, and returns the journal then (the run
+    /// must not have finished).
+    fn stopped_after_decisions(&self, out: &str, n: usize) -> String {
+        let journal = self.dir.path().join(out).join("journal.jsonl");
+        let child = self.assemble(out, &[]);
+        let decisions = || {
+            std::fs::read_to_string(&journal)
+                .map(|t| t.matches("\"kind\":\"decision\"").count())
+                .unwrap_or(0)
+        };
+        let started = Instant::now();
+        while decisions() < n {
+            assert!(
+                started.elapsed() < RUN_LIMIT,
+                "the run never pushed {n} times"
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(child.id() as i32),
+            nix::sys::signal::Signal::SIGINT,
+        )
+        .unwrap();
+        let out = finish(child, Duration::from_secs(30));
+        assert!(!out.status.success());
+        let before = std::fs::read_to_string(&journal).unwrap();
+        assert!(
+            !before.contains("\"kind\":\"done\""),
+            "the run finished before the stop"
+        );
+        before
+    }
+
+    /// `assemble --rig --resume JOURNAL --json`, which must succeed, after
+    /// which every site must be filled (the camera's count) and no stage
+    /// moving; its report.
+    fn resumed(&self, journal: &Path) -> serde_json::Value {
+        let child = nanopush()
+            .args(["assemble", "--json", "--rig"])
+            .arg(&self.rig_path)
+            .arg("--resume")
+            .arg(journal)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let out = finish(child, RUN_LIMIT);
+        assert!(out.status.success(), "{}", failed(out.status, &out));
+        let report = json(&out);
+        assert_eq!(report["outcome"], "done", "{report}");
+        assert_eq!(report["filled"], report["sites"], "{report}");
+        assert!(!self.moving(), "a stage was left moving");
+        report
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -667,6 +723,33 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     );
 }
 
+/// A run on a rig without a coarse stage, stopped part way by Ctrl-C,
+/// goes on with `assemble --rig --resume` and fills every site (ground
+/// truth), its stopped run's lines kept.
+#[test]
+fn a_stopped_rig_run_resumes_and_fills_every_site() {
+    let b = bench(50.0);
+    let run_dir = b.dir.path().join("run");
+    let before = b.stopped_after_decisions("run", 3);
+    let report = b.resumed(&run_dir.join("journal.jsonl"));
+    let after = std::fs::read_to_string(run_dir.join("journal.jsonl")).unwrap();
+    assert!(
+        after.starts_with(&before),
+        "the stopped run's lines changed"
+    );
+    let errors_nm = nearest_particle_nm(&b.feeder.world().world, &sites_m(&run_dir));
+    eprintln!(
+        "resumed after 3 push decisions: {} sites, {} pushes in all, truth errors up to {:.0} nm",
+        errors_nm.len(),
+        report["pushes"],
+        errors_nm.iter().copied().fold(0.0, f64::max)
+    );
+    assert!(
+        errors_nm.iter().all(|e| *e <= 200.0),
+        "true placement errors {errors_nm:?} nm"
+    );
+}
+
 /// A run on a rig with a coarse stage, stopped part way by Ctrl-C, goes on
 /// with `assemble --rig --resume`: the run's sample frame is put back on
 /// the coarse stage, the journal's lines are kept byte for byte, and every
@@ -676,32 +759,7 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
     let b = coarse_bench(100.0);
     let run_dir = b.dir.path().join("run");
     let journal = run_dir.join("journal.jsonl");
-    let child = b.assemble("run", &[]);
-    let decisions = || {
-        std::fs::read_to_string(&journal)
-            .map(|t| t.matches("\"kind\":\"decision\"").count())
-            .unwrap_or(0)
-    };
-    let started = Instant::now();
-    while decisions() < 12 {
-        assert!(
-            started.elapsed() < RUN_LIMIT,
-            "the run never pushed twelve times"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(child.id() as i32),
-        nix::sys::signal::Signal::SIGINT,
-    )
-    .unwrap();
-    let out = finish(child, Duration::from_secs(30));
-    assert!(!out.status.success());
-    let before = std::fs::read_to_string(&journal).unwrap();
-    assert!(
-        !before.contains("\"kind\":\"done\""),
-        "the run finished before the stop"
-    );
+    let before = b.stopped_after_decisions("run", 12);
     let at_stop = b.feeder.world().world.clone();
 
     // Not on the simulated rig: the journal says which rig it was.
@@ -715,20 +773,7 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
     assert!(stderr.contains("resume it with --rig"), "{stderr}");
     assert_eq!(std::fs::read_to_string(&journal).unwrap(), before);
 
-    let child = nanopush()
-        .args(["assemble", "--json", "--rig"])
-        .arg(&b.rig_path)
-        .arg("--resume")
-        .arg(&journal)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let out = finish(child, RUN_LIMIT);
-    assert!(out.status.success(), "{}", failed(out.status, &out));
-    let report = json(&out);
-    assert_eq!(report["outcome"], "done", "{report}");
-    assert_eq!(report["filled"], report["sites"], "{report}");
+    let report = b.resumed(&journal);
     let after = std::fs::read_to_string(&journal).unwrap();
     assert!(
         after.starts_with(&before),
