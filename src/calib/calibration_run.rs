@@ -128,6 +128,10 @@ pub enum CalibrationRunError {
         /// The range, micrometres.
         max_um: f64,
     },
+    /// The caller's handling of a shot failed (saving it, say); the run
+    /// stopped there.
+    #[error("{0}")]
+    Shot(String),
     /// No room for a first move.
     #[error("no room for a {step_um:.1} um move in {axis} either way within the stage's range")]
     NoRoom {
@@ -143,14 +147,18 @@ const LEAST_MOTION_PX: f64 = 1.0;
 /// Grid points closer than this after clipping to the range are one.
 const SAME_POINT_M: f64 = 0.5e-6;
 
+/// What a caller does with each shot as it is taken (saves it, say); an
+/// error stops the run ([`CalibrationRunError::Shot`]).
+pub type ShotSink<'a> = &'a mut dyn FnMut(&CalibrationShot) -> Result<(), String>;
+
 /// Runs the calibration: the start, two first moves and the grid, each
-/// handed to `on_shot` as it is taken (index, total so far known, shot), so
-/// a caller can save them as they come. Returns every shot. The stage ends
-/// where it started, unless putting it back fails (that error is returned).
+/// handed to `on_shot` as it is taken, so a caller can save them as they
+/// come. Returns every shot. The stage ends where it started, unless
+/// putting it back fails (that error is returned).
 pub fn run_calibration<R: NanoStage + Camera>(
     rig: &mut R,
     settings: &CalibrationRunSettings,
-    on_shot: &mut dyn FnMut(&CalibrationShot),
+    on_shot: ShotSink<'_>,
 ) -> Result<Vec<CalibrationShot>, CalibrationRunError> {
     settings.check()?;
     let start = rig.position()?;
@@ -172,8 +180,9 @@ pub fn run_calibration<R: NanoStage + Camera>(
     let outcome = (|| -> Result<(), CalibrationRunError> {
         move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
         let rough = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut |s| {
-            on_shot(&s);
+            on_shot(&s).map_err(CalibrationRunError::Shot)?;
             shots.push(s);
+            Ok(())
         })?;
         let (w, h) = (shots[0].frame.width(), shots[0].frame.height());
         for target in grid_targets(&rough, (w, h), settings, &range) {
@@ -183,7 +192,7 @@ pub fn run_calibration<R: NanoStage + Camera>(
                 settings.speed_m_per_s,
             )?;
             let shot = take_shot(rig, settings)?;
-            on_shot(&shot);
+            on_shot(&shot).map_err(CalibrationRunError::Shot)?;
             shots.push(shot);
         }
         Ok(())
@@ -254,12 +263,12 @@ fn rough_map<R: NanoStage + Camera>(
     settings: &CalibrationRunSettings,
     start: [f64; 2],
     z: f64,
-    keep: &mut dyn FnMut(CalibrationShot),
+    keep: &mut dyn FnMut(CalibrationShot) -> Result<(), CalibrationRunError>,
 ) -> Result<AffineCalibration, CalibrationRunError> {
     let first = take_shot(rig, settings)?;
     let apex0 = first.apex_px.ok_or(CalibrationRunError::NoTipAtStart)?;
     let stage0 = first.stage_m;
-    keep(first);
+    keep(first)?;
     let range = rig.range();
     let mut columns = [[0.0; 2]; 2];
     for (axis, name) in ['x', 'y'].into_iter().enumerate() {
@@ -294,7 +303,7 @@ fn rough_map<R: NanoStage + Camera>(
             });
         }
         columns[axis] = [moved[0] / actual, moved[1] / actual];
-        keep(shot);
+        keep(shot)?;
     }
     // Stage -> pixel has the columns found; the rough map is its inverse.
     let stage_to_px =
@@ -422,7 +431,8 @@ mod tests {
         let start = rig.position().unwrap();
         let mut seen = 0;
         let shots = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
-            seen += 1
+            seen += 1;
+            Ok(())
         })
         .unwrap();
         assert_eq!(seen, shots.len());
@@ -458,8 +468,12 @@ mod tests {
         };
         let mut rig = rig(&off_view);
         let start = rig.position().unwrap();
-        let err =
-            run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {}).unwrap_err();
+        let err = run_calibration(
+            &mut rig,
+            &CalibrationRunSettings::default(),
+            &mut |_| Ok(()),
+        )
+        .unwrap_err();
         assert!(matches!(err, CalibrationRunError::NoTipAtStart), "{err}");
         assert!(same_place(rig.position().unwrap(), start));
     }
@@ -505,7 +519,7 @@ mod tests {
             travel_z_m: Some(12e-6),
             ..Default::default()
         };
-        let shots = run_calibration(&mut logged, &settings, &mut |_| {}).unwrap();
+        let shots = run_calibration(&mut logged, &settings, &mut |_| Ok(())).unwrap();
         assert_eq!(shots.len(), 3 + 4);
         // Up to 12 um first, every move there, and down to 3 um last.
         let (last, travel) = logged.targets.split_last().unwrap();
@@ -518,7 +532,7 @@ mod tests {
                 travel_z_m: Some(16e-6),
                 ..Default::default()
             },
-            &mut |_| {},
+            &mut |_| Ok(()),
         )
         .unwrap_err();
         assert!(
@@ -526,6 +540,31 @@ mod tests {
             "{err}"
         );
         assert!(logged.targets.is_empty());
+    }
+
+    #[test]
+    fn a_shot_that_cannot_be_kept_stops_the_run_and_the_stage_goes_back() {
+        let mut rig = rig(&truth());
+        let top = rig.range()[2].max_m;
+        rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
+        let start = rig.position().unwrap();
+        let mut kept = 0;
+        let err = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
+            kept += 1;
+            if kept == 5 {
+                Err("disk full".into())
+            } else {
+                Ok(())
+            }
+        })
+        .unwrap_err();
+        assert!(
+            matches!(&err, CalibrationRunError::Shot(m) if m == "disk full"),
+            "{err}"
+        );
+        // Start, two first moves, two grid stops: no stop after the failed one.
+        assert_eq!(kept, 5);
+        assert!(same_place(rig.position().unwrap(), start));
     }
 
     #[test]
@@ -546,7 +585,7 @@ mod tests {
                 ..Default::default()
             },
         ] {
-            let err = run_calibration(&mut rig, &settings, &mut |_| {}).unwrap_err();
+            let err = run_calibration(&mut rig, &settings, &mut |_| Ok(())).unwrap_err();
             assert!(matches!(err, CalibrationRunError::Settings(_)), "{err}");
         }
         assert_eq!(rig.frames(), 0);

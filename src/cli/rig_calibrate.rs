@@ -100,17 +100,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("creating {}", recording.display()))?;
     let previous = AffineCalibration::load(&out).ok();
     let mut rows: Vec<StageRow> = Vec::new();
-    let mut saved = Ok(());
     let mut view = (0, 0);
     let ran = run_calibration(&mut devices, &settings, &mut |shot| {
         view = (shot.frame.width(), shot.frame.height());
-        if saved.is_ok() {
-            saved = save_shot(&recording, shot, &mut rows);
-        }
+        save_shot(&recording, shot, &mut rows).map_err(|e| format!("{e:#}"))
     });
     // Whatever happened, the stage is left still.
     let _ = devices.halt();
-    saved?;
     ran.with_context(|| {
         format!(
             "calibration run on {} ({} frames saved in {})",
