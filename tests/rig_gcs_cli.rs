@@ -350,6 +350,44 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     assert!((apex[2] - (0.5 * apex[0] - 10.0)).abs() < 0.01, "{text}");
     assert!((apex[3] - (0.5 * apex[1] - 10.0)).abs() < 0.01, "{text}");
 
+    // No calibration made yet: the frame and the tip in pixels are shown
+    // (what `rig calibrate` needs), and the command fails naming the
+    // missing calibration and how to make it.
+    let tipped = std::fs::read_to_string(at("tipped.toml")).unwrap();
+    let uncalibrated = at("uncalibrated.toml");
+    std::fs::write(
+        &uncalibrated,
+        tipped.replace(
+            &format!("{:?}", calibration.display().to_string()),
+            &format!("{:?}", at("not-made-yet.toml")),
+        ),
+    )
+    .unwrap();
+    let out = run(&[
+        "rig",
+        "probe",
+        "--dry-run",
+        "--camera",
+        "--rig",
+        &uncalibrated,
+    ]);
+    let (text, err) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(!out.status.success(), "{text}");
+    assert_eq!(line(&text, "frame:"), "200 x 200 px, 16-bit", "{text}");
+    let apex_px = numbers(&line(&text, "tip:"));
+    assert!(
+        (apex_px[0] - 100.0).abs() < 0.5 && (apex_px[1] - 80.0).abs() < 0.5,
+        "{text}"
+    );
+    assert!(!text.contains("particles:"), "{text}");
+    assert!(
+        err.contains("not-made-yet.toml") && err.contains("nanopush rig calibrate --rig"),
+        "{err}"
+    );
+
     // Scenes whose particles are not the frame's (radius 5 um): none taken,
     // and the look says what it found instead. At 3.5 um the 12 are found
     // and left out for their size (the loop warns too); at 2.5 um the

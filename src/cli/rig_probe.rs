@@ -7,7 +7,7 @@
 //! rig file's camera and says what the loop sees in it.
 
 use super::error_message::error_message;
-use crate::exec::camera_look::look;
+use crate::exec::camera_look::{look, look_uncalibrated};
 use crate::exec::observe::ObserveError;
 use crate::model::Scene;
 use crate::rig::camera_clock::WallClock;
@@ -57,7 +57,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if args.camera {
-        parts.push(camera_section(&rig, &args));
+        parts.extend(camera_section(&rig, &args));
     }
     let (mut seen, mut failures) = (Vec::new(), Vec::new());
     for part in parts {
@@ -81,21 +81,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
-/// One frame of the rig's camera, as the loop sees it.
-fn camera_section(rig: &RigFile, args: &Args) -> anyhow::Result<String> {
-    let scene =
-        Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    let calibration = load_rig_calibration(rig)?;
+/// One frame of the rig's camera, as the loop sees it; without a
+/// calibration (none made yet), what can be seen in pixels, and the
+/// missing calibration as a part that could not be seen.
+fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
+    let scene = match Scene::load(&args.scene) {
+        Ok(scene) => scene,
+        Err(e) => return vec![Err(e).context(format!("scene {}", args.scene.display()))],
+    };
+    let calibration = load_rig_calibration(rig);
     let source = &rig.camera;
-    let mut camera = open_camera(source, WallClock::start())
-        .with_context(|| format!("opening the camera ({})", source.describe()))?;
-    let seen = look(
-        source,
-        camera.as_mut(),
-        &calibration,
-        scene.particle_radius_m,
-    )
-    .map_err(|e| match e {
+    let no_frame = |e: ObserveError| match e {
         ObserveError::NoFrame(grabs) => anyhow::anyhow!(
             "no frame from the camera ({}) in {grabs} tries of its timeout: {}",
             source.describe(),
@@ -103,8 +99,36 @@ fn camera_section(rig: &RigFile, args: &Args) -> anyhow::Result<String> {
         ),
         other => anyhow::Error::new(other)
             .context(format!("a frame from the camera ({})", source.describe())),
-    })?;
-    Ok(format!("camera:\n{seen}"))
+    };
+    let mut camera = match open_camera(source, WallClock::start()) {
+        Ok(camera) => camera,
+        Err(e) => {
+            let mut parts =
+                vec![Err(e).context(format!("opening the camera ({})", source.describe()))];
+            if let Err(missing) = calibration {
+                parts.push(Err(missing.into()));
+            }
+            return parts;
+        }
+    };
+    match calibration {
+        Ok(calibration) => vec![
+            look(
+                source,
+                camera.as_mut(),
+                &calibration,
+                scene.particle_radius_m,
+            )
+            .map(|seen| format!("camera:\n{seen}"))
+            .map_err(no_frame),
+        ],
+        Err(missing) => vec![
+            look_uncalibrated(source, camera.as_mut())
+                .map(|seen| format!("camera:\n{seen}"))
+                .map_err(no_frame),
+            Err(missing.into()),
+        ],
+    }
 }
 
 /// Probes one controller: its report (and, in a dry run, the bytes).

@@ -1,18 +1,26 @@
 //! One frame from a rig's camera, seen as the closed loop sees it
 //! (`nanopush rig probe --camera`): before a run, a user sees that frames
 //! arrive, in which channel, at what exposure, and whether the particles
-//! and the probe are found where the calibration puts them.
+//! and the probe are found where the calibration puts them. Before there
+//! is a calibration, the frame, the exposure and the tip in pixels: what
+//! `nanopush rig calibrate` needs to start.
 
 use std::fmt;
 
-use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting};
+use super::observe::{
+    ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, grab_frame,
+};
 use crate::calib::affine::AffineCalibration;
 use crate::median::upper_median;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
 use crate::vision::analyse::{camera_notes, prepare_frame};
 use crate::vision::detect::{DetectSettings, detect_particles, model_for};
+use crate::vision::exposure::Exposure;
+use crate::vision::frame::Frame;
+use crate::vision::line_defects::LineDefect;
 use crate::vision::profile_fit::ProfileModel;
+use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Grabs tried before the look gives up: a camera's own timeout applies
 /// to each (a watched folder's `timeout_ms`).
@@ -67,6 +75,43 @@ pub fn look(
         radius_m,
         m_per_px,
         size_doubt,
+    })
+}
+
+/// What one frame showed before the rig had a calibration.
+#[derive(Debug, Clone)]
+pub struct UncalibratedLook {
+    /// Where frames come from, as the rig file says.
+    pub source: String,
+    /// The frame as the camera gave it.
+    pub frame: Frame,
+    /// Frames dropped before it.
+    pub dropped: usize,
+    /// Camera lines filled in from their neighbours.
+    pub repaired_lines: Vec<LineDefect>,
+    /// How much of the (repaired) frame is clipped at either end.
+    pub exposure: Exposure,
+    /// The probe's tip, pixels, when found.
+    pub tip: Option<TipDetection>,
+}
+
+/// Grabs a frame from `camera` and looks for the tip in it, in pixels (no
+/// calibration needed; particles are left out: their size in pixels is
+/// what the calibration would tell).
+pub fn look_uncalibrated(
+    source: &CameraSource,
+    camera: &mut dyn Camera,
+) -> Result<UncalibratedLook, ObserveError> {
+    let (timed, dropped) = grab_frame(camera, LOOK_GRABS)?;
+    let prepared = prepare_frame(&timed.frame);
+    let tip = detect_tip(&prepared.frame, &TipSettings::default());
+    Ok(UncalibratedLook {
+        source: source.describe(),
+        dropped,
+        repaired_lines: prepared.repaired_lines.clone(),
+        exposure: prepared.exposure,
+        tip,
+        frame: timed.frame,
     })
 }
 
@@ -135,29 +180,61 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
     })
 }
 
+/// The source, frame and camera-state lines both looks begin with.
+fn write_frame_lines(
+    f: &mut fmt::Formatter<'_>,
+    source: &str,
+    frame: &Frame,
+    dropped: usize,
+    (repaired_lines, exposure): (&[LineDefect], &Exposure),
+) -> fmt::Result {
+    writeln!(f, "source:         {source}")?;
+    let grabs = match dropped {
+        0 => String::new(),
+        n => format!(" (after {n} grabs without a frame)"),
+    };
+    writeln!(
+        f,
+        "frame:          {} x {} px, {}-bit{grabs}",
+        frame.width(),
+        frame.height(),
+        frame.bit_depth()
+    )?;
+    let notes = camera_notes(repaired_lines, exposure.clipped());
+    let state = if notes.is_empty() {
+        "no line repaired, under 1 % clipped".to_string()
+    } else {
+        notes.trim().to_string()
+    };
+    writeln!(f, "camera state:   {state}")
+}
+
+impl fmt::Display for UncalibratedLook {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let camera = (&self.repaired_lines[..], &self.exposure);
+        write_frame_lines(f, &self.source, &self.frame, self.dropped, camera)?;
+        match &self.tip {
+            Some(t) => writeln!(
+                f,
+                "tip:            apex at ({:.1}, {:.1}) px, angle {:.1} deg (no calibration yet: pixels only)",
+                t.x_px,
+                t.y_px,
+                t.angle_rad.to_degrees()
+            ),
+            None => writeln!(
+                f,
+                "tip:            not seen (`rig calibrate` starts with the tip in view)"
+            ),
+        }
+    }
+}
+
 impl fmt::Display for CameraLook {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let s = &self.sighting;
         let um = |m: f64| m * 1e6;
-        writeln!(f, "source:         {}", self.source)?;
-        let grabs = match s.dropped {
-            0 => String::new(),
-            n => format!(" (after {n} grabs without a frame)"),
-        };
-        writeln!(
-            f,
-            "frame:          {} x {} px, {}-bit{grabs}",
-            s.frame.width(),
-            s.frame.height(),
-            s.frame.bit_depth()
-        )?;
-        let notes = camera_notes(&s.repaired_lines, s.exposure.clipped());
-        let state = if notes.is_empty() {
-            "no line repaired, under 1 % clipped".to_string()
-        } else {
-            notes.trim().to_string()
-        };
-        writeln!(f, "camera state:   {state}")?;
+        let camera = (&s.repaired_lines[..], &s.exposure);
+        write_frame_lines(f, &self.source, &s.frame, s.dropped, camera)?;
         writeln!(
             f,
             "particles:      {} whole, {} cut by the frame's edge (size hint: radius {:.2} um = {:.1} px at {:.4} um/px)",

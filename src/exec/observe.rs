@@ -6,7 +6,7 @@ use super::tracker::Observation;
 use crate::calib::affine::AffineCalibration;
 use crate::median::upper_median;
 use crate::rig::RigError;
-use crate::rig::camera::Camera;
+use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::analyse::{PreparedFrame, prepare_frame, report_camera_state};
 use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
 use crate::vision::exposure::Exposure;
@@ -168,16 +168,7 @@ impl Perception {
         calibration: &AffineCalibration,
         coarse_offset_m: [f64; 2],
     ) -> Result<Sighting, ObserveError> {
-        let mut dropped = 0;
-        let timed = loop {
-            match camera.grab()? {
-                Some(f) => break f,
-                None if dropped + 1 >= self.max_grabs => {
-                    return Err(ObserveError::NoFrame(dropped + 1));
-                }
-                None => dropped += 1,
-            }
-        };
+        let (timed, dropped) = grab_frame(camera, self.max_grabs)?;
         let on_sample = |x_px: f64, y_px: f64| {
             let [x, y] = calibration.pixel_to_stage_m(x_px, y_px);
             [x + coarse_offset_m[0], y + coarse_offset_m[1]]
@@ -257,5 +248,20 @@ impl Perception {
         };
         sighting.warn_of_off_size(expected_r_px * calibration.m_per_px());
         Ok(sighting)
+    }
+}
+/// The next frame of `camera`, asking up to `max_grabs` times (a camera may
+/// drop frames), and how many it dropped first.
+pub fn grab_frame(
+    camera: &mut dyn Camera,
+    max_grabs: usize,
+) -> Result<(TimedFrame, usize), ObserveError> {
+    let mut dropped = 0;
+    loop {
+        match camera.grab()? {
+            Some(f) => return Ok((f, dropped)),
+            None if dropped + 1 >= max_grabs => return Err(ObserveError::NoFrame(dropped + 1)),
+            None => dropped += 1,
+        }
     }
 }
