@@ -258,6 +258,8 @@ impl AffineCalibration {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     #[test]
     fn the_largest_difference_of_two_maps_is_at_a_corner_of_the_frame() {
         let a = AffineCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
@@ -270,8 +272,6 @@ mod tests {
         let d = a.largest_difference_m(&turned, 100, 100);
         assert!((d - 2.0 * far * (0.005f64).sin()).abs() < 1e-12, "{d}");
     }
-
-    use super::*;
 
     #[test]
     fn toml_round_trip_and_inverse() {

@@ -177,23 +177,21 @@ pub fn run_calibration<R: NanoStage + Camera>(
         None => start[2],
     };
     let mut shots = Vec::new();
+    let mut keep = |shot: CalibrationShot| {
+        on_shot(&shot).map_err(CalibrationRunError::Shot)?;
+        shots.push(shot);
+        Ok(())
+    };
     let outcome = (|| -> Result<(), CalibrationRunError> {
         move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
-        let rough = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut |s| {
-            on_shot(&s).map_err(CalibrationRunError::Shot)?;
-            shots.push(s);
-            Ok(())
-        })?;
-        let (w, h) = (shots[0].frame.width(), shots[0].frame.height());
-        for target in grid_targets(&rough, (w, h), settings, &range) {
+        let (rough, view) = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut keep)?;
+        for target in grid_targets(&rough, view, settings, &range) {
             move_in_steps(
                 rig,
                 [target[0], target[1], travel_z],
                 settings.speed_m_per_s,
             )?;
-            let shot = take_shot(rig, settings)?;
-            on_shot(&shot).map_err(CalibrationRunError::Shot)?;
-            shots.push(shot);
+            keep(take_shot(rig, settings)?)?;
         }
         Ok(())
     })();
@@ -208,34 +206,30 @@ impl CalibrationRunSettings {
     /// Refuses settings out of their range (what [`run_calibration`] does
     /// first; a caller may ask before it opens a rig).
     pub fn check(&self) -> Result<(), CalibrationRunError> {
-        check(self)
+        let bad = |what: String| Err(CalibrationRunError::Settings(what));
+        if self.grid < 2 {
+            return bad(format!(
+                "the grid needs at least 2 points a side, got {}",
+                self.grid
+            ));
+        }
+        if !(self.probe_step_m.is_finite() && self.probe_step_m > 0.0) {
+            return bad(format!(
+                "the first step must be a positive length, got {} um",
+                self.probe_step_m * 1e6
+            ));
+        }
+        if !(0.0..0.5).contains(&self.margin) {
+            return bad(format!(
+                "the margin must lie in 0..0.5 of the frame, got {}",
+                self.margin
+            ));
+        }
+        if self.grabs == 0 {
+            return bad("at least one frame must be asked for".into());
+        }
+        Ok(())
     }
-}
-
-fn check(s: &CalibrationRunSettings) -> Result<(), CalibrationRunError> {
-    let bad = |what: String| Err(CalibrationRunError::Settings(what));
-    if s.grid < 2 {
-        return bad(format!(
-            "the grid needs at least 2 points a side, got {}",
-            s.grid
-        ));
-    }
-    if !(s.probe_step_m.is_finite() && s.probe_step_m > 0.0) {
-        return bad(format!(
-            "the first step must be a positive length, got {} um",
-            s.probe_step_m * 1e6
-        ));
-    }
-    if !(0.0..0.5).contains(&s.margin) {
-        return bad(format!(
-            "the margin must lie in 0..0.5 of the frame, got {}",
-            s.margin
-        ));
-    }
-    if s.grabs == 0 {
-        return bad("at least one frame must be asked for".into());
-    }
-    Ok(())
 }
 
 /// A frame at the stage's present position, with the apex found in it.
@@ -257,17 +251,19 @@ fn take_shot<R: NanoStage + Camera>(
     })
 }
 
-/// Pixel -> stage from the start and one small move along each axis.
+/// Pixel -> stage from the start and one small move along each axis, and
+/// the frame's size (width, height) in pixels.
 fn rough_map<R: NanoStage + Camera>(
     rig: &mut R,
     settings: &CalibrationRunSettings,
     start: [f64; 2],
     z: f64,
     keep: &mut dyn FnMut(CalibrationShot) -> Result<(), CalibrationRunError>,
-) -> Result<AffineCalibration, CalibrationRunError> {
+) -> Result<(AffineCalibration, (usize, usize)), CalibrationRunError> {
     let first = take_shot(rig, settings)?;
     let apex0 = first.apex_px.ok_or(CalibrationRunError::NoTipAtStart)?;
     let stage0 = first.stage_m;
+    let view = (first.frame.width(), first.frame.height());
     keep(first)?;
     let range = rig.range();
     let mut columns = [[0.0; 2]; 2];
@@ -317,10 +313,11 @@ fn rough_map<R: NanoStage + Camera>(
         });
     };
     let offset = nalgebra::Vector2::from(stage0) - linear * nalgebra::Vector2::from(apex0);
-    Ok(AffineCalibration {
+    let rough = AffineCalibration {
         linear,
         offset_m: offset,
-    })
+    };
+    Ok((rough, view))
 }
 
 /// An n x n grid over the frame inside its margin, mapped onto the stage by
@@ -413,6 +410,15 @@ mod tests {
         SimRig::new(stage, camera, 3)
     }
 
+    /// [`rig`] with the tip lifted over the middle of the stage, and where that is.
+    fn rig_at_middle(truth: &AffineCalibration) -> (SimRig, StageXyz) {
+        let mut rig = rig(truth);
+        let top = rig.range()[2].max_m;
+        rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
+        let start = rig.position().unwrap();
+        (rig, start)
+    }
+
     fn truth() -> AffineCalibration {
         let (s, c) = 7f64.to_radians().sin_cos();
         let k = 0.4e-6;
@@ -425,10 +431,7 @@ mod tests {
     #[test]
     fn the_grid_covers_the_view_and_every_apex_maps_onto_its_stage_position() {
         let truth = truth();
-        let mut rig = rig(&truth);
-        let top = rig.range()[2].max_m;
-        rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
-        let start = rig.position().unwrap();
+        let (mut rig, start) = rig_at_middle(&truth);
         let mut seen = 0;
         let shots = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
             seen += 1;
@@ -544,10 +547,7 @@ mod tests {
 
     #[test]
     fn a_shot_that_cannot_be_kept_stops_the_run_and_the_stage_goes_back() {
-        let mut rig = rig(&truth());
-        let top = rig.range()[2].max_m;
-        rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
-        let start = rig.position().unwrap();
+        let (mut rig, start) = rig_at_middle(&truth());
         let mut kept = 0;
         let err = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
             kept += 1;

@@ -224,6 +224,7 @@ fn assemble(
     journal_path: &Path,
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
+    let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
     let mut settings = AssemblySettings::default();
     if args.hardware.dry_run {
         settings.max_pushes = 1;
@@ -241,7 +242,6 @@ fn assemble(
     if first.particles.is_empty() {
         let other = size_doubt(&first, &perception.detect, calibration.m_per_px())
             .map_or(String::new(), |d| format!("; {d}"));
-        let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
         bail!(
             "no particles of radius {:.2} um in the first frame{other} \
              (`nanopush rig probe --rig {} --camera --scene {}` shows what the camera sees)",
@@ -307,13 +307,7 @@ fn assemble(
         sites_um: sites_um(&sites),
         radius_um: r * 1e6,
         rig: Some(RigFrame {
-            rig_file: args
-                .hardware
-                .rig
-                .as_deref()
-                .unwrap_or(Path::new("RIG"))
-                .display()
-                .to_string(),
+            rig_file: rig_file.display().to_string(),
             field_um: settings.field_m.map(|v| v * 1e6),
             coarse_shift_um: rig.sample_frame_shift_m().map(|s| s.map(|v| v * 1e6)),
             first_view_coarse_um: rig

@@ -152,18 +152,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.threshold_px,
         args.force,
     )
+    .map(|_| ())
 }
 
 /// Fits the map to the recording in `dir` and writes it to `out` (kept
 /// when it exists, unless `force`; never one of the recording's files),
 /// printing each frame's residual and the fit's scale, rotation and RMS.
+/// Returns the map written.
 pub fn fit_recording(
     dir: &Path,
     out: &Path,
     channel: Channel,
     threshold_px: f64,
     force: bool,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<AffineCalibration> {
     let csv = dir.join("stage.csv");
     let text =
         std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
@@ -223,7 +225,7 @@ pub fn fit_recording(
     std::fs::write(out, c.to_toml(Some((fit.rms_px, fit.inliers))))
         .with_context(|| format!("writing {}", out.display()))?;
     println!("wrote {}", out.display());
-    Ok(())
+    Ok(*c)
 }
 
 #[cfg(test)]

@@ -115,7 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             recording.display()
         )
     })?;
-    fit_recording(
+    let new = fit_recording(
         &recording,
         &out,
         Channel::Luminance,
@@ -123,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.force,
     )?;
     println!("recording: {} ({} frames)", recording.display(), rows.len());
-    if let (Some(old), Ok(new)) = (previous, AffineCalibration::load(&out)) {
+    if let Some(old) = previous {
         // A camera or stage that moved since the last calibration shows here.
         let moved = new.largest_difference_m(&old, view.0, view.1);
         println!(

@@ -5,16 +5,16 @@
 
 use super::assemble::AssemblySettings;
 use super::events::{RunEvent, RunSpec};
-use super::journal::{JournalContents, JournalError, JournalWriter, read_journal};
+use super::journal::{JournalError, JournalWriter, read_journal};
 use super::report::count_journal;
+use crate::plan::Site;
+use crate::plan::pattern::numbered_sites;
 use std::path::Path;
 
 /// A stopped run, ready to go on.
 pub struct ResumePoint {
     /// The journal, reopened for appending (a torn last line cut off).
     pub journal: JournalWriter,
-    /// What the journal held when it was reopened.
-    pub contents: JournalContents<RunEvent>,
     /// The run spec of its first entry.
     pub spec: RunSpec,
     /// Pushes made before the stop.
@@ -76,7 +76,6 @@ impl ResumePoint {
             .count();
         Ok(Self {
             journal,
-            contents,
             spec,
             pushes_done,
             last_tip_m,
@@ -85,15 +84,12 @@ impl ResumePoint {
     }
 
     /// The run's target sites, metres.
-    pub fn sites(&self) -> Vec<crate::plan::Site> {
-        self.spec
-            .sites_um
-            .iter()
-            .enumerate()
-            .map(|(id, s)| crate::plan::Site {
-                id: id as u32,
-                centre_m: nalgebra::Vector2::new(s[0] * 1e-6, s[1] * 1e-6),
-            })
-            .collect()
+    pub fn sites(&self) -> Vec<Site> {
+        numbered_sites(
+            self.spec
+                .sites_um
+                .iter()
+                .map(|s| nalgebra::Vector2::new(s[0], s[1]) * 1e-6),
+        )
     }
 }
