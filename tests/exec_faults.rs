@@ -8,7 +8,7 @@
 //! sees it placed and the planner leaves it alone) that moves more than
 //! 50 nm during any later stage move.
 
-use nanopush::calib::affine::AffineCalibration;
+use nanopush::calib::camera_map::CameraCalibration;
 use nanopush::exec::assemble::{Assembly, RunEnd};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::{JournalWriter, read_journal};
@@ -125,7 +125,7 @@ impl Rig for Watched<'_> {
     fn now_s(&self) -> f64 {
         self.rig.now_s()
     }
-    fn calibration(&self) -> &AffineCalibration {
+    fn calibration(&self) -> &CameraCalibration {
         self.rig.calibration()
     }
 }

@@ -5,7 +5,8 @@
 //! map again through `nanopush calibrate`; a second run must not replace
 //! it unasked.
 
-use nanopush::calib::affine::AffineCalibration;
+use nanopush::calib::camera_map::CameraCalibration;
+use nanopush::calib::lens::RadialLens;
 use nanopush::model::Scene;
 use nanopush::rig::gcs::{RigFile, SimConfig, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
@@ -22,13 +23,13 @@ fn manifest() -> &'static Path {
 /// The camera map of the simulated microscope: 0.3 um a pixel, turned 5
 /// degrees and mirrored in y against the stage (as a camera looking down
 /// through an objective may be), pixel (0, 0) near stage (-8, 115) um.
-fn truth() -> AffineCalibration {
+fn truth() -> CameraCalibration {
     let (s, c) = 5f64.to_radians().sin_cos();
     let k = 0.3 * UM;
-    AffineCalibration {
-        linear: nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
-        offset_m: nalgebra::Vector2::new(-8.0 * UM, 115.0 * UM),
-    }
+    CameraCalibration::affine(
+        nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
+        nalgebra::Vector2::new(-8.0 * UM, 115.0 * UM),
+    )
 }
 
 /// The simulator and the microscope, and a rig file for the command that
@@ -42,12 +43,17 @@ struct Bench {
 }
 
 fn bench() -> Bench {
+    bench_through(&truth())
+}
+
+/// The bench with the microscope drawing through `camera`.
+fn bench_through(camera: &CameraCalibration) -> Bench {
     let mut server = SimServer::new(SimConfig::default());
     server.handle().with(|c, now| c.set_time_scale(50.0, now));
     let addr = server.serve_tcp("127.0.0.1:0").unwrap().to_string();
     let dir = tempfile::tempdir().unwrap();
     let truth_path = dir.path().join("truth.toml");
-    std::fs::write(&truth_path, truth().to_toml(None)).unwrap();
+    std::fs::write(&truth_path, camera.to_toml(None)).unwrap();
     let frames = dir.path().join("frames");
     let text = std::fs::read_to_string(manifest().join("calib/rig-gcs-sim-folder.toml"))
         .unwrap()
@@ -108,7 +114,7 @@ fn ok(out: &Output) -> String {
 
 /// Largest distance between where two maps put a pixel of a 400 x 400 px
 /// view, micrometres.
-fn worst_um(a: &AffineCalibration, b: &AffineCalibration) -> f64 {
+fn worst_um(a: &CameraCalibration, b: &CameraCalibration) -> f64 {
     a.largest_difference_m(b, 401, 401) / UM
 }
 
@@ -122,7 +128,7 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
         "{text}"
     );
     let written = b.dir.path().join("camera.toml");
-    let fitted = AffineCalibration::load(&written).unwrap();
+    let fitted = CameraCalibration::load(&written).unwrap();
     let err = worst_um(&fitted, &truth());
     println!("fitted map against the camera's: worst {err:.4} um over the view\n{text}");
     // A third of a pixel (0.1 um) anywhere in the view; a map fitted
@@ -141,7 +147,7 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
         "--out",
         again.to_str().unwrap(),
     ]));
-    let refit = AffineCalibration::load(&again).unwrap();
+    let refit = CameraCalibration::load(&again).unwrap();
     assert!(worst_um(&refit, &fitted) < 1e-6);
 
     // A second run keeps the calibration and moves nothing.
@@ -174,13 +180,60 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
         .and_then(|rest| rest.split(' ').next())
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("{text}"));
-    let new = AffineCalibration::load(&written).unwrap();
+    let new = CameraCalibration::load(&written).unwrap();
     println!("measured again: the two maps differ by up to {moved:.4} um over the view");
     assert!(
         (moved - worst_um(&new, &fitted)).abs() < 1e-3,
         "{moved}\n{text}"
     );
     assert!(worst_um(&new, &truth()) < 0.1);
+}
+
+#[test]
+fn an_objective_that_bends_the_view_is_measured_with_the_map() {
+    // Barrel distortion of 0.8 % at the corner of the view (about 2.3 px),
+    // centred on the frame of about 355 x 466 px the travel makes: what
+    // an affine map cannot follow.
+    let lens = RadialLens::centred_on(355, 466, -0.008);
+    let camera = truth().with_lens(Some(lens));
+    let b = bench_through(&camera);
+    let text = ok(&nanopush(&[
+        "rig",
+        "calibrate",
+        "--rig",
+        b.rig.to_str().unwrap(),
+    ]));
+    assert!(text.contains("lens k1"), "{text}");
+    let fitted = CameraCalibration::load(&b.dir.path().join("camera.toml")).unwrap();
+    let recording = b.dir.path().join("camera-recording");
+    let first = recording.join("frame_000.png");
+    let frame = nanopush::vision::frame_input::load_frame(
+        &first,
+        nanopush::vision::frame_input::Channel::Luminance,
+    )
+    .unwrap();
+    let (w, h) = (frame.width(), frame.height());
+    let err = fitted.largest_difference_m(&camera, w, h) / UM;
+    // The same recording fitted without the lens.
+    let affine_path = b.dir.path().join("affine.toml");
+    ok(&nanopush(&[
+        "calibrate",
+        "--recording",
+        recording.to_str().unwrap(),
+        "--out",
+        affine_path.to_str().unwrap(),
+        "--lens",
+        "none",
+    ]));
+    let affine = CameraCalibration::load(&affine_path).unwrap();
+    let affine_err = affine.largest_difference_m(&camera, w, h) / UM;
+    println!(
+        "{w} x {h} px view: with the lens worst {err:.4} um (k1 {:+.5}, true {:+.5}); affine alone worst {affine_err:.4} um\n{text}",
+        fitted.lens.map_or(0.0, |l| l.k1),
+        lens.k1
+    );
+    assert!(err < 0.1, "{err} um");
+    assert!(affine_err > 2.0 * err, "{affine_err} um");
 }
 
 /// A rig file in `dir` naming a calibration not made yet (camera.toml),

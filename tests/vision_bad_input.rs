@@ -85,7 +85,7 @@ fn black_and_saturated_frames_give_nothing() {
 /// a pixel (which found each particle many times over).
 #[test]
 fn detect_refuses_settings_by_the_flags_the_user_gave() {
-    use nanopush::calib::affine::AffineCalibration;
+    use nanopush::calib::camera_map::CameraCalibration;
     let dir = tempfile::tempdir().unwrap();
     let frame = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -100,7 +100,7 @@ fn detect_refuses_settings_by_the_flags_the_user_gave() {
             .unwrap()
     };
     let calib = |um_per_px: f64| {
-        let c = AffineCalibration::from_scale_rotation(um_per_px * 1e-6, 0.0, [0.0, 0.0]);
+        let c = CameraCalibration::from_scale_rotation(um_per_px * 1e-6, 0.0, [0.0, 0.0]);
         let p = write(
             &dir,
             &format!("calib-{um_per_px}.toml"),

@@ -4,7 +4,7 @@
 
 use std::process::Command;
 
-use nanopush::calib::affine::AffineCalibration;
+use nanopush::calib::camera_map::CameraCalibration;
 use nanopush::render::microscope::{RenderSettings, SceneView, TipView, render_frame};
 use nanopush::vision::detections_file::DetectionsFile;
 use nanopush::vision::frame_input::save_png;
@@ -119,7 +119,7 @@ fn calibrate_fits_the_channel_asked_for() {
             "{channel}: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let fitted = AffineCalibration::load(&dir.path().join("calibration.toml")).unwrap();
+        let fitted = CameraCalibration::load(&dir.path().join("calibration.toml")).unwrap();
         // Off the centre, where the two maps part by about 100 px.
         for (x, y) in [(128.0, 128.0), (60.0, 200.0)] {
             let (s, t) = (fitted.pixel_to_stage_m(x, y), expected(channel, x, y));
@@ -170,14 +170,14 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
 }
 
 /// The map the recordings are made with.
-fn truth() -> AffineCalibration {
-    AffineCalibration::from_scale_rotation(0.25e-6, 0.03, [-20e-6, 15e-6])
+fn truth() -> CameraCalibration {
+    CameraCalibration::from_scale_rotation(0.25e-6, 0.03, [-20e-6, 15e-6])
 }
 
 /// A 3 x 3 grid of tip positions at the camera's `gain` (times the
 /// default), frames f00.png..f08.png and stage.csv under `truth`, with one
 /// logging glitch (frame 4, 20 px off) for RANSAC to reject.
-fn write_recording(dir: &std::path::Path, truth: &AffineCalibration, gain: f64) {
+fn write_recording(dir: &std::path::Path, truth: &CameraCalibration, gain: f64) {
     let mut settings = RenderSettings::with_snr(20.0, 16);
     settings.camera.gain_counts_per_e *= gain;
     write_stage_csv(dir, truth, |k, name, (px, py)| {
@@ -209,7 +209,7 @@ fn tip_scene(x: f64, y: f64, angle_rad: f64) -> SceneView {
 /// `write_frame(k, name, apex)` wrote each frame.
 fn write_stage_csv(
     dir: &std::path::Path,
-    truth: &AffineCalibration,
+    truth: &CameraCalibration,
     mut write_frame: impl FnMut(usize, &str, (f64, f64)),
 ) {
     let mut csv = String::from("frame,x_um,y_um\n");
@@ -227,8 +227,8 @@ fn write_stage_csv(
 }
 
 /// How far the fitted calibration.toml maps the frame centre from `truth`, px.
-fn map_error_px(dir: &std::path::Path, truth: &AffineCalibration) -> f64 {
-    let fitted = AffineCalibration::load(&dir.join("calibration.toml")).unwrap();
+fn map_error_px(dir: &std::path::Path, truth: &CameraCalibration) -> f64 {
+    let fitted = CameraCalibration::load(&dir.join("calibration.toml")).unwrap();
     let s = fitted.pixel_to_stage_m(128.0, 128.0);
     let t = truth.pixel_to_stage_m(128.0, 128.0);
     let err_px = ((s[0] - t[0]).hypot(s[1] - t[1])) / truth.m_per_px();

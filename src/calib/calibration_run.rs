@@ -9,7 +9,7 @@
 //! stage with a z axis, and the stage is put back where it started, also
 //! when the run fails part way.
 
-use super::affine::AffineCalibration;
+use super::camera_map::CameraCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::error::RigError;
 use crate::rig::stage::{NanoStage, StageXyz};
@@ -259,7 +259,7 @@ fn rough_map<R: NanoStage + Camera>(
     start: [f64; 2],
     z: f64,
     keep: &mut dyn FnMut(CalibrationShot) -> Result<(), CalibrationRunError>,
-) -> Result<(AffineCalibration, (usize, usize)), CalibrationRunError> {
+) -> Result<(CameraCalibration, (usize, usize)), CalibrationRunError> {
     let first = take_shot(rig, settings)?;
     let apex0 = first.apex_px.ok_or(CalibrationRunError::NoTipAtStart)?;
     let stage0 = first.stage_m;
@@ -313,10 +313,7 @@ fn rough_map<R: NanoStage + Camera>(
         });
     };
     let offset = nalgebra::Vector2::from(stage0) - linear * nalgebra::Vector2::from(apex0);
-    let rough = AffineCalibration {
-        linear,
-        offset_m: offset,
-    };
+    let rough = CameraCalibration::affine(linear, offset);
     Ok((rough, view))
 }
 
@@ -324,7 +321,7 @@ fn rough_map<R: NanoStage + Camera>(
 /// `rough` and clipped to its range; points that clipping made one are one.
 /// Row by row, every other row backwards, so that each move is short.
 fn grid_targets(
-    rough: &AffineCalibration,
+    rough: &CameraCalibration,
     (w, h): (usize, usize),
     settings: &CalibrationRunSettings,
     range: &[crate::rig::stage::AxisRange; 3],
@@ -386,7 +383,7 @@ mod tests {
 
     /// A simulated rig whose camera is turned 7 degrees and mirrored in y
     /// against the stage, 0.4 um a pixel, with a few particles in view.
-    fn rig(truth: &AffineCalibration) -> SimRig {
+    fn rig(truth: &CameraCalibration) -> SimRig {
         let scene = Scene::load(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/calib/paper-ps-ito.toml"
@@ -411,7 +408,7 @@ mod tests {
     }
 
     /// [`rig`] with the tip lifted over the middle of the stage, and where that is.
-    fn rig_at_middle(truth: &AffineCalibration) -> (SimRig, StageXyz) {
+    fn rig_at_middle(truth: &CameraCalibration) -> (SimRig, StageXyz) {
         let mut rig = rig(truth);
         let top = rig.range()[2].max_m;
         rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
@@ -419,13 +416,13 @@ mod tests {
         (rig, start)
     }
 
-    fn truth() -> AffineCalibration {
+    fn truth() -> CameraCalibration {
         let (s, c) = 7f64.to_radians().sin_cos();
         let k = 0.4e-6;
-        AffineCalibration {
-            linear: nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
-            offset_m: nalgebra::Vector2::new(-5e-6, 105e-6),
-        }
+        CameraCalibration::affine(
+            nalgebra::Matrix2::new(k * c, k * s, k * s, -k * c),
+            nalgebra::Vector2::new(-5e-6, 105e-6),
+        )
     }
 
     #[test]
@@ -465,7 +462,7 @@ mod tests {
     #[test]
     fn without_a_tip_in_view_the_run_says_so_and_the_stage_goes_back() {
         // The camera looks at the sample 500 um away from the stage's travel.
-        let off_view = AffineCalibration {
+        let off_view = CameraCalibration {
             offset_m: nalgebra::Vector2::new(-500e-6, 600e-6),
             ..truth()
         };

@@ -1,4 +1,6 @@
 //! Pixel-to-stage calibration.
 
-pub mod affine;
 pub mod calibration_run;
+pub mod camera_fit;
+pub mod camera_map;
+pub mod lens;

@@ -6,7 +6,7 @@
 //! `nanopush dry-run` replays.
 
 use super::pattern_args::PatternArgs;
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::exec::animation::AnimationWriter;
 use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, write_report_md};
 use crate::exec::assemble::{
@@ -353,7 +353,7 @@ fn finish(
 /// is where the coarse stage has moved the sample (zero on a rig without one).
 pub(super) fn write_sites(
     sites: &[Site],
-    cal: &AffineCalibration,
+    cal: &CameraCalibration,
     coarse_offset_m: [f64; 2],
     path: &Path,
 ) -> anyhow::Result<()> {

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::vision::analyse::{
     FrameAnalysis, PreparedFrame, analyse_frame, prepare_frame, report_camera_state,
 };
@@ -162,7 +162,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("loading {}", args.frame.display()))?;
     let calib = match &args.calib {
         Some(p) => Some(
-            AffineCalibration::load(p)
+            CameraCalibration::load(p)
                 .with_context(|| format!("loading calibration {}", p.display()))?,
         ),
         None => None,

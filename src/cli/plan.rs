@@ -6,7 +6,7 @@ use nanopush_plan_api::*;
 use std::path::PathBuf;
 
 mod nanopush_plan_api {
-    pub use crate::calib::affine::AffineCalibration;
+    pub use crate::calib::camera_map::CameraCalibration;
     pub use crate::exec::frame_layout::layout_from_frame;
     pub use crate::plan::layout::Layout;
     pub use crate::plan::pattern::transform::{Reachable, place_at};
@@ -83,7 +83,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         });
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
-    let calibration = AffineCalibration::load(calib)?;
+    let calibration = CameraCalibration::load(calib)?;
     let frame = load_frame(frame_path, args.channel)?;
     let found = layout_from_frame(frame.clone(), &calibration, args.radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
@@ -106,7 +106,7 @@ struct Particles {
     /// Particles the frame's edge cuts: obstacles, never pushed.
     cut_by_edge: Vec<u32>,
     /// The frame the particles were found in, and its calibration.
-    seen_in: Option<(Frame, AffineCalibration)>,
+    seen_in: Option<(Frame, CameraCalibration)>,
 }
 
 /// Plans and prints the summary; writes the plan and overlay when asked.

@@ -5,9 +5,9 @@
 //! the map is fitted from that recording and written where the rig file
 //! looks for it, so that `assemble --rig` uses it next.
 
-use super::calibrate::{StageRow, check_output, check_threshold, fit_recording, stage_csv};
-use crate::calib::affine::AffineCalibration;
+use super::calibrate::{FitArgs, StageRow, check_output, fit_recording, stage_csv};
 use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
+use crate::calib::camera_map::CameraCalibration;
 use crate::rig::gcs::RigFile;
 use crate::rig::hardware::{HardwareRigOptions, RigDevices};
 use crate::rig::stage::NanoStage;
@@ -47,9 +47,8 @@ pub struct Args {
     /// clear every particle in view.
     #[arg(long)]
     pub z_um: Option<f64>,
-    /// RANSAC inlier threshold of the fit, pixels.
-    #[arg(long, default_value_t = 2.0)]
-    pub threshold_px: f64,
+    #[command(flatten)]
+    pub fit: FitArgs,
     /// Move real hardware without asking first (the rig file's
     /// `real_hardware = true` otherwise asks for `yes` before the first move).
     #[arg(long)]
@@ -62,7 +61,7 @@ const TRAVEL_SPEED_UM_S: f64 = 20.0;
 
 /// Records the grid, fits the map and writes it.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    check_threshold(args.threshold_px)?;
+    args.fit.check()?;
     let rig = RigFile::load(&args.rig)?;
     let rig_calibration = rig.calibration.clone();
     let out = args.out.clone().unwrap_or_else(|| rig_calibration.clone());
@@ -98,7 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     .with_context(|| format!("opening the rig {}", args.rig.display()))?;
     std::fs::create_dir_all(&recording)
         .with_context(|| format!("creating {}", recording.display()))?;
-    let previous = AffineCalibration::load(&out).ok();
+    let previous = CameraCalibration::load(&out).ok();
     let mut rows: Vec<StageRow> = Vec::new();
     let mut view = (0, 0);
     let ran = run_calibration(&mut devices, &settings, &mut |shot| {
@@ -115,13 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             recording.display()
         )
     })?;
-    let new = fit_recording(
-        &recording,
-        &out,
-        Channel::Luminance,
-        args.threshold_px,
-        args.force,
-    )?;
+    let new = fit_recording(&recording, &out, Channel::Luminance, &args.fit, args.force)?;
     println!("recording: {} ({} frames)", recording.display(), rows.len());
     if let Some(old) = previous {
         // A camera or stage that moved since the last calibration shows here.

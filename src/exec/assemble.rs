@@ -19,7 +19,7 @@ use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
 use super::tracker::{Moved, Tracker};
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
 use crate::plan::layout::{Layout, Particle};
@@ -159,7 +159,7 @@ pub struct FrameView<'s> {
     /// The pushes of the latest plan still to come (the first is next).
     pub plan: &'s [PlannedPush],
     /// Pixel -> nanostage map of the frame.
-    pub calibration: &'s AffineCalibration,
+    pub calibration: &'s CameraCalibration,
 }
 
 /// Something that wants to see every analysed frame (animation, recorder, progress).

@@ -10,7 +10,7 @@ use std::fmt;
 use super::observe::{
     ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, grab_frame,
 };
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::median::upper_median;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
@@ -62,7 +62,7 @@ const OTHER_SIZE_FACTORS: [f64; 4] = [0.5, 0.7, 1.4, 2.0];
 pub fn look(
     source: &CameraSource,
     camera: &mut dyn Camera,
-    calibration: &AffineCalibration,
+    calibration: &CameraCalibration,
     radius_m: f64,
 ) -> Result<CameraLook, ObserveError> {
     let m_per_px = calibration.m_per_px();

@@ -14,7 +14,7 @@
 
 use super::assemble::layout_seen;
 use super::observe::{ObserveError, Perception};
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{Layout, LayoutError};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -54,7 +54,7 @@ pub enum FrameLayoutError {
 /// the sample by `calibration`.
 pub fn layout_from_frame(
     frame: Frame,
-    calibration: &AffineCalibration,
+    calibration: &CameraCalibration,
     radius_m: f64,
 ) -> Result<FrameLayout, FrameLayoutError> {
     if !(radius_m.is_finite() && radius_m > 0.0) {

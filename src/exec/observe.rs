@@ -3,7 +3,7 @@
 //! offset, and match to tracks.
 
 use super::tracker::Observation;
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::median::upper_median;
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -65,7 +65,7 @@ pub struct Sighting {
     pub stage_m: Option<[f64; 3]>,
     /// The probe as found in the frame (pixels), with the frame's calibration:
     /// particles closer to its outline than `probe_shadow_px` are hidden.
-    pub probe: Option<(TipDetection, AffineCalibration)>,
+    pub probe: Option<(TipDetection, CameraCalibration)>,
     /// A particle centre this close to the probe's outline is (partly) under
     /// it, pixels: its ring is cut and its fitted centre is biased.
     pub probe_shadow_px: f64,
@@ -165,7 +165,7 @@ impl Perception {
     pub fn sight(
         &self,
         camera: &mut dyn Camera,
-        calibration: &AffineCalibration,
+        calibration: &CameraCalibration,
         coarse_offset_m: [f64; 2],
     ) -> Result<Sighting, ObserveError> {
         let (timed, dropped) = grab_frame(camera, self.max_grabs)?;

@@ -19,7 +19,7 @@
 
 use super::assemble::{FrameSink, FrameView};
 use super::recording_check::{check_calibration, check_frame_sizes, check_spec, check_stage_entry};
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
 use crate::vision::frame_input::{Channel, load_frames, save_png};
 use serde::{Deserialize, Serialize};
@@ -133,7 +133,7 @@ pub struct Recording {
     /// Its description.
     pub spec: RecordingSpec,
     /// Pixel -> nanostage map.
-    pub calibration: AffineCalibration,
+    pub calibration: CameraCalibration,
     /// Every frame, in order.
     pub frames: Vec<Frame>,
     /// One entry per frame, when the recording has a stage log.
@@ -215,7 +215,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     if !cal_path.is_file() {
         return Err(RecordingError::Missing { path: cal_path });
     }
-    let calibration = AffineCalibration::load(&cal_path)
+    let calibration = CameraCalibration::load(&cal_path)
         .map_err(|e| e.to_string())
         .and_then(|c| check_calibration(&c).map(|()| c))
         .map_err(|message| RecordingError::Format {
@@ -327,7 +327,7 @@ impl RecordingWriter {
     pub fn create(
         dir: &Path,
         mut spec: RecordingSpec,
-        calibration: &AffineCalibration,
+        calibration: &CameraCalibration,
         scene_toml: Option<&str>,
     ) -> Result<Self, RecordingError> {
         let io = |path: PathBuf| move |source| RecordingError::Io { path, source };
@@ -455,7 +455,7 @@ mod tests {
     fn a_written_recording_reads_back_with_its_frames_log_and_calibration() {
         let dir = tempfile::tempdir().unwrap();
         let rec_dir = dir.path().join("rec");
-        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6]);
+        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6]);
         let mut w =
             RecordingWriter::create(&rec_dir, spec(), &cal, Some("name = \"x\"\n")).unwrap();
         for k in 0..3 {
@@ -494,7 +494,7 @@ mod tests {
     fn a_colour_recording_is_read_in_its_channel() {
         let dir = tempfile::tempdir().unwrap();
         let rec_dir = dir.path().join("rec");
-        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
+        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
         let asked = RecordingSpec {
             channel: Channel::Red,
             ..spec()
@@ -540,7 +540,7 @@ mod tests {
             open_recording(&rec_dir),
             Err(RecordingError::Missing { .. })
         ));
-        let cal = AffineCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
+        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
         let mut w = RecordingWriter::create(&rec_dir, spec(), &cal, None).unwrap();
         w.add(
             &frame(1.0),

@@ -5,7 +5,7 @@
 //! dry-run exit 0), planned pushes off the field, or never ended.
 
 use super::recording::{RecordingSpec, StageLogEntry};
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{UM_PER_M, um_text};
 use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
 use crate::vision::frame::{Frame, check_one_size};
@@ -93,7 +93,7 @@ pub(crate) fn check_sites_in_field(
 
 /// The calibration maps square pixels to square areas of the sample, near
 /// enough: a sheared or stretched map puts the particles where they are not.
-pub(super) fn check_calibration(cal: &AffineCalibration) -> Result<(), String> {
+pub(super) fn check_calibration(cal: &CameraCalibration) -> Result<(), String> {
     let (a, b) = (cal.linear.column(0), cal.linear.column(1));
     let (la, lb) = (a.norm(), b.norm());
     let ratio = la.max(lb) / la.min(lb);

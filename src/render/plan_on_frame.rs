@@ -7,7 +7,7 @@
 //! arrow, and the tip's apex when the frame showed it.
 
 use super::run_overlay::{RunOverlay, draw_run_frame};
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::Layout;
 use crate::plan::{Plan, Step};
 use crate::vision::frame::Frame;
@@ -23,7 +23,7 @@ pub fn draw_plan_on_frame(
     layout: &Layout,
     tip_m: Option<Vector2<f64>>,
     frame: &Frame,
-    calibration: &AffineCalibration,
+    calibration: &CameraCalibration,
 ) -> Result<RgbImage, String> {
     let px = |p: Vector2<f64>| {
         calibration

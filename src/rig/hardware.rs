@@ -23,7 +23,7 @@ use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog};
 use super::gcs_coarse_stage::GcsCoarseStage;
 use super::gcs_line_stage::{GcsLineStage, snap_into_range};
 use super::stage::{AxisRange, CoarseStage, NanoStage, StageXyz, check_in_range};
-use crate::calib::affine::{AffineCalibration, CalibError};
+use crate::calib::camera_map::{CalibError, CameraCalibration};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -159,8 +159,8 @@ pub struct RigDevices {
 }
 
 /// Loads the pixel-to-stage calibration `rig` names.
-pub fn load_rig_calibration(rig: &RigFile) -> Result<AffineCalibration, HardwareRigError> {
-    AffineCalibration::load(&rig.calibration).map_err(|source| HardwareRigError::Calibration {
+pub fn load_rig_calibration(rig: &RigFile) -> Result<CameraCalibration, HardwareRigError> {
+    CameraCalibration::load(&rig.calibration).map_err(|source| HardwareRigError::Calibration {
         path: rig.calibration.clone(),
         source,
     })
@@ -181,7 +181,7 @@ fn not_made_yet(e: &CalibError) -> &'static str {
 /// ([`RigDevices`]) are reached through it.
 pub struct HardwareRig {
     devices: RigDevices,
-    calibration: AffineCalibration,
+    calibration: CameraCalibration,
 }
 
 /// Lowest the tip may be below the top of its z travel for a coarse move:
@@ -353,7 +353,7 @@ impl Rig for HardwareRig {
     fn now_s(&self) -> f64 {
         self.devices.clock.now_s()
     }
-    fn calibration(&self) -> &AffineCalibration {
+    fn calibration(&self) -> &CameraCalibration {
         &self.calibration
     }
 }

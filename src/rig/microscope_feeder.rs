@@ -22,7 +22,7 @@ use super::gcs::{CoarseAxes, GcsSimWorld, RigFile, SimHandle, TipAxes};
 use super::sim::build::{centring_offset, world_for};
 use super::sim::model_physics::ModelPhysics;
 use super::sim::rig::SimCameraConfig;
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::model::Scene;
 use crate::plan::Layout;
 use crate::render::microscope::{RenderSettings, render_frame};
@@ -154,7 +154,7 @@ impl MicroscopeFeeder {
             path: folder.clone(),
             message: e.to_string(),
         })?;
-        let calibration = AffineCalibration::load(&rig.calibration).map_err(|e| {
+        let calibration = CameraCalibration::load(&rig.calibration).map_err(|e| {
             FeederError::Setup(format!("calibration {}: {e}", rig.calibration.display()))
         })?;
         let config = controller.with(|c, _| c.config().clone());
@@ -321,7 +321,7 @@ fn with_both<R>(
 /// through `calibration`, with the margin that lies between pixel 0 and the
 /// travel's nearest corner repeated on the far side.
 fn frame_covering(
-    calibration: &AffineCalibration,
+    calibration: &CameraCalibration,
     x: &super::gcs::SimAxisConfig,
     y: &super::gcs::SimAxisConfig,
     unit_m: f64,

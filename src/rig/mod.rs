@@ -21,7 +21,7 @@ pub mod stage;
 
 pub use error::RigError;
 
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 
 /// Everything the executor drives: the nanostage, the coarse stage, the camera.
 /// A rig without a coarse stage refuses coarse moves with a [`RigError`].
@@ -29,5 +29,5 @@ pub trait Rig: stage::NanoStage + stage::CoarseStage + camera::Camera {
     /// Rig time in seconds: the simulated clock, or wall time since start on hardware.
     fn now_s(&self) -> f64;
     /// The camera's pixel -> nanostage calibration.
-    fn calibration(&self) -> &AffineCalibration;
+    fn calibration(&self) -> &CameraCalibration;
 }

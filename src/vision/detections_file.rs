@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use super::analyse::FrameAnalysis;
 use super::exposure::Exposure;
 use super::line_defects::LineDefect;
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 
 /// Schema tag of detection files.
 pub const DETECTIONS_SCHEMA: &str = "nanopush.detections/1";
@@ -51,7 +51,7 @@ pub struct DetectionsFile {
 
 impl DetectionsFile {
     /// Builds the document, adding stage micrometres when calibrated.
-    pub fn new(analysis: &FrameAnalysis, calib: Option<&AffineCalibration>) -> Self {
+    pub fn new(analysis: &FrameAnalysis, calib: Option<&CameraCalibration>) -> Self {
         let particles = analysis
             .particles
             .iter()
@@ -111,7 +111,7 @@ mod tests {
             quality: 40.0,
             edge_clipped: false,
         };
-        let cal = AffineCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
+        let cal = CameraCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
         let line = LineDefect {
             axis: LineAxis::Row,
             index: 7,

@@ -10,7 +10,7 @@
 use super::stage::SimStage;
 use super::state::SimState;
 use super::world::SimParticle;
-use crate::calib::affine::AffineCalibration;
+use crate::calib::camera_map::CameraCalibration;
 use crate::render::microscope::{ParticleView, RenderSettings, SceneView, TipView, render_frame};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -25,7 +25,7 @@ pub struct SimCameraConfig {
     /// Frame height, pixels.
     pub height_px: usize,
     /// Pixel -> nanostage map.
-    pub calibration: AffineCalibration,
+    pub calibration: CameraCalibration,
     /// Microscope and camera rendering.
     pub render: RenderSettings,
     /// Direction from the cantilever body to the apex in the image, radians.
@@ -46,13 +46,10 @@ impl SimCameraConfig {
         Self {
             width_px,
             height_px,
-            calibration: AffineCalibration {
-                linear: nalgebra::Matrix2::new(m_per_px, 0.0, 0.0, -m_per_px),
-                offset_m: nalgebra::Vector2::new(
-                    -margin_um * 1e-6,
-                    (range_um[1] + margin_um) * 1e-6,
-                ),
-            },
+            calibration: CameraCalibration::affine(
+                nalgebra::Matrix2::new(m_per_px, 0.0, 0.0, -m_per_px),
+                nalgebra::Vector2::new(-margin_um * 1e-6, (range_um[1] + margin_um) * 1e-6),
+            ),
             render: RenderSettings::with_snr(30.0, 16),
             tip_angle_rad: 60f64.to_radians(),
             frame_time_s: 0.05,
@@ -184,7 +181,7 @@ impl crate::rig::Rig for SimRig {
         self.stage.clock_s()
     }
     /// The camera's pixel -> nanostage calibration (what a lab would have measured).
-    fn calibration(&self) -> &AffineCalibration {
+    fn calibration(&self) -> &CameraCalibration {
         &self.camera.calibration
     }
 }
