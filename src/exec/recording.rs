@@ -9,7 +9,7 @@
 //!   optionally a stage log, a scene for the model's advice, the field and
 //!   the frame interval;
 //! * the frames: a folder of images (sorted by name) or a video file;
-//! * the calibration: a `nanopush.calibration/1` TOML file;
+//! * the calibration: a `nanopush.calibration/1` TOML file (`/2` with a lens);
 //! * optionally the stage log, JSON Lines: a header `{"schema":
 //!   "nanopush.stage-log/1"}`, then one line per frame with its time, the
 //!   coarse stage offset and the commanded nanostage position.
@@ -455,7 +455,10 @@ mod tests {
     fn a_written_recording_reads_back_with_its_frames_log_and_calibration() {
         let dir = tempfile::tempdir().unwrap();
         let rec_dir = dir.path().join("rec");
-        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6]);
+        // With the objective's distortion: it travels with the recording.
+        let lens = crate::calib::lens::RadialLens::centred_on(16, 12, -0.01);
+        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6])
+            .with_lens(Some(lens));
         let mut w =
             RecordingWriter::create(&rec_dir, spec(), &cal, Some("name = \"x\"\n")).unwrap();
         for k in 0..3 {
@@ -480,6 +483,7 @@ mod tests {
         let off = r.coarse_offset_m(1);
         assert!((off[0] - 10e-6).abs() < 1e-18 && off[1] == 0.0);
         assert!((r.calibration.m_per_px() - 0.25e-6).abs() < 1e-15);
+        assert_eq!(r.calibration.lens, Some(lens));
         assert_eq!(r.spec.sites_um, spec().sites_um);
         assert_eq!(r.spec.scene.as_deref(), Some("scene.toml"));
         assert!(matches!(
