@@ -302,6 +302,31 @@ impl Bench {
         assert_eq!(report["outcome"], "done", "{report}");
         assert_eq!(report["filled"], report["sites"], "{report}");
         assert!(!self.moving(), "a stage was left moving");
+        // Rig time goes on from the stopped part: the journal's times keep
+        // rising, and the report's time takes in both parts.
+        let lines: Vec<serde_json::Value> = std::fs::read_to_string(journal)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        let resumed_at = lines
+            .iter()
+            .rposition(|l| l["event"]["kind"] == "resume")
+            .expect("a resume entry");
+        let time = |l: &serde_json::Value| l["t_s"].as_f64().unwrap();
+        let stopped_s = lines[..resumed_at].iter().map(time).fold(0.0, f64::max);
+        let after: Vec<f64> = lines[resumed_at..].iter().map(time).collect();
+        eprintln!(
+            "stopped part up to {stopped_s:.2} s; resumed part {:.2}-{:.2} s",
+            after[0],
+            after.last().unwrap()
+        );
+        assert!(
+            after.iter().all(|&t| t >= stopped_s),
+            "resumed times before the stop's {stopped_s} s: {after:?}"
+        );
+        assert!(report["time_s"].as_f64().unwrap() >= stopped_s, "{report}");
         report
     }
 

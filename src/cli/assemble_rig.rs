@@ -111,11 +111,16 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .parent()
         .unwrap_or(Path::new("."))
         .to_path_buf();
+    let clock_from_s = match &start {
+        RigStart::Resume { point, .. } => point.last_t_s,
+        RigStart::New { .. } => 0.0,
+    };
     let mut rig = HardwareRig::open(
         rig_path,
         HardwareRigOptions {
             dry_run: hw.dry_run,
             waive_confirmation: hw.yes_move_hardware,
+            clock_from_s,
             ..Default::default()
         },
     )

@@ -23,6 +23,9 @@ pub struct ResumePoint {
     pub last_tip_m: Option<[f64; 2]>,
     /// Resumes before this one.
     pub resumes: usize,
+    /// The latest rig time in the journal, seconds: where a hardware rig's
+    /// clock goes on from.
+    pub last_t_s: f64,
 }
 
 /// Why a journal cannot be resumed.
@@ -74,12 +77,14 @@ impl ResumePoint {
             .iter()
             .filter(|e| e.event == RunEvent::Resume)
             .count();
+        let last_t_s = contents.entries.iter().map(|e| e.t_s).fold(0.0, f64::max);
         Ok(Self {
             journal,
             spec,
             pushes_done,
             last_tip_m,
             resumes,
+            last_t_s,
         })
     }
 

@@ -9,29 +9,39 @@ use std::time::{Instant, SystemTime};
 pub struct WallClock {
     start: Instant,
     start_system: SystemTime,
+    /// Rig time at the start, seconds.
+    origin_s: f64,
 }
 
 impl WallClock {
     /// Rig time zero is now.
     pub fn start() -> Self {
+        Self::continuing_from(0.0)
+    }
+
+    /// Rig time `origin_s` is now: a resumed run goes on from where its
+    /// journal stopped, so its times keep rising.
+    pub fn continuing_from(origin_s: f64) -> Self {
         Self {
             start: Instant::now(),
             start_system: SystemTime::now(),
+            origin_s,
         }
     }
 
-    /// Seconds since the start (monotonic).
+    /// Rig seconds now (monotonic).
     pub fn now_s(&self) -> f64 {
-        self.start.elapsed().as_secs_f64()
+        self.origin_s + self.start.elapsed().as_secs_f64()
     }
 
-    /// Rig time of a system timestamp (a file's modification time); negative
-    /// for times before the start.
+    /// Rig time of a system timestamp (a file's modification time); before
+    /// the origin for times before the start.
     pub fn system_time_s(&self, at: SystemTime) -> f64 {
-        match at.duration_since(self.start_system) {
-            Ok(after) => after.as_secs_f64(),
-            Err(before) => -before.duration().as_secs_f64(),
-        }
+        self.origin_s
+            + match at.duration_since(self.start_system) {
+                Ok(after) => after.as_secs_f64(),
+                Err(before) => -before.duration().as_secs_f64(),
+            }
     }
 }
 
@@ -50,5 +60,9 @@ mod tests {
         let a = clock.now_s();
         std::thread::sleep(Duration::from_millis(5));
         assert!(clock.now_s() > a);
+        let resumed = WallClock::continuing_from(100.0);
+        assert!(resumed.now_s() >= 100.0 && resumed.now_s() < 101.0);
+        let later = resumed.start_system + Duration::from_millis(1500);
+        assert!((resumed.system_time_s(later) - 101.5).abs() < 1e-9);
     }
 }

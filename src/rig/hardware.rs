@@ -107,6 +107,9 @@ pub struct HardwareRigOptions {
     /// A coarse stage to use instead of the rig file's `[coarse]` section;
     /// with neither, coarse moves fail with [`RigError::NoCoarseStage`].
     pub coarse: Option<Box<dyn CoarseStage + Send>>,
+    /// Rig time at opening, seconds: 0 for a new run; a resumed run's
+    /// journal's last time, so that its times go on rising.
+    pub clock_from_s: f64,
 }
 
 /// Why a hardware rig could not be opened.
@@ -220,10 +223,10 @@ impl std::ops::DerefMut for HardwareRig {
 impl RigDevices {
     /// Opens the devices of a loaded rig file: the stage (behind the safety
     /// checks, in dry run if asked), the coarse stage if it has one, and the
-    /// camera (unless one is given in `opts`). Rig time starts now. The
-    /// calibration the rig file names is not read.
+    /// camera (unless one is given in `opts`). Rig time starts now, at
+    /// `opts.clock_from_s`. The calibration the rig file names is not read.
     pub fn open(rig: RigFile, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
-        let clock = WallClock::start();
+        let clock = WallClock::continuing_from(opts.clock_from_s);
         let camera = match opts.camera {
             Some(camera) => camera,
             None => open_camera(&rig.camera, clock)?,
