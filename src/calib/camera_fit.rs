@@ -130,7 +130,8 @@ pub fn fit_camera_map(
     let affine_residuals = residuals(&affine, None, pixels, &stage_um);
     let affine_rms_px = rms(&affine_residuals, &ransac_inliers);
     let axis = RadialLens::centred_on(frame_px.0, frame_px.1, 0.0);
-    let refusal = lens_refusal(lens, pixels, &ransac_inliers, &axis).and_then(|asked| {
+    // The lens when it is asked for and the pairs can tell it; else why not.
+    let lens_fit = lens_wanted(lens, pixels, &ransac_inliers, &axis).and_then(|asked| {
         asked
             .then(|| {
                 fit_with_lens(
@@ -144,7 +145,7 @@ pub fn fit_camera_map(
             .transpose()
             .map_err(|e| e.to_string())
     });
-    let (map, lens, inliers, lens_skipped) = match refusal {
+    let (map, lens, inliers, lens_skipped) = match lens_fit {
         Ok(None) => (affine, None, ransac_inliers, None),
         Ok(Some(fit)) if lens == LensModel::Auto && fit.f_statistic < LENS_MIN_F => {
             let why = format!(
@@ -218,7 +219,7 @@ fn ransac_affine(
 
 /// Whether a lens is to be fitted (`Ok(false)`: not asked for), or why
 /// these pairs cannot tell one.
-fn lens_refusal(
+fn lens_wanted(
     model: LensModel,
     pixels: &[[f64; 2]],
     inliers: &[bool],
