@@ -228,6 +228,8 @@ fn lens_wanted(
     if model == LensModel::None {
         return Ok(false);
     }
+    axis.check()
+        .map_err(|why| format!("no frame size to centre a lens on ({why})"))?;
     let kept: Vec<&[f64; 2]> = pixels
         .iter()
         .zip(inliers)
@@ -544,5 +546,13 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("of the way from the frame's centre"), "{err}");
+        // No frame size: no lens, and no NaN.
+        let (px, st) = grid(&truth);
+        let err = fit_camera_map(&px, &st, 2.0, LensModel::Radial, (0, 0))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("no frame size"), "{err}");
+        let auto = fit_camera_map(&px, &st, 2.0, LensModel::Auto, (0, 0)).unwrap();
+        assert!(auto.calibration.lens.is_none() && auto.rms_px.is_finite());
     }
 }
