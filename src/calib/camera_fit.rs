@@ -17,7 +17,8 @@ use super::lens::{K1_LIMIT, RadialLens};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum LensModel {
     /// Fit the lens when the pairs can tell it (enough of them, spread
-    /// over the frame), an affine map otherwise.
+    /// over the frame) and keep it when it fits clearly better than an
+    /// affine map; an affine map otherwise.
     Auto,
     /// Fit the lens; refuse pairs that cannot tell it.
     Radial,

@@ -42,9 +42,9 @@ pub struct FitArgs {
     /// RANSAC inlier threshold, pixels.
     #[arg(long, default_value_t = 2.0)]
     pub threshold_px: f64,
-    /// The objective's radial distortion: auto fits it when at least 8 tip
-    /// positions spread over the frame can tell it, radial insists, none
-    /// fits an affine map only.
+    /// The objective's radial distortion: auto keeps it when at least 8 tip
+    /// positions spread over the frame show it clearly (else an affine map,
+    /// saying why), radial insists, none fits an affine map only.
     #[arg(long, value_enum, default_value_t = LensModel::Auto)]
     pub lens: LensModel,
 }
