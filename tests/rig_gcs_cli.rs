@@ -341,6 +341,7 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
 
     let (ok, text, err) = probe_camera("tipped", SCENE);
     assert!(ok, "{text}{err}");
+    let tipped_text = text.clone();
     // apex at (x, y) px = (u, v) um: the calibration maps pixel p to 0.5 p - 10 um.
     let apex = numbers(&line(&text, "tip:"));
     assert!(
@@ -349,6 +350,52 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     );
     assert!((apex[2] - (0.5 * apex[0] - 10.0)).abs() < 0.01, "{text}");
     assert!((apex[3] - (0.5 * apex[1] - 10.0)).abs() < 0.01, "{text}");
+
+    assert!(
+        !text.contains("\nlens:"),
+        "no lens in the calibration: {text}"
+    );
+
+    // A calibration with a lens: the look says so, and pixels go through it.
+    let tipped = std::fs::read_to_string(at("tipped.toml")).unwrap();
+    let lensed_calibration = at("lensed.toml");
+    let lens = nanopush::calib::lens::RadialLens::centred_on(200, 200, -0.05);
+    let map = nanopush::calib::camera_map::CameraCalibration::load(&calibration).unwrap();
+    std::fs::write(&lensed_calibration, map.with_lens(Some(lens)).to_toml(None)).unwrap();
+    let lensed_rig = at("lensed-rig.toml");
+    std::fs::write(
+        &lensed_rig,
+        tipped.replace(
+            &format!("{:?}", calibration.display().to_string()),
+            &format!("{lensed_calibration:?}"),
+        ),
+    )
+    .unwrap();
+    let out = run(&[
+        "rig",
+        "probe",
+        "--dry-run",
+        "--camera",
+        "--rig",
+        &lensed_rig,
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(out.status.success(), "{text}");
+    let shift = lens.largest_shift_px(200, 200);
+    assert_eq!(
+        line(&text, "lens:"),
+        format!("k1 -0.05000: the calibration moves this frame's corners up to {shift:.2} px"),
+        "{text}"
+    );
+    let seen = numbers(&line(&text, "tip:"));
+    let [u, v] = map.with_lens(Some(lens)).pixel_to_stage_m(seen[0], seen[1]);
+    assert!(
+        (seen[2] - u * 1e6).abs() < 0.01 && (seen[3] - v * 1e6).abs() < 0.01,
+        "{text}"
+    );
+    // Near the middle the lens hardly moves the apex; at the edges of the
+    // view it does.
+    assert_ne!(line(&text, "view:"), line(&tipped_text, "view:"));
 
     // No calibration made yet: the frame and the tip in pixels are shown
     // (what `rig calibrate` needs), and the command fails naming the

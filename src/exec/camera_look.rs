@@ -11,6 +11,7 @@ use super::observe::{
     ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, grab_frame,
 };
 use crate::calib::camera_map::CameraCalibration;
+use crate::calib::lens::RadialLens;
 use crate::median::upper_median;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
@@ -39,6 +40,8 @@ pub struct CameraLook {
     pub m_per_px: f64,
     /// What to doubt about the particles' size ([`size_doubt`]), if anything.
     pub size_doubt: Option<String>,
+    /// The objective's distortion the calibration corrects, if it has one.
+    pub lens: Option<RadialLens>,
 }
 
 /// Particles found with another size hint than the scene's.
@@ -75,6 +78,7 @@ pub fn look(
         radius_m,
         m_per_px,
         size_doubt,
+        lens: calibration.lens,
     })
 }
 
@@ -267,6 +271,15 @@ impl fmt::Display for CameraLook {
             um(hi[0]),
             um(lo[1]),
             um(hi[1])
-        )
+        )?;
+        match &self.lens {
+            Some(lens) => writeln!(
+                f,
+                "lens:           k1 {:+.5}: the calibration moves this frame's corners up to {:.2} px",
+                lens.k1,
+                lens.largest_shift_px(s.frame.width(), s.frame.height())
+            ),
+            None => Ok(()),
+        }
     }
 }
