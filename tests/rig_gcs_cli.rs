@@ -356,29 +356,27 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
         "no lens in the calibration: {text}"
     );
 
+    // The frame with the probe, its rig file naming another calibration.
+    let probe_calibrated_by = |rig_name: &str, calibration_file: &str| {
+        let tipped = std::fs::read_to_string(at("tipped.toml")).unwrap();
+        let rig = at(rig_name);
+        std::fs::write(
+            &rig,
+            tipped.replace(
+                &format!("{:?}", calibration.display().to_string()),
+                &format!("{calibration_file:?}"),
+            ),
+        )
+        .unwrap();
+        run(&["rig", "probe", "--dry-run", "--camera", "--rig", &rig])
+    };
+
     // A calibration with a lens: the look says so, and pixels go through it.
-    let tipped = std::fs::read_to_string(at("tipped.toml")).unwrap();
     let lensed_calibration = at("lensed.toml");
     let lens = nanopush::calib::lens::RadialLens::centred_on(200, 200, -0.05);
     let map = nanopush::calib::camera_map::CameraCalibration::load(&calibration).unwrap();
     std::fs::write(&lensed_calibration, map.with_lens(Some(lens)).to_toml(None)).unwrap();
-    let lensed_rig = at("lensed-rig.toml");
-    std::fs::write(
-        &lensed_rig,
-        tipped.replace(
-            &format!("{:?}", calibration.display().to_string()),
-            &format!("{lensed_calibration:?}"),
-        ),
-    )
-    .unwrap();
-    let out = run(&[
-        "rig",
-        "probe",
-        "--dry-run",
-        "--camera",
-        "--rig",
-        &lensed_rig,
-    ]);
+    let out = probe_calibrated_by("lensed-rig.toml", &lensed_calibration);
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(out.status.success(), "{text}");
     let shift = lens.largest_shift_px(200, 200);
@@ -400,24 +398,7 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     // No calibration made yet: the frame and the tip in pixels are shown
     // (what `rig calibrate` needs), and the command fails naming the
     // missing calibration and how to make it.
-    let tipped = std::fs::read_to_string(at("tipped.toml")).unwrap();
-    let uncalibrated = at("uncalibrated.toml");
-    std::fs::write(
-        &uncalibrated,
-        tipped.replace(
-            &format!("{:?}", calibration.display().to_string()),
-            &format!("{:?}", at("not-made-yet.toml")),
-        ),
-    )
-    .unwrap();
-    let out = run(&[
-        "rig",
-        "probe",
-        "--dry-run",
-        "--camera",
-        "--rig",
-        &uncalibrated,
-    ]);
+    let out = probe_calibrated_by("uncalibrated.toml", &at("not-made-yet.toml"));
     let (text, err) = (
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr),
