@@ -112,6 +112,19 @@ fn ok(out: &Output) -> String {
     text
 }
 
+/// The map `nanopush calibrate` fits to `recording` (with `extra` flags),
+/// written to `out`.
+fn refit(recording: &Path, out: &Path, extra: &[&str]) -> CameraCalibration {
+    let (recording, out_arg) = (recording.to_str().unwrap(), out.to_str().unwrap());
+    let args = [
+        &["calibrate", "--recording", recording, "--out", out_arg][..],
+        extra,
+    ]
+    .concat();
+    ok(&nanopush(&args));
+    CameraCalibration::load(out).unwrap()
+}
+
 /// Largest distance between where two maps put a pixel of a 400 x 400 px
 /// view, micrometres.
 fn worst_um(a: &CameraCalibration, b: &CameraCalibration) -> f64 {
@@ -139,15 +152,7 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
     let recording = b.dir.path().join("camera-recording");
     let csv = std::fs::read_to_string(recording.join("stage.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 3 + 16, "{csv}");
-    let again = b.dir.path().join("again.toml");
-    ok(&nanopush(&[
-        "calibrate",
-        "--recording",
-        recording.to_str().unwrap(),
-        "--out",
-        again.to_str().unwrap(),
-    ]));
-    let refit = CameraCalibration::load(&again).unwrap();
+    let refit = refit(&recording, &b.dir.path().join("again.toml"), &[]);
     assert!(worst_um(&refit, &fitted) < 1e-6);
 
     // A second run keeps the calibration and moves nothing.
@@ -215,17 +220,11 @@ fn an_objective_that_bends_the_view_is_measured_with_the_map() {
     let (w, h) = (frame.width(), frame.height());
     let err = fitted.largest_difference_m(&camera, w, h) / UM;
     // The same recording fitted without the lens.
-    let affine_path = b.dir.path().join("affine.toml");
-    ok(&nanopush(&[
-        "calibrate",
-        "--recording",
-        recording.to_str().unwrap(),
-        "--out",
-        affine_path.to_str().unwrap(),
-        "--lens",
-        "none",
-    ]));
-    let affine = CameraCalibration::load(&affine_path).unwrap();
+    let affine = refit(
+        &recording,
+        &b.dir.path().join("affine.toml"),
+        &["--lens", "none"],
+    );
     let affine_err = affine.largest_difference_m(&camera, w, h) / UM;
     println!(
         "{w} x {h} px view: with the lens worst {err:.4} um (k1 {:+.5}, true {:+.5}); affine alone worst {affine_err:.4} um\n{text}",

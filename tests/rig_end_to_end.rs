@@ -268,12 +268,7 @@ impl Bench {
             );
             std::thread::sleep(Duration::from_millis(10));
         }
-        nix::sys::signal::kill(
-            nix::unistd::Pid::from_raw(child.id() as i32),
-            nix::sys::signal::Signal::SIGINT,
-        )
-        .unwrap();
-        let out = finish(child, Duration::from_secs(30));
+        let out = interrupted(child, Duration::from_secs(30));
         assert!(!out.status.success());
         let before = std::fs::read_to_string(&journal).unwrap();
         assert!(
@@ -367,6 +362,16 @@ impl Bench {
             .spawn()
             .unwrap()
     }
+}
+
+/// Sends the child Ctrl-C's signal (SIGINT) and waits for it as [`finish`] does.
+fn interrupted(child: Child, limit: Duration) -> Output {
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .unwrap();
+    finish(child, limit)
 }
 
 /// Waits for the child, killing it (by its own id) if it outlives `limit`.
@@ -721,12 +726,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
         .server
         .handle()
         .with(|c, now| c.handle_line("MOV? 1 2 3", now));
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(child.id() as i32),
-        nix::sys::signal::Signal::SIGINT,
-    )
-    .unwrap();
-    let out = finish(child, Duration::from_secs(20));
+    let out = interrupted(child, Duration::from_secs(20));
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("interrupted"), "{stderr}");

@@ -65,39 +65,43 @@ impl RadialLens {
 
     /// Where the camera's pixel `p` would lie without the lens.
     pub fn undistort(&self, p: [f64; 2]) -> [f64; 2] {
+        self.along_ray(p, |r| self.radial(r))
+    }
+
+    /// The camera pixel that shows the undistorted point `u` (the inverse
+    /// of [`Self::undistort`]).
+    pub fn distort(&self, u: [f64; 2]) -> [f64; 2] {
+        self.along_ray(u, |r| self.inverse_radial(r))
+    }
+
+    /// `p` moved along its ray from the centre to the radius `to` gives
+    /// its radius.
+    fn along_ray(&self, p: [f64; 2], to: impl Fn(f64) -> f64) -> [f64; 2] {
         let (dx, dy) = (p[0] - self.centre_px[0], p[1] - self.centre_px[1]);
         let r = dx.hypot(dy);
         if r == 0.0 {
             return p;
         }
-        let gain = self.radial(r) / r;
+        let gain = to(r) / r;
         [self.centre_px[0] + dx * gain, self.centre_px[1] + dy * gain]
     }
 
-    /// The camera pixel that shows the undistorted point `u` (the inverse
-    /// of [`Self::undistort`], by Newton's method on the radius).
-    pub fn distort(&self, u: [f64; 2]) -> [f64; 2] {
-        let (dx, dy) = (u[0] - self.centre_px[0], u[1] - self.centre_px[1]);
-        let target = dx.hypot(dy);
-        if target == 0.0 {
-            return u;
-        }
+    /// The pixel radius whose undistorted radius is `target`: Newton's
+    /// method on the cubic, the straight line beyond the reach.
+    fn inverse_radial(&self, target: f64) -> f64 {
         let reach = REACH_RADII * self.radius_px;
-        let r = if target >= self.radial(reach) {
-            reach + (target - self.radial(reach)) / self.slope(reach)
-        } else {
-            let mut r = target.min(reach);
-            for _ in 0..50 {
-                let step = (self.radial(r) - target) / self.slope(r);
-                r = (r - step).clamp(0.0, reach);
-                if step.abs() < 1e-12 * self.radius_px {
-                    break;
-                }
+        if target >= self.radial(reach) {
+            return reach + (target - self.radial(reach)) / self.slope(reach);
+        }
+        let mut r = target.min(reach);
+        for _ in 0..50 {
+            let step = (self.radial(r) - target) / self.slope(r);
+            r = (r - step).clamp(0.0, reach);
+            if step.abs() < 1e-12 * self.radius_px {
+                break;
             }
-            r
-        };
-        let gain = r / target;
-        [self.centre_px[0] + dx * gain, self.centre_px[1] + dy * gain]
+        }
+        r
     }
 
     /// How far the lens moves the farthest pixel of a `width` x `height`
