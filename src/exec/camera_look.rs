@@ -112,7 +112,7 @@ pub fn look_uncalibrated(
     Ok(UncalibratedLook {
         source: source.describe(),
         dropped,
-        repaired_lines: prepared.repaired_lines.clone(),
+        repaired_lines: prepared.repaired_lines,
         exposure: prepared.exposure,
         tip,
         frame: timed.frame,

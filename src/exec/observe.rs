@@ -250,6 +250,7 @@ impl Perception {
         Ok(sighting)
     }
 }
+
 /// The next frame of `camera`, asking up to `max_grabs` times (a camera may
 /// drop frames), and how many it dropped first.
 pub fn grab_frame(
