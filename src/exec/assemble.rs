@@ -13,6 +13,7 @@
 //! push the window is moved only if the stroke does not fit the nanostage's
 //! range as it is, which keeps re-planning free of window state.
 
+use super::drift::{APEX_CLEAR_OF_PARTICLES_M, DriftFilter, DriftSettings};
 use super::events::{RunEvent, RunSpec, SeenParticle};
 use super::journal::{JournalError, JournalWriter};
 use super::observe::{ObserveError, Perception, Sighting};
@@ -62,6 +63,10 @@ pub struct AssemblySettings {
     /// this from where it expects it (default 0.5 um, and the kept steps must
     /// still verify collision-free); beyond, the loop plans afresh.
     pub keep_plan_shift_m: f64,
+    /// How the tip's drift against the sample is followed in the frames and
+    /// taken out of every move (`exec::drift`); None: not at all, every
+    /// move goes where the calibration alone says.
+    pub drift: Option<DriftSettings>,
 }
 
 impl AssemblySettings {
@@ -89,6 +94,7 @@ impl Default for AssemblySettings {
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
+            drift: Some(DriftSettings::default()),
         }
     }
 }
@@ -216,6 +222,8 @@ pub struct Assembly<'a> {
     repush_next: Option<usize>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
+    /// The tip's drift as the frames show it (unused when `settings.drift` is None).
+    drift: DriftFilter,
     pushes_done: usize,
     frames_seen: usize,
     /// Every push executed in this process, in order.
@@ -290,6 +298,7 @@ impl<'a> Assembly<'a> {
         Self {
             rig,
             tracker: Tracker::new(inputs.settings.track_gate_m),
+            drift: DriftFilter::new(inputs.settings.drift.unwrap_or_default()),
             scene: inputs.scene,
             sites: inputs.sites,
             plan_config: inputs.plan_config,
@@ -469,6 +478,7 @@ impl<'a> Assembly<'a> {
         }
         self.tracker
             .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
+        self.follow_drift(&sighting, push);
         let tracks = self.tracks();
         self.journal.append(
             sighting.t_s,
@@ -478,6 +488,10 @@ impl<'a> Assembly<'a> {
                 tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
                 repaired_lines: sighting.repaired_lines.clone(),
                 clipped: sighting.exposure.clipped(),
+                drift: self
+                    .settings
+                    .drift
+                    .and_then(|_| self.drift.estimate_at(sighting.t_s)),
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {
@@ -493,6 +507,49 @@ impl<'a> Assembly<'a> {
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
         Ok(())
+    }
+
+    /// Takes the frame's apex against where the stage was sent into the drift
+    /// estimate, when the apex is clear of every tracked particle and of
+    /// where the push just made aimed its particle (beside one the apex's
+    /// fit is pulled by up to 0.3 um on the simulated microscope; a pushed
+    /// particle under the probe keeps its old track). Not before the first
+    /// plan: until the loop has looked with the probe parked away, a
+    /// particle under the probe is not tracked (the frame drops detections
+    /// the probe's outline cuts).
+    fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
+        let (Some(_), Some(_), Some(tip), Some(stage)) = (
+            self.settings.drift,
+            self.first_plan_ids,
+            sighting.tip_m,
+            sighting.stage_m,
+        ) else {
+            return;
+        };
+        let tracked = self
+            .tracker
+            .tracks()
+            .iter()
+            .map(|t| ([t.last.x_m, t.last.y_m], t.last.radius_m));
+        let pushed = push.map(|p| (p.to, p.radius_m));
+        let clear = tracked.chain(pushed).all(|(centre, radius)| {
+            (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
+        });
+        if clear {
+            let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
+            let update = self
+                .drift
+                .add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
+            tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
+        }
+    }
+
+    /// The drift to take out of a move made now (zero when not followed).
+    fn drift_now(&self) -> [f64; 2] {
+        match self.settings.drift {
+            Some(_) => self.drift.correction_at(self.rig.now_s()),
+            None => [0.0, 0.0],
+        }
     }
 
     /// True when the last frame showed this particle (a track outside the
@@ -823,6 +880,8 @@ impl<'a> Assembly<'a> {
     ) -> Result<(), PushError> {
         let range = self.rig.range();
         let reach = [0, 1].map(|i| [range[i].min_m, range[i].max_m]);
+        // The stage is sent to each point less the drift.
+        let drift = self.drift_now();
         let mut needs: Vec<([f64; 2], [[f64; 2]; 2])> = [
             stroke.above,
             stroke.approach,
@@ -831,7 +890,7 @@ impl<'a> Assembly<'a> {
             retreat,
         ]
         .iter()
-        .map(|p| ([p[0], p[1]], reach))
+        .map(|p| ([p[0] - drift[0], p[1] - drift[1]], reach))
         .collect();
         if let Some(view) = self.view_local() {
             needs.extend([intent.from, intent.to].map(|p| (p, view)));
@@ -882,13 +941,23 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
-    /// Moves the tip to a point given on the sample.
+    /// Moves the tip to a point given on the sample: the stage is sent
+    /// there less the coarse offset and the tip's drift. The drift is
+    /// predicted at the move's own time, a little later than `fit_window`
+    /// asked, so a point the window put on the range's edge may come out a
+    /// few nanometres beyond it: it is held at the edge.
     fn move_on_sample(&mut self, target: StageXyz, speed: f64) -> Result<(), PushError> {
-        let nano = [
-            target[0] - self.coarse_offset[0],
-            target[1] - self.coarse_offset[1],
-            target[2],
-        ];
+        let drift = self.drift_now();
+        let range = self.rig.range();
+        let on_stage = |i: usize| {
+            let wanted = target[i] - self.coarse_offset[i] - drift[i];
+            if drift[i] == 0.0 {
+                wanted
+            } else {
+                wanted.clamp(range[i].min_m, range[i].max_m)
+            }
+        };
+        let nano = [on_stage(0), on_stage(1), target[2]];
         self.move_on_sample_raw(nano, speed)
     }
 

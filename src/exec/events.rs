@@ -2,6 +2,7 @@
 //! decision, in lab units. The journal is enough to resume a run and to
 //! rebuild its report.
 
+use super::drift::DriftEstimate;
 use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineDefect;
 use serde::{Deserialize, Serialize};
@@ -87,6 +88,11 @@ pub enum RunEvent {
         /// level (absent otherwise, and in journals written before this field).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         clipped: Option<Exposure>,
+        /// The tip's drift as estimated after this frame (absent before the
+        /// first sighting of the apex clear of particles, when the loop does
+        /// not follow drift, and in journals written before this field).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        drift: Option<DriftEstimate>,
     },
     /// The camera dropped a frame.
     FrameDropped,

@@ -4,6 +4,7 @@ pub mod animation;
 pub mod artifacts;
 pub mod assemble;
 pub mod camera_look;
+pub mod drift;
 pub mod dry_run;
 pub mod events;
 pub mod frame_layout;

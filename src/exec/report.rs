@@ -8,6 +8,7 @@
 //! travel lower bound at the travel speed.
 
 use super::assemble::{AssemblySettings, RunEnd};
+use super::drift::DriftEstimate;
 use super::events::RunEvent;
 use super::journal::Entry;
 use crate::model::effects::ActiveEffect;
@@ -71,6 +72,12 @@ pub struct AssemblyReport {
     /// (and in reports written before this field).
     #[serde(default)]
     pub clipped_frames: ClippedFrames,
+    /// The tip's drift against the sample as the last frame that measured
+    /// it left the estimate, taken out of every move after it; null when
+    /// no frame showed the apex clear of particles, when the run did not
+    /// follow drift, and in reports written before this field.
+    #[serde(default)]
+    pub drift: Option<DriftEstimate>,
 }
 
 /// The frames of a run whose camera clipped more than the warning level.
@@ -154,7 +161,19 @@ impl AssemblyReport {
             .repaired_lines_summary()
             .map(|s| ("camera lines repaired", s));
         let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
-        lines.into_iter().chain(clipped).collect()
+        let drift = self.drift_summary().map(|s| ("tip drift", s));
+        lines.into_iter().chain(clipped).chain(drift).collect()
+    }
+
+    /// "offset (0.29, -0.01) um, rate (1.00, -0.02) nm/s, from 24 frames";
+    /// None when the run has no estimate.
+    pub fn drift_summary(&self) -> Option<String> {
+        self.drift.map(|d| {
+            format!(
+                "offset ({:.2}, {:.2}) um, rate ({:.2}, {:.2}) nm/s, from {} frames",
+                d.offset_um[0], d.offset_um[1], d.rate_nm_s[0], d.rate_nm_s[1], d.sightings
+            )
+        })
     }
 
     /// "column 200 (12 frames), row 7 (3 frames)"; None when no camera
@@ -224,6 +243,7 @@ impl AssemblyReport {
             effect_work: facts.effect_work,
             repaired_lines: counts.repaired_lines,
             clipped_frames: counts.clipped_frames,
+            drift: counts.drift,
         }
     }
 }
@@ -251,6 +271,8 @@ pub struct JournalCounts {
     pub repaired_lines: Vec<RepairedLine>,
     /// Observations whose frame clipped beyond the warning level.
     pub clipped_frames: ClippedFrames,
+    /// The last observation's drift estimate.
+    pub drift: Option<DriftEstimate>,
 }
 
 /// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
@@ -286,8 +308,12 @@ pub fn count_journal(
                 particles,
                 repaired_lines,
                 clipped,
+                drift,
                 ..
             } => {
+                if drift.is_some() {
+                    c.drift = *drift;
+                }
                 for line in repaired_lines {
                     count_repaired(&mut c.repaired_lines, line.axis, line.index);
                 }
@@ -394,6 +420,7 @@ mod tests {
                     tip_um: None,
                     repaired_lines: Vec::new(),
                     clipped: None,
+                    drift: None,
                 },
             ),
             entry(
@@ -455,6 +482,7 @@ mod tests {
             tip_um: None,
             repaired_lines,
             clipped,
+            drift: None,
         };
         let clipped = |saturated_fraction, dark_fraction| {
             Some(Exposure {
@@ -514,6 +542,53 @@ mod tests {
         );
     }
 
+    /// The report takes the last drift estimate a frame journalled; frames
+    /// without one (the apex beside a particle, older journals) keep it.
+    #[test]
+    fn the_last_drift_estimate_is_the_runs_and_reads_back_from_the_journal() {
+        let estimate = |x_um: f64, sightings| DriftEstimate {
+            offset_um: [x_um, 0.0],
+            rate_nm_s: [1.0, 0.0],
+            sightings,
+        };
+        let observation = |drift| RunEvent::Observation {
+            frame: 0,
+            particles: Vec::new(),
+            tip_um: Some([1.0, 2.0]),
+            repaired_lines: Vec::new(),
+            clipped: None,
+            drift,
+        };
+        let with = observation(Some(estimate(0.25, 7)));
+        let text = serde_json::to_string(&with).unwrap();
+        assert!(
+            text.contains(r#""drift":{"offset_um":[0.25,0.0]"#),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<RunEvent>(&text).unwrap(), with);
+        let older: RunEvent = serde_json::from_str(
+            r#"{"kind":"observation","frame":0,"particles":[],"tip_um":[1.0,2.0]}"#,
+        )
+        .unwrap();
+        assert_eq!(older, observation(None));
+        let events = [
+            observation(None),
+            observation(Some(estimate(0.1, 1))),
+            observation(Some(estimate(0.2, 2))),
+            older,
+        ];
+        let entries: Vec<_> = events
+            .into_iter()
+            .enumerate()
+            .map(|(i, e)| entry(i as u64, i as f64, e))
+            .collect();
+        assert_eq!(
+            count_journal(&entries, &[], 0.1).drift,
+            Some(estimate(0.2, 2))
+        );
+        assert_eq!(count_journal(&entries[..1], &[], 0.1).drift, None);
+    }
+
     #[test]
     fn error_figures_are_rms_and_max() {
         let (rms, max) = error_figures_nm(&[3e-9, 4e-9]);
@@ -543,6 +618,7 @@ mod tests {
             effect_work: None,
             repaired_lines: Vec::new(),
             clipped_frames: ClippedFrames::default(),
+            drift: None,
         }
     }
 
@@ -562,6 +638,17 @@ mod tests {
         let mut r = small_report();
         assert_eq!(r.repaired_lines_summary(), None);
         assert_eq!(r.clipped_frames_summary(), None);
+        assert_eq!(r.drift_summary(), None);
+        assert!(r.camera_notes().is_empty());
+        r.drift = Some(DriftEstimate {
+            offset_um: [0.291, -0.012],
+            rate_nm_s: [1.004, -0.021],
+            sightings: 24,
+        });
+        assert_eq!(
+            r.drift_summary().as_deref(),
+            Some("offset (0.29, -0.01) um, rate (1.00, -0.02) nm/s, from 24 frames")
+        );
         r.clipped_frames = ClippedFrames {
             frames: 12,
             max_saturated_fraction: 0.61,
@@ -586,15 +673,22 @@ mod tests {
             "{text}"
         );
         assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+        let notes: Vec<&str> = r.camera_notes().iter().map(|n| n.0).collect();
+        assert_eq!(
+            notes,
+            ["camera lines repaired", "camera clipped", "tip drift"]
+        );
         let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
-        older.as_object_mut().unwrap().remove("repaired_lines");
-        older.as_object_mut().unwrap().remove("clipped_frames");
+        for field in ["repaired_lines", "clipped_frames", "drift"] {
+            older.as_object_mut().unwrap().remove(field);
+        }
         let older: AssemblyReport = serde_json::from_value(older).unwrap();
         assert_eq!(
             older,
             AssemblyReport {
                 repaired_lines: Vec::new(),
                 clipped_frames: ClippedFrames::default(),
+                drift: None,
                 ..r
             }
         );
