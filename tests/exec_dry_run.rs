@@ -473,6 +473,29 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
     let kept = std::fs::read(first.join("dry-run.json")).unwrap();
     assert_refused(&dry_run(&fixture, &first, &[]), "exists");
     assert_eq!(std::fs::read(first.join("dry-run.json")).unwrap(), kept);
+    // Nor an animation left alone in the folder.
+    let partial = dir.path().join("partial");
+    std::fs::create_dir_all(&partial).unwrap();
+    std::fs::write(partial.join("dry-run.mp4"), b"precious").unwrap();
+    assert_refused(&dry_run(&fixture, &partial, &[]), "dry-run.mp4 exists");
+    assert_eq!(
+        std::fs::read(partial.join("dry-run.mp4")).unwrap(),
+        b"precious"
+    );
+    // The recording is only read: an --out in it, or in its frames, or
+    // reached through `..`, is refused.
+    let rec = dir.path().join("kept");
+    copy_dir(&fixture, &rec);
+    let before = snapshot(&rec);
+    for out in [
+        rec.clone(),
+        rec.join("frames"),
+        rec.join("new/deeper"),
+        dir.path().join("partial/../kept/x"),
+    ] {
+        assert_refused(&dry_run(&rec, &out, &[]), "is inside the recording");
+    }
+    assert_eq!(snapshot(&rec), before, "the recording was changed");
 }
 
 mod deadline;

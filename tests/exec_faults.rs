@@ -283,8 +283,14 @@ fn kill_and_resume(kill_after: usize) {
     let dir = tempfile::tempdir().unwrap();
     let out: PathBuf = dir.path().join("run");
     let journal = out.join("journal.jsonl");
+    // The scene named relative to where the run starts; resumed from
+    // another folder (the journal keeps its absolute path).
+    let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
+    std::fs::copy(paper, dir.path().join("my scene.toml")).unwrap();
     let mut child = binary()
-        .args(["assemble", "--out", out.to_str().unwrap()])
+        .current_dir(dir.path())
+        .args(["assemble", "--scene", "my scene.toml"])
+        .args(["--out", out.to_str().unwrap()])
         .args(RUN)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
@@ -322,6 +328,7 @@ fn kill_and_resume(kill_after: usize) {
     let placed = on_site(&particles(&at_kill), &sites_m);
 
     let resumed = binary()
+        .current_dir(&out)
         .args(["assemble", "--json", "--resume", journal.to_str().unwrap()])
         .output()
         .unwrap();

@@ -50,7 +50,10 @@ pub enum CalibError {
     Fit(String),
 }
 
+/// The file as written; an unknown key is refused (a misspelt `[lens]`
+/// would otherwise drop the lens without a word).
 #[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct CalibrationFile {
     schema: String,
     /// Rows of the 2x3 matrix [a b c; d e f]: stage_um = [a b; d e] px + [c; f],
@@ -166,11 +169,29 @@ impl CameraCalibration {
                 ),
             });
         }
-        if let Some(lens) = &f.lens {
-            lens.check().map_err(|reason| CalibError::Format {
+        // The schema says whether there is a lens: a reader of `/1` would
+        // not know one, and `/2` exists so that a lens is never lost.
+        match (f.schema == CALIBRATION_SCHEMA_LENS, &f.lens) {
+            (true, None) => {
+                return Err(CalibError::Format {
+                    path: origin.into(),
+                    reason: format!("schema {CALIBRATION_SCHEMA_LENS:?} needs a [lens] table"),
+                });
+            }
+            (false, Some(_)) => {
+                return Err(CalibError::Format {
+                    path: origin.into(),
+                    reason: format!(
+                        "a [lens] table needs schema {CALIBRATION_SCHEMA_LENS:?}, not {:?}",
+                        f.schema
+                    ),
+                });
+            }
+            (_, Some(lens)) => lens.check().map_err(|reason| CalibError::Format {
                 path: origin.into(),
                 reason,
-            })?;
+            })?,
+            (false, None) => {}
         }
         let m = f.pixel_to_stage_um;
         if m.iter().flatten().any(|v| !v.is_finite()) {
@@ -271,5 +292,16 @@ mod tests {
         assert!(err.to_string().contains("k1 0.5"), "{err}");
         // A file without a lens is what it was before lenses.
         assert!(c.with_lens(None).to_toml(None).contains(CALIBRATION_SCHEMA));
+        // A misspelt table, a `/2` without its lens, a lens under `/1`:
+        // refused, not read as a map without a lens.
+        let misspelt = text.replace("[lens]", "[lense]");
+        let err = CameraCalibration::from_toml(&misspelt, "cal.toml").unwrap_err();
+        assert!(err.to_string().contains("lense"), "{err}");
+        let lens_at = text.find("[lens]").unwrap();
+        let err = CameraCalibration::from_toml(&text[..lens_at], "cal.toml").unwrap_err();
+        assert!(err.to_string().contains("needs a [lens] table"), "{err}");
+        let old = text.replace(CALIBRATION_SCHEMA_LENS, CALIBRATION_SCHEMA);
+        let err = CameraCalibration::from_toml(&old, "cal.toml").unwrap_err();
+        assert!(err.to_string().contains("needs schema"), "{err}");
     }
 }

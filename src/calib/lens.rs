@@ -19,6 +19,7 @@ const REACH_RADII: f64 = 1.5;
 
 /// A radial lens: undistorted = centre + (pixel - centre)(1 + k1 (r / radius)^2).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RadialLens {
     /// The lens axis in the frame, pixels.
     pub centre_px: [f64; 2],

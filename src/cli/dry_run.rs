@@ -10,7 +10,7 @@ use crate::exec::recording::open_recording;
 use crate::model::Scene;
 use crate::vision::analyse::camera_notes;
 use anyhow::{Context, bail};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `nanopush dry-run`.
 #[derive(clap::Args, Debug)]
@@ -63,15 +63,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None
     };
     let report_path = args.out.join("dry-run.json");
-    if report_path.exists() {
+    let animation_path = args.out.join("dry-run.mp4");
+    if let Some(there) = [&report_path, &animation_path]
+        .into_iter()
+        .find(|p| p.exists())
+    {
         bail!(
             "{} exists: choose another --out (nothing was overwritten)",
-            report_path.display()
+            there.display()
+        );
+    }
+    if inside(&args.out, &args.recording) {
+        bail!(
+            "--out {} is inside the recording {}: a dry-run only reads its recording; \
+             choose an --out outside it",
+            args.out.display(),
+            args.recording.display()
         );
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut animation = AnimationWriter::new(&args.out.join("dry-run.mp4"), 1.0);
+    let mut animation = AnimationWriter::new(&animation_path, 1.0);
     let report = dry_run(
         &recording,
         scene.as_ref(),
@@ -92,6 +104,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// True when `path` (which need not exist yet) is `folder` or lies within
+/// it, through `..` and symbolic links: its nearest existing ancestor is
+/// resolved.
+fn inside(path: &Path, folder: &Path) -> bool {
+    let Ok(folder) = std::fs::canonicalize(folder) else {
+        return false;
+    };
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    absolute
+        .ancestors()
+        .find_map(|a| std::fs::canonicalize(a).ok())
+        .is_some_and(|real| real.starts_with(&folder))
 }
 
 fn print_frames(r: &DryRunReport) {

@@ -76,6 +76,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
+    if let Some(truth) = &args.truth
+        && std::path::absolute(truth).ok() == std::path::absolute(&args.out).ok()
+    {
+        anyhow::bail!(
+            "--truth and --out are the same file ({}): the truth is JSON, the frame an image",
+            args.out.display()
+        );
+    }
     if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
         anyhow::bail!(
             "--snr must be > 0 and at most {MAX_SNR:e}, got {:e}",

@@ -182,6 +182,11 @@ pub fn read_journal<E: DeserializeOwned>(path: &Path) -> Result<JournalContents<
     let mut entries = Vec::new();
     let mut truncated_tail = false;
     for (i, (line, complete)) in lines.iter().enumerate().skip(1) {
+        // A blank line (an editor's, a shell's `echo >>`) holds nothing to lose.
+        if *complete && line.trim().is_empty() {
+            valid_bytes += line.len() as u64;
+            continue;
+        }
         match (serde_json::from_str::<Entry<E>>(line), complete) {
             (Ok(entry), true) => {
                 valid_bytes += line.len() as u64;
@@ -235,6 +240,16 @@ mod tests {
         ]
     }
 
+    /// A journal of `events()` at t = 0 in `dir`.
+    fn written(dir: &tempfile::TempDir) -> PathBuf {
+        let path = dir.path().join("j.jsonl");
+        let mut w = JournalWriter::create(&path).unwrap();
+        for e in events() {
+            w.append(0.0, &e).unwrap();
+        }
+        path
+    }
+
     #[test]
     fn written_entries_read_back_identically() {
         let dir = tempfile::tempdir().unwrap();
@@ -264,12 +279,7 @@ mod tests {
     #[test]
     fn crash_truncated_tail_is_reported_and_resume_continues_the_sequence() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("j.jsonl");
-        let mut w = JournalWriter::create(&path).unwrap();
-        for e in events() {
-            w.append(0.0, &e).unwrap();
-        }
-        drop(w);
+        let path = written(&dir);
         // Simulate a kill mid-write: half a line at the end.
         let mut f = OpenOptions::new().append(true).open(&path).unwrap();
         write!(f, "{{\"seq\":3,\"t_s\":0.0,\"ev").unwrap();
@@ -284,15 +294,29 @@ mod tests {
         assert_eq!(back.entries[3].event, Ev::Seen { n: 7 });
     }
 
+    /// A blank line (an editor's newline at the end, `echo >>`) is no
+    /// damage: the journal reads and resumes past it.
+    #[test]
+    fn blank_lines_are_skipped_and_the_journal_resumes() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = written(&dir);
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        writeln!(f).unwrap();
+        writeln!(f, "  ").unwrap();
+        drop(f);
+        let (mut w, contents) = JournalWriter::resume::<Ev>(&path).unwrap();
+        assert!(!contents.truncated_tail);
+        assert_eq!(contents.entries.len(), 3);
+        assert_eq!(w.append(9.0, &Ev::Seen { n: 7 }).unwrap(), 3);
+        let back = read_journal::<Ev>(&path).unwrap();
+        assert_eq!(back.entries.len(), 4);
+        assert_eq!(back.entries[3].event, Ev::Seen { n: 7 });
+    }
+
     #[test]
     fn damage_before_the_last_line_is_an_error_naming_the_line() {
         let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("j.jsonl");
-        let mut w = JournalWriter::create(&path).unwrap();
-        for e in events() {
-            w.append(0.0, &e).unwrap();
-        }
-        drop(w);
+        let path = written(&dir);
         let text = std::fs::read_to_string(&path).unwrap();
         let damaged = text.replacen("\"seen\"", "\"seen", 1);
         std::fs::write(&path, damaged).unwrap();

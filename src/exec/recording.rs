@@ -33,8 +33,11 @@ pub const STAGE_LOG_SCHEMA: &str = "nanopush.stage-log/1";
 /// Name of the description file inside a recording folder.
 pub const RECORDING_FILE: &str = "recording.toml";
 
-/// The description file of a recording (lab units).
+/// The description file of a recording (lab units). An unknown key is
+/// refused: a misspelt `stage_log` or `detect_tip` would otherwise drop
+/// what it says and the dry-run go on with other numbers.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RecordingSpec {
     /// Always [`RECORDING_SCHEMA`].
     pub schema: String,
@@ -575,6 +578,20 @@ mod tests {
         let e = open_recording(&rec_dir).unwrap_err();
         assert!(
             matches!(e, RecordingError::Format { .. }) && e.to_string().contains("frames"),
+            "{e}"
+        );
+        // A misspelt key is refused, named with the file.
+        let description = std::fs::read_to_string(rec_dir.join(RECORDING_FILE)).unwrap();
+        assert!(description.contains("\nframes = "), "{description}");
+        std::fs::write(
+            rec_dir.join(RECORDING_FILE),
+            format!("{description}stage_logs = \"stage.jsonl\"\n"),
+        )
+        .unwrap();
+        let e = open_recording(&rec_dir).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains(RECORDING_FILE) && text.contains("stage_logs"),
             "{e}"
         );
         // A corrupt description is named.

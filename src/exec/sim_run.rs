@@ -93,6 +93,16 @@ pub struct SimRun {
     pub rig: SimRig,
 }
 
+/// A file's path as the journal keeps it: absolute when the file is there,
+/// so that a run resumed from another folder finds it; as given otherwise
+/// (a built-in scene's name).
+fn as_resumable(path: &Path) -> String {
+    match std::path::absolute(path) {
+        Ok(full) if path.is_file() => full.display().to_string(),
+        _ => path.display().to_string(),
+    }
+}
+
 /// Loads, generates, places and builds everything a run needs.
 pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
     let scene = Scene::load(&req.scene).map_err(|source| SimRunError::Scene {
@@ -107,8 +117,8 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
             .as_ref()
             .map(PatternRequest::label)
             .unwrap_or_default(),
-        scene: req.scene.display().to_string(),
-        layout: req.layout.as_ref().map(|p| p.display().to_string()),
+        scene: as_resumable(&req.scene),
+        layout: req.layout.as_deref().map(as_resumable),
         seed: req.seed,
         sites_um: sites_um(&sites),
         radius_um: scene.particle_radius_m * 1e6,

@@ -329,8 +329,14 @@ impl Scene {
 }
 
 fn line_of(text: &str, span: Option<std::ops::Range<usize>>) -> usize {
+    // Newlines before the span, plus one (`lines()` of the text before it
+    // missed the span's own line when it starts one).
     span.map_or(0, |s| {
-        text[..s.start.min(text.len())].lines().count().max(1)
+        text.as_bytes()[..s.start.min(text.len())]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1
     })
 }
 
@@ -601,5 +607,34 @@ impl Scene {
             .tip_interface
             .interface(rp * rt / (rp + rt), rt.min(rp), override_model);
         (s, t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A misspelt key is named with its own line, whether it starts the
+    /// line or is indented (the first was reported a line early).
+    #[test]
+    fn a_misspelt_key_is_named_with_its_line() {
+        let paper = BUILT_IN_SCENES
+            .iter()
+            .find(|(p, _)| p.ends_with("paper-ps-ito.toml"))
+            .expect("the paper scene is built in")
+            .1;
+        let line = paper
+            .lines()
+            .position(|l| l.starts_with("speed_um_s"))
+            .expect("a speed line")
+            + 1;
+        for (from, to) in [("speed_um_s", "sped_um_s"), ("speed_um_s", "  sped_um_s")] {
+            let typo = paper.replacen(&format!("\n{from}"), &format!("\n{to}"), 1);
+            let err = Scene::from_toml_str(&typo).unwrap_err().to_string();
+            assert!(
+                err.contains(&format!("line {line}:")) && err.contains("sped_um_s"),
+                "{err}"
+            );
+        }
     }
 }
