@@ -42,6 +42,7 @@ struct Decision {
     duration_s: f64,
     onset_s: f64,
     critical_force_un: f64,
+    radius_um: f64,
 }
 
 /// Runs assemble on `scene` (the outcome does not matter here) and returns the journal's events.
@@ -72,6 +73,7 @@ fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
             duration_s,
             onset_s,
             critical_force_un,
+            radius_um,
             ..
         } = e
         {
@@ -84,6 +86,7 @@ fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
                 duration_s: *duration_s,
                 onset_s: *onset_s,
                 critical_force_un: *critical_force_un,
+                radius_um: radius_um.expect("the journal names the radius"),
             });
         }
     }
@@ -92,12 +95,17 @@ fn decisions(events: &[(f64, RunEvent)]) -> Vec<Decision> {
 
 /// The executor's decision function, fed what the journal says it saw.
 fn model_says(scene: &Scene, d: &Decision) -> (f64, f64) {
+    // The simulated world's particles are the scene's size: measured so.
+    assert!(
+        (d.radius_um - scene.particle_radius_m * 1e6).abs() < 0.02,
+        "{d:?}"
+    );
     let intent = PushIntent {
         particle: d.particle,
         from: [d.from_um[0] * 1e-6, d.from_um[1] * 1e-6],
         to: [d.to_um[0] * 1e-6, d.to_um[1] * 1e-6],
-        // The loop decides with the scene's radius, not the measured one.
-        radius_m: scene.particle_radius_m,
+        // The loop decides with the batch's measured radius, as journalled.
+        radius_m: d.radius_um * 1e-6,
     };
     let a = decide_push(scene, &intent, d.t_s).unwrap();
     (a.contact_angle_rad.to_degrees(), a.duration_s)

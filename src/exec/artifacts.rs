@@ -288,6 +288,7 @@ mod tests {
             ride_over_margin: None,
             mode: "rolling".into(),
             repush,
+            radius_um: None,
         }
     }
 

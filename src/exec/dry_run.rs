@@ -10,7 +10,7 @@ use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::recording::Recording;
 use super::recording_check::{check_sites_in_field, sites_of};
-use super::tracker::Tracker;
+use super::tracker::{Tracker, median_radius_m};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
@@ -314,8 +314,10 @@ fn next_command(
     scene: Option<&Scene>,
     t_s: f64,
 ) -> (DryCommand, Vec<PlannedPush>) {
-    // The scene's radius, or without a scene the median measured one.
-    let radius_m = scene.map_or_else(|| median_radius_m(tracks), |s| s.particle_radius_m);
+    // As the loop does: the particles' measured size, the scene's (or 5
+    // um) before any is seen.
+    let radius_m =
+        median_radius_m(tracks).unwrap_or_else(|| scene.map_or(5e-6, |s| s.particle_radius_m));
     let layout = Layout {
         field_m,
         particles: planning_particles(tracks, radius_m),
@@ -407,10 +409,4 @@ impl DryCommand {
             DryCommand::Refused { reason } => format!("nothing: {reason}"),
         }
     }
-}
-
-/// Median measured radius of the tracks (5 um when there are none).
-fn median_radius_m(tracks: &[super::tracker::Track]) -> f64 {
-    let mut r: Vec<f64> = tracks.iter().map(|t| t.last.radius_m).collect();
-    crate::median::upper_median(&mut r).unwrap_or(5e-6)
 }

@@ -137,6 +137,11 @@ pub enum RunEvent {
         mode: String,
         /// True when this push repeats one whose contact was lost.
         repush: bool,
+        /// The particle radius the push was decided and made with,
+        /// micrometres: the batch's measured size (absent in journals
+        /// written before this field).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        radius_um: Option<f64>,
     },
     /// A nanostage move was commanded (nanostage coordinates).
     Move {

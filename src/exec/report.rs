@@ -399,6 +399,7 @@ mod tests {
             ride_over_margin: None,
             mode: "rolling".to_owned(),
             repush,
+            radius_um: None,
         }
     }
 
