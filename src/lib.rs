@@ -11,6 +11,7 @@ pub mod cli;
 pub mod exec;
 pub mod median;
 pub mod model;
+pub mod natural_order;
 pub mod plan;
 pub mod render;
 pub mod rig;

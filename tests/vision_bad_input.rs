@@ -325,11 +325,17 @@ fn study_vision_refuses_what_it_cannot_study() {
     );
     let err = refused(dir.path(), &with(&["--particles", "0"]));
     assert!(err.contains("--particles must be > 0"), "{err}");
-    let ran = deadline::nanopush_within(dir.path(), &with(&["--particles", "100000"]), 60);
+    // Its tables go into a folder that is not there yet.
+    let table = dir.path().join("new/folder/vis");
+    let table_arg = table.display().to_string();
+    let mut args: Vec<&str> = with(&["--particles", "100000"]);
+    args.extend(["--out", table_arg.as_str()]);
+    let ran = deadline::nanopush_within(dir.path(), &args, 60);
     assert!(ran.ok, "{}", ran.stderr);
     let header = ran.stdout.lines().next().unwrap_or_default();
     assert!(
         header.contains("(of 100000 asked; no more fit) spheres"),
         "{header}"
     );
+    assert!(table.with_extension("md").is_file() && table.with_extension("json").is_file());
 }

@@ -264,14 +264,21 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
         .unwrap_or_else(|| "-".to_string())
 }
 
-/// The acceptance figures with their targets, one line each.
+/// The acceptance figures with their targets, one line each. The RMS and
+/// time figures are of the complete runs only, and say so when some runs
+/// are not (a stopped run's errors are microns: its worst is in the table).
 pub fn acceptance_text(s: &StudySummary) -> String {
     let share = s.complete_runs as f64 / s.runs.max(1) as f64;
+    let of = if s.complete_runs < s.runs {
+        format!(" of the {} complete runs", s.complete_runs)
+    } else {
+        String::new()
+    };
     format!(
         "{text}: {c}/{n} runs filled every site ({pct:.0} %, target >= 98 %)\n\
-         placement RMS: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
+         placement RMS{of}: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
          lost contacts: {d} detected, {m} missed (target 0 missed)\n\
-         time / lower bound: median {mt}, worst {wt} (target <= 1.5)\n\
+         time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5)\n\
          wall time per run: median {mw} s\n",
         text = s.text,
         c = s.complete_runs,
@@ -370,7 +377,13 @@ mod tests {
         assert_eq!(s.detected_lost_contacts, 3);
         assert_eq!(s.worst_time_ratio, Some(2.0));
         assert_eq!(s.median_time_ratio, Some(1.6));
-        assert!(acceptance_text(&s).contains("2/4 runs filled every site (50 %"));
+        let text = acceptance_text(&s);
+        assert!(text.contains("2/4 runs filled every site (50 %"), "{text}");
+        assert!(
+            text.contains("placement RMS of the 2 complete runs: median 200 nm, worst 300 nm")
+                && text.contains("time / lower bound of the 2 complete runs: median 1.60"),
+            "{text}"
+        );
     }
 
     #[test]

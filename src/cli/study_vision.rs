@@ -164,6 +164,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     print!("{md}");
     if let Some(out) = &args.out {
+        if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+            std::fs::create_dir_all(folder)
+                .with_context(|| format!("creating {}", folder.display()))?;
+        }
         std::fs::write(out.with_extension("md"), &md)
             .with_context(|| format!("writing {}", out.display()))?;
         let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});

@@ -18,6 +18,7 @@ use super::camera_clock::WallClock;
 use super::camera_error::CameraError;
 use super::camera_source::{CameraSource, FrameOrder, FramePick, ms};
 use super::error::RigError;
+use crate::natural_order::natural_cmp;
 use crate::vision::frame_input::{Channel, decode_image};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -185,10 +186,12 @@ impl FolderCamera {
             }
         }
         match self.settings.order {
-            FrameOrder::Name => out.sort_by(|a, b| a.path.cmp(&b.path)),
-            FrameOrder::Mtime => {
-                out.sort_by(|a, b| (a.modified, &a.path).cmp(&(b.modified, &b.path)))
-            }
+            FrameOrder::Name => out.sort_by(|a, b| natural_cmp(&a.path, &b.path)),
+            FrameOrder::Mtime => out.sort_by(|a, b| {
+                a.modified
+                    .cmp(&b.modified)
+                    .then_with(|| natural_cmp(&a.path, &b.path))
+            }),
         }
         Ok(out)
     }

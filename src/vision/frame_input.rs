@@ -125,7 +125,8 @@ pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputErro
     decode_image(&bytes, path, channel)
 }
 
-/// The images of a folder, sorted by name: the frames [`load_frames`]
+/// The images of a folder, sorted by name, numbers by value (`img_2`
+/// before `img_10`, [`crate::natural_order`]): the frames [`load_frames`]
 /// reads from it, in its order (so an error can name a frame's file).
 pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -136,7 +137,7 @@ pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| IMAGE_EXTENSIONS.contains(&extension(p).as_str()))
         .collect();
-    files.sort();
+    files.sort_by(|a, b| crate::natural_order::natural_cmp(a, b));
     Ok(files)
 }
 
@@ -486,6 +487,27 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), image::ImageError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A camera's unpadded frame numbers come back in the order written.
+    #[test]
+    fn a_folders_images_are_listed_by_their_numbers() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in [
+            "img_10.png",
+            "img_2.png",
+            "img_1.png",
+            "notes.txt",
+            "img_9.png",
+        ] {
+            std::fs::write(dir.path().join(name), b"").unwrap();
+        }
+        let names: Vec<String> = image_files(dir.path())
+            .unwrap()
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(names, ["img_1.png", "img_2.png", "img_9.png", "img_10.png"]);
+    }
 
     #[test]
     fn png_round_trip_keeps_8_and_16_bit_counts() {
