@@ -252,6 +252,46 @@ fn detect_warns_of_a_clipped_background_not_of_clipped_cores() {
     assert_eq!(doc.exposure, expected);
 }
 
+/// A 12-bit camera's frame in a 16-bit file, as its counts or shifted to
+/// the top bits: read as 12 bits, so its clipped background warns and is
+/// censored like a 16-bit camera's (without, no warning and 11 of 30
+/// particles on a like frame).
+#[test]
+fn a_twelve_bit_camera_in_a_sixteen_bit_file_clips_at_its_own_full_count() {
+    use nanopush::vision::detections_file::DetectionsFile;
+    use nanopush::vision::frame_input::save_png;
+    let dir = tempfile::tempdir().unwrap();
+    let over = bench_frame_at_gain(2.7);
+    let twelve = |scale: f32| {
+        let px = over
+            .pixels()
+            .iter()
+            .map(|v| (v / 16.0).round().min(4095.0) * scale)
+            .collect();
+        Frame::new(over.width(), over.height(), px, 16).unwrap()
+    };
+    let found = |frame: &Frame, name: &str| {
+        let path = dir.path().join(name);
+        save_png(frame, &path).unwrap();
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(["detect", path.to_str().unwrap(), "--json"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let doc = DetectionsFile::from_json(&String::from_utf8_lossy(&o.stdout)).unwrap();
+        (doc.particles.len(), String::from_utf8_lossy(&o.stderr).into_owned())
+    };
+    let (sixteen, _) = found(&over, "sixteen.png");
+    for (name, scale) in [("counts.png", 1.0), ("shifted.png", 16.0)] {
+        let (n, said) = found(&twelve(scale), name);
+        assert!(
+            said.contains("of the pixels at the camera's full count (4095): over-exposed"),
+            "{name}: {said}"
+        );
+        assert!(n + 3 >= sixteen, "{name}: {n} particles, {sixteen} in 16 bits");
+    }
+}
+
 #[test]
 fn empty_frames_give_no_detections_at_any_bit_depth() {
     for bits in [8u8, 16] {

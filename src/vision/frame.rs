@@ -84,12 +84,15 @@ impl Frame {
         self.height
     }
 
-    /// Bits per sample of the source (8 or 16); sets the saturation level.
+    /// Bits per sample of the source (8 or 16, or the 10, 12 or 14 of a
+    /// camera whose counts a 16-bit file holds, `camera_bits`); sets the
+    /// saturation level.
     pub fn bit_depth(&self) -> u8 {
         self.bit_depth
     }
 
-    /// Largest count the source can hold (255 or 65535).
+    /// Largest count the source can hold (255, 65535, or 4095 for a
+    /// 12-bit camera's).
     pub fn max_count(&self) -> f32 {
         ((1u32 << self.bit_depth.min(31)) - 1) as f32
     }

@@ -17,6 +17,7 @@ use opencv::core::{Mat, MatTraitConst, MatTraitConstManual, Vector};
 use opencv::prelude::VideoCaptureTrait;
 use thiserror::Error;
 
+use super::camera_bits::at_camera_bits;
 use super::frame::{Frame, FrameError};
 use super::tiff_fallback;
 use super::wide_samples::frame_from_wide;
@@ -303,7 +304,7 @@ pub fn image_to_frame(img: &DynamicImage, channel: Channel) -> Result<Frame, Fra
             .map(|p| pick(channel, p[0] as f32, p[1] as f32, p[2] as f32))
             .collect()
     };
-    Frame::new(w, h, pixels, if sixteen { 16 } else { 8 })
+    Frame::new(w, h, pixels, if sixteen { 16 } else { 8 }).map(at_camera_bits)
 }
 
 /// Converts an OpenCV matrix (1/3/4 channels, BGR order) to a frame: 8U and
@@ -395,7 +396,7 @@ pub(crate) fn grey_frame(
             .collect(),
     };
     match bits {
-        Some(bits) => Frame::new(w, h, pixels, bits),
+        Some(bits) => Frame::new(w, h, pixels, bits).map(at_camera_bits),
         None => frame_from_wide(w, h, &pixels),
     }
 }
