@@ -310,6 +310,8 @@ fn kill_and_resume(kill_after: usize) {
     }
     child.kill().unwrap();
     child.wait().unwrap();
+    // The killed run's video was never finished: no run.mp4 to link.
+    assert!(!out.join("run.mp4").exists());
     let before = complete_lines(&journal);
     let contents = read_journal::<RunEvent>(&journal).unwrap();
     let RunEvent::Start(spec) = &contents.entries[0].event else {
@@ -345,6 +347,14 @@ fn kill_and_resume(kill_after: usize) {
     assert!(!all.truncated_tail);
     assert_eq!(all.entries[before.len() - 1].event, RunEvent::Resume);
     assert_eq!(all.entries.last().unwrap().event, RunEvent::Done);
+    // The resumed part's video is there and playable; the report links it
+    // and nothing of the killed part.
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(out.join("run-resume-1.mp4").is_file());
+    assert!(
+        report.contains("run-resume-1.mp4") && !report.contains("(run.mp4)"),
+        "{report}"
+    );
     // Ground truth: every site filled, and nothing that sat on a site at the kill moved.
     let end = SimState::load(&out.join("sim-state.json")).unwrap();
     let end_particles = particles(&end);

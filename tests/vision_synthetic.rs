@@ -279,7 +279,10 @@ fn a_twelve_bit_camera_in_a_sixteen_bit_file_clips_at_its_own_full_count() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let doc = DetectionsFile::from_json(&String::from_utf8_lossy(&o.stdout)).unwrap();
-        (doc.particles.len(), String::from_utf8_lossy(&o.stderr).into_owned())
+        (
+            doc.particles.len(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
     };
     let (sixteen, _) = found(&over, "sixteen.png");
     for (name, scale) in [("counts.png", 1.0), ("shifted.png", 16.0)] {
@@ -288,7 +291,10 @@ fn a_twelve_bit_camera_in_a_sixteen_bit_file_clips_at_its_own_full_count() {
             said.contains("of the pixels at the camera's full count (4095): over-exposed"),
             "{name}: {said}"
         );
-        assert!(n + 3 >= sixteen, "{name}: {n} particles, {sixteen} in 16 bits");
+        assert!(
+            n + 3 >= sixteen,
+            "{name}: {n} particles, {sixteen} in 16 bits"
+        );
     }
 }
 

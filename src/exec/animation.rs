@@ -6,6 +6,7 @@
 use super::assemble::{FrameSink, FrameView};
 use crate::render::run_overlay::{RunOverlay, draw_run_frame};
 use crate::render::video::{VideoError, VideoWriter};
+use crate::vision::frame_input::hidden_sibling;
 use std::path::{Path, PathBuf};
 
 /// Frames per second of the animation (one analysed frame per step of the loop).
@@ -56,7 +57,7 @@ impl AnimationWriter {
             })?;
         if self.video.is_none() {
             self.video = Some(VideoWriter::create(
-                &self.path,
+                &hidden_sibling(&self.path),
                 ANIMATION_FPS,
                 img.dimensions(),
             )?);
@@ -69,13 +70,27 @@ impl AnimationWriter {
     }
 
     /// Closes the video: its path and frame count, `None` when no frame came, or the first error.
+    /// The video is written under a hidden name and takes its own only
+    /// here: a run killed part way leaves no `run.mp4` that cannot be
+    /// played (a 44-byte file without its index had been linked from the
+    /// resumed run's report).
     pub fn finish(self) -> Result<Option<(PathBuf, usize)>, AnimationError> {
         if let Some(e) = self.error {
             return Err(e);
         }
         match self.video {
             None => Ok(None),
-            Some(v) => Ok(Some((self.path, v.finish()?))),
+            Some(v) => {
+                let frames = v.finish()?;
+                let written = hidden_sibling(&self.path);
+                std::fs::rename(&written, &self.path).map_err(|e| {
+                    AnimationError::Video(VideoError::Write {
+                        path: self.path.clone(),
+                        reason: e.to_string(),
+                    })
+                })?;
+                Ok(Some((self.path, frames)))
+            }
         }
     }
 }
