@@ -127,6 +127,24 @@ fn a_neighbour_ahead_ends_the_push_on_contact() {
     );
 }
 
+/// A neighbour touching or nearly touching stops the particle where they
+/// meet: the drop from the static to the kinetic threshold at onset had
+/// carried it 0.09 um on, through the neighbour.
+#[test]
+fn a_touching_neighbour_is_not_pushed_through() {
+    for gap_um in [0.0, 0.05] {
+        let mut s = paper();
+        s.neighbour_distances_m = vec![(10.0 + gap_um) * 1e-6];
+        let r = run(&s);
+        assert_eq!(r.outcome, Outcome::ParticleContact, "{gap_um}");
+        assert!(
+            r.displacement_m <= gap_um * 1e-6 + 1e-12,
+            "{gap_um} um gap: moved {} um",
+            r.displacement_m * 1e6
+        );
+    }
+}
+
 #[test]
 fn a_soft_lever_without_held_angle_rides_over_the_particle() {
     let mut s = paper();

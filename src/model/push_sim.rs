@@ -384,7 +384,10 @@ impl<'a> Prepared<'a> {
         let f_end = machine
             .kinetic_threshold(&c_end)
             .min(self.pre_onset_force(t_end));
-        let disp = (self.travel(t_end) - f_end / k).max(0.0);
+        // A neighbour the particle meets stops it there, whatever the force
+        // left of the static-to-kinetic drop at onset would have carried
+        // it on by (0.09 um through a touching neighbour, before).
+        let disp = (self.travel(t_end) - f_end / k).clamp(0.0, self.free_travel_m());
         let outcome = outcome.unwrap_or(match machine.mode {
             Mode::Rolling => Outcome::Rolling,
             Mode::Sliding => Outcome::Sliding,
@@ -404,6 +407,15 @@ impl<'a> Prepared<'a> {
             ),
             Some((t_on, mode)),
         ))
+    }
+
+    /// How far the particle can move before it meets a neighbour (without
+    /// one, without end).
+    fn free_travel_m(&self) -> f64 {
+        self.effects
+            .neighbour_gap_m
+            .unwrap_or(f64::INFINITY)
+            .max(0.0)
     }
 
     fn series(
@@ -426,7 +438,8 @@ impl<'a> Prepared<'a> {
                         motion: self.scene.motion,
                     };
                     let f = m.kinetic_threshold(&c).min(self.pre_onset_force(t));
-                    (f, (stage - f / self.path.force_per_travel).max(0.0))
+                    let moved = stage - f / self.path.force_per_travel;
+                    (f, moved.clamp(0.0, self.free_travel_m()))
                 }
                 _ => (self.pre_onset_force(t), 0.0),
             };

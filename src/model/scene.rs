@@ -571,10 +571,35 @@ impl RawScene {
             ));
         }
         let push_offset_m = finite(push.offset_um.unwrap_or(0.0), "push.offset_um")? * 1e-6;
+        // A push line a particle radius or more off the centre misses the
+        // particle: the tip passes beside it (it had been simulated as a
+        // spinning push with an onset).
+        if push_offset_m.abs() >= particle_radius_m {
+            return Err(ModelError::scene(
+                "push.offset_um",
+                format!(
+                    "{} um: the push line misses a particle of radius {:.2} um",
+                    push_offset_m * 1e6,
+                    particle_radius_m * 1e6
+                ),
+            ));
+        }
         let mut neighbour_distances_m = Vec::new();
         for (i, n) in self.neighbours.unwrap_or_default().iter().enumerate() {
-            neighbour_distances_m
-                .push(positive(n.distance_um, &format!("neighbours[{i}].distance_um"))? * 1e-6);
+            let key = format!("neighbours[{i}].distance_um");
+            let d = positive(n.distance_um, &key)? * 1e-6;
+            // Centre to centre: closer than a diameter, the two overlap.
+            if d < 2.0 * particle_radius_m {
+                return Err(ModelError::scene(
+                    &key,
+                    format!(
+                        "{} um is less than a particle diameter ({:.2} um): the two would overlap",
+                        d * 1e6,
+                        2.0 * particle_radius_m * 1e6
+                    ),
+                ));
+            }
+            neighbour_distances_m.push(d);
         }
         Ok(Scene {
             name: self.name.unwrap_or_else(|| "unnamed".into()),
@@ -614,15 +639,49 @@ impl Scene {
 mod tests {
     use super::*;
 
+    /// The paper scene's TOML.
+    fn paper_text() -> &'static str {
+        BUILT_IN_SCENES
+            .iter()
+            .find(|(p, _)| p.ends_with("paper-ps-ito.toml"))
+            .expect("the paper scene is built in")
+            .1
+    }
+
+    /// A neighbour overlapping the particle and a push line that misses it
+    /// are refused, naming the key; a touching neighbour is allowed.
+    #[test]
+    fn impossible_geometry_is_refused() {
+        let paper = paper_text();
+        let with = |extra: &str| Scene::from_toml_str(&format!("{paper}\n{extra}\n"));
+        let err = with("[[neighbours]]\ndistance_um = 3.0")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("neighbours[0].distance_um") && err.contains("overlap"),
+            "{err}"
+        );
+        assert!(with("[[neighbours]]\ndistance_um = 10.0").is_ok());
+        let offset = |o: f64| {
+            paper.replace(
+                "duration_s = 30.0",
+                &format!("duration_s = 30.0\noffset_um = {o}"),
+            )
+        };
+        let err = Scene::from_toml_str(&offset(50.0)).unwrap_err().to_string();
+        assert!(
+            err.contains("push.offset_um") && err.contains("misses"),
+            "{err}"
+        );
+        assert!(Scene::from_toml_str(&offset(-5.0)).is_err());
+        assert!(Scene::from_toml_str(&offset(2.0)).is_ok());
+    }
+
     /// A misspelt key is named with its own line, whether it starts the
     /// line or is indented (the first was reported a line early).
     #[test]
     fn a_misspelt_key_is_named_with_its_line() {
-        let paper = BUILT_IN_SCENES
-            .iter()
-            .find(|(p, _)| p.ends_with("paper-ps-ito.toml"))
-            .expect("the paper scene is built in")
-            .1;
+        let paper = paper_text();
         let line = paper
             .lines()
             .position(|l| l.starts_with("speed_um_s"))
