@@ -260,18 +260,26 @@ fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
         assert!(!o.status.success() && err.contains(why), "{flags:?}: {err}");
         assert!(!out.exists(), "{flags:?} made the output folder");
     }
-    // A resumed run keeps its journal's sites.
-    let o = binary()
-        .args(["assemble", "--resume"])
-        .arg(out.join("journal.jsonl"))
-        .args(["--at", "60,50"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !o.status.success() && err.contains("cannot be used with"),
-        "{err}"
-    );
+    // A resumed run keeps its journal's sites, scene, seed and world: a
+    // flag that would change them is refused, not ignored.
+    for flag in [
+        ["--at", "60,50"],
+        ["--seed", "5"],
+        ["--particles", "30"],
+        ["--scene", "calib/hard-high-adhesion.toml"],
+    ] {
+        let o = binary()
+            .args(["assemble", "--resume"])
+            .arg(out.join("journal.jsonl"))
+            .args(flag)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains("cannot be used with"),
+            "{flag:?}: {err}"
+        );
+    }
 }
 
 #[test]

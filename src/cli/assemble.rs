@@ -57,8 +57,9 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Continue the run whose journal this is: on the same simulated world,
-    /// or with --rig on the rig where it stopped.
-    #[arg(long, conflicts_with_all = ["text", "pattern", "pitch_um", "rotation_deg", "at", "layout"])]
+    /// or with --rig on the rig where it stopped (its pattern, scene, seed
+    /// and world are the journal's).
+    #[arg(long, conflicts_with_all = ["text", "pattern", "pitch_um", "rotation_deg", "at", "layout", "scene", "seed", "particles"])]
     pub resume: Option<PathBuf>,
     /// Also write a recording of the run (frames, stage log, calibration) to this folder.
     #[arg(long)]
