@@ -452,6 +452,16 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
         &dry_run(&rec, &out, &[]),
         "but the first frame shows 5 particles",
     );
+    // A glyph the font has not: the file and its key are named.
+    std::fs::write(
+        rec.join("recording.toml"),
+        spec.replace("pattern = \"pattern.toml\"", "pattern_text = \"L!\""),
+    )
+    .unwrap();
+    assert_refused(
+        &dry_run(&rec, &out, &[]),
+        "recording.toml `pattern_text`: unknown glyph",
+    );
     let small = dir.path().join("small.toml");
     let paper = std::fs::read_to_string(root().join("calib/paper-ps-ito.toml")).unwrap();
     std::fs::write(

@@ -405,6 +405,14 @@ fn detect_cli_ring_edge_centres_on_brightfield() {
     let refused = run(&["--locator", "crocker-grier", "--diameter-px", "17"]);
     assert!(!refused.status.success());
     assert!(String::from_utf8_lossy(&refused.stderr).contains("ring-edge"));
+    // The study locators place candidates and fit none: refused too (they
+    // took the flag and ignored it).
+    for locator in ["pixel-peak", "centroid", "radial-symmetry"] {
+        let refused = run(&["--locator", locator]);
+        assert!(!refused.status.success(), "{locator}");
+        let said = String::from_utf8_lossy(&refused.stderr);
+        assert!(said.contains("need a fitted particle"), "{locator}: {said}");
+    }
 }
 
 /// The camera line-defect repair (vision::line_defects) must leave real

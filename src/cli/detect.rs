@@ -39,9 +39,14 @@ pub struct Args {
     /// Colour frames: luminance, red, green or blue.
     #[arg(long, default_value = "luminance")]
     pub channel: Channel,
-    /// Sub-pixel locator. `crocker-grier` gives trackpy-comparable results
-    /// (trackpy's `locate`: --diameter-px is its odd `diameter`, --polarity
-    /// dark its `invert`; quality is its `mass`, r_px its radius of gyration).
+    /// Sub-pixel locator. `profile-fit` is the detector (each candidate
+    /// fitted, and kept only when the fit is a particle); `crocker-grier`
+    /// gives trackpy-comparable results (trackpy's `locate`: --diameter-px
+    /// is its odd `diameter`, --polarity dark its `invert`; quality is its
+    /// `mass`, r_px its radius of gyration). `pixel-peak`, `centroid` and
+    /// `radial-symmetry` are for `study vision`: they only place every
+    /// candidate above the threshold, noise included, and take neither
+    /// --polarity nor --centre ring-edge.
     #[arg(long, value_enum, default_value = "profile-fit")]
     pub locator: LocatorArg,
     /// crocker-grier: minimum band-passed mass in frame counts (trackpy's `minmass`).
@@ -173,6 +178,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => DetectSettings::default().diameter_px,
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);
+    let places_only = matches!(
+        args.locator,
+        LocatorArg::PixelPeak | LocatorArg::Centroid | LocatorArg::RadialSymmetry
+    );
+    if places_only && (args.polarity.is_some() || matches!(args.centre, CentreArg::RingEdge)) {
+        anyhow::bail!(
+            "--polarity and --centre ring-edge need a fitted particle: --locator {:?} only \
+             places candidates (use --locator profile-fit)",
+            args.locator
+        );
+    }
     let analysis = match args.locator.detector_locator() {
         Some(locator) => {
             let settings = DetectSettings {

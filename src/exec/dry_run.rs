@@ -8,7 +8,7 @@ use super::assemble::{
 };
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
-use super::recording::Recording;
+use super::recording::{RECORDING_FILE, Recording};
 use super::recording_check::{check_sites_in_field, sites_of};
 use super::tracker::{Tracker, median_radius_m};
 use crate::model::Scene;
@@ -266,6 +266,12 @@ fn target_sites(
     let spec = &recording.spec;
     let target = |e: String| DryRunError::Target(e);
     let recorded: PatternRequest;
+    // Where the pattern comes from, for its errors: the flags, or the file.
+    let from = match (asked, &spec.pattern_text) {
+        (Some(_), _) => String::new(),
+        (None, Some(_)) => format!("{RECORDING_FILE} `pattern_text`: "),
+        (None, None) => format!("{RECORDING_FILE} `pattern`: "),
+    };
     let request = match asked {
         Some(request) => request,
         None => {
@@ -286,7 +292,7 @@ fn target_sites(
     };
     let pattern = request
         .pattern(radius_m)
-        .map_err(|e| target(e.to_string()))?;
+        .map_err(|e| target(format!("{from}{e}")))?;
     if pattern.offsets_m.len() > first.len() {
         return Err(target(format!(
             "the pattern has {} sites but the first frame shows {} particles",
