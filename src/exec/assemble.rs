@@ -222,8 +222,8 @@ pub struct Assembly<'a> {
     repush_next: Option<usize>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
-    /// The tip's drift as the frames show it (unused when `settings.drift` is None).
-    drift: DriftFilter,
+    /// The tip's drift as the frames show it; None when not followed.
+    drift: Option<DriftFilter>,
     pushes_done: usize,
     frames_seen: usize,
     /// Every push executed in this process, in order.
@@ -298,7 +298,7 @@ impl<'a> Assembly<'a> {
         Self {
             rig,
             tracker: Tracker::new(inputs.settings.track_gate_m),
-            drift: DriftFilter::new(inputs.settings.drift.unwrap_or_default()),
+            drift: inputs.settings.drift.map(DriftFilter::new),
             scene: inputs.scene,
             sites: inputs.sites,
             plan_config: inputs.plan_config,
@@ -489,9 +489,9 @@ impl<'a> Assembly<'a> {
                 repaired_lines: sighting.repaired_lines.clone(),
                 clipped: sighting.exposure.clipped(),
                 drift: self
-                    .settings
                     .drift
-                    .and_then(|_| self.drift.estimate_at(sighting.t_s)),
+                    .as_ref()
+                    .and_then(|d| d.estimate_at(sighting.t_s)),
             },
         )?;
         if let Some(sink) = self.sink.as_mut() {
@@ -519,7 +519,7 @@ impl<'a> Assembly<'a> {
     /// the probe's outline cuts).
     fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
         let (Some(_), Some(_), Some(tip), Some(stage)) = (
-            self.settings.drift,
+            self.drift.as_ref(),
             self.first_plan_ids,
             sighting.tip_m,
             sighting.stage_m,
@@ -535,21 +535,18 @@ impl<'a> Assembly<'a> {
         let clear = tracked.chain(pushed).all(|(centre, radius)| {
             (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
         });
-        if clear {
+        if clear && let Some(drift) = self.drift.as_mut() {
             let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
-            let update = self
-                .drift
-                .add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
+            let update = drift.add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
             tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
         }
     }
 
     /// The drift to take out of a move made now (zero when not followed).
     fn drift_now(&self) -> [f64; 2] {
-        match self.settings.drift {
-            Some(_) => self.drift.correction_at(self.rig.now_s()),
-            None => [0.0, 0.0],
-        }
+        self.drift
+            .as_ref()
+            .map_or([0.0, 0.0], |d| d.correction_at(self.rig.now_s()))
     }
 
     /// True when the last frame showed this particle (a track outside the
