@@ -518,8 +518,8 @@ impl<'a> Assembly<'a> {
     /// particle under the probe is not tracked (the frame drops detections
     /// the probe's outline cuts).
     fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
-        let (Some(_), Some(_), Some(tip), Some(stage)) = (
-            self.drift.as_ref(),
+        let (Some(drift), Some(_), Some(tip), Some(stage)) = (
+            self.drift.as_mut(),
             self.first_plan_ids,
             sighting.tip_m,
             sighting.stage_m,
@@ -535,7 +535,7 @@ impl<'a> Assembly<'a> {
         let clear = tracked.chain(pushed).all(|(centre, radius)| {
             (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
         });
-        if clear && let Some(drift) = self.drift.as_mut() {
+        if clear {
             let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
             let update = drift.add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
             tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
@@ -694,24 +694,27 @@ impl<'a> Assembly<'a> {
     }
 
     /// The radius the loop plans, strokes and decides with: the median
-    /// measured radius of the confirmed tracks (the scene's before any).
+    /// measured radius of the `confirmed` tracks (the scene's before any).
     /// Not the scene's: a batch 2 % off its nominal size (4.9 um particles
     /// in a 5 um scene) put the tip's contact 0.15 um off along the push
     /// at a 70 deg contact angle, and every push, re-push included, fell
     /// 0.35 um short (or, 2 % over, overshot 0.3 um, back and forth 400
     /// times): CMU stopped at 0 of 31. Not each particle's own: a touching
     /// neighbour biases it.
-    fn particle_radius_m(&self) -> f64 {
-        median_radius_m(&self.confirmed_tracks()).unwrap_or(self.scene.particle_radius_m)
+    fn particle_radius_m(&self, confirmed: &[super::tracker::Track]) -> f64 {
+        median_radius_m(confirmed).unwrap_or(self.scene.particle_radius_m)
     }
 
     /// The next push: from the plan in hand if, moved onto the particles as
     /// seen now, it still verifies; otherwise from a fresh plan. Returns why
     /// there is none when the planner refuses.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
+        let confirmed = self.confirmed_tracks();
+        // The batch's measured size, for the plan and for the push.
+        let radius_m = self.particle_radius_m(&confirmed);
         let layout = Layout {
             field_m: self.settings.field_m,
-            particles: planning_particles(&self.confirmed_tracks(), self.particle_radius_m()),
+            particles: planning_particles(&confirmed, radius_m),
         };
         let mut config = self.plan_config.clone();
         config.on_site_tolerance_m = self.settings.placed_tolerance_m;
@@ -775,16 +778,11 @@ impl<'a> Assembly<'a> {
         self.first_plan_ids.get_or_insert(self.tracker.ids_issued());
         Ok(first
             .ok_or_else(|| "the plan has no push left".to_owned())
-            .map(|(particle, from, to)| {
-                // The batch's measured size, as for planning (see
-                // `particle_radius_m`).
-                let radius_m = self.particle_radius_m();
-                PushIntent {
-                    particle,
-                    from: [from.x, from.y],
-                    to: [to.x, to.y],
-                    radius_m,
-                }
+            .map(|(particle, from, to)| PushIntent {
+                particle,
+                from: [from.x, from.y],
+                to: [to.x, to.y],
+                radius_m,
             }))
     }
 
@@ -956,17 +954,14 @@ impl<'a> Assembly<'a> {
     /// there less the coarse offset and the tip's drift. The drift is
     /// predicted at the move's own time, a little later than `fit_window`
     /// asked, so a point the window put on the range's edge may come out a
-    /// few nanometres beyond it: it is held at the edge.
+    /// few nanometres beyond it: it is held at the edge (every point the
+    /// window checked is otherwise inside the range, where this changes
+    /// nothing).
     fn move_on_sample(&mut self, target: StageXyz, speed: f64) -> Result<(), PushError> {
         let drift = self.drift_now();
         let range = self.rig.range();
         let on_stage = |i: usize| {
-            let wanted = target[i] - self.coarse_offset[i] - drift[i];
-            if drift[i] == 0.0 {
-                wanted
-            } else {
-                wanted.clamp(range[i].min_m, range[i].max_m)
-            }
+            (target[i] - self.coarse_offset[i] - drift[i]).clamp(range[i].min_m, range[i].max_m)
         };
         let nano = [on_stage(0), on_stage(1), target[2]];
         self.move_on_sample_raw(nano, speed)

@@ -7,19 +7,15 @@
 //! where the same frame in 16 bits warned and gave 30.
 
 use super::frame::Frame;
+use super::wide_samples::bright_clip_level;
 
 /// Camera bit depths a 16-bit file may carry, narrowest first.
 const CAMERA_BITS: [u8; 3] = [10, 12, 14];
 
-/// Fewest pixels at the top value that make it a clip level (and at least
-/// twice as many as hold the next value down: a noise tail thins out).
-const MIN_CLIPPED_PIXELS: usize = 8;
-/// ... or this fraction of the frame, if more.
-const MIN_CLIPPED_FRACTION: f64 = 1e-4;
-
 /// `frame` at its camera's bit depth: a 16-bit frame whose counts are all
 /// multiples of 4 or 16 is shifted down by 2 or 4 bits (14 or 12 bits);
-/// one whose top value is a plateau at 2^b - 1 (b = 10, 12, 14) is b bits.
+/// one whose top value is a clip level (as a wide frame's source clipping
+/// is told, `wide_samples`) at 2^b - 1 (b = 10, 12, 14) is b bits.
 /// Anything else, and frames of another depth, as they are.
 pub fn at_camera_bits(frame: Frame) -> Frame {
     if frame.bit_depth() != 16 {
@@ -41,27 +37,13 @@ pub fn at_camera_bits(frame: Frame) -> Frame {
         }
         None => match CAMERA_BITS
             .into_iter()
-            .find(|&b| top == ((1u32 << b) - 1) as f32 && is_plateau(px, top))
+            .find(|&b| top == ((1u32 << b) - 1) as f32 && bright_clip_level(px) == Some(top))
         {
             Some(b) => (px.to_vec(), b),
             None => return frame,
         },
     };
     Frame::new(frame.width(), frame.height(), pixels, bits).unwrap_or(frame)
-}
-
-/// True when `top`, the largest value, is held by many pixels and by more
-/// than twice as many as the next value below it.
-fn is_plateau(px: &[f32], top: f32) -> bool {
-    let at_top = px.iter().filter(|&&v| v == top).count();
-    let least = ((px.len() as f64 * MIN_CLIPPED_FRACTION) as usize).max(MIN_CLIPPED_PIXELS);
-    let next = px
-        .iter()
-        .copied()
-        .filter(|&v| v < top)
-        .fold(f32::NEG_INFINITY, f32::max);
-    let at_next = px.iter().filter(|&&v| v == next).count();
-    at_top >= least && at_top > 2 * at_next
 }
 
 #[cfg(test)]

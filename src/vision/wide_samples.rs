@@ -88,6 +88,13 @@ pub fn frame_from_wide(width: usize, height: usize, samples: &[f32]) -> Result<F
 /// Fewest pixels that share a level for it to be the source's clipping.
 const MIN_CLIPPED_PIXELS: usize = 8;
 
+/// The samples' brightest value when it is a clip level ([`ClipLevels`]):
+/// also how a 16-bit file shows its camera's narrower full count
+/// (`camera_bits`).
+pub(crate) fn bright_clip_level(samples: &[f32]) -> Option<f32> {
+    ClipLevels::of(samples).bright
+}
+
 /// The source's own clip levels: the frame's brightest (darkest) value when
 /// more pixels share it than the [`OUTLIER_FRACTION`] (so it bounds the
 /// robust range itself), at least [`MIN_CLIPPED_PIXELS`], and more than
