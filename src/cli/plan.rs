@@ -122,7 +122,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("no particle to plan with");
     }
     let request = args.target.request()?;
-    let pattern = request.pattern(radius)?;
+    // The pitch of the batch's typical particle: a wider one is left off
+    // the sites (`PlanConfig::site_radius_m`).
+    let pattern = request.pattern(layout.median_radius_m())?;
     let area = Reachable::for_field(layout.field_m, radius);
     let config = PlanConfig {
         contact_angle_rad: args.contact_angle_deg.to_radians(),

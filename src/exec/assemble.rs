@@ -17,9 +17,10 @@ use super::drift::{APEX_CLEAR_OF_PARTICLES_M, DriftFilter, DriftSettings};
 use super::events::{RunEvent, RunSpec, SeenParticle};
 use super::journal::{JournalError, JournalWriter};
 use super::observe::{ObserveError, Perception, Sighting};
+use super::particle_sizes::ParticleSizes;
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
-use super::tracker::{Moved, Tracker, median_radius_m};
+use super::tracker::{Moved, Tracker};
 use crate::calib::camera_map::CameraCalibration;
 use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
@@ -71,11 +72,14 @@ pub struct AssemblySettings {
 
 impl AssemblySettings {
     /// The planner's settings for a run: the scene's pushing speed, the
-    /// executor's travel speed, defaults otherwise.
+    /// executor's travel speed and placement tolerance (so the plan that
+    /// places the pattern and the loop's plans agree on what is placed and
+    /// which particles fit the sites), defaults otherwise.
     pub fn plan_config(&self, scene: &Scene) -> PlanConfig {
         PlanConfig {
             push_speed_m_per_s: scene.push.speed_m_per_s,
             travel_speed_m_per_s: self.travel_speed_m_per_s,
+            on_site_tolerance_m: self.placed_tolerance_m,
             ..PlanConfig::default()
         }
     }
@@ -693,31 +697,23 @@ impl<'a> Assembly<'a> {
             .collect()
     }
 
-    /// The radius the loop plans, strokes and decides with: the median
-    /// measured radius of the `confirmed` tracks (the scene's before any).
-    /// Not the scene's: a batch 2 % off its nominal size (4.9 um particles
-    /// in a 5 um scene) put the tip's contact 0.15 um off along the push
-    /// at a 70 deg contact angle, and every push, re-push included, fell
-    /// 0.35 um short (or, 2 % over, overshot 0.3 um, back and forth 400
-    /// times): CMU stopped at 0 of 31. Not each particle's own: a touching
-    /// neighbour biases it.
-    fn particle_radius_m(&self, confirmed: &[super::tracker::Track]) -> f64 {
-        median_radius_m(confirmed).unwrap_or(self.scene.particle_radius_m)
-    }
-
     /// The next push: from the plan in hand if, moved onto the particles as
     /// seen now, it still verifies; otherwise from a fresh plan. Returns why
     /// there is none when the planner refuses.
     fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
         let confirmed = self.confirmed_tracks();
-        // The batch's measured size, for the plan and for the push.
-        let radius_m = self.particle_radius_m(&confirmed);
+        // The particles' measured sizes, for the plan and for the push.
+        // Not the scene's: a batch 2 % off its nominal size (4.9 um
+        // particles in a 5 um scene) put the tip's contact 0.15 um off
+        // along the push at a 70 deg contact angle, and every push, re-push
+        // included, fell 0.35 um short (or, 2 % over, overshot 0.3 um, back
+        // and forth 400 times): CMU stopped at 0 of 31.
+        let sizes = ParticleSizes::of(&confirmed, self.scene.particle_radius_m);
         let layout = Layout {
             field_m: self.settings.field_m,
-            particles: planning_particles(&confirmed, radius_m),
+            particles: planning_particles(&confirmed, &sizes),
         };
         let mut config = self.plan_config.clone();
-        config.on_site_tolerance_m = self.settings.placed_tolerance_m;
         config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
         let repushed = self.repush_next.map(|id| id as u32);
         let kept = self.plan_in_hand.take().map(|p| {
@@ -782,7 +778,10 @@ impl<'a> Assembly<'a> {
                 particle,
                 from: [from.x, from.y],
                 to: [to.x, to.y],
-                radius_m,
+                radius_m: confirmed
+                    .iter()
+                    .find(|t| t.id == particle)
+                    .map_or(sizes.median_m, |t| sizes.radius_m(t)),
             }))
     }
 
@@ -1083,17 +1082,17 @@ const RETREAT_EXTRA_M: f64 = 3e-6;
 /// The particles the planner is told about. A track the camera has missed
 /// for a few frames is dropped; one missed more recently is kept unless a
 /// particle seen in this frame overlaps it (then the stale one is wrong).
-/// Every particle gets the scene's radius: detections outside the size gate are
-/// already dropped, and a measured radius is noisier than the batch's (a touching
-/// neighbour biases it), while the planner spaces sites by the largest radius.
-/// Radii are capped at half the distance to the nearest neighbour: touching
-/// spheres cannot overlap, so a few nanometres of apparent overlap must not make
-/// the layout invalid.
-pub fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Vec<Particle> {
+/// Each particle has its size from `sizes`. Radii are capped so
+/// that no two discs overlap: touching spheres cannot, so a few nanometres
+/// of apparent overlap must not make the layout invalid.
+pub fn planning_particles(
+    tracks: &[super::tracker::Track],
+    sizes: &ParticleSizes,
+) -> Vec<Particle> {
     let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
-    let kept: Vec<&super::tracker::Track> = tracks
+    let seen: Vec<(usize, [f64; 2], f64)> = tracks
         .iter()
         .filter(|t| t.missed_frames < 3)
         .filter(|t| {
@@ -1102,43 +1101,47 @@ pub fn planning_particles(tracks: &[super::tracker::Track], radius_m: f64) -> Ve
                     .iter()
                     .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
         })
+        .map(|t| (t.id, [t.last.x_m, t.last.y_m], sizes.radius_m(t)))
         .collect();
-    let seen: Vec<(usize, &super::tracker::Observation)> =
-        kept.iter().map(|t| (t.id, &t.last)).collect();
-    particles_seen(&seen, radius_m)
+    particles_seen(&seen)
 }
 
 /// The first frame's particles as a layout of `field_m` (ids by order
-/// seen), for placing the pattern before any track exists.
+/// seen), each of `radius_m`, for placing the pattern before any track exists.
 pub fn layout_seen(
     field_m: [f64; 2],
     seen: &[super::tracker::Observation],
     radius_m: f64,
 ) -> Layout {
-    let seen: Vec<_> = seen.iter().enumerate().collect();
+    let seen: Vec<_> = seen
+        .iter()
+        .enumerate()
+        .map(|(id, o)| (id, [o.x_m, o.y_m], radius_m))
+        .collect();
     Layout {
         field_m,
-        particles: particles_seen(&seen, radius_m),
+        particles: particles_seen(&seen),
     }
 }
 
-/// Particles `(id, observation)` with the scene's radius, capped at half the
-/// distance to the nearest neighbour (see [`planning_particles`]).
-pub fn particles_seen(
-    seen: &[(usize, &super::tracker::Observation)],
-    radius_m: f64,
-) -> Vec<Particle> {
+/// Particles `(id, centre, radius)`, each radius capped at its share of
+/// the distance to every neighbour it would overlap (see
+/// [`planning_particles`]).
+pub fn particles_seen(seen: &[(usize, [f64; 2], f64)]) -> Vec<Particle> {
     seen.iter()
-        .map(|&(id, o)| {
-            let nearest = seen
+        .map(|&(id, c, r)| {
+            let capped = seen
                 .iter()
-                .filter(|&&(other, _)| other != id)
-                .map(|(_, u)| (o.x_m - u.x_m).hypot(o.y_m - u.y_m))
-                .fold(f64::INFINITY, f64::min);
+                .filter(|&&(other, _, _)| other != id)
+                .map(|&(_, u, ru)| {
+                    let d = (c[0] - u[0]).hypot(c[1] - u[1]);
+                    d * r / (r + ru) * (1.0 - 1e-6)
+                })
+                .fold(r, f64::min);
             Particle {
                 id: id as u32,
-                centre_m: Vector2::new(o.x_m, o.y_m),
-                radius_m: radius_m.min(0.5 * nearest * (1.0 - 1e-6)),
+                centre_m: Vector2::new(c[0], c[1]),
+                radius_m: capped,
             }
         })
         .collect()
@@ -1182,9 +1185,9 @@ mod tests {
             radius_m: 5.2e-6,
         };
         let (a, b, c) = (at(10.0), at(19.99), at(60.0));
-        let particles = particles_seen(&[(3, &a), (8, &b), (9, &c)], 5e-6);
+        let particles = layout_seen([100e-6, 40e-6], &[a, b, c], 5e-6).particles;
         let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
-        assert_eq!(ids, [3, 8, 9]);
+        assert_eq!(ids, [0, 1, 2]);
         for p in &particles[..2] {
             assert!(
                 p.radius_m < 4.995e-6 && p.radius_m > 4.99e-6,
@@ -1201,5 +1204,24 @@ mod tests {
             layout.validate().is_ok(),
             "the capped radii must not overlap"
         );
+    }
+
+    /// Particles of their own sizes, 5.2 and 4.8 um, seen 9.99 um apart
+    /// share the 10 nm of apparent overlap by size; a lone one keeps its own.
+    #[test]
+    fn touching_particles_of_two_sizes_share_the_overlap_by_size() {
+        let particles = particles_seen(&[
+            (3, [10e-6, 20e-6], 5.2e-6),
+            (8, [19.99e-6, 20e-6], 4.8e-6),
+            (9, [60e-6, 20e-6], 4.5e-6),
+        ]);
+        let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
+        assert_eq!(ids, [3, 8, 9]);
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-11;
+        assert!(near(particles[0].radius_m, 5.2e-6 * 0.999), "{particles:?}");
+        assert!(near(particles[1].radius_m, 4.8e-6 * 0.999), "{particles:?}");
+        assert_eq!(particles[2].radius_m, 4.5e-6);
+        let gap = 9.99e-6 - particles[0].radius_m - particles[1].radius_m;
+        assert!(gap > 0.0, "overlap {gap}");
     }
 }

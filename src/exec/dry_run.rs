@@ -8,9 +8,10 @@ use super::assemble::{
 };
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
+use super::particle_sizes::ParticleSizes;
 use super::recording::{RECORDING_FILE, Recording};
 use super::recording_check::{check_sites_in_field, sites_of};
-use super::tracker::{Tracker, median_radius_m};
+use super::tracker::Tracker;
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
@@ -320,13 +321,12 @@ fn next_command(
     scene: Option<&Scene>,
     t_s: f64,
 ) -> (DryCommand, Vec<PlannedPush>) {
-    // As the loop does: the particles' measured size, the scene's (or 5
+    // As the loop does: the particles' measured sizes, the scene's (or 5
     // um) before any is seen.
-    let radius_m =
-        median_radius_m(tracks).unwrap_or_else(|| scene.map_or(5e-6, |s| s.particle_radius_m));
+    let sizes = ParticleSizes::of(tracks, scene.map_or(5e-6, |s| s.particle_radius_m));
     let layout = Layout {
         field_m,
-        particles: planning_particles(tracks, radius_m),
+        particles: planning_particles(tracks, &sizes),
     };
     let config = PlanConfig {
         tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),
@@ -360,12 +360,15 @@ fn next_command(
             Vec::new(),
         );
     };
-    // The planning radius, as the loop does (see `planning_particles`).
+    // The particle's size, as the loop does.
     let intent = PushIntent {
         particle: particle as usize,
         from: first.from,
         to: first.to,
-        radius_m,
+        radius_m: tracks
+            .iter()
+            .find(|t| t.id == particle as usize)
+            .map_or(sizes.median_m, |t| sizes.radius_m(t)),
     };
     let advice = scene.map(|s| decide_push(s, &intent, t_s));
     let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];

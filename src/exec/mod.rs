@@ -10,6 +10,7 @@ pub mod events;
 pub mod frame_layout;
 pub mod journal;
 pub mod observe;
+pub mod particle_sizes;
 pub mod push_check;
 pub mod recording;
 mod recording_check;

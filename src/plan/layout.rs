@@ -349,6 +349,22 @@ impl Layout {
         }
     }
 
+    /// The upper median particle radius (0 for an empty layout): the batch's
+    /// size, which a pattern's default pitch is built for.
+    pub fn median_radius_m(&self) -> f64 {
+        let mut radii: Vec<f64> = self.particles.iter().map(|p| p.radius_m).collect();
+        crate::median::upper_median(&mut radii).unwrap_or(0.0)
+    }
+
+    /// Smallest particle radius (0 for an empty layout).
+    pub fn min_radius_m(&self) -> f64 {
+        self.particles
+            .iter()
+            .map(|p| p.radius_m)
+            .reduce(f64::min)
+            .unwrap_or(0.0)
+    }
+
     /// Largest particle radius (0 for an empty layout).
     pub fn max_radius_m(&self) -> f64 {
         self.particles

@@ -83,6 +83,11 @@ pub struct PlanConfig {
     /// collision queries; default [`DEFAULT_SEARCH_EFFORT`]): a crowded
     /// field is refused in seconds, not minutes.
     pub search_effort: u64,
+    /// Largest particle radius a site takes: wider particles are pushed
+    /// off the sites but never onto one. None: the layout's largest radius,
+    /// at most half the sites' nearest spacing ([`site_radius_m`], set by
+    /// [`plan_assembly`]).
+    pub site_radius_m: Option<f64>,
 }
 
 impl Default for PlanConfig {
@@ -101,8 +106,42 @@ impl Default for PlanConfig {
             tip_start_m: None,
             immovable: Vec::new(),
             search_effort: DEFAULT_SEARCH_EFFORT,
+            site_radius_m: None,
         }
     }
+}
+
+impl PlanConfig {
+    /// The radius the sites are held at: [`PlanConfig::site_radius_m`], or
+    /// the layout's largest.
+    pub fn site_radius_for(&self, layout: &Layout) -> f64 {
+        self.site_radius_m.unwrap_or_else(|| layout.max_radius_m())
+    }
+
+    /// [`PlanConfig::site_radius_m`], or the one `sites` allow ([`site_radius_m`]).
+    fn site_radius_for_sites(&self, layout: &Layout, sites: &[Site]) -> f64 {
+        self.site_radius_m
+            .unwrap_or_else(|| site_radius_m(layout, sites, self))
+    }
+}
+
+/// The largest particle radius every site can take at once: the layout's
+/// largest, at most half of what the sites' nearest spacing leaves after
+/// the room a particle needs to reach a site between filled ones (the
+/// clearance and the on-site tolerance, as the order's corridors keep
+/// them). A batch with a 5 % spread of radii (4.3-5.4 um) at the 10.5 um
+/// pitch of its 5 um median cannot put two of its widest on neighbouring
+/// sites; held at the largest radius, the sites overlapped and every plan
+/// was refused.
+pub fn site_radius_m(layout: &Layout, sites: &[Site], config: &PlanConfig) -> f64 {
+    let largest = layout.max_radius_m();
+    let centres: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
+    let grid = grid::Grid::new(centres.iter().copied(), (2.0 * largest).max(1e-9));
+    let nearest_m = centres
+        .iter()
+        .filter_map(|&c| grid.nearest(c, 2).get(1).map(|&(d, _)| d))
+        .fold(f64::INFINITY, f64::min);
+    largest.min(0.5 * (nearest_m - config.clearance_m - config.on_site_tolerance_m))
 }
 
 /// Default [`PlanConfig::search_effort`], in cells read and particles
@@ -215,7 +254,7 @@ fn check_immovable_clear_of_sites(
     sites: &[Site],
     config: &PlanConfig,
 ) -> Result<(), PlanError> {
-    let radius = layout.max_radius_m();
+    let radius = config.site_radius_for(layout);
     for p in layout
         .particles
         .iter()
@@ -256,6 +295,20 @@ pub enum PlanError {
     /// No collision-free order was found.
     #[error("no collision-free order: {0}")]
     Blocked(String),
+    /// Too few particles narrow enough for the sites' spacing.
+    #[error(
+        "{sites} sites to fill but only {fitting} free particles fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch)"
+    )]
+    TooFewFitting {
+        /// Sites still to fill.
+        sites: usize,
+        /// Free particles of at most `site_radius_um`.
+        fitting: usize,
+        /// Free particles wider than that.
+        too_wide: usize,
+        /// Half the sites' nearest spacing, um.
+        site_radius_um: f64,
+    },
 }
 
 impl PlanConfig {
@@ -279,6 +332,12 @@ impl PlanConfig {
                     if positive { "> 0" } else { ">= 0" }
                 )));
             }
+        }
+        if let Some(r) = self.site_radius_m.filter(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(PlanError::Config(format!(
+                "site_radius_um is {} (must be finite and > 0)",
+                r * 1e6
+            )));
         }
         if self.search_effort == 0 {
             return Err(PlanError::Config(
@@ -395,7 +454,8 @@ fn plan_at_standoff(
     let site_pattern = Pattern {
         offsets_m: sites.iter().map(|s| s.centre_m).collect(),
     };
-    site_pattern.check_no_overlap(2.0 * radius)?;
+    // Too close for even the smallest particle.
+    site_pattern.check_no_overlap(2.0 * layout.min_radius_m())?;
     if layout.particles.len() < sites.len() {
         return Err(assignment::AssignmentError::TooFewParticles {
             sites: sites.len(),
@@ -403,6 +463,10 @@ fn plan_at_standoff(
         }
         .into());
     }
+    let config = &PlanConfig {
+        site_radius_m: Some(config.site_radius_for_sites(layout, sites)),
+        ..config.clone()
+    };
     check_immovable_clear_of_sites(layout, sites, config)?;
     let (assigned, ordered) = assign_and_order(layout, sites, config)?;
     let lb_push = assigned.lb_push_m;
@@ -623,19 +687,32 @@ impl FreeProblem {
             layout.max_radius_m() * 2.0,
         );
         let immovable = |p: usize| config.immovable.contains(&layout.particles[p].id);
+        let site_radius = config.site_radius_for(layout);
+        let fits = |p: usize| layout.particles[p].radius_m <= site_radius;
         let centres: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
         let (on_site_pairs, free_sites) =
             parking::pin_on_sites(&centres, &grid, config.on_site_tolerance_m, |p| {
-                !immovable(p)
+                !immovable(p) && fits(p)
             });
         let mut particle_taken = vec![false; layout.particles.len()];
         for &(p, _) in &on_site_pairs {
             particle_taken[p] = true;
         }
         let free_particles: Vec<usize> = (0..layout.particles.len())
-            .filter(|&p| !particle_taken[p] && !immovable(p))
+            .filter(|&p| !particle_taken[p] && !immovable(p) && fits(p))
             .collect();
         if free_particles.len() < free_sites.len() {
+            let too_wide = (0..layout.particles.len())
+                .filter(|&p| !particle_taken[p] && !immovable(p) && !fits(p))
+                .count();
+            if too_wide > 0 {
+                return Err(PlanError::TooFewFitting {
+                    sites: free_sites.len(),
+                    fitting: free_particles.len(),
+                    too_wide,
+                    site_radius_um: site_radius * 1e6,
+                });
+            }
             return Err(assignment::AssignmentError::TooFewParticles {
                 sites: free_sites.len(),
                 particles: free_particles.len(),
@@ -775,7 +852,7 @@ fn park_costs(
     let discs = parking::SiteDiscs {
         grid: &site_grid,
         centres: site_pts,
-        radius_m: r,
+        radius_m: config.site_radius_for(layout),
         clearance_m: config.clearance_m,
     };
     free_particles

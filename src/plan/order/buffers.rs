@@ -127,12 +127,12 @@ impl Scheduler<'_> {
         !self.site_discs().covered_by(spot, r)
     }
 
-    /// The sites as discs of the largest radius, for the parking questions.
+    /// The sites as discs of the radius they take, for the parking questions.
     fn site_discs(&self) -> crate::plan::parking::SiteDiscs<'_> {
         crate::plan::parking::SiteDiscs {
             grid: &self.site_grid,
             centres: &self.site_pts,
-            radius_m: self.occ.max_radius_m,
+            radius_m: self.config.site_radius_for(self.layout),
             clearance_m: self.config.clearance_m,
         }
     }

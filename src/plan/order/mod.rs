@@ -251,8 +251,8 @@ fn order_once(
         .map(|m| layout.particles[m.particle].radius_m)
         .collect();
     let r = layout.max_radius_m();
-    // Sites are held at the largest radius: moves may trade particles.
-    let site_radii = vec![r; moves.len()];
+    // Sites are held at the largest radius a site takes: moves may trade particles.
+    let site_radii = vec![config.site_radius_for(layout); moves.len()];
     let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
     let n_moves = moves.len();
     let mut sch = Scheduler {

@@ -112,6 +112,11 @@ impl Scheduler<'_> {
         if banned(q, k) || matches!(self.role[q], Role::Pending(m) if banned(p, m)) {
             return false;
         }
+        // An unassigned particle may be one too wide for the sites.
+        let site_radius = self.config.site_radius_for(self.layout);
+        if self.role[q] == Role::Idle && self.layout.particles[q].radius_m > site_radius {
+            return false;
+        }
         match self.role[q] {
             Role::Idle => {
                 let Some(route) = route(self, k, q, true) else {

@@ -25,7 +25,7 @@ pub(super) struct Parking<'a> {
 
 impl<'a> Parking<'a> {
     pub(super) fn new(site_pts: &'a [Vector2<f64>], layout: &Layout, config: &PlanConfig) -> Self {
-        let radius_m = layout.max_radius_m();
+        let radius_m = config.site_radius_for(layout);
         Parking {
             grid: Grid::new(site_pts.iter().copied(), 2.0 * radius_m),
             site_pts,
