@@ -38,7 +38,6 @@ use crate::exec::observe::{Perception, Sighting};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
 use crate::model::Scene;
-use crate::plan::Pattern;
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
@@ -77,11 +76,10 @@ const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
 
 /// What a run on the rig starts from, checked before the rig is opened.
 enum RigStart {
-    /// A new run: its scene, pattern, output folder and journal.
+    /// A new run: its scene, pattern request, output folder and journal.
     New {
         scene: Scene,
         target: PatternRequest,
-        pattern: Pattern,
         journal_path: PathBuf,
     },
     /// A stopped run to go on with, and its scene.
@@ -130,9 +128,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         RigStart::New {
             scene,
             target,
-            pattern,
             journal_path,
-        } => assemble(args, &scene, (&target, &pattern), &mut rig, &journal_path),
+        } => assemble(args, &scene, &target, &mut rig, &journal_path),
         RigStart::Resume {
             point,
             scene,
@@ -174,7 +171,9 @@ fn new_start(args: &Args) -> anyhow::Result<RigStart> {
     let scene =
         Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
     let target = args.target.request()?;
-    let pattern = target.pattern(scene.particle_radius_m)?;
+    // Checked before the rig is opened; built again for the batch the
+    // first frame shows.
+    target.pattern(scene.particle_radius_m)?;
     let journal_path = args.out.join(JOURNAL);
     if journal_path.exists() {
         bail!("{} exists: use another --out", journal_path.display());
@@ -182,7 +181,6 @@ fn new_start(args: &Args) -> anyhow::Result<RigStart> {
     Ok(RigStart::New {
         scene,
         target,
-        pattern,
         journal_path,
     })
 }
@@ -224,7 +222,7 @@ fn check_end(end: &RunEnd, dry_run: bool) -> anyhow::Result<()> {
 fn assemble(
     args: &Args,
     scene: &Scene,
-    (target, pattern): (&PatternRequest, &Pattern),
+    target: &PatternRequest,
     rig: &mut HardwareRig,
     journal_path: &Path,
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
@@ -282,6 +280,9 @@ fn assemble(
     // At --at, else where the full plan on the first frame's particles is
     // fastest, as on the simulated rig.
     let layout = layout_seen(settings.field_m, &first.particles, r);
+    // Built again for the batch the camera shows: wider when its radii spread.
+    let radii: Vec<f64> = first.particles.iter().map(|o| o.radius_m).collect();
+    let pattern = &target.pattern_for_batch(r, &radii, &reachable)?;
     let sites = in_field
         .sites(
             pattern,

@@ -122,10 +122,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("no particle to plan with");
     }
     let request = args.target.request()?;
-    // The pitch of the batch's typical particle: a wider one is left off
-    // the sites (`PlanConfig::site_radius_m`).
-    let pattern = request.pattern(layout.median_radius_m())?;
+    // The pitch of the batch's typical particle, wider when its radii
+    // spread; a particle too wide for the sites is left off them
+    // (`PlanConfig::site_radius_m`).
+    let radii: Vec<f64> = layout.particles.iter().map(|p| p.radius_m).collect();
     let area = Reachable::for_field(layout.field_m, radius);
+    let pattern = request.pattern_for_batch(layout.median_radius_m(), &radii, &area)?;
     let config = PlanConfig {
         contact_angle_rad: args.contact_angle_deg.to_radians(),
         tip_radius_m: args.tip_radius_um * 1e-6,

@@ -778,10 +778,7 @@ impl<'a> Assembly<'a> {
                 particle,
                 from: [from.x, from.y],
                 to: [to.x, to.y],
-                radius_m: confirmed
-                    .iter()
-                    .find(|t| t.id == particle)
-                    .map_or(sizes.median_m, |t| sizes.radius_m(t)),
+                radius_m: sizes.radius_of(&confirmed, particle),
             }))
     }
 

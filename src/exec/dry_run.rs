@@ -291,8 +291,10 @@ fn target_sites(
             &recorded
         }
     };
+    let radii: Vec<f64> = first.iter().map(|o| o.radius_m).collect();
+    let area = Reachable::for_field(field_m, radius_m);
     let pattern = request
-        .pattern(radius_m)
+        .pattern_for_batch(radius_m, &radii, &area)
         .map_err(|e| target(format!("{from}{e}")))?;
     if pattern.offsets_m.len() > first.len() {
         return Err(target(format!(
@@ -304,7 +306,7 @@ fn target_sites(
     request
         .sites(
             &pattern,
-            &Reachable::for_field(field_m, radius_m),
+            &area,
             &layout_seen(field_m, first, radius_m),
             config,
             PlacementGoal::LeastTime,
@@ -365,10 +367,7 @@ fn next_command(
         particle: particle as usize,
         from: first.from,
         to: first.to,
-        radius_m: tracks
-            .iter()
-            .find(|t| t.id == particle as usize)
-            .map_or(sizes.median_m, |t| sizes.radius_m(t)),
+        radius_m: sizes.radius_of(tracks, particle as usize),
     };
     let advice = scene.map(|s| decide_push(s, &intent, t_s));
     let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];

@@ -62,6 +62,14 @@ impl ParticleSizes {
             None => self.median_m,
         }
     }
+
+    /// [`Self::radius_m`] of the track `id` of `tracks`, the median without it.
+    pub fn radius_of(&self, tracks: &[Track], id: usize) -> f64 {
+        tracks
+            .iter()
+            .find(|t| t.id == id)
+            .map_or(self.median_m, |t| self.radius_m(t))
+    }
 }
 
 #[cfg(test)]

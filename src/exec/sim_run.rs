@@ -177,10 +177,14 @@ fn sites_for(
         radius_um: r * 1e6,
         why,
     };
-    let pattern = target.pattern(r).map_err(|e| match e {
-        PatternError::OverlappingSites { .. } => mismatch(e.to_string()),
-        e => e.into(),
-    })?;
+    let radii: Vec<f64> = layout.particles.iter().map(|p| p.radius_m).collect();
+    let area = Reachable::for_field(layout.field_m, r);
+    let pattern = target
+        .pattern_for_batch(r, &radii, &area)
+        .map_err(|e| match e {
+            PatternError::OverlappingSites { .. } => mismatch(e.to_string()),
+            e => e.into(),
+        })?;
     if pattern.offsets_m.len() > layout.particles.len() {
         return Err(mismatch(format!(
             "{} sites but only {} particles",
@@ -190,7 +194,7 @@ fn sites_for(
     }
     Ok(target.sites(
         &pattern,
-        &Reachable::for_field(layout.field_m, r),
+        &area,
         layout,
         &AssemblySettings::default().plan_config(scene),
         PlacementGoal::LeastTime,
