@@ -250,6 +250,29 @@ mod tests {
         }
     }
 
+    /// A particle's own size comes only from sightings 1 um or more clear
+    /// of every other: 0.5 um from a neighbour it has none; moved 2 um
+    /// away, its radius there (5.2 um, not the touching sighting's 5.1).
+    #[test]
+    fn a_particles_own_size_is_taken_only_clear_of_the_others() {
+        let mut tracker = Tracker::new(3e-6);
+        let at = |x_um: f64, r_um: f64| Observation {
+            radius_m: r_um * 1e-6,
+            ..obs(x_um, 10.0)
+        };
+        tracker.update(&[at(10.0, 5.0), at(20.5, 5.1)], &[], &ALL);
+        assert_eq!(tracker.track(1).unwrap().own_radius_m(), None);
+        let moved = Moved {
+            id: 1,
+            from: [20.5e-6, 10e-6],
+            to: [22e-6, 10e-6],
+        };
+        tracker.update(&[at(10.0, 5.0), at(22.0, 5.2)], &[moved], &ALL);
+        let own = |id| tracker.track(id).unwrap().own_radius_m().unwrap();
+        assert!((own(1) - 5.2e-6).abs() < 1e-15, "{}", own(1));
+        assert!((own(0) - 5e-6).abs() < 1e-15, "{}", own(0));
+    }
+
     #[test]
     fn hits_count_the_frames_a_track_was_seen_in() {
         let mut t = Tracker::new(4e-6);

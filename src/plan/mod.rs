@@ -84,9 +84,8 @@ pub struct PlanConfig {
     /// field is refused in seconds, not minutes.
     pub search_effort: u64,
     /// Largest particle radius a site takes: wider particles are pushed
-    /// off the sites but never onto one. None: the layout's largest radius,
-    /// at most half the sites' nearest spacing ([`site_radius_m`], set by
-    /// [`plan_assembly`]).
+    /// off the sites but never onto one. None: what the sites' spacing
+    /// allows ([`site_radius_m`], set by [`plan_assembly`]).
     pub site_radius_m: Option<f64>,
 }
 
@@ -306,7 +305,7 @@ pub enum PlanError {
         fitting: usize,
         /// Free particles wider than that.
         too_wide: usize,
-        /// Half the sites' nearest spacing, um.
+        /// The largest radius the sites take ([`site_radius_m`]), um.
         site_radius_um: f64,
     },
 }
