@@ -29,7 +29,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, write_sites};
-use crate::exec::assemble::layout_seen;
+use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
@@ -279,7 +279,7 @@ fn assemble(
     let plan_config = settings.plan_config(scene);
     // At --at, else where the full plan on the first frame's particles is
     // fastest, as on the simulated rig.
-    let layout = layout_seen(settings.field_m, &first.particles, r);
+    let layout = layout_measured(settings.field_m, &first.particles, r);
     // Built again for the batch the camera shows: wider when its radii spread.
     let radii: Vec<f64> = first.particles.iter().map(|o| o.radius_m).collect();
     let pattern = &target.pattern_for_batch(r, &radii, &reachable)?;

@@ -1121,6 +1121,25 @@ pub fn layout_seen(
     }
 }
 
+/// The first frame's particles as a layout of `field_m` (ids by order
+/// seen), each with the size the loop will plan it with
+/// ([`ParticleSizes`]; `nominal_m` is the scene's radius), for placing the
+/// pattern on a rig: placed with the nominal radius for all, a spread
+/// batch's sites could count on particles the loop then finds too wide.
+pub fn layout_measured(
+    field_m: [f64; 2],
+    seen: &[super::tracker::Observation],
+    nominal_m: f64,
+) -> Layout {
+    let mut tracker = Tracker::new(f64::INFINITY);
+    tracker.update(seen, &[], &|_, _| true);
+    let sizes = ParticleSizes::of(tracker.tracks(), nominal_m);
+    Layout {
+        field_m,
+        particles: planning_particles(tracker.tracks(), &sizes),
+    }
+}
+
 /// Particles `(id, centre, radius)`, each radius capped at its share of
 /// the distance to every neighbour it would overlap (see
 /// [`planning_particles`]).
@@ -1201,6 +1220,32 @@ mod tests {
             layout.validate().is_ok(),
             "the capped radii must not overlap"
         );
+    }
+
+    /// A first frame of a spread batch (4.6-5.4 um) places the pattern
+    /// with each particle's measured size; two touching get the batch's
+    /// median.
+    #[test]
+    fn the_first_frames_layout_has_the_sizes_the_loop_plans_with() {
+        let at = |x_um: f64, r_um: f64| Observation {
+            x_m: x_um * 1e-6,
+            y_m: 20e-6,
+            radius_m: r_um * 1e-6,
+        };
+        let seen = [
+            at(10.0, 4.6),
+            at(30.0, 5.0),
+            at(50.0, 5.4),
+            at(70.0, 4.8),
+            at(79.9, 5.0),
+        ];
+        let layout = layout_measured([100e-6, 40e-6], &seen, 5e-6);
+        let r: Vec<f64> = layout.particles.iter().map(|p| p.radius_m * 1e6).collect();
+        // The last two, 0.1 um apart, get the median (5 um), capped to
+        // half their 9.9 um distance.
+        for (got, want) in r.iter().zip([4.6, 5.0, 5.4, 4.95, 4.95]) {
+            assert!((got - want).abs() < 0.01, "{r:?}");
+        }
     }
 
     /// Particles of their own sizes, 5.2 and 4.8 um, seen 9.99 um apart

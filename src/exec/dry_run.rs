@@ -4,7 +4,7 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_seen, planning_particles,
+    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_measured, planning_particles,
 };
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
@@ -307,7 +307,7 @@ fn target_sites(
         .sites(
             &pattern,
             &area,
-            &layout_seen(field_m, first, radius_m),
+            &layout_measured(field_m, first, radius_m),
             config,
             PlacementGoal::LeastTime,
         )
