@@ -749,3 +749,50 @@ fn an_svg_drawing_plans_with_sites_along_its_paths() {
         "no site at the L's corner"
     );
 }
+
+/// A calibration whose pixels are not square on the sample (one axis 20 %
+/// longer) is refused by `plan --frame` and `detect --calib`, as by the
+/// dry-run: both take one scale for both axes. Accepted before, it placed
+/// and sized every particle wrong with exit 0.
+#[test]
+fn a_calibration_of_stretched_pixels_is_refused_where_a_frame_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (frame, square, stretched) = (at("frame.png"), at("square.toml"), at("stretched.toml"));
+    let (ok, text) = nanopush(&[
+        "synth",
+        "frame",
+        "--n",
+        "5",
+        "--width-px",
+        "256",
+        "--height-px",
+        "256",
+        "--out",
+        &frame,
+    ]);
+    assert!(ok, "{text}");
+    let calib = |path: &str, y_um: f64| {
+        let text = format!(
+            "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, {y_um}, 0.0]]\n"
+        );
+        std::fs::write(path, text).unwrap();
+    };
+    calib(&square, 0.5);
+    calib(&stretched, 0.6);
+    let (ok, text) = nanopush(&["detect", &frame, "--calib", &square, "--no-tip"]);
+    assert!(ok, "{text}");
+    for args in [
+        vec!["detect", &frame, "--calib", &stretched, "--no-tip"],
+        vec![
+            "plan", "--text", "I", "--frame", &frame, "--calib", &stretched,
+        ],
+    ] {
+        let (ok, text) = nanopush(&args);
+        assert!(!ok, "{args:?} accepted: {text}");
+        assert!(
+            text.contains("0.5000 and 0.6000 um long") && text.contains("pixels are square"),
+            "{args:?}: {text}"
+        );
+    }
+}

@@ -67,6 +67,12 @@ struct CalibrationFile {
     lens: Option<RadialLens>,
 }
 
+/// Most a calibration's two pixel axes may differ in length, as a ratio:
+/// camera pixels are square ([`CameraCalibration::check_square_pixels`]).
+const MAX_AXIS_RATIO: f64 = 1.1;
+/// Most the pixel axes may be off perpendicular on the sample, degrees.
+const MAX_SHEAR_DEG: f64 = 5.0;
+
 impl CameraCalibration {
     /// An affine map (no lens).
     pub fn affine(linear: Matrix2<f64>, offset_m: Vector2<f64>) -> Self {
@@ -116,6 +122,31 @@ impl CameraCalibration {
     /// determinant).
     pub fn m_per_px(&self) -> f64 {
         self.linear.determinant().abs().sqrt()
+    }
+
+    /// Refuses a map whose pixels are not square on the sample, near
+    /// enough: detection and the loop take one scale ([`Self::m_per_px`])
+    /// for both axes, so a sheared or stretched map puts the particles
+    /// where they are not and sizes them wrong.
+    pub fn check_square_pixels(&self) -> Result<(), String> {
+        let (a, b) = (self.linear.column(0), self.linear.column(1));
+        let (la, lb) = (a.norm(), b.norm());
+        let ratio = la.max(lb) / la.min(lb);
+        let shear_deg = (a.dot(&b) / (la * lb))
+            .clamp(-1.0, 1.0)
+            .asin()
+            .abs()
+            .to_degrees();
+        // The map is not singular (checked on load): both axes have a length.
+        if ratio > MAX_AXIS_RATIO || shear_deg > MAX_SHEAR_DEG {
+            return Err(format!(
+                "pixel_to_stage_um has pixel axes {:.4} and {:.4} um long, {shear_deg:.1} deg off \
+                 perpendicular (at most {MAX_AXIS_RATIO}x and {MAX_SHEAR_DEG} deg: camera pixels are square)",
+                la * 1e6,
+                lb * 1e6
+            ));
+        }
+        Ok(())
     }
 
     /// Farthest apart, metres, that this map and `other` put a pixel of a

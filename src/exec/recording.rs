@@ -18,7 +18,7 @@
 //! [`open_recording`] reads and checks one.
 
 use super::assemble::{FrameSink, FrameView};
-use super::recording_check::{check_calibration, check_frame_sizes, check_spec, check_stage_entry};
+use super::recording_check::{check_frame_sizes, check_spec, check_stage_entry};
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
 use crate::vision::frame_input::{Channel, load_frames, save_png};
@@ -220,7 +220,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     }
     let calibration = CameraCalibration::load(&cal_path)
         .map_err(|e| e.to_string())
-        .and_then(|c| check_calibration(&c).map(|()| c))
+        .and_then(|c| c.check_square_pixels().map(|()| c))
         .map_err(|message| RecordingError::Format {
             path: cal_path.clone(),
             message,

@@ -5,19 +5,12 @@
 //! dry-run exit 0), planned pushes off the field, or never ended.
 
 use super::recording::{RecordingSpec, StageLogEntry};
-use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{UM_PER_M, um_text};
 use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
 use crate::vision::frame::{Frame, check_one_size};
 use crate::vision::frame_input::image_files;
 use nalgebra::Vector2;
 use std::path::Path;
-
-/// Most a calibration's two pixel axes may differ in length, as a ratio:
-/// camera pixels are square, and detection uses one scale for both axes.
-const MAX_AXIS_RATIO: f64 = 1.1;
-/// Most the pixel axes may be off perpendicular on the sample, degrees.
-const MAX_SHEAR_DEG: f64 = 5.0;
 
 /// `field_um` and `sites_um`: finite, within a metre, sites apart by a
 /// particle diameter and (with a field) in the field as a layout's particles.
@@ -89,29 +82,6 @@ pub(crate) fn check_sites_in_field(
         .iter()
         .try_for_each(|s| layout.check_site_in_field(s, radius_m))
         .map_err(|e| format!("sites_um: {e}"))
-}
-
-/// The calibration maps square pixels to square areas of the sample, near
-/// enough: a sheared or stretched map puts the particles where they are not.
-pub(super) fn check_calibration(cal: &CameraCalibration) -> Result<(), String> {
-    let (a, b) = (cal.linear.column(0), cal.linear.column(1));
-    let (la, lb) = (a.norm(), b.norm());
-    let ratio = la.max(lb) / la.min(lb);
-    let shear_deg = (a.dot(&b) / (la * lb))
-        .clamp(-1.0, 1.0)
-        .asin()
-        .abs()
-        .to_degrees();
-    // The map is not singular (checked on load): both axes have a length.
-    if ratio > MAX_AXIS_RATIO || shear_deg > MAX_SHEAR_DEG {
-        return Err(format!(
-            "pixel_to_stage_um has pixel axes {:.4} and {:.4} um long, {shear_deg:.1} deg off \
-             perpendicular (at most {MAX_AXIS_RATIO}x and {MAX_SHEAR_DEG} deg: camera pixels are square)",
-            la * UM_PER_M,
-            lb * UM_PER_M
-        ));
-    }
-    Ok(())
 }
 
 /// A stage-log line's positions are finite and within a metre.
