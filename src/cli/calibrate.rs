@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 
 use crate::calib::camera_fit::{LensModel, fit_camera_map};
 use crate::calib::camera_map::CameraCalibration;
@@ -164,6 +164,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     fit_recording(&args.recording, &out, args.channel, &args.fit, args.force).map(|_| ())
 }
 
+/// Plausible pixel sizes on the sample, um: an electron microscope's
+/// nanometre to a low-power objective's tens of micrometres.
+const SCALE_UM_PER_PX: std::ops::RangeInclusive<f64> = 1e-3..=100.0;
+
+/// Refuses a fitted scale no microscope has: a stage.csv written in metres
+/// or millimetres, not micrometres, was fitted to 5e-7 um/px and written
+/// with exit 0.
+fn check_scale(m_per_px: f64) -> anyhow::Result<()> {
+    let um = m_per_px * 1e6;
+    if !SCALE_UM_PER_PX.contains(&um) {
+        bail!(
+            "the fit gives {um:.3e} um/px, outside {}-{} um/px: are stage.csv's x_um and y_um in micrometres? \
+             (metres or millimetres give a millionth or a thousandth of the true scale)",
+            SCALE_UM_PER_PX.start(),
+            SCALE_UM_PER_PX.end()
+        );
+    }
+    Ok(())
+}
+
 /// Fits the map to the recording in `dir` and writes it to `out` (kept
 /// when it exists, unless `force`; never one of the recording's files),
 /// printing each frame's residual and the fit's scale, rotation, lens and
@@ -214,6 +234,7 @@ pub fn fit_recording(
     let frame_px = sizes.first().copied().unwrap_or_default();
     let fit = fit_camera_map(&pixels, &stage, how.threshold_px, how.lens, frame_px)
         .context("fitting the calibration")?;
+    check_scale(fit.calibration.m_per_px())?;
     println!("frame                          dx_px     dy_px  inlier");
     for ((name, camera), r) in used.iter().zip(&fit.residuals_px) {
         println!(
@@ -251,6 +272,18 @@ pub fn fit_recording(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_scale_no_microscope_has_is_refused_naming_the_unit() {
+        assert!(check_scale(0.25e-6).is_ok());
+        let e = check_scale(0.25e-12).unwrap_err().to_string();
+        assert!(
+            e.contains("2.500e-7 um/px") && e.contains("micrometres"),
+            "{e}"
+        );
+        assert!(check_scale(0.25e-9).is_err());
+        assert!(check_scale(500e-6).is_err());
+    }
 
     #[test]
     fn stage_csv_parses_and_names_bad_lines() {
