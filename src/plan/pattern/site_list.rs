@@ -5,15 +5,37 @@ use super::{Pattern, PatternError};
 use crate::plan::{MAX_COORDINATE_UM, coordinate_in_range};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
-/// One site of a site-list file, micrometres.
+/// One site of a site-list file, micrometres. Read only from a table of
+/// exactly `x_um` and `y_um`: an array `[x, y, z]` or a third key (`z_um`)
+/// had been read as x and y with the rest dropped, silently.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+#[serde(try_from = "BTreeMap<String, f64>")]
 pub struct SiteEntry {
     /// x, micrometres.
     pub x_um: f64,
     /// y, micrometres.
     pub y_um: f64,
+}
+
+impl TryFrom<BTreeMap<String, f64>> for SiteEntry {
+    type Error = String;
+
+    fn try_from(mut keys: BTreeMap<String, f64>) -> Result<Self, String> {
+        let mut take = |name: &str| {
+            keys.remove(name)
+                .ok_or_else(|| format!("a site needs `{name}` (micrometres)"))
+        };
+        let (x_um, y_um) = (take("x_um")?, take("y_um")?);
+        if let Some(other) = keys.keys().next() {
+            return Err(format!(
+                "a site has `{other}`: a site is `x_um` and `y_um` only"
+            ));
+        }
+        Ok(SiteEntry { x_um, y_um })
+    }
 }
 
 /// A site-list file.
@@ -121,6 +143,31 @@ mod tests {
         let message = nan.to_pattern("nan.toml").unwrap_err().to_string();
         assert!(message.contains("site 0: x_um = NaN"), "{message}");
         assert_eq!(near.to_pattern("near.toml").unwrap().offsets_m.len(), 2);
+    }
+
+    /// Three numbers, a third key or a missing one: refused, saying what a
+    /// site is (each was read as x and y, the rest dropped, before).
+    #[test]
+    fn a_site_is_x_um_and_y_um_and_nothing_else() {
+        let refused = |text: &str, is_toml: bool| {
+            SiteList::parse(text, is_toml, "s").unwrap_err().to_string()
+        };
+        let arrays = refused("sites = [[0.0, 0.0, 9.0]]", true);
+        assert!(arrays.contains("expected a map"), "{arrays}");
+        let json_arrays = refused(r#"{"sites": [[0, 0, 5]]}"#, false);
+        assert!(json_arrays.contains("expected a map"), "{json_arrays}");
+        let third = refused(r#"{"sites": [{"x_um": 0, "y_um": 0, "z_um": 4}]}"#, false);
+        assert!(third.contains("`z_um`"), "{third}");
+        let missing = refused("sites = [{ x_um = 1.0 }]", true);
+        assert!(missing.contains("needs `y_um`"), "{missing}");
+        let ok = SiteList::parse(r#"{"sites": [{"x_um": 1, "y_um": 2.5}]}"#, false, "s").unwrap();
+        assert_eq!(
+            ok.sites[0],
+            SiteEntry {
+                x_um: 1.0,
+                y_um: 2.5
+            }
+        );
     }
 
     #[test]
