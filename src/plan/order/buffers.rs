@@ -132,7 +132,7 @@ impl Scheduler<'_> {
         crate::plan::parking::SiteDiscs {
             grid: &self.site_grid,
             centres: &self.site_pts,
-            radius_m: self.config.site_radius_for(self.layout),
+            radius_m: self.site_radius_m,
             clearance_m: self.config.clearance_m,
         }
     }

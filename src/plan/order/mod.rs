@@ -111,6 +111,9 @@ struct Scheduler<'a> {
     moves: Vec<Move>,
     /// Sites of the moves (index = move) and fixed particles.
     obstacles: SiteObstacles,
+    /// The largest radius a site takes ([`PlanConfig::site_radius_for`]),
+    /// looked up once: buffer and trade queries ask it on every call.
+    site_radius_m: f64,
     /// Every site (buffer spots stay off all of them).
     site_grid: Grid,
     site_pts: Vec<Vector2<f64>>,
@@ -252,7 +255,8 @@ fn order_once(
         .collect();
     let r = layout.max_radius_m();
     // Sites are held at the largest radius a site takes: moves may trade particles.
-    let site_radii = vec![config.site_radius_for(layout); moves.len()];
+    let site_radius_m = config.site_radius_for(layout);
+    let site_radii = vec![site_radius_m; moves.len()];
     let site_pts: Vec<Vector2<f64>> = sites.iter().map(|s| s.centre_m).collect();
     let n_moves = moves.len();
     let mut sch = Scheduler {
@@ -262,6 +266,7 @@ fn order_once(
         role,
         moves,
         obstacles: SiteObstacles::new(move_sites, site_radii, fixed, config),
+        site_radius_m,
         site_grid: Grid::new(site_pts.iter().copied(), 2.0 * r),
         site_pts,
         reach: Reach::of_layout(layout),

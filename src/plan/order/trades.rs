@@ -113,8 +113,7 @@ impl Scheduler<'_> {
             return false;
         }
         // An unassigned particle may be one too wide for the sites.
-        let site_radius = self.config.site_radius_for(self.layout);
-        if self.role[q] == Role::Idle && self.layout.particles[q].radius_m > site_radius {
+        if self.role[q] == Role::Idle && self.layout.particles[q].radius_m > self.site_radius_m {
             return false;
         }
         match self.role[q] {
