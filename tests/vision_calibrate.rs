@@ -248,30 +248,33 @@ fn calibrate(dir: &std::path::Path, extra: &[&str]) -> std::process::Output {
 
 /// A stage.csv written in metres fits to a scale no microscope has (5e-7
 /// um/px); it was written with exit 0, now it is refused naming the unit,
-/// and no calibration is written.
+/// and no calibration is written. So is one whose y is logged in another
+/// unit than x (stretched pixels, which every reader refuses).
 #[test]
-fn a_stage_log_in_metres_is_refused_naming_the_unit() {
-    let dir = tempfile::tempdir().unwrap();
-    write_recording(dir.path(), &truth(), 1.0);
-    let csv = dir.path().join("stage.csv");
-    let text = std::fs::read_to_string(&csv).unwrap();
-    let metres: Vec<String> = text
-        .lines()
-        .map(|line| {
-            let cells: Vec<&str> = line.split(',').collect();
-            match (cells[1].parse::<f64>(), cells[2].parse::<f64>()) {
-                (Ok(x), Ok(y)) => format!("{},{},{}", cells[0], x * 1e-6, y * 1e-6),
-                _ => line.to_string(),
-            }
-        })
-        .collect();
-    std::fs::write(&csv, metres.join("\n") + "\n").unwrap();
-    let out = calibrate(dir.path(), &[]);
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success(), "{err}");
-    assert!(
-        err.contains("um/px") && err.contains("micrometres"),
-        "{err}"
-    );
-    assert!(!dir.path().join("calibration.toml").exists());
+fn a_stage_log_in_the_wrong_unit_is_refused_naming_the_unit() {
+    for (scale_x, scale_y, says) in [
+        (1e-6, 1e-6, ["um/px", "micrometres"]),
+        (1.0, 2.0, ["camera pixels are square", "in one unit"]),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        write_recording(dir.path(), &truth(), 1.0);
+        let csv = dir.path().join("stage.csv");
+        let text = std::fs::read_to_string(&csv).unwrap();
+        let rescaled: Vec<String> = text
+            .lines()
+            .map(|line| {
+                let cells: Vec<&str> = line.split(',').collect();
+                match (cells[1].parse::<f64>(), cells[2].parse::<f64>()) {
+                    (Ok(x), Ok(y)) => format!("{},{},{}", cells[0], x * scale_x, y * scale_y),
+                    _ => line.to_string(),
+                }
+            })
+            .collect();
+        std::fs::write(&csv, rescaled.join("\n") + "\n").unwrap();
+        let out = calibrate(dir.path(), &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{err}");
+        assert!(says.iter().all(|s| err.contains(s)), "{err}");
+        assert!(!dir.path().join("calibration.toml").exists());
+    }
 }

@@ -240,6 +240,13 @@ impl CameraCalibration {
         if det.abs() < 1e-30 {
             return Err(CalibError::Singular(det));
         }
+        // Every reader takes one scale for both axes, so a stretched map is
+        // refused here, once, not by each command that loads one.
+        cal.check_square_pixels()
+            .map_err(|reason| CalibError::Format {
+                path: origin.into(),
+                reason,
+            })?;
         Ok(cal)
     }
 
@@ -256,6 +263,31 @@ impl CameraCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_of_stretched_or_sheared_pixels_is_refused_on_reading() {
+        let square = CameraCalibration::from_scale_rotation(0.25e-6, 0.3, [1e-6, 2e-6]);
+        let text = square.to_toml(None);
+        assert!(CameraCalibration::from_toml(&text, "cal.toml").is_ok());
+        for (bad, says) in [
+            (
+                "[[0.25, 0.0, 1.0], [0.0, 0.3, 2.0]]",
+                "0.2500 and 0.3000 um long",
+            ),
+            (
+                "[[0.25, 0.05, 1.0], [0.0, 0.25, 2.0]]",
+                "11.3 deg off perpendicular",
+            ),
+        ] {
+            let stretched =
+                format!("schema = \"nanopush.calibration/1\"\npixel_to_stage_um = {bad}\n");
+            let err = CameraCalibration::from_toml(&stretched, "cal.toml").unwrap_err();
+            assert!(
+                matches!(err, CalibError::Format { .. }) && err.to_string().contains(says),
+                "{err}"
+            );
+        }
+    }
 
     #[test]
     fn the_largest_difference_of_two_maps_is_at_a_corner_of_the_frame() {

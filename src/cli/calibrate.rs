@@ -235,6 +235,12 @@ pub fn fit_recording(
     let fit = fit_camera_map(&pixels, &stage, how.threshold_px, how.lens, frame_px)
         .context("fitting the calibration")?;
     check_scale(fit.calibration.m_per_px())?;
+    // Refused now rather than written and then refused by every reader.
+    fit.calibration.check_square_pixels().map_err(|e| {
+        anyhow::anyhow!(
+            "the fit's {e}: are stage.csv's x_um and y_um in one unit, and the stage's axes square to each other?"
+        )
+    })?;
     println!("frame                          dx_px     dy_px  inlier");
     for ((name, camera), r) in used.iter().zip(&fit.residuals_px) {
         println!(

@@ -168,12 +168,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let calib = match &args.calib {
         Some(p) => Some(
             CameraCalibration::load(p)
-                .map_err(anyhow::Error::from)
-                .and_then(|c| {
-                    c.check_square_pixels()
-                        .map(|()| c)
-                        .map_err(anyhow::Error::msg)
-                })
                 .with_context(|| format!("loading calibration {}", p.display()))?,
         ),
         None => None,

@@ -84,9 +84,6 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
     let calibration = CameraCalibration::load(calib)?;
-    calibration
-        .check_square_pixels()
-        .map_err(|e| anyhow::anyhow!("calibration {}: {e}", calib.display()))?;
     let frame = load_frame(frame_path, args.channel)?;
     let found = layout_from_frame(frame.clone(), &calibration, args.radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;

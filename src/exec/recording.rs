@@ -218,13 +218,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     if !cal_path.is_file() {
         return Err(RecordingError::Missing { path: cal_path });
     }
-    let calibration = CameraCalibration::load(&cal_path)
-        .map_err(|e| e.to_string())
-        .and_then(|c| c.check_square_pixels().map(|()| c))
-        .map_err(|message| RecordingError::Format {
-            path: cal_path.clone(),
-            message,
-        })?;
+    let calibration = CameraCalibration::load(&cal_path).map_err(|e| RecordingError::Format {
+        path: cal_path.clone(),
+        message: e.to_string(),
+    })?;
     let frames_path = dir.join(&spec.frames);
     if !frames_path.exists() {
         return Err(RecordingError::Missing { path: frames_path });
