@@ -487,6 +487,79 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
     );
 }
 
+/// `plan --frame` lays a spread batch (radii 5 % apart) out with each
+/// particle's measured size, as the rig's first frame is: every particle
+/// at least 1 um clear of the others within 0.1 um of its true radius.
+/// With `--radius-um` for all, every radius was 5 um.
+#[test]
+fn plan_from_a_frame_keeps_each_particles_measured_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (truth, frame, calib, found) = (
+        at("truth.json"),
+        at("frame.png"),
+        at("calib.toml"),
+        at("found.json"),
+    );
+    // Temporary paths hold no spaces: each command is one line.
+    let run = |line: String| {
+        let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+        assert!(ok, "{line}: {text}");
+    };
+    run(format!(
+        "synth layout --n 25 --field-um 120x100 --polydisperse --seed 5 --out {truth}"
+    ));
+    run(format!(
+        "synth frame --layout {truth} --um-per-px 0.25 --out {frame}"
+    ));
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.25, 0.0, 0.0], [0.0, 0.25, 0.0]]\n",
+    )
+    .unwrap();
+    run(format!(
+        "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
+    ));
+    let truth = nanopush::plan::Layout::read(Path::new(&truth)).unwrap();
+    let found = nanopush::plan::Layout::read(Path::new(&found)).unwrap();
+    let clear = |p: &nanopush::plan::Particle| {
+        truth.particles.iter().all(|q| {
+            q.id == p.id || (q.centre_m - p.centre_m).norm() - q.radius_m - p.radius_m >= 1e-6
+        })
+    };
+    let (mut compared, mut worst_um) = (0, 0.0_f64);
+    for t in truth.particles.iter().filter(|p| clear(p)) {
+        let f = found
+            .particles
+            .iter()
+            .min_by(|a, b| {
+                let d = |p: &nanopush::plan::Particle| (p.centre_m - t.centre_m).norm();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap();
+        // Cut by the frame's edge: not measured, taken at --radius-um.
+        if f.centre_m.x < t.radius_m || f.centre_m.y < t.radius_m {
+            continue;
+        }
+        let off_um = (f.radius_m - t.radius_m).abs() * 1e6;
+        assert!(
+            off_um < 0.1,
+            "particle {} found {off_um:.3} um off its size",
+            t.id
+        );
+        compared += 1;
+        worst_um = worst_um.max(off_um);
+    }
+    eprintln!("{compared} particles clear of the others: sizes within {worst_um:.3} um");
+    let radii = found.particles.iter().map(|p| p.radius_m * 1e6);
+    let spread = radii.clone().fold(f64::MIN, f64::max) - radii.fold(f64::MAX, f64::min);
+    assert!(
+        compared >= 15,
+        "only {compared} particles clear of the others"
+    );
+    assert!(spread > 0.5, "radii found spread by {spread:.3} um");
+}
+
 /// A colour frame whose green channel shows one layout and whose red and
 /// blue show another: `--channel` says which is planned on, and every
 /// particle of that one is found where it lies (luminance would mix both).

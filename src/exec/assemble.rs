@@ -1104,24 +1104,6 @@ pub fn planning_particles(
 }
 
 /// The first frame's particles as a layout of `field_m` (ids by order
-/// seen), each of `radius_m`, for placing the pattern before any track exists.
-pub fn layout_seen(
-    field_m: [f64; 2],
-    seen: &[super::tracker::Observation],
-    radius_m: f64,
-) -> Layout {
-    let seen: Vec<_> = seen
-        .iter()
-        .enumerate()
-        .map(|(id, o)| (id, [o.x_m, o.y_m], radius_m))
-        .collect();
-    Layout {
-        field_m,
-        particles: particles_seen(&seen),
-    }
-}
-
-/// The first frame's particles as a layout of `field_m` (ids by order
 /// seen), each with the size the loop will plan it with
 /// ([`ParticleSizes`]; `nominal_m` is the scene's radius), for placing the
 /// pattern on a rig: placed with the nominal radius for all, a spread
@@ -1190,37 +1172,6 @@ impl From<PushError> for ExecError {
 mod tests {
     use super::*;
     use crate::exec::tracker::Observation;
-
-    /// Two particles seen 9.99 um apart with the scene's 5 um radius get
-    /// radii just under 4.995 um (they cannot overlap); a lone one keeps 5 um.
-    #[test]
-    fn seen_particles_take_the_scene_radius_capped_by_the_nearest_neighbour() {
-        let at = |x_um: f64| Observation {
-            x_m: x_um * 1e-6,
-            y_m: 20e-6,
-            radius_m: 5.2e-6,
-        };
-        let (a, b, c) = (at(10.0), at(19.99), at(60.0));
-        let particles = layout_seen([100e-6, 40e-6], &[a, b, c], 5e-6).particles;
-        let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
-        assert_eq!(ids, [0, 1, 2]);
-        for p in &particles[..2] {
-            assert!(
-                p.radius_m < 4.995e-6 && p.radius_m > 4.99e-6,
-                "{}",
-                p.radius_m
-            );
-        }
-        assert_eq!(particles[2].radius_m, 5e-6);
-        let layout = Layout {
-            field_m: [100e-6, 40e-6],
-            particles,
-        };
-        assert!(
-            layout.validate().is_ok(),
-            "the capped radii must not overlap"
-        );
-    }
 
     /// A first frame of a spread batch (4.6-5.4 um) places the pattern
     /// with each particle's measured size; two touching get the batch's

@@ -4,15 +4,16 @@
 //! The same perception as the closed loop and the dry-run
 //! ([`Perception::sight`]: the size hint from the particle radius, rings cut
 //! by the probe left out, those cut by the frame's edge set apart) and the
-//! same layout of what it saw ([`layout_seen`]: ids in the order found, the
-//! field up to the far corner of the view, stage coordinates), so a plan
+//! same layout of what it saw ([`layout_measured`]: ids in the order found,
+//! each particle with the size the loop would plan it with, the field up to
+//! the far corner of the view, stage coordinates), so a plan
 //! made here is the plan the loop would start from. One frame is all this
 //! plan sees, so the particles the frame's edge cuts (there, their centres
 //! not measured) join the layout as particles it never pushes; one whose
 //! centre falls below the stage origin makes it no layout (an error, not a
 //! particle dropped).
 
-use super::assemble::layout_seen;
+use super::assemble::layout_measured;
 use super::observe::{ObserveError, Perception};
 use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{Layout, LayoutError};
@@ -50,8 +51,9 @@ pub enum FrameLayoutError {
     Layout(#[from] LayoutError),
 }
 
-/// The particles (of radius `radius_m`) and the tip in `frame`, placed on
-/// the sample by `calibration`.
+/// The particles (of about radius `radius_m`: the detector's size hint and
+/// the batch's nominal size) and the tip in `frame`, placed on the sample
+/// by `calibration`.
 pub fn layout_from_frame(
     frame: Frame,
     calibration: &CameraCalibration,
@@ -69,7 +71,11 @@ pub fn layout_from_frame(
         .chain(&sighting.cut_by_edge)
         .cloned()
         .collect();
-    let layout = layout_seen(sighting.view_m[1], &seen, radius_m);
+    // Each with the size the loop would plan it with, as a rig's first
+    // frame is laid out: a spread batch's wide particles are then kept off
+    // the sites here too. A cut particle's size is not measured: it takes
+    // `radius_m`.
+    let layout = layout_measured(sighting.view_m[1], &seen, radius_m);
     layout.validate()?;
     let cut_by_edge = layout.particles[sighting.particles.len()..]
         .iter()
