@@ -16,6 +16,8 @@ use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::tip::{TipSettings, detect_tip};
 
+use super::stage_csv::parse_stage_csv;
+
 /// Arguments of `nanopush calibrate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -49,62 +51,6 @@ pub struct FitArgs {
     pub lens: LensModel,
 }
 
-/// One row of stage.csv.
-#[derive(Debug, Clone, PartialEq)]
-pub struct StageRow {
-    /// Frame file, relative to the recording folder.
-    pub frame: String,
-    /// Stage x, micrometres.
-    pub x_um: f64,
-    /// Stage y, micrometres.
-    pub y_um: f64,
-}
-
-/// Parses stage.csv text; errors name the line.
-pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
-    // A spreadsheet's UTF-8 export starts with a byte-order mark.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let header = lines
-        .next()
-        .map(|(_, l)| l.trim().to_string())
-        .unwrap_or_default();
-    if header.replace(' ', "") != "frame,x_um,y_um" {
-        anyhow::bail!("stage.csv must start with the header `frame,x_um,y_um`, found `{header}`");
-    }
-    lines
-        .map(|(i, l)| {
-            let f: Vec<&str> = l.split(',').map(str::trim).collect();
-            if f.len() != 3 {
-                anyhow::bail!(
-                    "stage.csv line {}: expected 3 fields, found {}",
-                    i + 1,
-                    f.len()
-                );
-            }
-            let num = |s: &str| -> anyhow::Result<f64> {
-                let v: f64 = s
-                    .parse()
-                    .with_context(|| format!("stage.csv line {}: `{s}` is not a number", i + 1))?;
-                anyhow::ensure!(
-                    v.is_finite(),
-                    "stage.csv line {}: `{s}` is not finite",
-                    i + 1
-                );
-                Ok(v)
-            };
-            Ok(StageRow {
-                frame: f[0].to_string(),
-                x_um: num(f[1])?,
-                y_um: num(f[2])?,
-            })
-        })
-        .collect()
-}
-
 /// Refuses an output that would overwrite one of the recording's inputs,
 /// or an existing file without `force` (a good calibration is not lost to
 /// a re-run).
@@ -131,15 +77,6 @@ pub fn check_output(
         out.display()
     );
     Ok(())
-}
-
-/// The text of a stage.csv holding `rows` ([`parse_stage_csv`] reads it back).
-pub fn stage_csv(rows: &[StageRow]) -> String {
-    let mut text = String::from("frame,x_um,y_um\n");
-    for r in rows {
-        text.push_str(&format!("{},{},{}\n", r.frame, r.x_um, r.y_um));
-    }
-    text
 }
 
 impl FitArgs {
@@ -289,32 +226,5 @@ mod tests {
         );
         assert!(check_scale(0.25e-9).is_err());
         assert!(check_scale(500e-6).is_err());
-    }
-
-    #[test]
-    fn stage_csv_parses_and_names_bad_lines() {
-        let rows = parse_stage_csv("frame,x_um,y_um\nf0.png,1.5,2\n\nf1.png,-3,4e1\n").unwrap();
-        assert_eq!(rows.len(), 2);
-        assert_eq!(rows[1].y_um, 40.0);
-        let e = parse_stage_csv("frame,x_um,y_um\nf0.png,abc,2\n").unwrap_err();
-        assert!(format!("{e:#}").contains("line 2"));
-        assert!(parse_stage_csv("a,b\n").is_err());
-    }
-
-    #[test]
-    fn stage_csv_reads_back_what_it_writes() {
-        let rows = vec![
-            StageRow {
-                frame: "frame_000.png".into(),
-                x_um: 50.000000001,
-                y_um: -3.25e-3,
-            },
-            StageRow {
-                frame: "frame_001.png".into(),
-                x_um: 1e2 / 3.0,
-                y_um: 98.0,
-            },
-        ];
-        assert_eq!(parse_stage_csv(&stage_csv(&rows)).unwrap(), rows);
     }
 }

@@ -17,6 +17,7 @@ mod rig_calibrate;
 mod rig_probe;
 mod rig_sim_gcs;
 mod simulate;
+mod stage_csv;
 mod study_assemble;
 mod study_model;
 mod study_plan;

@@ -5,7 +5,8 @@
 //! the map is fitted from that recording and written where the rig file
 //! looks for it, so that `assemble --rig` uses it next.
 
-use super::calibrate::{FitArgs, StageRow, check_output, fit_recording, stage_csv};
+use super::calibrate::{FitArgs, check_output, fit_recording};
+use super::stage_csv::{StageRow, stage_csv};
 use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
 use crate::calib::camera_map::CameraCalibration;
 use crate::rig::gcs::RigFile;
