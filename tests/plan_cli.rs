@@ -869,3 +869,45 @@ fn a_calibration_of_stretched_pixels_is_refused_where_a_frame_is_read() {
         );
     }
 }
+
+/// An output that is one of the command's inputs, or another of its
+/// outputs, is refused before anything is written: `plan --layout L --out
+/// L` had replaced the layout with the plan, `detect F --overlay F` the
+/// frame with the drawing, both with exit 0; and an overlay of an unknown
+/// kind was refused only after the plan file had been written.
+#[test]
+fn outputs_that_would_replace_an_input_or_each_other_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = write_layout(
+        dir.path(),
+        "layout.json",
+        &[(20.0, 20.0, 5.0), (60.0, 20.0, 5.0), (100.0, 20.0, 5.0)],
+        (200.0, 200.0),
+    );
+    let before = std::fs::read(&layout).unwrap();
+    let plan = dir.path().join("plan.json").display().to_string();
+    let spelt_again = dir.path().join(".").join("layout.json");
+    let spelt_again = spelt_again.to_str().unwrap();
+    let frame = dir.path().join("frame.png").display().to_string();
+    let (ok, text) = nanopush(&["synth", "frame", "--n", "3", "--out", &frame]);
+    assert!(ok, "{text}");
+    let frame_before = std::fs::read(&frame).unwrap();
+    let plan_i = ["plan", "--text", "I", "--layout", &layout];
+    for (extra, says) in [
+        (vec!["--out", spelt_again], "--out"),
+        (vec!["--out", &plan, "--overlay", &plan], "also --out"),
+        (
+            vec!["--out", &plan, "--overlay", "plan.txt"],
+            "unknown extension",
+        ),
+    ] {
+        let args: Vec<&str> = plan_i.iter().copied().chain(extra).collect();
+        let (ok, text) = nanopush(&args);
+        assert!(!ok && text.contains(says), "{args:?}: {text}");
+        assert!(!Path::new(&plan).exists(), "{args:?} wrote the plan");
+    }
+    let (ok, text) = nanopush(&["detect", &frame, "--overlay", &frame]);
+    assert!(!ok && text.contains("the input FRAME"), "{text}");
+    assert_eq!(std::fs::read(&layout).unwrap(), before);
+    assert_eq!(std::fs::read(&frame).unwrap(), frame_before);
+}

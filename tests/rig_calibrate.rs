@@ -256,7 +256,8 @@ fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
     let rig = unreachable_rig(dir.path());
     let rig = rig.to_str().unwrap();
     for (flags, says) in [
-        (&["--grid", "1"][..], "at least 2 points"),
+        (&["--grid", "1"][..], "2 to 20 points a side, got 1"),
+        (&["--grid", "1000"][..], "2 to 20 points a side, got 1000"),
         (&["--step-um=-5"][..], "positive length"),
         (&["--threshold-px", "0"][..], "--threshold-px"),
     ] {

@@ -274,7 +274,7 @@ fn synth_frame_writes_the_frame_and_its_truth_or_neither() {
             at("no/such/folder/t.json"),
             "no/such/folder/t.json",
         ),
-        (at("f.png"), at("f.png"), "are the same file"),
+        (at("f.png"), at("f.png"), "is also --out"),
     ] {
         let args = [
             "synth", "frame", "--n", "3", "--bits", "16", "--out", &out, "--truth", &truth,

@@ -17,6 +17,11 @@ use crate::vision::analyse::prepare_frame;
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipSettings, detect_tip};
 
+/// Most points a side of the grid: 400 frames, minutes on a rig; a fit
+/// gains nothing from more (a grid of 1,000 a side, a million moves, ran
+/// on until stopped, half a recording left behind).
+pub const MAX_GRID: usize = 20;
+
 /// How a calibration run moves and looks.
 #[derive(Debug, Clone)]
 pub struct CalibrationRunSettings {
@@ -207,9 +212,9 @@ impl CalibrationRunSettings {
     /// first; a caller may ask before it opens a rig).
     pub fn check(&self) -> Result<(), CalibrationRunError> {
         let bad = |what: String| Err(CalibrationRunError::Settings(what));
-        if self.grid < 2 {
+        if !(2..=MAX_GRID).contains(&self.grid) {
             return bad(format!(
-                "the grid needs at least 2 points a side, got {}",
+                "the grid needs 2 to {MAX_GRID} points a side, got {}",
                 self.grid
             ));
         }

@@ -1,6 +1,8 @@
 //! `nanopush detect`: particles and the probe tip in one frame.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use super::distinct_outputs::check_distinct_outputs;
 
 use anyhow::Context;
 
@@ -163,6 +165,12 @@ fn diameter_from_radius(radius_um: f64, m_per_px: f64) -> anyhow::Result<f64> {
 
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    if let Some(overlay) = &args.overlay {
+        let inputs: Vec<(&str, &Path)> = std::iter::once(("FRAME", args.frame.as_path()))
+            .chain(args.calib.iter().map(|p| ("--calib", p.as_path())))
+            .collect();
+        check_distinct_outputs(&inputs, &[("--overlay", overlay)])?;
+    }
     let frame = load_frame(&args.frame, args.channel)
         .with_context(|| format!("loading {}", args.frame.display()))?;
     let calib = match &args.calib {

@@ -9,6 +9,7 @@ mod assemble_rig;
 mod calibrate;
 mod demo;
 mod detect;
+mod distinct_outputs;
 mod dry_run;
 mod error_message;
 mod pattern_args;

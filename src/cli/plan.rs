@@ -1,9 +1,10 @@
 //! `nanopush plan`: pattern + particles -> ordered push plan, with a summary.
 
+use super::distinct_outputs::{check_distinct_outputs, flagged};
 use super::pattern_args::PatternArgs;
 use anyhow::{Context, bail};
 use nanopush_plan_api::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 mod nanopush_plan_api {
     pub use crate::calib::camera_map::CameraCalibration;
@@ -109,8 +110,43 @@ struct Particles {
     seen_in: Option<(Frame, CameraCalibration)>,
 }
 
+/// Refuses, before anything is read or written, outputs that would replace
+/// an input or each other, and an overlay of a kind that cannot be drawn
+/// (found only after the plan had been written).
+fn check_files(args: &Args) -> anyhow::Result<()> {
+    let inputs: Vec<(&str, &Path)> = [
+        flagged("--layout", &args.layout),
+        flagged("--frame", &args.frame),
+        flagged("--calib", &args.calib),
+        flagged("--pattern", &args.target.pattern),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    let outputs: Vec<(&str, &Path)> = [
+        flagged("--out", &args.out),
+        flagged("--overlay", &args.overlay),
+        flagged("--save-layout", &args.save_layout),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    check_distinct_outputs(&inputs, &outputs)?;
+    if let Some(path) = &args.overlay {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !["svg", "png"].contains(&ext.to_ascii_lowercase().as_str()) {
+            bail!(
+                "--overlay {}: unknown extension {ext:?}, use .svg or .png",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Plans and prints the summary; writes the plan and overlay when asked.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    check_files(&args)?;
     let Particles {
         layout,
         tip_start_m,

@@ -35,7 +35,7 @@ pub struct Args {
     /// Replace an existing calibration and recording.
     #[arg(long)]
     pub force: bool,
-    /// Points per side of the grid laid over the view.
+    /// Points per side of the grid laid over the view (2-20).
     #[arg(long, default_value_t = 4)]
     pub grid: usize,
     /// Length of the two first moves (x, then y) that find where the view
@@ -132,10 +132,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.rig.display()
         );
     } else {
+        // The rig file reads its paths from its own folder: an absolute
+        // path works wherever the rig file lies (`out` as given, relative
+        // to where this ran, did not).
+        let named = std::path::absolute(&out).unwrap_or_else(|_| out.clone());
         println!(
             "to use it, name it in {}: calibration = {:?}",
             args.rig.display(),
-            out.display().to_string()
+            named.display().to_string()
         );
     }
     Ok(())

@@ -1,6 +1,8 @@
 //! `nanopush synth frame`: render a synthetic microscope frame and its truth.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+
+use super::distinct_outputs::check_distinct_outputs;
 
 use anyhow::Context;
 
@@ -76,14 +78,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    if let Some(truth) = &args.truth
-        && std::path::absolute(truth).ok() == std::path::absolute(&args.out).ok()
-    {
-        anyhow::bail!(
-            "--truth and --out are the same file ({}): the truth is JSON, the frame an image",
-            args.out.display()
-        );
-    }
+    let inputs: Vec<(&str, &Path)> = args
+        .layout
+        .iter()
+        .map(|p| ("--layout", p.as_path()))
+        .collect();
+    let outputs: Vec<(&str, &Path)> = std::iter::once(("--out", args.out.as_path()))
+        .chain(args.truth.iter().map(|p| ("--truth", p.as_path())))
+        .collect();
+    check_distinct_outputs(&inputs, &outputs)?;
     if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
         anyhow::bail!(
             "--snr must be > 0 and at most {MAX_SNR:e}, got {:e}",

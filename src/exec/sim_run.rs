@@ -62,8 +62,8 @@ pub enum SimRunError {
         #[source]
         source: ModelError,
     },
-    /// The layout file or the random layout.
-    #[error("layout: {0}")]
+    /// The layout file or the random layout (the message says which).
+    #[error("{0}")]
     Layout(String),
     /// No pattern asked for.
     #[error("give a text or a pattern file")]
@@ -165,7 +165,7 @@ pub fn layout_for(
             kind: LayoutKind::Uniform,
             seed,
         })
-        .map_err(|e| SimRunError::Layout(e.to_string())),
+        .map_err(|e| SimRunError::Layout(format!("random layout: {e}"))),
     }
 }
 

@@ -2,7 +2,7 @@
 //! clustered, and adversarial (a dense hexagonal core in the middle of the
 //! field, where patterns land, walling sites in, plus uniform filler).
 
-use super::layout::{Layout, Particle, check_finite};
+use super::layout::{Layout, LayoutError, Particle, check_finite};
 use super::occupancy::Occupancy;
 use nalgebra::Vector2;
 use rand::{RngExt, SeedableRng};
@@ -121,7 +121,12 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     check_finite("radius_um", p.radius_m * 1e6, true)?;
     check_finite("min_gap_um", p.min_gap_m * 1e6, false)?;
     if p.min_gap_m < 0.0 {
-        check_finite("min_gap_um", -1.0, true)?;
+        return Err(LayoutError::BadValue {
+            what: "min_gap_um".into(),
+            value: p.min_gap_m * 1e6,
+            positive: " and >= 0",
+        }
+        .into());
     }
     let [w, h] = p.field_m;
     let rmin = p.radius_m * if p.polydisperse { 0.85 } else { 1.0 };
@@ -226,6 +231,21 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A negative gap is named with its value (every one read "-1"); no gap
+    /// at all is a layout of touching-allowed particles.
+    #[test]
+    fn a_negative_gap_is_refused_with_its_value_and_none_is_taken() {
+        let with_gap = |g: f64| {
+            synth_layout(&SynthParams {
+                min_gap_m: g,
+                ..SynthParams::cmu_field(10, LayoutKind::Uniform, 1)
+            })
+        };
+        let e = with_gap(-5e-6).unwrap_err().to_string();
+        assert!(e.contains("min_gap_um is -5 ") && e.contains(">= 0"), "{e}");
+        assert!(with_gap(0.0).is_ok());
+    }
 
     #[test]
     fn layouts_are_seeded_and_keep_the_gap() {

@@ -1,0 +1,91 @@
+//! A command's output files must not be its input files, nor each other:
+//! `detect FRAME --overlay FRAME` replaced the microscope frame with the
+//! drawing, and `plan --layout L --out L` the layout with the plan, both
+//! with exit 0.
+
+use std::path::{Path, PathBuf};
+
+/// Where `path` is on disk, whether or not it exists yet: the file's name
+/// under its folder's canonical path (so `./a.json`, `a.json` and a link
+/// to the folder are one file). `None` when the folder does not exist
+/// (the write will fail on its own, naming it).
+fn resolved(path: &Path) -> Option<PathBuf> {
+    if let Ok(real) = std::fs::canonicalize(path) {
+        return Some(real);
+    }
+    let name = path.file_name()?;
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    Some(std::fs::canonicalize(folder).ok()?.join(name))
+}
+
+/// The (flag, path) of an optional path argument.
+pub fn flagged<'a>(
+    flag: &'static str,
+    path: &'a Option<PathBuf>,
+) -> Option<(&'static str, &'a Path)> {
+    path.as_deref().map(|p| (flag, p))
+}
+
+/// Refuses an output (flag, path) that is one of `inputs` (flag, path) or
+/// another output, naming both flags.
+pub fn check_distinct_outputs(
+    inputs: &[(&str, &Path)],
+    outputs: &[(&str, &Path)],
+) -> anyhow::Result<()> {
+    let inputs: Vec<_> = inputs.iter().map(|(f, p)| (*f, resolved(p))).collect();
+    let mut earlier: Vec<(&str, Option<PathBuf>)> = Vec::new();
+    for &(flag, path) in outputs {
+        let here = resolved(path);
+        if here.is_some() {
+            let clash = |other: &&(&str, Option<PathBuf>)| other.1 == here;
+            if let Some((input, _)) = inputs.iter().find(clash) {
+                anyhow::bail!(
+                    "{flag} {} is the input {input}: writing it would replace what was read; choose another file",
+                    path.display()
+                );
+            }
+            if let Some((other, _)) = earlier.iter().find(clash) {
+                anyhow::bail!(
+                    "{flag} {} is also {other}: one would overwrite the other; choose another file",
+                    path.display()
+                );
+            }
+        }
+        earlier.push((flag, here));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_output_that_is_an_input_or_another_output_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let layout = dir.path().join("layout.json");
+        std::fs::write(&layout, "{}").unwrap();
+        let plan = dir.path().join("plan.json");
+        // The same file spelt another way.
+        let again = dir.path().join(".").join("layout.json");
+        let fine = check_distinct_outputs(&[("--layout", &layout)], &[("--out", &plan)]);
+        assert!(fine.is_ok());
+        let e = check_distinct_outputs(&[("--layout", &layout)], &[("--out", &again)])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("--out") && e.contains("the input --layout"),
+            "{e}"
+        );
+        let e = check_distinct_outputs(&[], &[("--out", &plan), ("--overlay", &plan)])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--overlay") && e.contains("also --out"), "{e}");
+        // A folder that does not exist is left to the write to report.
+        let nowhere = dir.path().join("no/such/plan.json");
+        assert!(check_distinct_outputs(&[("--layout", &layout)], &[("--out", &nowhere)]).is_ok());
+    }
+}
