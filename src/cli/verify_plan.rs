@@ -43,6 +43,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
         println!("bad starts        {:?}", rep.bad_starts);
+        println!("bad approaches    {:?}", rep.bad_approaches);
         println!("unreachable       {:?}", rep.unreachable);
         println!("unfilled sites    {:?}", rep.unfilled_sites);
         println!("max final error   {:.4} um", rep.max_final_error_um);

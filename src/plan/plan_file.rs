@@ -235,13 +235,21 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
         return Err(PlanFileError::Schema(f.schema));
     }
     let g = f.geometry;
-    for (name, v) in [
-        ("tip_radius_um", g.tip_radius_um),
-        ("standoff_um", g.standoff_um),
-        ("nanostage_range_um", g.nanostage_range_um),
+    // A tip of no size touches nothing, a stage of no range reaches
+    // nothing (`plan` refuses both); the tip may land at its contact point.
+    for (name, v, zero_ok) in [
+        ("tip_radius_um", g.tip_radius_um, false),
+        ("standoff_um", g.standoff_um, true),
+        ("nanostage_range_um", g.nanostage_range_um, false),
     ] {
-        if !v.is_finite() || v < 0.0 {
+        if !v.is_finite() {
             return Err(PlanFileError::NotFinite(name.into()));
+        }
+        if v < 0.0 || (v == 0.0 && !zero_ok) {
+            let least = if zero_ok { ">= 0" } else { "> 0" };
+            return Err(PlanFileError::OutOfRange(format!(
+                "{name} is {v} (must be {least})"
+            )));
         }
     }
     let mut sites = Vec::new();
@@ -431,6 +439,32 @@ mod tests {
 
     /// Sites and an assignment that disagree are refused, naming the pair;
     /// the plan as written reads back with its assignment.
+    /// A tip of no size or a negative one, or a stage of no range, is
+    /// refused with its value (-1 had been called "not finite", 0 read and
+    /// verified although `plan` refuses it).
+    #[test]
+    fn a_geometry_of_no_tip_or_no_range_is_refused_with_its_value() {
+        let (doc, _) = one_push_document();
+        for (key, value, want) in [
+            ("tip_radius_um", -1.0, "tip_radius_um is -1 (must be > 0)"),
+            ("tip_radius_um", 0.0, "tip_radius_um is 0 (must be > 0)"),
+            (
+                "nanostage_range_um",
+                0.0,
+                "nanostage_range_um is 0 (must be > 0)",
+            ),
+            ("standoff_um", -0.5, "standoff_um is -0.5 (must be >= 0)"),
+        ] {
+            let mut d = doc.clone();
+            d["geometry"][key] = value.into();
+            let e = from_json(&d.to_string(), "edited").unwrap_err().to_string();
+            assert!(e.contains(want), "{key} {value}: {e}");
+        }
+        let mut d = doc.clone();
+        d["geometry"]["standoff_um"] = 0.0.into();
+        assert!(from_json(&d.to_string(), "edited").is_ok());
+    }
+
     #[test]
     fn an_assignment_that_disagrees_with_the_sites_is_refused_by_pair() {
         let (doc, _) = one_push_document();

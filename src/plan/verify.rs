@@ -17,6 +17,9 @@ use std::collections::HashMap;
 pub const COLLISION_TOLERANCE_M: f64 = 1e-9;
 /// A push must start within this distance of where the particle is.
 pub const START_TOLERANCE_M: f64 = 1e-9;
+/// A push's approach point must lie within this distance of where the tip
+/// touches the particle's back on the push line (another tool's rounding).
+pub const APPROACH_TOLERANCE_M: f64 = 1e-8;
 
 /// One collision found by the replay.
 #[derive(Debug, Clone, Serialize, PartialEq)]
@@ -44,6 +47,10 @@ pub struct VerifyReport {
     pub collisions: Vec<Collision>,
     /// Steps that push an unknown particle or start away from it.
     pub bad_starts: Vec<usize>,
+    /// Push steps whose approach point is not where the tip touches the
+    /// particle's back on the push line (a tip landing beside the particle,
+    /// or in front of it, pushes nothing or the wrong way).
+    pub bad_approaches: Vec<usize>,
     /// Push steps whose tip path leaves the current nanostage window.
     pub unreachable: Vec<usize>,
     /// Sites with no particle on them at the end (within tolerance).
@@ -76,6 +83,12 @@ impl VerifyReport {
             parts.push(format!(
                 "{} pushes start away from their particle",
                 self.bad_starts.len()
+            ));
+        }
+        if let Some(first) = self.bad_approaches.first() {
+            parts.push(format!(
+                "{} pushes approach away from their particle's back (first: step {first})",
+                self.bad_approaches.len()
             ));
         }
         if !self.unreachable.is_empty() {
@@ -148,6 +161,12 @@ pub fn verify_plan_with(
                 } else {
                     Vector2::new(1.0, 0.0)
                 };
+                // The tip touches the particle's back: its disc and the
+                // particle's, centres R + r_tip apart, behind on the push line.
+                let touching = from_m - dir * (r + tip_r);
+                if (approach_m - touching).norm() > APPROACH_TOLERANCE_M {
+                    rep.bad_approaches.push(k);
+                }
                 let land = approach_m - dir * standoff;
                 let tip_end = approach_m + (to_m - from_m);
                 if let Some(c) = window {
@@ -203,6 +222,7 @@ pub fn verify_plan_with(
         .collect();
     rep.ok = rep.collisions.is_empty()
         && rep.bad_starts.is_empty()
+        && rep.bad_approaches.is_empty()
         && rep.unreachable.is_empty()
         && rep.unfilled_sites.is_empty();
     rep
@@ -217,4 +237,49 @@ pub fn verify_plan(plan: &Plan, layout: &Layout, config: &super::PlanConfig) -> 
         &super::plan_file::geometry_of(plan, config),
         config.on_site_tolerance_m.max(1e-9),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plan::{Particle, PlanConfig, Site, plan_assembly};
+
+    /// A push whose approach point is not at the particle's back (beside
+    /// it, or in front) is reported: such plans replayed as ok, though the
+    /// tip would push nothing, or push the particle the other way.
+    #[test]
+    fn a_push_approached_from_beside_or_in_front_is_reported() {
+        let layout = Layout {
+            field_m: [100e-6, 100e-6],
+            particles: vec![Particle {
+                id: 7,
+                centre_m: Vector2::new(30e-6, 50e-6),
+                radius_m: 5e-6,
+            }],
+        };
+        let sites = [Site {
+            id: 0,
+            centre_m: Vector2::new(60e-6, 50e-6),
+        }];
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&layout, &sites, &config).unwrap();
+        assert!(verify_plan(&plan, &layout, &config).ok);
+        let k = plan
+            .steps
+            .iter()
+            .position(|s| matches!(s, Step::Push { .. }))
+            .unwrap();
+        for shift in [
+            Vector2::new(0.0, 40e-6),
+            Vector2::new(2.0 * (5e-6 + 1e-6), 0.0),
+        ] {
+            let mut moved = plan.clone();
+            if let Step::Push { approach_m, .. } = &mut moved.steps[k] {
+                *approach_m += shift;
+            }
+            let report = verify_plan(&moved, &layout, &config);
+            assert_eq!(report.bad_approaches, [k], "{shift:?}");
+            assert!(!report.ok && report.summary().contains("approach"));
+        }
+    }
 }
