@@ -569,6 +569,11 @@ fn recordings_with_impossible_numbers_are_refused_on_read() {
             "field_um is [NaN, 100.000]",
         ),
         (
+            "no site",
+            Box::new(spec("sites_um = []")),
+            "recording.toml: sites_um is empty",
+        ),
+        (
             "empty field",
             Box::new(spec("field_um = [0.0, 100.0]")),
             "field_um is [0.000, 100.000]",

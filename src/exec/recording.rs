@@ -331,10 +331,27 @@ impl RecordingWriter {
         scene_toml: Option<&str>,
     ) -> Result<Self, RecordingError> {
         let io = |path: PathBuf| move |source| RecordingError::Io { path, source };
-        if dir.join(RECORDING_FILE).exists() {
+        // Any file it would write, not only a recording's description: a
+        // calibration `calibrate` had written there was replaced.
+        let written = [
+            RECORDING_FILE,
+            "calibration.toml",
+            "scene.toml",
+            "stage.jsonl",
+        ];
+        let frames_dir = dir.join("frames");
+        let frames_held = std::fs::read_dir(&frames_dir).is_ok_and(|mut d| d.next().is_some());
+        if let Some(held) = written
+            .iter()
+            .find(|name| dir.join(name).exists())
+            .map(|name| name.to_string())
+            .or(frames_held.then(|| "frames/".to_owned()))
+        {
             return Err(RecordingError::Mismatch {
                 path: dir.to_owned(),
-                message: "already holds a recording: choose another folder".to_owned(),
+                message: format!(
+                    "already holds {held}, which a recording would replace: choose another folder"
+                ),
             });
         }
         std::fs::create_dir_all(dir.join("frames")).map_err(io(dir.join("frames")))?;
@@ -490,6 +507,30 @@ mod tests {
             RecordingWriter::create(&rec_dir, spec(), &cal, None),
             Err(RecordingError::Mismatch { .. })
         ));
+    }
+
+    /// A folder holding any file a recording writes is refused, naming it,
+    /// and the file kept: `assemble --record DIR` replaced the calibration
+    /// `calibrate --recording DIR` had written there.
+    #[test]
+    fn a_folder_holding_a_file_a_recording_writes_is_refused() {
+        let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]);
+        for held in ["calibration.toml", "stage.jsonl", "frames/frame_00000.png"] {
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join(held);
+            std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+            std::fs::write(&path, "kept").unwrap();
+            let e = match RecordingWriter::create(dir.path(), spec(), &cal, None) {
+                Err(e) => e.to_string(),
+                Ok(_) => panic!("{held}: a recording was begun over it"),
+            };
+            let name = held.split('/').next().unwrap();
+            assert!(e.contains(name), "{held}: {e}");
+            assert_eq!(std::fs::read_to_string(&path).unwrap(), "kept");
+        }
+        let empty = tempfile::tempdir().unwrap();
+        std::fs::create_dir(empty.path().join("frames")).unwrap();
+        assert!(RecordingWriter::create(empty.path(), spec(), &cal, None).is_ok());
     }
 
     /// Frames from a colour camera are read in the channel the description

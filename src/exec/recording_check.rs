@@ -33,6 +33,12 @@ pub(super) fn check_spec(spec: &RecordingSpec) -> Result<(), String> {
     let Some(sites_um) = &spec.sites_um else {
         return Ok(());
     };
+    if sites_um.is_empty() {
+        // A dry-run of no site said "every site is filled" and exited 0.
+        return Err(
+            "sites_um is empty: name at least one site, or give pattern_text or pattern".into(),
+        );
+    }
     let radius_m = spec.particle_radius_um / UM_PER_M;
     let sites = sites_of(sites_um)?;
     if let Some(field_m) = field {
