@@ -23,7 +23,8 @@ use crate::vision::tip::{TipSettings, detect_tip};
 pub struct Args {
     /// Frame: PNG, TIFF, BMP, JPEG, a video (first frame) or a folder (first image).
     pub frame: PathBuf,
-    /// Pixel-to-stage calibration TOML; adds x_um, y_um.
+    /// Pixel-to-stage calibration TOML: adds where each particle and the
+    /// tip lie on the stage (x_um, y_um in --json; "at (x, y) um" in text).
     #[arg(long)]
     pub calib: Option<PathBuf>,
     /// Apparent particle diameter in pixels, ring included (default 17).
@@ -236,14 +237,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         println!("{} particles", doc.particles.len());
+        // With --calib, where each lies on the stage too.
+        let on_stage = |x: Option<f64>, y: Option<f64>| match (x, y) {
+            (Some(x), Some(y)) => format!("  at ({x:.3}, {y:.3}) um"),
+            _ => String::new(),
+        };
         for (p, d) in doc.particles.iter().zip(particles) {
             println!(
-                "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}",
+                "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}{}",
                 p.x_px,
                 p.y_px,
                 p.r_px,
                 p.sigma_px,
                 p.quality,
+                on_stage(p.x_um, p.y_um),
                 if d.edge_clipped {
                     "  (edge-clipped)"
                 } else {
@@ -253,8 +260,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         match &doc.tip {
             Some(t) => println!(
-                "tip: x {:.2} px  y {:.2} px  angle {:.2} deg  score {:.3}",
-                t.x_px, t.y_px, t.angle_deg, t.score
+                "tip: x {:.2} px  y {:.2} px  angle {:.2} deg  score {:.3}{}",
+                t.x_px,
+                t.y_px,
+                t.angle_deg,
+                t.score,
+                on_stage(t.x_um, t.y_um)
             ),
             None => println!("tip: not found"),
         }

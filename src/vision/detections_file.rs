@@ -31,6 +31,11 @@ pub struct TipRecord {
     pub y_px: f64,
     pub angle_deg: f64,
     pub score: f64,
+    /// The apex on the stage when calibrated, as for the particles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x_um: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub y_um: Option<f64>,
 }
 
 /// The whole document.
@@ -71,11 +76,16 @@ impl DetectionsFile {
         Self {
             schema: DETECTIONS_SCHEMA.into(),
             particles,
-            tip: analysis.tip.as_ref().map(|t| TipRecord {
-                x_px: t.x_px,
-                y_px: t.y_px,
-                angle_deg: t.angle_rad.to_degrees(),
-                score: t.score,
+            tip: analysis.tip.as_ref().map(|t| {
+                let um = calib.map(|c| c.pixel_to_stage_m(t.x_px, t.y_px));
+                TipRecord {
+                    x_px: t.x_px,
+                    y_px: t.y_px,
+                    angle_deg: t.angle_rad.to_degrees(),
+                    score: t.score,
+                    x_um: um.map(|u| u[0] * 1e6),
+                    y_um: um.map(|u| u[1] * 1e6),
+                }
             }),
             repaired_lines: analysis.repaired_lines.clone(),
             exposure: analysis.exposure,
@@ -129,6 +139,27 @@ mod tests {
         };
         let f = DetectionsFile::new(&analysis, Some(&cal));
         assert_eq!(f.particles[0].x_um, Some(5.25));
+        // The tip on the stage too, and back from the file.
+        let tipped = FrameAnalysis {
+            tip: Some(crate::vision::tip::TipDetection {
+                x_px: 100.0,
+                y_px: 40.0,
+                angle_rad: 0.5,
+                score: 0.9,
+                width_px: 30.0,
+                taper_length_px: 60.0,
+            }),
+            ..analysis.clone()
+        };
+        let t = DetectionsFile::new(&tipped, Some(&cal));
+        let tip = t.tip.as_ref().unwrap();
+        let (x, y) = (tip.x_um.unwrap(), tip.y_um.unwrap());
+        assert!(
+            (x - 50.0).abs() < 1e-9 && (y - 20.0).abs() < 1e-9,
+            "{x} {y}"
+        );
+        let back = DetectionsFile::from_json(&serde_json::to_string(&t).unwrap()).unwrap();
+        assert_eq!(back, t);
         let text = serde_json::to_string(&f).unwrap();
         assert!(text.contains("\"tip\":null"));
         assert!(text.contains("\"repaired_lines\":[{\"axis\":\"row\",\"index\":7,"));
