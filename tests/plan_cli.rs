@@ -90,6 +90,12 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
             "outside the reachable area",
         ),
         (on_easy("MMMMMMMMMMMMMMMMMMMMM", &[]), "does not fit"),
+        // Flags of --frame given with a layout were taken and ignored.
+        (
+            on_easy("I", &["--calib", "c.toml"]),
+            "--calib is for --frame",
+        ),
+        (on_easy("I", &["--radius-um", "3"]), "--frame"),
         (
             [
                 "plan",

@@ -46,8 +46,9 @@ pub struct Args {
     /// Seed of the random layout and of the simulated rig's noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Particles in the random layout.
-    #[arg(long, default_value_t = 50)]
+    /// Particles in the random layout (not with --layout or --rig, whose
+    /// particles are the file's or the camera's).
+    #[arg(long, default_value_t = 50, conflicts_with_all = ["layout", "rig"])]
     pub particles: usize,
     /// Output folder (must not hold a journal yet; a resumed run writes
     /// next to its journal, so not with --resume).

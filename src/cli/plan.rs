@@ -36,9 +36,15 @@ pub struct Args {
     /// Pixel-to-stage calibration (TOML) for --frame.
     #[arg(long)]
     pub calib: Option<PathBuf>,
-    /// Particle radius in um, for --frame: the detector's size hint and the
-    /// radius of every particle found.
-    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    /// Particle radius in um, for --frame: the detector's size hint, and
+    /// the batch's nominal size (each particle found is planned with its
+    /// measured one).
+    #[arg(
+        long,
+        default_value_t = 5.0,
+        allow_negative_numbers = true,
+        requires = "frame"
+    )]
     pub radius_um: f64,
     /// With --frame, a colour frame: luminance, red, green or blue.
     #[arg(long, default_value = "luminance", requires = "frame")]
@@ -75,6 +81,10 @@ pub struct Args {
 /// frame (written to `--save-layout` when asked), with the tip seen there.
 fn particles(args: &Args) -> anyhow::Result<Particles> {
     let Some(frame_path) = &args.frame else {
+        // Taken and ignored before: the layout's positions are in um already.
+        if args.calib.is_some() {
+            bail!("--calib is for --frame: a layout's positions are on the stage already");
+        }
         let path = args.layout.as_ref().context("give --layout or --frame")?;
         return Ok(Particles {
             layout: Layout::read(path)?,
