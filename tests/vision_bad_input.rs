@@ -325,6 +325,22 @@ fn study_vision_refuses_what_it_cannot_study() {
     );
     let err = refused(dir.path(), &with(&["--particles", "0"]));
     assert!(err.contains("--particles must be > 0"), "{err}");
+    // A frame of no pixels is said of the frame (it blamed --radius-px).
+    let empty = [
+        "study",
+        "vision",
+        "--snr",
+        "8",
+        "--frames",
+        "1",
+        "--size-px",
+        "0",
+    ];
+    let err = refused(dir.path(), &empty);
+    assert!(
+        err.contains("the frame is 0x0 px") && !err.contains("--radius-px"),
+        "{err}"
+    );
     // Its tables go into a folder that is not there yet.
     let table = dir.path().join("new/folder/vis");
     let table_arg = table.display().to_string();

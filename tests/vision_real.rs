@@ -411,7 +411,12 @@ fn detect_cli_ring_edge_centres_on_brightfield() {
         let refused = run(&["--locator", locator]);
         assert!(!refused.status.success(), "{locator}");
         let said = String::from_utf8_lossy(&refused.stderr);
-        assert!(said.contains("need a fitted particle"), "{locator}: {said}");
+        // Named as typed (it read `PixelPeak`).
+        assert!(
+            said.contains("need a fitted particle")
+                && said.contains(&format!("--locator {locator} ")),
+            "{locator}: {said}"
+        );
     }
 }
 

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use super::distinct_outputs::check_distinct_outputs;
 
 use anyhow::Context;
+use clap::ValueEnum;
 
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::analyse::{
@@ -193,9 +194,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     if places_only && (args.polarity.is_some() || matches!(args.centre, CentreArg::RingEdge)) {
         anyhow::bail!(
-            "--polarity and --centre ring-edge need a fitted particle: --locator {:?} only \
+            "--polarity and --centre ring-edge need a fitted particle: --locator {} only \
              places candidates (use --locator profile-fit)",
             args.locator
+                .to_possible_value()
+                .map_or_else(String::new, |v| v.get_name().to_owned())
         );
     }
     let analysis = match args.locator.detector_locator() {

@@ -151,6 +151,12 @@ pub fn check_particle_fits(
             "{what}: radius {radius_px} px must be finite and > 0"
         )));
     }
+    if width_px == 0 || height_px == 0 {
+        // Said of the frame, not of the particle that would not fit it.
+        return Err(SceneFileError(format!(
+            "the frame is {width_px}x{height_px} px: it needs at least one pixel a side"
+        )));
+    }
     if 2.0 * radius_px > width_px.min(height_px) as f64 {
         return Err(SceneFileError(format!(
             "{what}: its image is {} px across, larger than the {width_px}x{height_px} px frame",

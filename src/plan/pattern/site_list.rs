@@ -54,6 +54,13 @@ impl SiteList {
         };
         if is_toml {
             toml::from_str(text).map_err(|e| err(e.to_string()))
+        } else if text.trim_start().starts_with('[') {
+            // serde reads a struct from an array too, and then says "invalid
+            // type: map, expected a sequence" of the first site.
+            Err(err(
+                "a site list is an object, {\"sites\": [...]}, not a bare array: wrap the array"
+                    .into(),
+            ))
         } else {
             serde_json::from_str(text).map_err(|e| err(e.to_string()))
         }
@@ -160,6 +167,8 @@ mod tests {
         assert!(third.contains("`z_um`"), "{third}");
         let missing = refused("sites = [{ x_um = 1.0 }]", true);
         assert!(missing.contains("needs `y_um`"), "{missing}");
+        let bare = refused(r#" [{"x_um": 0, "y_um": 0}]"#, false);
+        assert!(bare.contains("not a bare array"), "{bare}");
         let ok = SiteList::parse(r#"{"sites": [{"x_um": 1, "y_um": 2.5}]}"#, false, "s").unwrap();
         assert_eq!(
             ok.sites[0],
