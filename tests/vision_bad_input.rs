@@ -326,16 +326,9 @@ fn study_vision_refuses_what_it_cannot_study() {
     let err = refused(dir.path(), &with(&["--particles", "0"]));
     assert!(err.contains("--particles must be > 0"), "{err}");
     // A frame of no pixels is said of the frame (it blamed --radius-px).
-    let empty = [
-        "study",
-        "vision",
-        "--snr",
-        "8",
-        "--frames",
-        "1",
-        "--size-px",
-        "0",
-    ];
+    let mut empty = study.to_vec();
+    let size = empty.iter().position(|a| *a == "--size-px").unwrap() + 1;
+    empty[size] = "0";
     let err = refused(dir.path(), &empty);
     assert!(
         err.contains("the frame is 0x0 px") && !err.contains("--radius-px"),
