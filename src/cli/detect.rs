@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::distinct_outputs::check_distinct_outputs;
+use super::distinct_outputs::{check_distinct_outputs, flagged};
 
 use anyhow::Context;
 use clap::ValueEnum;
@@ -168,9 +168,13 @@ fn diameter_from_radius(radius_um: f64, m_per_px: f64) -> anyhow::Result<f64> {
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(overlay) = &args.overlay {
-        let inputs: Vec<(&str, &Path)> = std::iter::once(("FRAME", args.frame.as_path()))
-            .chain(args.calib.iter().map(|p| ("--calib", p.as_path())))
-            .collect();
+        let inputs: Vec<(&str, &Path)> = [
+            Some(("FRAME", args.frame.as_path())),
+            flagged("--calib", &args.calib),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
         check_distinct_outputs(&inputs, &[("--overlay", overlay)])?;
     }
     let frame = load_frame(&args.frame, args.channel)

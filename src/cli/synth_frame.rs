@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::distinct_outputs::check_distinct_outputs;
+use super::distinct_outputs::{check_distinct_outputs, flagged};
 
 use anyhow::Context;
 
@@ -78,14 +78,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    let inputs: Vec<(&str, &Path)> = args
-        .layout
-        .iter()
-        .map(|p| ("--layout", p.as_path()))
-        .collect();
-    let outputs: Vec<(&str, &Path)> = std::iter::once(("--out", args.out.as_path()))
-        .chain(args.truth.iter().map(|p| ("--truth", p.as_path())))
-        .collect();
+    let inputs: Vec<(&str, &Path)> = flagged("--layout", &args.layout).into_iter().collect();
+    let outputs: Vec<(&str, &Path)> = [
+        Some(("--out", args.out.as_path())),
+        flagged("--truth", &args.truth),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
     check_distinct_outputs(&inputs, &outputs)?;
     if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
         anyhow::bail!(
