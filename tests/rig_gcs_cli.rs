@@ -152,6 +152,21 @@ fn sim_gcs_asks_for_the_coarse_port_a_coarse_rig_file_needs() {
     assert!(stderr.contains("--coarse-port"), "{stderr}");
 }
 
+/// The microscope's own flags without --microscope were taken and
+/// ignored: the server started with no camera and no word.
+#[test]
+fn sim_gcs_refuses_microscope_flags_without_a_microscope() {
+    for flag in ["--particles", "--seed", "--frame-interval-ms"] {
+        let out = nanopush()
+            .args(["rig", "sim-gcs", "--port", "0", flag, "5"])
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{flag}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("--microscope"), "{flag}: {stderr}");
+    }
+}
+
 /// `nanopush assemble --text L --dry-run --rig RIG --out OUT`.
 fn assemble_dry_run(rig: &std::path::Path, out: &std::path::Path) -> std::process::Output {
     nanopush()

@@ -418,6 +418,15 @@ fn detect_cli_ring_edge_centres_on_brightfield() {
             "{locator}: {said}"
         );
     }
+    // Crocker-Grier's own settings, given to another locator, were ignored.
+    for flag in ["--minmass", "--separation-px"] {
+        let refused = run(&[flag, "5"]);
+        let said = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            !refused.status.success() && said.contains("are crocker-grier's"),
+            "{flag}: {said}"
+        );
+    }
 }
 
 /// The camera line-defect repair (vision::line_defects) must leave real

@@ -53,9 +53,10 @@ pub struct Args {
     /// --polarity nor --centre ring-edge.
     #[arg(long, value_enum, default_value = "profile-fit")]
     pub locator: LocatorArg,
-    /// crocker-grier: minimum band-passed mass in frame counts (trackpy's `minmass`).
-    #[arg(long, default_value_t = 0.0)]
-    pub minmass: f64,
+    /// crocker-grier: minimum band-passed mass in frame counts (trackpy's
+    /// `minmass`; default 0).
+    #[arg(long)]
+    pub minmass: Option<f64>,
     /// crocker-grier: minimum feature separation in px (default diameter + 1).
     #[arg(long)]
     pub separation_px: Option<f64>,
@@ -127,7 +128,7 @@ fn crocker_grier_analysis(
         );
     }
     let params = LocateParams {
-        minmass: args.minmass,
+        minmass: args.minmass.unwrap_or(0.0),
         separation_px: args.separation_px,
         invert: args.polarity.as_deref() == Some("dark"),
         ..LocateParams::new(diameter_px as u32)
@@ -196,13 +197,22 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.locator,
         LocatorArg::PixelPeak | LocatorArg::Centroid | LocatorArg::RadialSymmetry
     );
+    let locator_name = args
+        .locator
+        .to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_owned());
     if places_only && (args.polarity.is_some() || matches!(args.centre, CentreArg::RingEdge)) {
         anyhow::bail!(
-            "--polarity and --centre ring-edge need a fitted particle: --locator {} only \
-             places candidates (use --locator profile-fit)",
-            args.locator
-                .to_possible_value()
-                .map_or_else(String::new, |v| v.get_name().to_owned())
+            "--polarity and --centre ring-edge need a fitted particle: --locator {locator_name} only \
+             places candidates (use --locator profile-fit)"
+        );
+    }
+    // Taken and ignored by the other locators before.
+    if !matches!(args.locator, LocatorArg::CrockerGrier)
+        && (args.minmass.is_some() || args.separation_px.is_some())
+    {
+        anyhow::bail!(
+            "--minmass and --separation-px are crocker-grier's: --locator {locator_name} does not use them"
         );
     }
     let analysis = match args.locator.detector_locator() {

@@ -60,13 +60,18 @@ pub struct Args {
     #[arg(long, requires = "microscope")]
     pub layout: Option<PathBuf>,
     /// With --microscope: seed of the random layout and of the camera noise.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, requires = "microscope")]
     pub seed: u64,
-    /// With --microscope: particles in the random layout.
-    #[arg(long, default_value_t = 30)]
+    /// With --microscope: particles in the random layout (not with --layout).
+    #[arg(
+        long,
+        default_value_t = 30,
+        requires = "microscope",
+        conflicts_with = "layout"
+    )]
     pub particles: usize,
     /// With --microscope: shortest time between frames, milliseconds.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 50, requires = "microscope")]
     pub frame_interval_ms: u64,
 }
 
