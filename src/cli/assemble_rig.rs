@@ -466,7 +466,7 @@ fn finish_run(
 
 /// Frame analysis for this rig's camera: the particles' size in its pixels.
 fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
-    Perception::for_particles(scene.particle_radius_m, rig.calibration().m_per_px(), 5)
+    Perception::for_run(scene.particle_radius_m, rig.calibration())
 }
 
 /// The run's field on a rig with a coarse stage: what the first frame shows

@@ -16,6 +16,7 @@ mod nanopush_plan_api {
         AssignmentMethod, PlanConfig, PlanError, plan_assembly, plan_file, verify,
     };
     pub use crate::render::plan_on_frame::draw_plan_on_frame;
+    pub use crate::render::plan_overlay::{OverlayKind, overlay_kind};
     pub use crate::vision::frame::Frame;
     pub use crate::vision::frame_input::{Channel, load_frame};
 }
@@ -143,13 +144,7 @@ fn check_files(args: &Args) -> anyhow::Result<()> {
     .collect();
     check_distinct_outputs(&inputs, &outputs)?;
     if let Some(path) = &args.overlay {
-        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
-        if !["svg", "png"].contains(&ext.to_ascii_lowercase().as_str()) {
-            bail!(
-                "--overlay {}: unknown extension {ext:?}, use .svg or .png",
-                path.display()
-            );
-        }
+        overlay_kind(path)?;
     }
     Ok(())
 }
@@ -207,9 +202,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         plan_file::write(&plan, &config, out)?;
     }
     if let Some(path) = &args.overlay {
-        let is_png = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        let is_png = overlay_kind(path)? == OverlayKind::Png;
         match &seen_in {
             Some((frame, calibration)) if is_png => {
                 draw_plan_on_frame(&plan, &layout, tip_start_m, frame, calibration)

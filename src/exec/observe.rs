@@ -146,6 +146,9 @@ pub struct Perception {
     pub max_grabs: usize,
 }
 
+/// Grabs a run on a rig tries before a frame counts as lost.
+pub const RUN_GRABS: usize = 5;
+
 impl Perception {
     /// Detection sized for particles of `radius_m` seen at `m_per_px` (the
     /// size hint that keeps the probe's outline and debris out), the
@@ -159,6 +162,12 @@ impl Perception {
             tip: TipSettings::default(),
             max_grabs,
         }
+    }
+
+    /// What a run on a rig sees with: the scene's particles at the
+    /// calibration's scale, [`RUN_GRABS`] tries for a frame.
+    pub fn for_run(particle_radius_m: f64, calibration: &CameraCalibration) -> Self {
+        Self::for_particles(particle_radius_m, calibration.m_per_px(), RUN_GRABS)
     }
 
     /// Grabs a frame and finds the particles and the tip on the sample.

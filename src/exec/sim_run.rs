@@ -181,7 +181,7 @@ fn layout_first_seen(scene: &Scene, layout: &Layout, seed: u64) -> Result<Layout
     let mut twin = build_sim_rig(scene, layout, seed)?;
     let (calibration, offset) = (*twin.calibration(), twin.stage.coarse_offset());
     let r = scene.particle_radius_m;
-    let first = Perception::for_particles(r, calibration.m_per_px(), 5)
+    let first = Perception::for_run(r, &calibration)
         .sight(&mut twin, &calibration, offset)
         .map_err(|e| SimRunError::FirstFrame(e.to_string()))?;
     Ok(layout_measured(layout.field_m, &first.particles, r))
@@ -231,7 +231,6 @@ pub fn inputs_for(
     field_m: [f64; 2],
 ) -> AssemblyInputs {
     use crate::rig::Rig;
-    let m_per_px = rig.calibration().m_per_px();
     let settings = AssemblySettings {
         field_m,
         ..AssemblySettings::default()
@@ -240,7 +239,7 @@ pub fn inputs_for(
         scene: scene.clone(),
         sites,
         plan_config: settings.plan_config(scene),
-        perception: Perception::for_particles(scene.particle_radius_m, m_per_px, 5),
+        perception: Perception::for_run(scene.particle_radius_m, rig.calibration()),
         settings,
     }
 }

@@ -437,8 +437,6 @@ mod tests {
         }
     }
 
-    /// Sites and an assignment that disagree are refused, naming the pair;
-    /// the plan as written reads back with its assignment.
     /// A tip of no size or a negative one, or a stage of no range, is
     /// refused with its value (-1 had been called "not finite", 0 read and
     /// verified although `plan` refuses it).
@@ -465,6 +463,8 @@ mod tests {
         assert!(from_json(&d.to_string(), "edited").is_ok());
     }
 
+    /// Sites and an assignment that disagree are refused, naming the pair;
+    /// the plan as written reads back with its assignment.
     #[test]
     fn an_assignment_that_disagrees_with_the_sites_is_refused_by_pair() {
         let (doc, _) = one_push_document();

@@ -8,30 +8,46 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Draws `plan` over `layout` into `path` (.svg or .png).
-pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
-    let scale = 6.0; // pixels per um
-    let w = (layout.field_m[0] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
-    let h = (layout.field_m[1] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
+/// The kinds of overlay file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OverlayKind {
+    Svg,
+    Png,
+}
+
+/// The kind `path` names by its extension; asked before planning, so an
+/// unknown one is refused before anything is written.
+pub fn overlay_kind(path: &Path) -> anyhow::Result<OverlayKind> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
     match ext.as_str() {
-        "svg" => paint(
+        "svg" => Ok(OverlayKind::Svg),
+        "png" => Ok(OverlayKind::Png),
+        other => anyhow::bail!(
+            "overlay {}: unknown extension {other:?}, use .svg or .png",
+            path.display()
+        ),
+    }
+}
+
+/// Draws `plan` over `layout` into `path` (.svg or .png).
+pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
+    let scale = 6.0; // pixels per um
+    let w = (layout.field_m[0] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
+    let h = (layout.field_m[1] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
+    match overlay_kind(path)? {
+        OverlayKind::Svg => paint(
             SVGBackend::new(path, (w, h)).into_drawing_area(),
             plan,
             layout,
         ),
-        "png" => paint(
+        OverlayKind::Png => paint(
             BitMapBackend::new(path, (w, h)).into_drawing_area(),
             plan,
             layout,
-        ),
-        other => anyhow::bail!(
-            "overlay {}: unknown extension {other:?}, use .svg or .png",
-            path.display()
         ),
     }
 }

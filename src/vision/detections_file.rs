@@ -54,6 +54,12 @@ pub struct DetectionsFile {
     pub exposure: Exposure,
 }
 
+/// Where pixel (x, y) lies on the stage in um, when calibrated.
+fn on_stage_um(calib: Option<&CameraCalibration>, x_px: f64, y_px: f64) -> [Option<f64>; 2] {
+    let um = calib.map(|c| c.pixel_to_stage_m(x_px, y_px));
+    [0, 1].map(|i| um.map(|u| u[i] * 1e6))
+}
+
 impl DetectionsFile {
     /// Builds the document, adding stage micrometres when calibrated.
     pub fn new(analysis: &FrameAnalysis, calib: Option<&CameraCalibration>) -> Self {
@@ -61,15 +67,15 @@ impl DetectionsFile {
             .particles
             .iter()
             .map(|d| {
-                let um = calib.map(|c| c.pixel_to_stage_m(d.x_px, d.y_px));
+                let [x_um, y_um] = on_stage_um(calib, d.x_px, d.y_px);
                 ParticleRecord {
                     x_px: d.x_px,
                     y_px: d.y_px,
                     r_px: d.r_px,
                     sigma_px: d.sigma_px,
                     quality: d.quality,
-                    x_um: um.map(|u| u[0] * 1e6),
-                    y_um: um.map(|u| u[1] * 1e6),
+                    x_um,
+                    y_um,
                 }
             })
             .collect();
@@ -77,14 +83,14 @@ impl DetectionsFile {
             schema: DETECTIONS_SCHEMA.into(),
             particles,
             tip: analysis.tip.as_ref().map(|t| {
-                let um = calib.map(|c| c.pixel_to_stage_m(t.x_px, t.y_px));
+                let [x_um, y_um] = on_stage_um(calib, t.x_px, t.y_px);
                 TipRecord {
                     x_px: t.x_px,
                     y_px: t.y_px,
                     angle_deg: t.angle_rad.to_degrees(),
                     score: t.score,
-                    x_um: um.map(|u| u[0] * 1e6),
-                    y_um: um.map(|u| u[1] * 1e6),
+                    x_um,
+                    y_um,
                 }
             }),
             repaired_lines: analysis.repaired_lines.clone(),
