@@ -16,6 +16,7 @@ use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::tip::{TipSettings, detect_tip};
 
+use super::distinct_outputs::check_distinct_outputs;
 use super::stage_csv::parse_stage_csv;
 
 /// Arguments of `nanopush calibrate`.
@@ -51,28 +52,13 @@ pub struct FitArgs {
     pub lens: LensModel,
 }
 
-/// Refuses an output that would overwrite one of the recording's inputs,
-/// or an existing file without `force` (a good calibration is not lost to
-/// a re-run).
-pub fn check_output(
-    out: &Path,
-    mut inputs: impl Iterator<Item = PathBuf>,
-    force: bool,
-) -> anyhow::Result<()> {
-    // Exists, so it canonicalizes; an input that does not is not it.
-    let Ok(out_real) = std::fs::canonicalize(out) else {
-        return Ok(());
-    };
-    let same = |p: &Path| std::fs::canonicalize(p).is_ok_and(|p| p == out_real);
-    if let Some(input) = inputs.find(|p| same(p)) {
-        anyhow::bail!(
-            "--out {} is the recording's own {}: choose another file",
-            out.display(),
-            input.display()
-        );
-    }
+/// Refuses an output that is one of the recording's `inputs` (label,
+/// path), or an existing file without `force` (a good calibration is not
+/// lost to a re-run).
+pub fn check_output(out: &Path, inputs: &[(&str, &Path)], force: bool) -> anyhow::Result<()> {
+    check_distinct_outputs(inputs, &[("--out", out)])?;
     anyhow::ensure!(
-        force,
+        force || !out.exists(),
         "{} exists: pass --force to replace it, or --out another file",
         out.display()
     );
@@ -136,8 +122,11 @@ pub fn fit_recording(
     let text =
         std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
     let rows = parse_stage_csv(&text)?;
-    let inputs = std::iter::once(csv).chain(rows.iter().map(|r| dir.join(&r.frame)));
-    check_output(out, inputs, force)?;
+    let frames: Vec<PathBuf> = rows.iter().map(|r| dir.join(&r.frame)).collect();
+    let inputs: Vec<(&str, &Path)> = std::iter::once(("stage.csv", csv.as_path()))
+        .chain(frames.iter().map(|f| ("frame", f.as_path())))
+        .collect();
+    check_output(out, &inputs, force)?;
     let mut pixels = Vec::new();
     let mut stage = Vec::new();
     let mut used = Vec::new();

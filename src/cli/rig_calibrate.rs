@@ -72,7 +72,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .unwrap_or_else(|| recording_beside(&out));
     // Refused before anything moves: a good calibration or recording is
     // not lost to a re-run.
-    check_output(&out, std::iter::empty(), args.force)?;
+    check_output(&out, &[], args.force)?;
     let csv = recording.join("stage.csv");
     if csv.exists() && !args.force {
         bail!(

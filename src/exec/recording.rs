@@ -310,6 +310,12 @@ pub fn read_stage_log(path: &Path) -> Result<Vec<StageLogEntry>, RecordingError>
     Ok(out)
 }
 
+/// The names a [`RecordingWriter`] gives what it writes in its folder.
+const CALIBRATION_FILE: &str = "calibration.toml";
+const SCENE_FILE: &str = "scene.toml";
+const STAGE_LOG_FILE: &str = "stage.jsonl";
+const FRAMES_DIR: &str = "frames";
+
 /// Writes a recording as a run goes: every analysed frame as a PNG plus its
 /// stage-log line. A [`FrameSink`] cannot fail, so the first error is kept
 /// and returned by [`RecordingWriter::finish`].
@@ -333,19 +339,14 @@ impl RecordingWriter {
         let io = |path: PathBuf| move |source| RecordingError::Io { path, source };
         // Any file it would write, not only a recording's description: a
         // calibration `calibrate` had written there was replaced.
-        let written = [
-            RECORDING_FILE,
-            "calibration.toml",
-            "scene.toml",
-            "stage.jsonl",
-        ];
-        let frames_dir = dir.join("frames");
+        let written = [RECORDING_FILE, CALIBRATION_FILE, SCENE_FILE, STAGE_LOG_FILE];
+        let frames_dir = dir.join(FRAMES_DIR);
         let frames_held = std::fs::read_dir(&frames_dir).is_ok_and(|mut d| d.next().is_some());
         if let Some(held) = written
             .iter()
             .find(|name| dir.join(name).exists())
             .map(|name| name.to_string())
-            .or(frames_held.then(|| "frames/".to_owned()))
+            .or(frames_held.then(|| format!("{FRAMES_DIR}/")))
         {
             return Err(RecordingError::Mismatch {
                 path: dir.to_owned(),
@@ -354,18 +355,18 @@ impl RecordingWriter {
                 ),
             });
         }
-        std::fs::create_dir_all(dir.join("frames")).map_err(io(dir.join("frames")))?;
+        std::fs::create_dir_all(&frames_dir).map_err(io(frames_dir.clone()))?;
         spec.schema = RECORDING_SCHEMA.to_owned();
-        spec.frames = "frames".to_owned();
-        spec.calibration = "calibration.toml".to_owned();
-        spec.stage_log = Some("stage.jsonl".to_owned());
+        spec.frames = FRAMES_DIR.to_owned();
+        spec.calibration = CALIBRATION_FILE.to_owned();
+        spec.stage_log = Some(STAGE_LOG_FILE.to_owned());
         // The frames it writes are the grey ones the loop analysed.
         spec.channel = Channel::Luminance;
-        let cal = dir.join("calibration.toml");
+        let cal = dir.join(CALIBRATION_FILE);
         std::fs::write(&cal, calibration.to_toml(None)).map_err(io(cal.clone()))?;
         if let Some(text) = scene_toml {
-            spec.scene = Some("scene.toml".to_owned());
-            let p = dir.join("scene.toml");
+            spec.scene = Some(SCENE_FILE.to_owned());
+            let p = dir.join(SCENE_FILE);
             std::fs::write(&p, text).map_err(io(p.clone()))?;
         }
         let text = toml::to_string(&spec).map_err(|e| RecordingError::Format {
@@ -374,7 +375,7 @@ impl RecordingWriter {
         })?;
         let spec_path = dir.join(RECORDING_FILE);
         std::fs::write(&spec_path, text).map_err(io(spec_path.clone()))?;
-        let log_path = dir.join("stage.jsonl");
+        let log_path = dir.join(STAGE_LOG_FILE);
         let mut log = std::fs::File::create(&log_path).map_err(io(log_path.clone()))?;
         let header = serde_json::to_string(&Header {
             schema: STAGE_LOG_SCHEMA.to_owned(),
@@ -393,7 +394,8 @@ impl RecordingWriter {
     pub fn add(&mut self, frame: &Frame, entry: StageLogEntry) -> Result<(), RecordingError> {
         let png = self
             .dir
-            .join(format!("frames/frame_{:05}.png", self.frames));
+            .join(FRAMES_DIR)
+            .join(format!("frame_{:05}.png", self.frames));
         save_png(frame, &png).map_err(|e| RecordingError::Format {
             path: png.clone(),
             message: e.to_string(),
@@ -403,7 +405,7 @@ impl RecordingWriter {
             ..entry
         })
         .expect("stage log entry serialises");
-        let log_path = self.dir.join("stage.jsonl");
+        let log_path = self.dir.join(STAGE_LOG_FILE);
         writeln!(self.log, "{line}")
             .and_then(|()| self.log.flush())
             .map_err(|source| RecordingError::Io {

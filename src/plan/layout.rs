@@ -4,6 +4,7 @@
 //! library everything is SI metres. Conversion happens once, here.
 
 use super::Site;
+use super::value_sign::Sign;
 use nalgebra::Vector2;
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
@@ -61,14 +62,14 @@ pub enum LayoutError {
         found: String,
     },
     /// A value is NaN, infinite, negative or zero where it must be positive.
-    #[error("layout: {what} is {value} (must be finite{positive})")]
+    #[error("layout: {what} is {value} (must be finite{needs})")]
     BadValue {
         /// Which value, e.g. "particle 3 radius_um".
         what: String,
         /// The offending value.
         value: f64,
-        /// Extra requirement text.
-        positive: &'static str,
+        /// The requirement besides finite, e.g. " and > 0".
+        needs: &'static str,
     },
     /// Two particles share an identifier.
     #[error("layout: particle id {0} appears twice")]
@@ -195,23 +196,27 @@ impl OffField {
     }
 }
 
-pub(crate) fn check_finite(what: &str, value: f64, positive: bool) -> Result<(), LayoutError> {
-    let bad = !value.is_finite() || (positive && value <= 0.0);
-    if bad {
-        return Err(LayoutError::BadValue {
+/// Refuses a value that is NaN, infinite or of the wrong `sign`, naming it.
+pub(crate) fn check_finite(what: &str, value: f64, sign: Sign) -> Result<(), LayoutError> {
+    match sign.broken_by(value) {
+        Some(needs) => Err(LayoutError::BadValue {
             what: what.to_string(),
             value,
-            positive: if positive { " and > 0" } else { "" },
-        });
+            needs,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 impl Layout {
     /// Checks every value is finite, radii positive, ids unique and no two particles overlap.
     pub fn validate(&self) -> Result<(), LayoutError> {
-        check_finite("field width_um", self.field_m[0] * UM_PER_M, true)?;
-        check_finite("field height_um", self.field_m[1] * UM_PER_M, true)?;
+        check_finite("field width_um", self.field_m[0] * UM_PER_M, Sign::Positive)?;
+        check_finite(
+            "field height_um",
+            self.field_m[1] * UM_PER_M,
+            Sign::Positive,
+        )?;
         for (what, m) in [
             ("width_um", self.field_m[0]),
             ("height_um", self.field_m[1]),
@@ -228,17 +233,17 @@ impl Layout {
             check_finite(
                 &format!("particle {} x_um", p.id),
                 p.centre_m.x * UM_PER_M,
-                false,
+                Sign::Any,
             )?;
             check_finite(
                 &format!("particle {} y_um", p.id),
                 p.centre_m.y * UM_PER_M,
-                false,
+                Sign::Any,
             )?;
             check_finite(
                 &format!("particle {} radius_um", p.id),
                 p.radius_m * UM_PER_M,
-                true,
+                Sign::Positive,
             )?;
             if !ids.insert(p.id) {
                 return Err(LayoutError::DuplicateId(p.id));

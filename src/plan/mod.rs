@@ -34,6 +34,7 @@ pub mod route;
 pub mod shortcuts;
 pub mod synth_layout;
 pub mod tour;
+pub mod value_sign;
 pub mod verify;
 pub mod windows;
 
@@ -42,6 +43,7 @@ pub use layout::{Layout, Particle};
 pub use pattern::{Pattern, Site};
 pub use verify::{VerifyReport, verify_plan};
 
+use crate::plan::value_sign::Sign;
 use nalgebra::Vector2;
 use rustc_hash::FxHashMap;
 use std::time::Instant;
@@ -444,8 +446,16 @@ fn plan_at_standoff(
     }
     let radius = layout.max_radius_m();
     for s in sites {
-        pattern::check_value(&format!("site {} x_um", s.id), s.centre_m.x * 1e6, false)?;
-        pattern::check_value(&format!("site {} y_um", s.id), s.centre_m.y * 1e6, false)?;
+        pattern::check_value(
+            &format!("site {} x_um", s.id),
+            s.centre_m.x * 1e6,
+            Sign::Any,
+        )?;
+        pattern::check_value(
+            &format!("site {} y_um", s.id),
+            s.centre_m.y * 1e6,
+            Sign::Any,
+        )?;
         // In the field, every push is bounded by it: split into pieces the
         // nanostage reaches, a push to a site 1e9 um away never ends.
         layout.check_site_in_field(s, radius)?;

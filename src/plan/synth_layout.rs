@@ -2,8 +2,9 @@
 //! clustered, and adversarial (a dense hexagonal core in the middle of the
 //! field, where patterns land, walling sites in, plus uniform filler).
 
-use super::layout::{Layout, LayoutError, Particle, check_finite};
+use super::layout::{Layout, Particle, check_finite};
 use super::occupancy::Occupancy;
+use super::value_sign::Sign;
 use nalgebra::Vector2;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -116,18 +117,10 @@ const CORE_PITCH_MARGIN: f64 = 1e-9;
 
 /// Generates a layout.
 pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
-    check_finite("field width_um", p.field_m[0] * 1e6, true)?;
-    check_finite("field height_um", p.field_m[1] * 1e6, true)?;
-    check_finite("radius_um", p.radius_m * 1e6, true)?;
-    check_finite("min_gap_um", p.min_gap_m * 1e6, false)?;
-    if p.min_gap_m < 0.0 {
-        return Err(LayoutError::BadValue {
-            what: "min_gap_um".into(),
-            value: p.min_gap_m * 1e6,
-            positive: " and >= 0",
-        }
-        .into());
-    }
+    check_finite("field width_um", p.field_m[0] * 1e6, Sign::Positive)?;
+    check_finite("field height_um", p.field_m[1] * 1e6, Sign::Positive)?;
+    check_finite("radius_um", p.radius_m * 1e6, Sign::Positive)?;
+    check_finite("min_gap_um", p.min_gap_m * 1e6, Sign::NonNegative)?;
     let [w, h] = p.field_m;
     let rmin = p.radius_m * if p.polydisperse { 0.85 } else { 1.0 };
     let most = most_that_fit(w - 2.0 * rmin, h - 2.0 * rmin, 2.0 * rmin + p.min_gap_m);

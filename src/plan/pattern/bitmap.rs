@@ -2,6 +2,7 @@
 //! pixel = one pitch; image rows go down the page.
 
 use super::{Pattern, PatternError};
+use crate::plan::value_sign::Sign;
 use nalgebra::Vector2;
 use std::path::Path;
 
@@ -11,7 +12,7 @@ pub fn pattern_from_image(
     pitch_m: f64,
     origin: &str,
 ) -> Result<Pattern, PatternError> {
-    super::check_value("pitch_um", pitch_m * 1e6, true)?;
+    super::check_value("pitch_um", pitch_m * 1e6, Sign::Positive)?;
     let offsets = img
         .enumerate_pixels()
         .filter(|(_, _, p)| p.0[0] < 128)

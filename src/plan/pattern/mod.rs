@@ -11,6 +11,7 @@ pub mod svg_path;
 pub mod transform;
 
 use crate::plan::layout::um_text;
+use crate::plan::value_sign::Sign;
 use nalgebra::Vector2;
 
 /// A target position for one particle.
@@ -138,15 +139,16 @@ pub enum PatternError {
     },
 }
 
-pub(crate) fn check_value(what: &str, value: f64, positive: bool) -> Result<(), PatternError> {
-    if !value.is_finite() || (positive && value <= 0.0) {
-        return Err(PatternError::BadValue {
+/// Refuses a value that is NaN, infinite or of the wrong `sign`, naming it.
+pub(crate) fn check_value(what: &str, value: f64, sign: Sign) -> Result<(), PatternError> {
+    match sign.broken_by(value) {
+        Some(extra) => Err(PatternError::BadValue {
             what: what.into(),
             value,
-            extra: if positive { " and > 0" } else { "" },
-        });
+            extra,
+        }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 impl Pattern {
@@ -159,8 +161,8 @@ impl Pattern {
             return Err(PatternError::Empty(what.to_string()));
         }
         for (i, p) in offsets_m.iter().enumerate() {
-            check_value(&format!("site {i} x"), p.x, false)?;
-            check_value(&format!("site {i} y"), p.y, false)?;
+            check_value(&format!("site {i} x"), p.x, Sign::Any)?;
+            check_value(&format!("site {i} y"), p.y, Sign::Any)?;
         }
         let (lo, hi) = bbox(&offsets_m);
         let c = (lo + hi) / 2.0;
@@ -170,7 +172,7 @@ impl Pattern {
 
     /// Pattern of `text` in the built-in font at `pitch_m` (rows go down the page = -y).
     pub fn from_text(text: &str, pitch_m: f64) -> Result<Self, PatternError> {
-        check_value("pitch_um", pitch_m * 1e6, true)?;
+        check_value("pitch_um", pitch_m * 1e6, Sign::Positive)?;
         let cells = font::text_cells(text).map_err(PatternError::UnknownGlyph)?;
         let offsets = cells
             .iter()

@@ -13,6 +13,7 @@
 
 use super::{Pattern, PatternError};
 use crate::plan::occupancy::Occupancy;
+use crate::plan::value_sign::Sign;
 use nalgebra::Vector2;
 use std::path::Path;
 
@@ -37,7 +38,7 @@ pub fn read_svg(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> {
 
 /// Sites along the paths of the SVG document `text` at `pitch_m`.
 pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Pattern, PatternError> {
-    super::check_value("pitch_um", pitch_m * 1e6, true)?;
+    super::check_value("pitch_um", pitch_m * 1e6, Sign::Positive)?;
     let tree =
         usvg::Tree::from_str(text, &usvg::Options::default()).map_err(|e| PatternError::File {
             path: origin.into(),

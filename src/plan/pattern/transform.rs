@@ -6,6 +6,7 @@ use super::{Pattern, PatternError, Site, bbox, numbered_sites};
 use crate::plan::assignment::{AssignmentMethod, assign};
 use crate::plan::grid::Grid;
 use crate::plan::parking::clearing_bound;
+use crate::plan::value_sign::Sign;
 use crate::plan::{DEFAULT_ON_SITE_TOLERANCE_M, PARKING_AWARE_MAX_PAIRS};
 use nalgebra::{Rotation2, Vector2};
 
@@ -30,7 +31,7 @@ impl Reachable {
 
 /// Rotates a pattern about its centre by `angle_rad` (counter-clockwise).
 pub fn rotate(pattern: &Pattern, angle_rad: f64) -> Result<Pattern, PatternError> {
-    super::check_value("rotation_deg", angle_rad.to_degrees(), false)?;
+    super::check_value("rotation_deg", angle_rad.to_degrees(), Sign::Any)?;
     let r = Rotation2::new(angle_rad);
     Pattern::from_offsets(
         pattern.offsets_m.iter().map(|p| r * p).collect(),
@@ -74,8 +75,8 @@ pub fn place_at(
     area: &Reachable,
     radius_m: f64,
 ) -> Result<Vec<Site>, PatternError> {
-    super::check_value("placement x_um", centre_m.x * 1e6, false)?;
-    super::check_value("placement y_um", centre_m.y * 1e6, false)?;
+    super::check_value("placement x_um", centre_m.x * 1e6, Sign::Any)?;
+    super::check_value("placement y_um", centre_m.y * 1e6, Sign::Any)?;
     let (cmin, cmax) = centre_range(pattern, area, radius_m)?;
     let inside = |v: f64, a: f64, b: f64| v >= a - FIT_TOLERANCE_M && v <= b + FIT_TOLERANCE_M;
     if !inside(centre_m.x, cmin.x, cmax.x) || !inside(centre_m.y, cmin.y, cmax.y) {
