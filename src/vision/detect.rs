@@ -15,6 +15,7 @@ use super::filter::{
 use super::frame::Frame;
 use super::frame_pool::{self, WorkBuffer};
 use super::noise::estimate_noise_sigma;
+use super::poor_fits::drop_poor_overlapping_fits;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
 use super::ring_edge::{CentreEstimate, recentre_on_ring_edges};
@@ -601,6 +602,10 @@ pub fn detect_particles_excluding(
     }
     if settings.locator == Locator::ProfileFit && model == ProfileModel::Ring {
         refine_touching(frame, &mut out, radius, settings);
+        // Neighbours of a dropped phantom had their windows cut by it.
+        if drop_poor_overlapping_fits(&mut out) > 0 {
+            refine_touching(frame, &mut out, radius, settings);
+        }
     }
     if settings.centre == CentreEstimate::RingEdge && model == ProfileModel::Ring {
         recentre_on_ring_edges(frame, &mut out, bp.noise_sigma);

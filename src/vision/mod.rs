@@ -21,6 +21,7 @@ pub mod matching;
 pub mod noise;
 pub mod overlay;
 pub mod pixel_window;
+pub mod poor_fits;
 pub mod profile_fit;
 pub mod radial_symmetry;
 pub mod ring_edge;
