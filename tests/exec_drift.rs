@@ -1,6 +1,6 @@
 //! The tip's drift against the sample (`exec::drift`). On the simulated rig a
 //! scene's `environment.drift_nm_s` moves the tip against the sample by that
-//! much every second, in x; the loop sees the apex where the stage was not
+//! much every second, along `drift_direction_deg` (default x); the loop sees the apex where the stage was not
 //! told to put it, follows the difference and takes it out of its moves.
 //! Judged on the simulated world's ground truth.
 
@@ -17,16 +17,23 @@ use sim_loop::{Outcome, run_sim};
 /// The executor's placement tolerance.
 const PLACED_M: f64 = 0.2e-6;
 
-/// CMU on the paper scene drifting `drift_nm_s`, on the random layout of
-/// `seed`, the drift followed or not.
+/// CMU on the paper scene drifting `drift_nm_s` along x, on the random
+/// layout of `seed`, the drift followed or not.
 fn run(drift_nm_s: f64, seed: u64, follow: bool) -> Outcome {
+    run_along(drift_nm_s, 0.0, seed, follow)
+}
+
+/// As [`run`], drifting along `direction_deg` (from +x towards +y).
+fn run_along(drift_nm_s: f64, direction_deg: f64, seed: u64, follow: bool) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
     let scene = dir.path().join("scene.toml");
     let text = std::fs::read_to_string(paper).unwrap();
     std::fs::write(
         &scene,
-        format!("{text}\n[environment]\ndrift_nm_s = {drift_nm_s}\n"),
+        format!(
+            "{text}\n[environment]\ndrift_nm_s = {drift_nm_s}\ndrift_direction_deg = {direction_deg}\n"
+        ),
     )
     .unwrap();
     let request = SimRunRequest {
@@ -134,4 +141,30 @@ fn without_drift_following_it_changes_little() {
     assert!(followed.rms_nm() <= ignored.rms_nm() + 2.0);
     let e = estimate(&followed).expect("an estimate");
     assert!(e.offset_um[0].hypot(e.offset_um[1]) < 0.05, "{e:?}");
+}
+
+/// The simulated tip drifts along any direction of the stage, and the
+/// estimate is the same on both axes: 2 nm/s along y (CMU seed 4, as the
+/// x test) is followed to every site, its rate seen in y.
+#[test]
+fn a_drift_along_y_is_followed_as_one_along_x() {
+    let o = run_along(2.0, 90.0, 4, true);
+    let e = estimate(&o).expect("an estimate");
+    eprintln!(
+        "2 nm/s along y: {:?} {}/31 rms {:.0} nm, {e:?}",
+        o.end,
+        o.filled(PLACED_M),
+        o.rms_nm()
+    );
+    assert_eq!(o.end, RunEnd::Done);
+    assert_eq!(o.filled(PLACED_M), o.site_errors_m.len());
+    assert!(
+        e.rate_nm_s[0].abs() < 0.5 && (e.rate_nm_s[1] - 2.0).abs() < 0.3,
+        "{e:?}"
+    );
+    let drifted_um = 2e-3 * o.t_end_s;
+    assert!(
+        (e.offset_um[1] - drifted_um).abs() < 0.06 && e.offset_um[0].abs() < 0.06,
+        "{e:?}, {drifted_um} um"
+    );
 }

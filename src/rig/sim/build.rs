@@ -48,7 +48,11 @@ pub fn centring_offset(field_m: [f64; 2], range_m: [f64; 2]) -> [f64; 2] {
 pub fn build_sim_rig(scene: &Scene, layout: &Layout, seed: u64) -> Result<SimRig, RigError> {
     let world = world_for(scene, layout);
     let config = SimStageConfig {
-        drift_m_per_s: [scene.environment.drift_m_per_s, 0.0],
+        drift_m_per_s: {
+            let env = &scene.environment;
+            let (sin, cos) = env.drift_direction_rad.sin_cos();
+            [env.drift_m_per_s * cos, env.drift_m_per_s * sin]
+        },
         ..SimStageConfig::default()
     };
     let range_um = [
