@@ -493,6 +493,58 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
     );
 }
 
+/// The files a plan from a synthetic frame uses, in `dir`: the true
+/// layout, the frame, its calibration and the layout found in it.
+fn frame_files(dir: &Path) -> [String; 4] {
+    ["truth.json", "frame.png", "calib.toml", "found.json"]
+        .map(|name| dir.join(name).to_str().unwrap().to_string())
+}
+
+/// Runs one command line (temporary paths hold no spaces), which must succeed.
+fn run_line(line: &str) {
+    let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+    assert!(ok, "{line}: {text}");
+}
+
+/// `plan --frame` lays out the whole frame: the field was the tracked view
+/// (a diameter in from the far edges), 109.5 x 89.5 um of a 120 x 100 um
+/// frame, so the layout's own particles lay outside it and "CMU" (114.7
+/// um wide with its discs), which plans on the same particles' layout
+/// file, was refused as too large.
+#[test]
+fn plan_from_a_frame_lays_out_the_whole_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, calib, found] = frame_files(dir.path());
+    run_line(&format!(
+        "synth layout --n 60 --field-um 120x100 --seed 2 --out {truth}"
+    ));
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --seed 5 --out {frame}"
+    ));
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n",
+    )
+    .unwrap();
+    run_line(&format!(
+        "plan --text CMU --frame {frame} --calib {calib} --save-layout {found}"
+    ));
+    let found = nanopush::plan::Layout::read(Path::new(&found)).unwrap();
+    // 240 x 200 pixels: their centres span 119.5 x 99.5 um.
+    let [w, h] = found.field_m.map(|m| m * 1e6);
+    assert!(
+        (w - 119.5).abs() < 1e-6 && (h - 99.5).abs() < 1e-6,
+        "{w} x {h} um"
+    );
+    assert!(
+        found.particles.iter().all(|p| {
+            let c = p.centre_m * 1e6;
+            (0.0..=w).contains(&c.x) && (0.0..=h).contains(&c.y)
+        }),
+        "a particle outside the layout's field"
+    );
+}
+
 /// `plan --frame` lays a spread batch (radii 5 % apart) out with each
 /// particle's measured size, as the rig's first frame is: every particle
 /// at least 1 um clear of the others within 0.1 um of its true radius.
@@ -500,18 +552,8 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
 #[test]
 fn plan_from_a_frame_keeps_each_particles_measured_size() {
     let dir = tempfile::tempdir().unwrap();
-    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let (truth, frame, calib, found) = (
-        at("truth.json"),
-        at("frame.png"),
-        at("calib.toml"),
-        at("found.json"),
-    );
-    // Temporary paths hold no spaces: each command is one line.
-    let run = |line: String| {
-        let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
-        assert!(ok, "{line}: {text}");
-    };
+    let [truth, frame, calib, found] = frame_files(dir.path());
+    let run = |line: String| run_line(&line);
     run(format!(
         "synth layout --n 25 --field-um 120x100 --polydisperse --seed 5 --out {truth}"
     ));

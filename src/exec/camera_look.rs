@@ -263,14 +263,20 @@ impl fmt::Display for CameraLook {
             )?,
             _ => writeln!(f, "tip:            not seen")?,
         }
-        let [lo, hi] = s.view_m;
+        let [lo, hi] = s.frame_m;
+        let [whole_lo, whole_hi] = s.view_m;
         writeln!(
             f,
-            "view:           x {:.1} .. {:.1} um, y {:.1} .. {:.1} um (the calibration's stage coordinates, no coarse offset)",
+            "view:           x {:.1} .. {:.1} um, y {:.1} .. {:.1} um (the calibration's stage coordinates, no coarse offset); \
+             particles are tracked whole within x {:.1} .. {:.1}, y {:.1} .. {:.1} um",
             um(lo[0]),
             um(hi[0]),
             um(lo[1]),
-            um(hi[1])
+            um(hi[1]),
+            um(whole_lo[0]),
+            um(whole_hi[0]),
+            um(whole_lo[1]),
+            um(whole_hi[1])
         )?;
         match &self.lens {
             Some(lens) => writeln!(

@@ -75,7 +75,10 @@ pub fn layout_from_frame(
     // frame is laid out: a spread batch's wide particles are then kept off
     // the sites here too. A cut particle's size is not measured: it takes
     // `radius_m`.
-    let layout = layout_measured(sighting.view_m[1], &seen, radius_m);
+    // The whole frame: every particle found lies in it (the view the loop
+    // tracks in is a diameter in from each edge, and a pattern as wide as
+    // the frame less its discs' clearance did not fit).
+    let layout = layout_measured(sighting.frame_m[1], &seen, radius_m);
     layout.validate()?;
     let cut_by_edge = layout.particles[sighting.particles.len()..]
         .iter()

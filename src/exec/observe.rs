@@ -59,6 +59,9 @@ pub struct Sighting {
     /// The part of the sample the frame shows (x, y lower and upper corners), metres,
     /// shrunk by the particle size hint so that clipped particles count as unseen.
     pub view_m: [[f64; 2]; 2],
+    /// The part of the sample the whole frame shows (pixel centres at its
+    /// edges), metres: a layout made from the frame spans this.
+    pub frame_m: [[f64; 2]; 2],
     /// Where the coarse stage had put the nanostage's origin on the sample, metres.
     pub coarse_offset_m: [f64; 2],
     /// Commanded nanostage position when the frame was taken, if the caller knows it.
@@ -224,21 +227,24 @@ impl Perception {
             .iter()
             .map(|d| on_sample_at(d.x_px, d.y_px, expected_r_px))
             .collect();
-        let margin = self.detect.diameter_px;
         let (w, h) = (timed.frame.width() as f64, timed.frame.height() as f64);
-        let corners = [
-            on_sample(margin, margin),
-            on_sample(w - 1.0 - margin, margin),
-            on_sample(margin, h - 1.0 - margin),
-            on_sample(w - 1.0 - margin, h - 1.0 - margin),
-        ];
-        let lo = [0, 1].map(|i| corners.iter().map(|c| c[i]).fold(f64::INFINITY, f64::min));
-        let hi = [0, 1].map(|i| {
-            corners
-                .iter()
-                .map(|c| c[i])
-                .fold(f64::NEG_INFINITY, f64::max)
-        });
+        // The box on the sample the pixel rectangle [m, w-1-m] x [m, h-1-m] covers.
+        let inset = |m: f64| {
+            let corners = [
+                on_sample(m, m),
+                on_sample(w - 1.0 - m, m),
+                on_sample(m, h - 1.0 - m),
+                on_sample(w - 1.0 - m, h - 1.0 - m),
+            ];
+            let lo = [0, 1].map(|i| corners.iter().map(|c| c[i]).fold(f64::INFINITY, f64::min));
+            let hi = [0, 1].map(|i| {
+                corners
+                    .iter()
+                    .map(|c| c[i])
+                    .fold(f64::NEG_INFINITY, f64::max)
+            });
+            [lo, hi]
+        };
         let sighting = Sighting {
             frame: timed.frame,
             t_s: timed.t_s,
@@ -249,7 +255,8 @@ impl Perception {
             dropped,
             repaired_lines,
             exposure,
-            view_m: [lo, hi],
+            view_m: inset(self.detect.diameter_px),
+            frame_m: inset(0.0),
             coarse_offset_m,
             stage_m: None,
             probe: probe.map(|t| (t, *calibration)),
