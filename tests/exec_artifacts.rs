@@ -280,6 +280,17 @@ fn the_pattern_is_built_where_asked_at_the_pitch_and_turn_asked() {
             "{flag:?}: {err}"
         );
     }
+    // A hardware run has no simulated noise: its --seed was taken and ignored.
+    let o = binary()
+        .args(["assemble", "--rig", "calib/rig-gcs-sim-folder.toml"])
+        .args(["--text", "L", "--seed", "3"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("cannot be used with") && err.contains("--seed"),
+        "{err}"
+    );
 }
 
 #[test]

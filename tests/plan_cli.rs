@@ -95,7 +95,15 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
             on_easy("I", &["--calib", "c.toml"]),
             "--calib is for --frame",
         ),
-        (on_easy("I", &["--radius-um", "3"]), "--frame"),
+        // Not "--frame and --calib are required", as if they went with --layout.
+        (
+            on_easy("I", &["--radius-um", "3"]),
+            "--radius-um is for --frame",
+        ),
+        (
+            on_easy("I", &["--channel", "green"]),
+            "--channel is for --frame",
+        ),
         (
             [
                 "plan",
@@ -205,9 +213,15 @@ fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     // The text summary gives the same ratios, to 3 decimals.
     let (ok, text) = plan_sites(&[]);
     assert!(ok, "{text}");
-    // A negative rotation is an angle, not an unknown flag.
-    let (ok, rotated) = plan_sites(&["--rotation-deg", "-90"]);
+    // A negative rotation is an angle, not an unknown flag; the text
+    // summary names the files it wrote (the overlay was written silently).
+    let svg_arg = svg.to_str().unwrap();
+    let (ok, rotated) = plan_sites(&["--rotation-deg", "-90", "--overlay", svg_arg]);
     assert!(ok && rotated.contains("verify-plan      ok"), "{rotated}");
+    assert!(
+        rotated.contains(&format!("wrote            {svg_arg}")),
+        "{rotated}"
+    );
     let push_line = text
         .lines()
         .find(|l| l.starts_with("push distance"))

@@ -207,6 +207,11 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
             layout("e300.json", &p(0, "50", "50", "1e300")),
             "particle 0 radius_um",
         ),
+        // Named once, by its path ("layout file layout:" before).
+        (
+            write(&dir, "empty.json", b"{}").display().to_string(),
+            "layout file ",
+        ),
     ];
     for (path, needle) in &cases {
         let args = [
@@ -214,6 +219,7 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
         ];
         let err = refused(dir.path(), &args);
         assert!(err.contains(needle), "{path}: {err}");
+        assert!(!err.contains("layout file layout"), "{path}: {err}");
     }
     for (r, needle) in [
         ("nan", "--radius-px must be finite and > 0, got NaN"),

@@ -43,8 +43,9 @@ pub struct Args {
     /// Layout file for the simulated rig (default: a random layout from --seed).
     #[arg(long)]
     pub layout: Option<PathBuf>,
-    /// Seed of the random layout and of the simulated rig's noise.
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the random layout and of the simulated rig's noise (not
+    /// with --rig: the hardware has its own).
+    #[arg(long, default_value_t = 1, conflicts_with = "rig")]
     pub seed: u64,
     /// Particles in the random layout (not with --layout or --rig, whose
     /// particles are the file's or the camera's).

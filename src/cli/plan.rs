@@ -39,20 +39,16 @@ pub struct Args {
     pub calib: Option<PathBuf>,
     /// Particle radius in um, for --frame: the detector's size hint, and
     /// the batch's nominal size (each particle found is planned with its
-    /// measured one).
-    #[arg(
-        long,
-        default_value_t = 5.0,
-        allow_negative_numbers = true,
-        requires = "frame"
-    )]
-    pub radius_um: f64,
-    /// With --frame, a colour frame: luminance, red, green or blue.
-    #[arg(long, default_value = "luminance", requires = "frame")]
-    pub channel: Channel,
+    /// measured one) [default: 5].
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius_um: Option<f64>,
+    /// With --frame, a colour frame: luminance, red, green or blue
+    /// [default: luminance].
+    #[arg(long)]
+    pub channel: Option<Channel>,
     /// With --frame: write the particles found as a layout file (what
     /// `verify-plan --layout` replays the plan on).
-    #[arg(long, requires = "frame")]
+    #[arg(long)]
     pub save_layout: Option<PathBuf>,
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -78,6 +74,9 @@ pub struct Args {
     pub json: bool,
 }
 
+/// The particle radius `--frame` assumes without `--radius-um`, um.
+const DEFAULT_RADIUS_UM: f64 = 5.0;
+
 /// The particles to plan with: the layout file's, or those found in the
 /// frame (written to `--save-layout` when asked), with the tip seen there.
 fn particles(args: &Args) -> anyhow::Result<Particles> {
@@ -85,6 +84,16 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         // Taken and ignored before: the layout's positions are in um already.
         if args.calib.is_some() {
             bail!("--calib is for --frame: a layout's positions are on the stage already");
+        }
+        // Refused here, not by clap: its "requires" named --frame and --calib
+        // as missing, as if they went with --layout.
+        let frame_only = [
+            ("--radius-um", args.radius_um.is_some()),
+            ("--channel", args.channel.is_some()),
+            ("--save-layout", args.save_layout.is_some()),
+        ];
+        if let Some((flag, _)) = frame_only.iter().find(|(_, given)| *given) {
+            bail!("{flag} is for --frame: a layout file gives the particles and their sizes");
         }
         let path = args.layout.as_ref().context("give --layout or --frame")?;
         return Ok(Particles {
@@ -96,8 +105,9 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
     let calibration = CameraCalibration::load(calib)?;
-    let frame = load_frame(frame_path, args.channel)?;
-    let found = layout_from_frame(frame.clone(), &calibration, args.radius_um * 1e-6)
+    let frame = load_frame(frame_path, args.channel.unwrap_or(Channel::Luminance))?;
+    let radius_um = args.radius_um.unwrap_or(DEFAULT_RADIUS_UM);
+    let found = layout_from_frame(frame.clone(), &calibration, radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
     if let Some(path) = &args.save_layout {
         found.layout.write(path)?;
@@ -273,6 +283,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             "verify-plan      {}",
             if report.ok { "ok" } else { "FAILED" }
         );
+        let written = [&args.save_layout, &args.out, &args.overlay];
+        for path in written.into_iter().flatten() {
+            println!("wrote            {}", path.display());
+        }
     }
     if !report.ok {
         bail!(

@@ -6,6 +6,7 @@ use super::distinct_outputs::{check_distinct_outputs, flagged};
 
 use anyhow::Context;
 
+use crate::plan::Layout;
 use crate::render::microscope::{MAX_SNR, RenderSettings, TipView, render_frame};
 use crate::render::microscope_truth::{
     Truth, check_particle_fits, random_scene, scene_from_layout,
@@ -103,9 +104,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let mut scene = match (&args.layout, args.n) {
         (Some(path), _) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("reading layout {}", path.display()))?;
-            scene_from_layout(&text, args.um_per_px)
+            // Its own errors name the file ("layout file PATH: ...").
+            let layout = Layout::read(path)?;
+            scene_from_layout(&layout, args.um_per_px)
                 .with_context(|| format!("layout {}", path.display()))?
         }
         (None, Some(n)) => {

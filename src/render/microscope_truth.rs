@@ -92,12 +92,11 @@ impl Truth {
 #[error("{0}")]
 pub struct SceneFileError(pub String);
 
-/// Scene of a "nanopush.layout/1" JSON document at `um_per_px`, origin at
-/// pixel (0, 0). The layout is checked as the planner checks it (finite,
-/// unique ids, every particle in and narrower than the field), so a
-/// mistyped position or radius is refused rather than drawn.
-pub fn scene_from_layout(text: &str, um_per_px: f64) -> Result<SceneView, SceneFileError> {
-    let layout = Layout::from_json(text, "layout").map_err(|e| SceneFileError(e.to_string()))?;
+/// Scene of a layout at `um_per_px`, origin at pixel (0, 0). A layout read
+/// from a file was checked as the planner checks it (finite, unique ids,
+/// every particle in and narrower than the field), so a mistyped position
+/// or radius is refused rather than drawn.
+pub fn scene_from_layout(layout: &Layout, um_per_px: f64) -> Result<SceneView, SceneFileError> {
     if !(um_per_px.is_finite() && um_per_px > 0.0) {
         return Err(SceneFileError(format!(
             "pixel size {um_per_px} um must be > 0"
@@ -235,6 +234,13 @@ pub fn benchmark_scene() -> SceneView {
 mod tests {
     use super::*;
 
+    /// The scene of a layout document, read as a file is.
+    fn scene_of(text: &str, um_per_px: f64) -> Result<SceneView, SceneFileError> {
+        let layout =
+            Layout::from_json(text, "layout").map_err(|e| SceneFileError(e.to_string()))?;
+        scene_from_layout(&layout, um_per_px)
+    }
+
     #[test]
     fn truth_round_trip_and_layout_parse() {
         let s = random_scene(5, 200, 100, 6.0, 3);
@@ -245,11 +251,11 @@ mod tests {
         assert_eq!(Truth::from_json(&text).unwrap(), t);
         let layout = r#"{"schema":"nanopush.layout/1","field_um":[100,50],
             "particles":[{"id":0,"x_um":10,"y_um":20,"radius_um":5}]}"#;
-        let sc = scene_from_layout(layout, 0.5).unwrap();
+        let sc = scene_of(layout, 0.5).unwrap();
         assert_eq!((sc.width_px, sc.height_px), (200, 100));
         assert_eq!(sc.particles[0].x_px, 20.0);
-        assert!(scene_from_layout(layout, 0.0).is_err());
-        assert!(scene_from_layout("{}", 0.5).is_err());
+        assert!(scene_of(layout, 0.0).is_err());
+        assert!(scene_of("{}", 0.5).is_err());
     }
 
     #[test]
@@ -260,7 +266,7 @@ mod tests {
                 "particles":[{{"id":4,"x_um":{x},"y_um":{y},"radius_um":{r}}}]}}"#
             )
         };
-        let err = |text: &str| scene_from_layout(text, 0.5).unwrap_err().0;
+        let err = |text: &str| scene_of(text, 0.5).unwrap_err().0;
         assert!(err(&one("50", "50", "1e4")).contains("particle 4 radius_um"));
         assert!(err(&one("50", "50", "1e300")).contains("particle 4 radius_um"));
         assert!(err(&one("5000", "-50", "5")).contains("particle 4 at (5000.000, -50.000) um"));
@@ -274,7 +280,7 @@ mod tests {
             err(&twice)
         );
         // Half the field wide: its image is the whole 200 px frame.
-        assert!(scene_from_layout(&one("50", "50", "50"), 0.5).is_ok());
+        assert!(scene_of(&one("50", "50", "50"), 0.5).is_ok());
     }
 
     #[test]
