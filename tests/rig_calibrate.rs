@@ -10,6 +10,7 @@ use nanopush::calib::lens::RadialLens;
 use nanopush::model::Scene;
 use nanopush::rig::gcs::{RigFile, SimConfig, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
+use nanopush::vision::frame_input::{Channel, load_frame};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::Duration;
@@ -152,8 +153,8 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
     let recording = b.dir.path().join("camera-recording");
     let csv = std::fs::read_to_string(recording.join("stage.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 3 + 16, "{csv}");
-    let refit = refit(&recording, &b.dir.path().join("again.toml"), &[]);
-    assert!(worst_um(&refit, &fitted) < 1e-6);
+    let again = refit(&recording, &b.dir.path().join("again.toml"), &[]);
+    assert!(worst_um(&again, &fitted) < 1e-6);
 
     // A second run keeps the calibration and moves nothing.
     let before = std::fs::read_to_string(&written).unwrap();
@@ -177,8 +178,38 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
     let message = String::from_utf8_lossy(&out.stderr);
     assert!(message.contains("holds a recording already"), "{message}");
 
-    // With --force it measures again and says how far the old map was.
-    let text = ok(&nanopush(&["rig", "calibrate", "--rig", rig, "--force"]));
+    // A map fitted into the recording itself, and a note of the user's.
+    let in_recording = recording.join("calibration.toml");
+    refit(&recording, &in_recording, &[]);
+    std::fs::write(recording.join("notes.txt"), "objective 20x").unwrap();
+
+    // With --force it measures again (on a smaller grid) and says how far
+    // the old map was. The earlier recording goes with it: 7 of its frames
+    // and the map fitted from it had stayed beside the new stage.csv.
+    let text = ok(&nanopush(&[
+        "rig",
+        "calibrate",
+        "--rig",
+        rig,
+        "--force",
+        "--grid",
+        "3",
+    ]));
+    let csv = std::fs::read_to_string(recording.join("stage.csv")).unwrap();
+    let pngs = std::fs::read_dir(&recording)
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "png")
+        })
+        .count();
+    assert_eq!(pngs, csv.lines().count() - 1, "{csv}");
+    assert!(pngs < 19, "{csv}");
+    assert!(!in_recording.exists());
+    assert!(recording.join("notes.txt").exists());
     let moved: f64 = text
         .split("put the view up to ")
         .nth(1)
@@ -187,8 +218,11 @@ fn calibrating_on_the_simulated_rig_finds_the_cameras_map_and_keeps_its_recordin
         .unwrap_or_else(|| panic!("{text}"));
     let new = CameraCalibration::load(&written).unwrap();
     println!("measured again: the two maps differ by up to {moved:.4} um over the view");
+    // Over the frames' own view (the command's), to its 3 decimals.
+    let frame = load_frame(&recording.join("frame_000.png"), Channel::Luminance).unwrap();
+    let (w, h) = (frame.width(), frame.height());
     assert!(
-        (moved - worst_um(&new, &fitted)).abs() < 1e-3,
+        (moved - new.largest_difference_m(&fitted, w, h) / UM).abs() < 1e-3,
         "{moved}\n{text}"
     );
     assert!(worst_um(&new, &truth()) < 0.1);

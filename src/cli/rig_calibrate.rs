@@ -6,7 +6,7 @@
 //! looks for it, so that `assemble --rig` uses it next.
 
 use super::calibrate::{FitArgs, check_output, fit_recording};
-use super::stage_csv::{StageRow, stage_csv};
+use super::stage_csv::{StageRow, parse_stage_csv, stage_csv};
 use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
 use crate::calib::camera_map::CameraCalibration;
 use crate::rig::gcs::RigFile;
@@ -99,6 +99,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&recording)
         .with_context(|| format!("creating {}", recording.display()))?;
     let previous = CameraCalibration::load(&out).ok();
+    if args.force {
+        clear_recording(&recording, &out)?;
+    }
     let mut rows: Vec<StageRow> = Vec::new();
     let mut view = (0, 0);
     let ran = run_calibration(&mut devices, &settings, &mut |shot| {
@@ -152,6 +155,45 @@ fn recording_beside(out: &Path) -> PathBuf {
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "calibration".into());
     out.with_file_name(format!("{stem}-recording"))
+}
+
+/// Removes the recording `dir` holds, before a new one is taken there: the
+/// frames its stage.csv lists, stage.csv itself, and the calibration
+/// `calibrate --recording` fits into it (unless it is `out`, which the new
+/// fit replaces). A 12-frame recording over a 19-frame one had left 7 old
+/// frames beside the new stage.csv, and a calibration of the old frames
+/// that then blocked `calibrate --recording`. Files it does not list, and
+/// listed ones outside the folder, stay.
+fn clear_recording(dir: &Path, out: &Path) -> anyhow::Result<()> {
+    let csv = dir.join("stage.csv");
+    let Ok(text) = std::fs::read_to_string(&csv) else {
+        return Ok(());
+    };
+    let rows = parse_stage_csv(&text).with_context(|| format!("reading {}", csv.display()))?;
+    let fitted = dir.join("calibration.toml");
+    let fitted_kept = std::fs::canonicalize(&fitted).ok() == std::fs::canonicalize(out).ok();
+    // Only plain names in the folder: a hand-edited `../x.png` is not ours.
+    let plain = |name: &str| {
+        let mut parts = Path::new(name).components();
+        matches!(parts.next(), Some(std::path::Component::Normal(_))) && parts.next().is_none()
+    };
+    let listed = rows
+        .iter()
+        .filter(|r| plain(&r.frame))
+        .map(|r| dir.join(&r.frame));
+    let old_files = listed
+        .chain([csv.clone()])
+        .chain((!fitted_kept).then_some(fitted));
+    let mut removed = 0;
+    for path in old_files.filter(|p| p.is_file()) {
+        std::fs::remove_file(&path).with_context(|| format!("removing {}", path.display()))?;
+        removed += 1;
+    }
+    println!(
+        "replacing the recording in {}: {removed} files of the earlier one removed",
+        dir.display()
+    );
+    Ok(())
 }
 
 /// Writes the shot's frame, adds its row and rewrites stage.csv, so that an
