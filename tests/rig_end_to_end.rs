@@ -69,7 +69,6 @@ struct Bench {
     rig_path: PathBuf,
     frames: PathBuf,
     text: &'static str,
-    seed: u64,
 }
 
 /// A served simulator at `time_scale`.
@@ -134,7 +133,6 @@ fn bench_seeing(time_scale: f64, camera: Option<&CameraCalibration>) -> Bench {
         rig_path,
         frames,
         text: TEXT,
-        seed: SEED,
     }
 }
 
@@ -204,7 +202,6 @@ fn coarse_bench(time_scale: f64) -> Bench {
         rig_path,
         frames,
         text: COARSE_TEXT,
-        seed: COARSE_SEED,
     }
 }
 
@@ -348,13 +345,7 @@ impl Bench {
         nanopush()
             .args(["assemble", "--rig"])
             .arg(&self.rig_path)
-            .args([
-                "--text",
-                self.text,
-                "--seed",
-                &self.seed.to_string(),
-                "--out",
-            ])
+            .args(["--text", self.text, "--out"])
             .arg(self.dir.path().join(out))
             .args(extra)
             .stdout(Stdio::piped())

@@ -29,6 +29,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, write_sites};
+use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
 use crate::exec::camera_look::size_doubt;
@@ -241,6 +242,7 @@ fn assemble(
     };
     let mut first = perception
         .sight(rig, &calibration, offset)
+        .map_err(|e| camera_error(&rig.rig_file().camera, e))
         .context("the first frame")?;
     if first.particles.is_empty() {
         let other = size_doubt(&first, &perception.detect, calibration.m_per_px())

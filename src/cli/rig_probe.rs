@@ -12,6 +12,7 @@ use crate::exec::observe::ObserveError;
 use crate::model::Scene;
 use crate::rig::camera_clock::WallClock;
 use crate::rig::camera_open::open_camera;
+use crate::rig::camera_source::CameraSource;
 use crate::rig::gcs::{self, GcsController, RigFile};
 use crate::rig::hardware::load_rig_calibration;
 use anyhow::Context;
@@ -81,6 +82,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
 }
 
+/// Why no frame of the rig's camera could be seen, with what to check: no
+/// frame at all is not "dropped frames" (a watched folder nobody writes
+/// to), and is said as `rig probe --camera` and `assemble --rig` both say it.
+pub fn camera_error(source: &CameraSource, e: ObserveError) -> anyhow::Error {
+    match e {
+        ObserveError::NoFrame(grabs) => anyhow::anyhow!(
+            "no frame from the camera ({}) in {grabs} tries of its timeout: {}",
+            source.describe(),
+            source.when_no_frame()
+        ),
+        other => anyhow::Error::new(other)
+            .context(format!("a frame from the camera ({})", source.describe())),
+    }
+}
 /// One frame of the rig's camera, as the loop sees it; without a
 /// calibration (none made yet), what can be seen in pixels, and the
 /// missing calibration as a part that could not be seen.
@@ -91,15 +106,7 @@ fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
     };
     let calibration = load_rig_calibration(rig);
     let source = &rig.camera;
-    let no_frame = |e: ObserveError| match e {
-        ObserveError::NoFrame(grabs) => anyhow::anyhow!(
-            "no frame from the camera ({}) in {grabs} tries of its timeout: {}",
-            source.describe(),
-            source.when_no_frame()
-        ),
-        other => anyhow::Error::new(other)
-            .context(format!("a frame from the camera ({})", source.describe())),
-    };
+    let no_frame = |e: ObserveError| camera_error(source, e);
     let mut camera = match open_camera(source, WallClock::start()) {
         Ok(camera) => camera,
         Err(e) => {
