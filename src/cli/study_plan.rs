@@ -22,11 +22,13 @@ use std::time::Instant;
 pub enum StudyMethod {
     /// Nearest free particle, pairs in order of distance.
     Greedy,
-    /// Exact sparse shortest augmenting paths (`Exact` up to 5,000 pairs).
+    /// Exact sparse shortest augmenting paths (what plan's exact and fast
+    /// methods run up to 5,000 pairs).
     Sparse,
     /// Exact dense Jonker-Volgenant (scipy's algorithm).
     Dense,
-    /// The large-N fast path: epsilon-scaling auction (`Exact` above 5,000 pairs).
+    /// Epsilon-scaling auction, run to its exact end (what plan's exact
+    /// method runs above 5,000 pairs; its fast method stops it at 0.01 %).
     Auction,
     /// Linear program through clarabel.
     Lp,

@@ -40,13 +40,13 @@ pub use instance::{block_instance, instance_json, read_instance_json};
 #[serde(rename_all = "kebab-case")]
 pub enum AssignmentMethod {
     /// Exact: sparse shortest augmenting paths up to 5,000 site x particle
-    /// pairs (`EXACT_SPARSE_MAX_PAIRS`), the epsilon-scaling auction above.
+    /// pairs, the epsilon-scaling auction above.
     Exact,
     /// Epsilon-scaling auction at any size (exact for distances rounded to diag / 1e9).
     Auction,
     /// The large-N fast path (the planner's default): exact up to 5,000
-    /// pairs; above, the auction stopped at a proven gap of 0.01 %
-    /// (`FAST_REL_GAP`), with its dual bound as the lower bound.
+    /// pairs; above, the auction stopped at a proven gap of 0.01 %, with
+    /// its dual bound as the lower bound.
     Fast,
     /// Exact, dense Jonker-Volgenant style; O(n^2 m), reference only.
     Dense,
