@@ -185,7 +185,7 @@ pub struct Environment {
     /// along the push (the worst case).
     pub drift_m_per_s: f64,
     /// Direction the simulated rig's tip drifts against the sample, in the
-    /// stage's frame (from +x towards +y) [rad]; default 0 (along x).
+    /// stage's frame (from +x towards +y) (rad); default 0 (along x).
     pub drift_direction_rad: f64,
 }
 
