@@ -1,6 +1,7 @@
 //! The `nanopush.plan/1` JSON file (micrometres, degrees), written and read back.
 
 use super::pattern::Site;
+use super::value_sign::Sign;
 use super::{Plan, PlanConfig, PlanSummary, Step};
 use nalgebra::Vector2;
 use rustc_hash::FxHashSet;
@@ -237,18 +238,18 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
     let g = f.geometry;
     // A tip of no size touches nothing, a stage of no range reaches
     // nothing (`plan` refuses both); the tip may land at its contact point.
-    for (name, v, zero_ok) in [
-        ("tip_radius_um", g.tip_radius_um, false),
-        ("standoff_um", g.standoff_um, true),
-        ("nanostage_range_um", g.nanostage_range_um, false),
+    for (name, v, sign) in [
+        ("tip_radius_um", g.tip_radius_um, Sign::Positive),
+        ("standoff_um", g.standoff_um, Sign::NonNegative),
+        ("nanostage_range_um", g.nanostage_range_um, Sign::Positive),
     ] {
         if !v.is_finite() {
             return Err(PlanFileError::NotFinite(name.into()));
         }
-        if v < 0.0 || (v == 0.0 && !zero_ok) {
-            let least = if zero_ok { ">= 0" } else { "> 0" };
+        if !sign.holds(v) {
             return Err(PlanFileError::OutOfRange(format!(
-                "{name} is {v} (must be {least})"
+                "{name} is {v} (must be {})",
+                sign.bound()
             )));
         }
     }

@@ -1,5 +1,5 @@
-//! What a number read from a layout, a pattern or a flag must be besides
-//! finite: the layout and pattern checks share it, so each error says the
+//! What a number read from a layout, a pattern, a plan file or a flag must
+//! be besides finite: their checks share it, so each error says the
 //! requirement the same way.
 
 /// The sign a checked value must have.
@@ -14,15 +14,34 @@ pub enum Sign {
 }
 
 impl Sign {
+    /// True when `value` is finite and of this sign.
+    pub fn holds(self, value: f64) -> bool {
+        value.is_finite()
+            && match self {
+                Sign::Any => true,
+                Sign::NonNegative => value >= 0.0,
+                Sign::Positive => value > 0.0,
+            }
+    }
+
+    /// The bound a finite value must keep: "> 0", ">= 0", or "" for any.
+    pub fn bound(self) -> &'static str {
+        match self {
+            Sign::Any => "",
+            Sign::NonNegative => ">= 0",
+            Sign::Positive => "> 0",
+        }
+    }
+
     /// The requirement `value` breaks, as the text after "must be finite"
     /// ("" when only finiteness is asked), or `None` when it is fine.
     pub fn broken_by(self, value: f64) -> Option<&'static str> {
-        let (bad_sign, needs) = match self {
-            Sign::Any => (false, ""),
-            Sign::NonNegative => (value < 0.0, " and >= 0"),
-            Sign::Positive => (value <= 0.0, " and > 0"),
+        let needs = match self {
+            Sign::Any => "",
+            Sign::NonNegative => " and >= 0",
+            Sign::Positive => " and > 0",
         };
-        (!value.is_finite() || bad_sign).then_some(needs)
+        (!self.holds(value)).then_some(needs)
     }
 }
 
@@ -39,5 +58,7 @@ mod tests {
         assert_eq!(Sign::Positive.broken_by(0.0), Some(" and > 0"));
         assert_eq!(Sign::Positive.broken_by(f64::INFINITY), Some(" and > 0"));
         assert_eq!(Sign::Positive.broken_by(1e-12), None);
+        assert!(Sign::NonNegative.holds(0.0) && !Sign::Positive.holds(0.0));
+        assert_eq!(Sign::NonNegative.bound(), ">= 0");
     }
 }
