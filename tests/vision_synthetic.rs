@@ -445,7 +445,8 @@ fn crowded_frames_give_no_phantom_between_rings_under_any_size_hint() {
 /// no ring-core candidates: most cores are arcs of a ring, which a fit
 /// merges or rejects but these locators reported as particles, up to 5
 /// for each sphere (pixel peak's precision 0.195 on this frame; without
-/// the cores 0.80, 0.83 and 0.87). At least 0.5: under two a sphere.
+/// the cores 0.80, 0.83 and 0.87). Asserted: at least 0.8, which pixel
+/// peak meets exactly on this (deterministic) frame.
 #[test]
 fn locators_without_a_fit_do_not_report_ring_arcs_as_particles() {
     use nanopush::vision::detect::Locator;

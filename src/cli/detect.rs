@@ -1,8 +1,8 @@
 //! `nanopush detect`: particles and the probe tip in one frame.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use super::distinct_outputs::{check_distinct_outputs, flagged};
+use super::distinct_outputs::{check_distinct_outputs, flagged, given};
 
 use anyhow::Context;
 use clap::ValueEnum;
@@ -169,13 +169,10 @@ fn diameter_from_radius(radius_um: f64, m_per_px: f64) -> anyhow::Result<f64> {
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(overlay) = &args.overlay {
-        let inputs: Vec<(&str, &Path)> = [
+        let inputs = given([
             Some(("FRAME", args.frame.as_path())),
             flagged("--calib", &args.calib),
-        ]
-        .into_iter()
-        .flatten()
-        .collect();
+        ]);
         check_distinct_outputs(&inputs, &[("--overlay", overlay)])?;
     }
     let frame = load_frame(&args.frame, args.channel)

@@ -29,6 +29,13 @@ pub fn flagged<'a>(
     path.as_deref().map(|p| (flag, p))
 }
 
+/// The (flag, path) pairs of the arguments given, in order.
+pub fn given<'a, const N: usize>(
+    pairs: [Option<(&'static str, &'a Path)>; N],
+) -> Vec<(&'static str, &'a Path)> {
+    pairs.into_iter().flatten().collect()
+}
+
 /// Refuses an output (flag, path) that is one of `inputs` (flag, path) or
 /// another output, naming both flags.
 pub fn check_distinct_outputs(

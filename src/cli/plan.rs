@@ -1,10 +1,10 @@
 //! `nanopush plan`: pattern + particles -> ordered push plan, with a summary.
 
-use super::distinct_outputs::{check_distinct_outputs, flagged};
+use super::distinct_outputs::{check_distinct_outputs, flagged, given};
 use super::pattern_args::PatternArgs;
 use anyhow::{Context, bail};
 use nanopush_plan_api::*;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 mod nanopush_plan_api {
     pub use crate::calib::camera_map::CameraCalibration;
@@ -135,23 +135,17 @@ struct Particles {
 /// an input or each other, and an overlay of a kind that cannot be drawn
 /// (found only after the plan had been written).
 fn check_files(args: &Args) -> anyhow::Result<()> {
-    let inputs: Vec<(&str, &Path)> = [
+    let inputs = given([
         flagged("--layout", &args.layout),
         flagged("--frame", &args.frame),
         flagged("--calib", &args.calib),
         flagged("--pattern", &args.target.pattern),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    let outputs: Vec<(&str, &Path)> = [
+    ]);
+    let outputs = given([
         flagged("--out", &args.out),
         flagged("--overlay", &args.overlay),
         flagged("--save-layout", &args.save_layout),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
+    ]);
     check_distinct_outputs(&inputs, &outputs)?;
     if let Some(path) = &args.overlay {
         overlay_kind(path)?;

@@ -1,8 +1,8 @@
 //! `nanopush synth frame`: render a synthetic microscope frame and its truth.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use super::distinct_outputs::{check_distinct_outputs, flagged};
+use super::distinct_outputs::{check_distinct_outputs, flagged, given};
 
 use anyhow::Context;
 
@@ -79,15 +79,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    let inputs: Vec<(&str, &Path)> = flagged("--layout", &args.layout).into_iter().collect();
-    let outputs: Vec<(&str, &Path)> = [
-        Some(("--out", args.out.as_path())),
-        flagged("--truth", &args.truth),
-    ]
-    .into_iter()
-    .flatten()
-    .collect();
-    check_distinct_outputs(&inputs, &outputs)?;
+    check_distinct_outputs(
+        &given([flagged("--layout", &args.layout)]),
+        &given([
+            Some(("--out", args.out.as_path())),
+            flagged("--truth", &args.truth),
+        ]),
+    )?;
     if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
         anyhow::bail!(
             "--snr must be > 0 and at most {MAX_SNR:e}, got {:e}",
