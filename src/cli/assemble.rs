@@ -435,6 +435,7 @@ fn json_summary(r: &AssemblyReport) -> serde_json::Value {
         "active_effects": r.active_effects,
         "repaired_lines": r.repaired_lines,
         "clipped_frames": r.clipped_frames,
+        "left_short": r.left_short,
         "outcome": r.outcome,
     })
 }
@@ -458,7 +459,7 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
     for e in &r.active_effects {
         println!("  effect           {}: {}", e.name, e.reason);
     }
-    for (what, note) in r.camera_notes() {
+    for (what, note) in r.notes() {
         println!("  {what}: {note}");
     }
     println!("report: {}", out.join("report.md").display());

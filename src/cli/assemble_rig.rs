@@ -540,7 +540,7 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path) {
         r.pushes, r.repushes, r.lost_contacts_detected
     );
     println!("  wall time        {:.1} s", r.time_s);
-    for (what, note) in r.camera_notes() {
+    for (what, note) in r.notes() {
         println!("  {what}: {note}");
     }
     println!("report: {}", out.join("report.json").display());

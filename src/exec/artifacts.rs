@@ -183,7 +183,7 @@ pub fn write_report_md(
         ),
         ("time", report.time_summary()),
     ];
-    rows.extend(report.camera_notes());
+    rows.extend(report.notes());
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");
     }
@@ -216,7 +216,13 @@ pub fn write_report_md(
         "| site | x [um] | y [um] | error [nm] | filled |\n|---|---|---|---|---|"
     );
     for (i, (s, e)) in sites_um.iter().zip(&report.site_errors_nm).enumerate() {
-        let ok = if *e <= 200.0 { "yes" } else { "no" };
+        let ok = if *e <= 200.0 {
+            "yes"
+        } else if report.left_short.iter().any(|l| l.site == i) {
+            "short"
+        } else {
+            "no"
+        };
         let _ = writeln!(md, "| {i} | {:.2} | {:.2} | {e:.0} | {ok} |", s[0], s[1]);
     }
     let _ = writeln!(md, "\n## Pushes\n");

@@ -20,7 +20,7 @@ use super::observe::{ObserveError, Perception, Sighting};
 use super::particle_sizes::ParticleSizes;
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::stroke::{Stroke, StrokeError, StrokeRequest, plan_stroke};
-use super::tracker::{Moved, Tracker};
+use super::tracker::{Moved, Track, Tracker};
 use crate::calib::camera_map::CameraCalibration;
 use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
@@ -44,6 +44,13 @@ pub struct AssemblySettings {
     pub off_line_tolerance_m: f64,
     /// Lost contacts on one particle before it is left alone (default 3).
     pub max_tries: u32,
+    /// A particle left alone this close to a site no other particle fills
+    /// fills that site, short of `placed_tolerance_m`, and the run goes on
+    /// (default 0.5 um, 5 % of a 10 um particle's diameter). Under drift a
+    /// particle 0.21 um from its site with a neighbour above it was nudged
+    /// in vain by every fresh plan, and one left 0.3 um short stopped the
+    /// run: it covers its site and cannot be moved.
+    pub left_short_m: f64,
     /// Pushes after which the run stops, done or not (default 400).
     pub max_pushes: usize,
     /// Stage faults in a row after which the run stops (default 3).
@@ -91,6 +98,7 @@ impl Default for AssemblySettings {
             placed_tolerance_m: 0.2e-6,
             off_line_tolerance_m: 1.5e-6,
             max_tries: 3,
+            left_short_m: 0.5e-6,
             max_pushes: 400,
             max_stage_faults: 3,
             travel_speed_m_per_s: 50e-6,
@@ -198,6 +206,22 @@ pub struct PlannedPush {
     pub to: [f64; 2],
 }
 
+/// Distance from a tracked particle's centre to a site's, metres.
+fn track_to_site_m(t: &Track, s: &Site) -> f64 {
+    (t.last.x_m - s.centre_m.x).hypot(t.last.y_m - s.centre_m.y)
+}
+
+/// A site filled short by a particle the loop left alone near it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LeftShort {
+    /// Index into the run's sites.
+    site: usize,
+    /// Track id of the particle.
+    particle: usize,
+    /// Its distance from the site when it was left, metres.
+    error_m: f64,
+}
+
 /// A push the loop is about to make or has just made.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PushIntent {
@@ -223,6 +247,12 @@ pub struct Assembly<'a> {
     tracker: Tracker,
     failures: HashMap<usize, u32>,
     given_up: Vec<usize>,
+    /// The particle the last push left unmoved within tolerance of its
+    /// target (`PushCheck::Unmoved`): a failure if the plan in hand then no
+    /// longer holds.
+    unmoved: Option<usize>,
+    /// Sites filled short by a particle left alone near them (`left_short_m`).
+    left_short: Vec<LeftShort>,
     repush_next: Option<usize>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
@@ -311,6 +341,8 @@ impl<'a> Assembly<'a> {
             journal,
             failures: HashMap::new(),
             given_up: Vec::new(),
+            unmoved: None,
+            left_short: Vec::new(),
             repush_next: None,
             stage_faults: 0,
             coarse_offset,
@@ -357,13 +389,16 @@ impl<'a> Assembly<'a> {
         self.sites
             .iter()
             .map(|s| {
-                self.tracker
-                    .tracks()
-                    .iter()
-                    .map(|t| (t.last.x_m - s.centre_m.x).hypot(t.last.y_m - s.centre_m.y))
-                    .fold(f64::INFINITY, f64::min)
+                self.nearest_track(s)
+                    .map_or(f64::INFINITY, |t| track_to_site_m(t, s))
             })
             .collect()
+    }
+
+    /// The tracked particle nearest to site `s`.
+    fn nearest_track(&self, s: &Site) -> Option<&Track> {
+        let tracks = self.tracker.tracks().iter();
+        tracks.min_by(|a, b| track_to_site_m(a, s).total_cmp(&track_to_site_m(b, s)))
     }
 
     /// Runs the loop until every site is filled or it has to stop.
@@ -459,7 +494,87 @@ impl<'a> Assembly<'a> {
     fn all_sites_filled(&self) -> bool {
         self.site_errors_m()
             .iter()
-            .all(|e| *e <= self.settings.placed_tolerance_m)
+            .enumerate()
+            .all(|(i, e)| *e <= self.settings.placed_tolerance_m || self.is_left_short(i))
+    }
+
+    /// Site `index` is filled short by a particle left alone near it.
+    fn is_left_short(&self, index: usize) -> bool {
+        self.left_short.iter().any(|l| l.site == index)
+    }
+
+    /// The sites the planner is asked to fill: all but those left short.
+    fn open_sites(&self) -> Vec<Site> {
+        (self.sites.iter().enumerate())
+            .filter(|(i, _)| !self.is_left_short(*i))
+            .map(|(_, s)| *s)
+            .collect()
+    }
+
+    /// After a refusal: leaves every particle within `left_short_m` of an
+    /// unfilled site there, filling it short. True if any was.
+    fn leave_near_particles_short(&mut self) -> Result<bool, ExecError> {
+        let errors = self.site_errors_m();
+        let near: Vec<usize> = (self.sites.iter().enumerate())
+            .filter(|(i, _)| {
+                errors[*i] > self.settings.placed_tolerance_m
+                    && errors[*i] <= self.settings.left_short_m
+                    && !self.is_left_short(*i)
+            })
+            .filter_map(|(_, s)| self.nearest_track(s).map(|t| t.id))
+            .collect();
+        let mut left = false;
+        for particle in near {
+            if !self.given_up.contains(&particle) {
+                self.given_up.push(particle);
+            }
+            left |= self.leave_short(particle)?;
+        }
+        Ok(left)
+    }
+
+    /// Journals and keeps the site a particle just left alone fills, if any
+    /// (`site_left_short_by`). True if it fills one.
+    fn leave_short(&mut self, particle: usize) -> Result<bool, ExecError> {
+        let Some(short) = self.site_left_short_by(particle) else {
+            return Ok(false);
+        };
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::LeftShort {
+                site: short.site,
+                particle,
+                error_nm: short.error_m * 1e9,
+            },
+        )?;
+        self.left_short.push(short);
+        Ok(true)
+    }
+
+    /// The site the particle just left alone fills, if it is within
+    /// `left_short_m` of one that no other particle fills. The planner is
+    /// then no longer asked to fill that site: the particle covers it and
+    /// cannot be moved (one left 0.18 um from its site, within tolerance,
+    /// had stopped the run all the same).
+    fn site_left_short_by(&self, particle: usize) -> Option<LeftShort> {
+        let t = self.tracker.track(particle)?;
+        let filled_by_another = |s: &Site| {
+            self.tracker.tracks().iter().any(|o| {
+                o.id != particle && track_to_site_m(o, s) <= self.settings.placed_tolerance_m
+            })
+        };
+        self.sites
+            .iter()
+            .enumerate()
+            .filter(|(i, s)| !self.is_left_short(*i) && !filled_by_another(s))
+            .map(|(i, s)| (i, track_to_site_m(t, s)))
+            .filter(|(_, d)| *d <= self.settings.left_short_m)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(site, d)| LeftShort {
+                site,
+                particle,
+                error_m: d,
+            })
     }
 
     fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
@@ -638,6 +753,7 @@ impl<'a> Assembly<'a> {
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
                 let name = match c {
                     PushCheck::Placed { .. } => "placed",
+                    PushCheck::Unmoved { .. } => "unmoved",
                     PushCheck::FellShort { .. } => "fell-short",
                     PushCheck::LeftLine { .. } => "left-line",
                     PushCheck::Overshot { .. } => "overshot",
@@ -648,8 +764,11 @@ impl<'a> Assembly<'a> {
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
         }
-        if result == "placed" {
+        if result == "placed" || result == "unmoved" {
             self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
+        }
+        if result == "unmoved" {
+            self.unmoved = Some(intent.particle);
         }
         self.journal.append(
             self.rig.now_s(),
@@ -677,6 +796,7 @@ impl<'a> Assembly<'a> {
             self.plan_in_hand = None;
             self.journal
                 .append(self.rig.now_s(), &RunEvent::GiveUp { particle, tries })?;
+            self.leave_short(particle)?;
         }
         Ok(())
     }
@@ -687,7 +807,7 @@ impl<'a> Assembly<'a> {
     /// particles had become an obstacle that blocked the plan in hand and
     /// every fresh plan. (A first-plan track seen once, then out of view, had
     /// vanished from the next plan, which pushed a particle through it.)
-    fn confirmed_tracks(&self) -> Vec<super::tracker::Track> {
+    fn confirmed_tracks(&self) -> Vec<Track> {
         let first = self.first_plan_ids.unwrap_or(usize::MAX);
         self.tracker
             .tracks()
@@ -726,6 +846,12 @@ impl<'a> Assembly<'a> {
                 Err(format!("it no longer verifies: {}", report.summary()))
             }
         });
+        let unmoved = self.unmoved.take();
+        if let (Some(Err(_)), Some(particle)) = (&kept, unmoved) {
+            // A fresh plan would ask for the push that did nothing again.
+            self.fail(particle)?;
+            config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+        }
         let plan = match kept {
             Some(Ok(plan)) => plan,
             dropped => {
@@ -735,7 +861,14 @@ impl<'a> Assembly<'a> {
                     .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
                     .map(|t| Vector2::new(t[0], t[1]));
                 let because = dropped.and_then(Result::err);
-                match plan_assembly(&layout, &self.sites, &config) {
+                let mut planned = plan_assembly(&layout, &self.open_sites(), &config);
+                if planned.is_err() && self.leave_near_particles_short()? {
+                    // Boxed in a hair from its site (one 0.21 um off, between
+                    // three filled sites, had stopped the run): plan without it.
+                    config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+                    planned = plan_assembly(&layout, &self.open_sites(), &config);
+                }
+                match planned {
                     Ok(plan) => {
                         self.journal_plan(&plan, because)?;
                         plan
@@ -1128,11 +1261,8 @@ const RETREAT_ROOM_M: f64 = 0.5e-6;
 /// Each particle has its size from `sizes`. Radii are capped so
 /// that no two discs overlap: touching spheres cannot, so a few nanometres
 /// of apparent overlap must not make the layout invalid.
-pub fn planning_particles(
-    tracks: &[super::tracker::Track],
-    sizes: &ParticleSizes,
-) -> Vec<Particle> {
-    let overlaps = |a: &super::tracker::Track, b: &super::tracker::Track| {
+pub fn planning_particles(tracks: &[Track], sizes: &ParticleSizes) -> Vec<Particle> {
+    let overlaps = |a: &Track, b: &Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
     let seen: Vec<(usize, [f64; 2], f64)> = tracks

@@ -178,7 +178,18 @@ pub enum RunEvent {
         /// Failed pushes.
         tries: u32,
     },
-    /// Every site is filled within tolerance.
+    /// The particle just given up on lies within `left_short_m` of a site
+    /// no other particle fills: the site counts as filled, short.
+    LeftShort {
+        /// Index of the site in the run's sites (as in the report's table).
+        site: usize,
+        /// Track id.
+        particle: usize,
+        /// Its distance from the site, nanometres.
+        error_nm: f64,
+    },
+    /// Every site is filled within tolerance, or short by a particle left
+    /// alone near it (`LeftShort`).
     Done,
     /// The run stopped before it was done.
     Stopped {

@@ -19,6 +19,11 @@ pub struct CheckTolerances {
 pub enum PushCheck {
     /// At its target within tolerance.
     Placed { error_m: f64 },
+    /// Within tolerance of its target but moved less than half the push: a
+    /// push shorter than the tolerance that did nothing. Harmless when the
+    /// rest of the plan still holds; the loop counts it as a failure when it
+    /// does not (a fresh plan would ask for the same push again).
+    Unmoved { error_m: f64 },
     /// On the line but short of its target: contact was lost (or never made).
     FellShort { missing_m: f64 },
     /// Left the push line sideways: it turned around the tip.
@@ -37,7 +42,19 @@ impl PushCheck {
     }
 }
 
+/// Pushes shorter than this are not asked to show movement: two positions
+/// measured 20-30 nm apart by the camera cannot tell half of it from none.
+const SMALLEST_CHECKED_MOVE_M: f64 = 50e-9;
+
 /// Classifies the observed end position of a push from `from` to `to`.
+///
+/// Within `placed_m` of `to` is placed when the particle moved at least half
+/// the push along its line (or the push is shorter than
+/// `SMALLEST_CHECKED_MOVE_M`), else unmoved: a push shorter than the
+/// tolerance passes the distance test with the particle where it started
+/// (a 0.12 um first leg of a bent route that never moved its particle
+/// passed as placed 91 times in a row under drift, each fresh plan asking
+/// for it again).
 pub fn check_push(
     from: [f64; 2],
     to: [f64; 2],
@@ -45,19 +62,28 @@ pub fn check_push(
     tol: &CheckTolerances,
 ) -> PushCheck {
     let error_m = (seen[0] - to[0]).hypot(seen[1] - to[1]);
-    if error_m <= tol.placed_m {
-        return PushCheck::Placed { error_m };
-    }
     let d = [to[0] - from[0], to[1] - from[1]];
     let length = d[0].hypot(d[1]);
     if length <= 0.0 {
-        return PushCheck::LeftLine {
-            off_line_m: error_m,
+        return if error_m <= tol.placed_m {
+            PushCheck::Placed { error_m }
+        } else {
+            PushCheck::LeftLine {
+                off_line_m: error_m,
+            }
         };
     }
     let u = [d[0] / length, d[1] / length];
     let w = [seen[0] - from[0], seen[1] - from[1]];
     let along = w[0] * u[0] + w[1] * u[1];
+    let moved_enough = length <= SMALLEST_CHECKED_MOVE_M || along >= 0.5 * length;
+    if error_m <= tol.placed_m {
+        return if moved_enough {
+            PushCheck::Placed { error_m }
+        } else {
+            PushCheck::Unmoved { error_m }
+        };
+    }
     let across = (u[0] * w[1] - u[1] * w[0]).abs();
     if across > tol.off_line_m {
         PushCheck::LeftLine { off_line_m: across }
@@ -79,6 +105,11 @@ mod tests {
     const TOL: CheckTolerances = CheckTolerances {
         placed_m: 0.1e-6,
         off_line_m: 1e-6,
+    };
+    /// The loop's default placed tolerance.
+    const TOL_WIDE: CheckTolerances = CheckTolerances {
+        placed_m: 0.2e-6,
+        off_line_m: 1.5e-6,
     };
     const FROM: [f64; 2] = [0.0, 0.0];
     const TO: [f64; 2] = [20e-6, 0.0];
@@ -106,6 +137,28 @@ mod tests {
             matches!(c, PushCheck::LeftLine { off_line_m } if (off_line_m - 6e-6).abs() < 1e-12)
         );
         assert!(c.lost_contact());
+    }
+
+    #[test]
+    fn a_short_push_that_did_not_move_its_particle_is_unmoved() {
+        // 0.12 um asked, within the 0.2 um tolerance of its target where it
+        // started, and it did not move: not placed.
+        let to = [0.12e-6, 0.0];
+        let c = check_push(FROM, to, [0.01e-6, 0.0], &TOL_WIDE);
+        assert!(
+            matches!(c, PushCheck::Unmoved { error_m } if (error_m - 0.11e-6).abs() < 1e-12),
+            "{c:?}"
+        );
+        assert!(!c.lost_contact());
+        // Out of tolerance it fell short, as any push.
+        let c = check_push(FROM, [0.3e-6, 0.0], [0.01e-6, 0.0], &TOL_WIDE);
+        assert!(matches!(c, PushCheck::FellShort { .. }), "{c:?}");
+        // Moved most of the way: placed.
+        let c = check_push(FROM, to, [0.09e-6, 0.01e-6], &TOL_WIDE);
+        assert!(matches!(c, PushCheck::Placed { .. }), "{c:?}");
+        // Too short to tell movement from camera noise: placed where it is.
+        let c = check_push(FROM, [0.04e-6, 0.0], [0.0, 0.0], &TOL_WIDE);
+        assert!(matches!(c, PushCheck::Placed { .. }), "{c:?}");
     }
 
     #[test]

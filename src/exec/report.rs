@@ -28,7 +28,8 @@ pub const REPORT_SCHEMA: &str = "nanopush.assembly-report/1";
 pub struct AssemblyReport {
     /// Always [`REPORT_SCHEMA`].
     pub schema: String,
-    /// `"done"`, or `"stopped: <reason>"`.
+    /// `"done"`, or `"stopped: <reason>"`. Done means every site is
+    /// within the placement tolerance or in `left_short`.
     pub outcome: String,
     /// Target sites.
     pub sites: usize,
@@ -78,6 +79,23 @@ pub struct AssemblyReport {
     /// follow drift, and in reports written before this field.
     #[serde(default)]
     pub drift: Option<DriftEstimate>,
+    /// Sites taken as filled by a particle the loop gave up on near them
+    /// (`AssemblySettings::left_short_m`); empty when none (and in reports
+    /// written before this field).
+    #[serde(default)]
+    pub left_short: Vec<LeftShortSite>,
+}
+
+/// A site filled by a particle the loop gave up on near it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LeftShortSite {
+    /// Index of the site (as in `site_errors_nm`).
+    pub site: usize,
+    /// Track id of the particle.
+    pub particle: usize,
+    /// Its distance from the site when it was left, nanometres (as the
+    /// camera saw it).
+    pub error_nm: f64,
 }
 
 /// The frames of a run whose camera clipped more than the warning level.
@@ -156,13 +174,41 @@ impl AssemblyReport {
     /// What went wrong at the camera, for the summaries: ("camera lines
     /// repaired", ...) and ("camera clipped", ...), each only when it
     /// happened.
-    pub fn camera_notes(&self) -> Vec<(&'static str, String)> {
+    pub fn notes(&self) -> Vec<(&'static str, String)> {
+        let short = self.left_short_summary().map(|s| ("left short", s));
         let lines = self
             .repaired_lines_summary()
             .map(|s| ("camera lines repaired", s));
         let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
         let drift = self.drift_summary().map(|s| ("tip drift", s));
-        lines.into_iter().chain(clipped).chain(drift).collect()
+        short
+            .into_iter()
+            .chain(lines)
+            .chain(clipped)
+            .chain(drift)
+            .collect()
+    }
+
+    /// "site 24 by particle 14 (264 nm), ...: each given up on near its
+    /// site, which it fills";
+    /// None when no site was left short.
+    pub fn left_short_summary(&self) -> Option<String> {
+        let sites: Vec<String> = self
+            .left_short
+            .iter()
+            .map(|l| {
+                format!(
+                    "site {} by particle {} ({:.0} nm)",
+                    l.site, l.particle, l.error_nm
+                )
+            })
+            .collect();
+        (!sites.is_empty()).then(|| {
+            format!(
+                "{}: each given up on near its site, which it fills",
+                sites.join(", ")
+            )
+        })
     }
 
     /// "offset (0.29, -0.01) um, rate (1.00, -0.02) nm/s, from 24 frames";
@@ -244,6 +290,7 @@ impl AssemblyReport {
             repaired_lines: counts.repaired_lines,
             clipped_frames: counts.clipped_frames,
             drift: counts.drift,
+            left_short: counts.left_short,
         }
     }
 }
@@ -273,6 +320,8 @@ pub struct JournalCounts {
     pub clipped_frames: ClippedFrames,
     /// The last observation's drift estimate.
     pub drift: Option<DriftEstimate>,
+    /// Sites left short, in the journal's order (one entry a site).
+    pub left_short: Vec<LeftShortSite>,
 }
 
 /// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
@@ -329,6 +378,20 @@ pub fn count_journal(
                                 .any(|p| (p.x_um - s[0]).hypot(p.y_um - s[1]) <= tolerance_um)
                         })
                         .count()
+                });
+            }
+            RunEvent::LeftShort {
+                site,
+                particle,
+                error_nm,
+            } => {
+                // A resumed run forgets what it left and may leave a site
+                // short again: the latest word on it stands.
+                c.left_short.retain(|l| l.site != *site);
+                c.left_short.push(LeftShortSite {
+                    site: *site,
+                    particle: *particle,
+                    error_nm: *error_nm,
                 });
             }
             RunEvent::Done => c.outcome = Some("done".to_owned()),
@@ -598,6 +661,45 @@ mod tests {
         assert_eq!(error_figures_nm(&[]), (0.0, 0.0));
     }
 
+    /// Sites left short are counted from the journal, one entry a site
+    /// (a resumed run may leave one short again: its latest word stands),
+    /// named first among the notes, and read back from report.json.
+    #[test]
+    fn sites_left_short_are_counted_named_and_read_back() {
+        let short = |site, particle, error_nm| RunEvent::LeftShort {
+            site,
+            particle,
+            error_nm,
+        };
+        let entries = vec![
+            entry(0, 1.0, short(4, 11, 260.0)),
+            entry(1, 2.0, RunEvent::Resume),
+            entry(2, 3.0, short(7, 2, 180.0)),
+            entry(3, 4.0, short(4, 9, 310.0)),
+        ];
+        let c = count_journal(&entries, &[], 0.2);
+        let site = |site, particle, error_nm| LeftShortSite {
+            site,
+            particle,
+            error_nm,
+        };
+        assert_eq!(c.left_short, [site(7, 2, 180.0), site(4, 9, 310.0)]);
+        let r = AssemblyReport {
+            left_short: c.left_short,
+            ..small_report()
+        };
+        assert_eq!(
+            r.notes().first().map(|n| (n.0, n.1.as_str())),
+            Some((
+                "left short",
+                "site 7 by particle 2 (180 nm), site 4 by particle 9 (310 nm): each given up on near its site, which it fills"
+            ))
+        );
+        let text = serde_json::to_string(&r).unwrap();
+        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+        assert!(small_report().notes().is_empty());
+    }
+
     /// A finished one-site run, 30 s against a 20 s bound.
     fn small_report() -> AssemblyReport {
         AssemblyReport {
@@ -620,6 +722,7 @@ mod tests {
             repaired_lines: Vec::new(),
             clipped_frames: ClippedFrames::default(),
             drift: None,
+            left_short: Vec::new(),
         }
     }
 
@@ -640,7 +743,7 @@ mod tests {
         assert_eq!(r.repaired_lines_summary(), None);
         assert_eq!(r.clipped_frames_summary(), None);
         assert_eq!(r.drift_summary(), None);
-        assert!(r.camera_notes().is_empty());
+        assert!(r.notes().is_empty());
         r.drift = Some(DriftEstimate {
             offset_um: [0.291, -0.012],
             rate_nm_s: [1.004, -0.021],
@@ -674,13 +777,13 @@ mod tests {
             "{text}"
         );
         assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
-        let notes: Vec<&str> = r.camera_notes().iter().map(|n| n.0).collect();
+        let notes: Vec<&str> = r.notes().iter().map(|n| n.0).collect();
         assert_eq!(
             notes,
             ["camera lines repaired", "camera clipped", "tip drift"]
         );
         let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
-        for field in ["repaired_lines", "clipped_frames", "drift"] {
+        for field in ["repaired_lines", "clipped_frames", "drift", "left_short"] {
             older.as_object_mut().unwrap().remove(field);
         }
         let older: AssemblyReport = serde_json::from_value(older).unwrap();
