@@ -251,13 +251,21 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
             "--snr must be > 0 and at most 1e6, got 1e300",
         ),
         (
+            &["--snr", "0"][..],
+            "--snr must be > 0 and at most 1e6, got 0",
+        ),
+        (&["--snr=-2.5"][..], "got -2.5"),
+        (
             &["--tip-x-px", "nan", "--tip-y-px", "3"][..],
             "--tip-x-px, --tip-y-px and --tip-angle-deg must be numbers, got NaN",
         ),
     ] {
         let args = [&["synth", "frame", "--n", "3", "--out", &out][..], flags].concat();
         let err = refused(dir.path(), &args);
-        assert!(err.contains(needle), "{flags:?}: {err}");
+        assert!(
+            err.contains(needle) && !err.contains("0e0"),
+            "{flags:?}: {err}"
+        );
     }
     assert!(!dir.path().join("f.png").exists() && !dir.path().join("t.json").exists());
 }
@@ -331,6 +339,14 @@ fn study_vision_refuses_what_it_cannot_study() {
     );
     let err = refused(dir.path(), &with(&["--particles", "0"]));
     assert!(err.contains("--particles must be > 0"), "{err}");
+    // An SNR of 0 is said as 0 (it printed "0e0").
+    let mut dark = study.to_vec();
+    dark[3] = "8,0";
+    let err = refused(dir.path(), &dark);
+    assert!(
+        err.contains("--snr must be > 0 and at most 1e6, got 0") && !err.contains("0e0"),
+        "{err}"
+    );
     // A frame of no pixels is said of the frame (it blamed --radius-px).
     let mut empty = study.to_vec();
     let size = empty.iter().position(|a| *a == "--size-px").unwrap() + 1;

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::Context;
 use serde::Serialize;
 
-use crate::render::microscope::{MAX_SNR, RenderSettings, render_frame};
+use crate::render::microscope::{RenderSettings, check_snr, render_frame};
 use crate::render::microscope_truth::{check_particle_fits, random_scene};
 use crate::vision::cramer_rao::centre_crb_px;
 use crate::vision::detect::{DetectSettings, Locator, detect_particles};
@@ -70,10 +70,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut rows = Vec::new();
     let mut placed: Vec<usize> = Vec::new();
     for &snr in &args.snr {
-        anyhow::ensure!(
-            snr > 0.0 && snr <= MAX_SNR,
-            "--snr values must be > 0 and at most {MAX_SNR:e}, got {snr:e}"
-        );
+        check_snr("--snr", snr).map_err(anyhow::Error::msg)?;
         let settings = RenderSettings::with_snr(snr, args.bits);
         let crb = centre_crb_px(args.radius_px, &settings).unwrap_or(f64::NAN);
         let frames: Vec<_> = (0..args.frames as u64)

@@ -7,7 +7,7 @@ use super::distinct_outputs::{check_distinct_outputs, flagged, given};
 use anyhow::Context;
 
 use crate::plan::Layout;
-use crate::render::microscope::{MAX_SNR, RenderSettings, TipView, render_frame};
+use crate::render::microscope::{RenderSettings, TipView, check_snr, render_frame};
 use crate::render::microscope_truth::{
     Truth, check_particle_fits, random_scene, scene_from_layout,
 };
@@ -86,12 +86,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             flagged("--truth", &args.truth),
         ]),
     )?;
-    if !(args.snr > 0.0 && args.snr <= MAX_SNR) {
-        anyhow::bail!(
-            "--snr must be > 0 and at most {MAX_SNR:e}, got {:e}",
-            args.snr
-        );
-    }
+    check_snr("--snr", args.snr).map_err(anyhow::Error::msg)?;
     let tip = [args.tip_x_px, args.tip_y_px, Some(args.tip_angle_deg)];
     if let Some(bad) = tip.into_iter().flatten().find(|v| !v.is_finite()) {
         anyhow::bail!("--tip-x-px, --tip-y-px and --tip-angle-deg must be numbers, got {bad}");

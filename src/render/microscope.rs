@@ -92,6 +92,24 @@ pub enum RenderError {
 /// where the background's photon count overflows (about 1e77).
 pub const MAX_SNR: f64 = 1e6;
 
+/// Refuses an SNR outside (0, [`MAX_SNR`]], naming the flag it came from.
+/// The value is printed as typed where it reads so ("0", "2.5"), in
+/// exponent form only where plain digits would run long ("1e300").
+pub fn check_snr(flag: &str, snr: f64) -> Result<(), String> {
+    if snr > 0.0 && snr <= MAX_SNR {
+        return Ok(());
+    }
+    let plain = snr == 0.0 || (1e-3..1e7).contains(&snr.abs());
+    let got = if plain || !snr.is_finite() {
+        format!("{snr}")
+    } else {
+        format!("{snr:e}")
+    };
+    Err(format!(
+        "{flag} must be > 0 and at most {MAX_SNR:e}, got {got}"
+    ))
+}
+
 impl RenderSettings {
     /// Settings whose ring signal-to-noise ratio is `snr`: the in-focus ring
     /// depth over the background noise, both in electrons. Gain puts the
