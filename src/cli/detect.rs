@@ -286,3 +286,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The detector's locators are spelt one way: as `--locator` takes them,
+    /// as tables print them and as JSON writes them.
+    #[test]
+    fn locators_are_spelt_as_the_flag_takes_them() {
+        use clap::ValueEnum;
+        for arg in LocatorArg::value_variants() {
+            let Some(locator) = arg.detector_locator() else {
+                continue;
+            };
+            let flag = arg.to_possible_value().unwrap().get_name().to_owned();
+            assert_eq!(locator.to_string(), flag);
+            assert_eq!(
+                serde_json::to_string(&locator).unwrap(),
+                format!("\"{flag}\"")
+            );
+        }
+    }
+}

@@ -147,7 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     for r in &rows {
         md += &format!(
-            "| {:?} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} | {:.2} | {:.2} |\n",
             r.locator,
             r.snr,
             r.recall,

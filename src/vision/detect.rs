@@ -22,8 +22,11 @@ use super::ring_edge::{CentreEstimate, recentre_on_ring_edges};
 use super::roi::RoiMask;
 
 /// How a candidate's sub-pixel centre is found (the study compares them).
+///
+/// Spelt as `detect --locator` takes it (`pixel-peak`) in tables and JSON
+/// alike: the study's table said `PixelPeak` and its JSON `pixel_peak`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum Locator {
     /// Integer position of the energy peak (what a Hough/peak finder gives).
     PixelPeak,
@@ -33,6 +36,17 @@ pub enum Locator {
     RadialSymmetry,
     /// Least-squares profile fit started from the radial-symmetry centre.
     ProfileFit,
+}
+
+impl std::fmt::Display for Locator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Locator::PixelPeak => "pixel-peak",
+            Locator::Centroid => "centroid",
+            Locator::RadialSymmetry => "radial-symmetry",
+            Locator::ProfileFit => "profile-fit",
+        })
+    }
 }
 
 impl Locator {
