@@ -503,6 +503,11 @@ impl<'a> Assembly<'a> {
         self.left_short.iter().any(|l| l.site == index)
     }
 
+    /// The particles the planner must not push: those given up on.
+    fn immovable(&self) -> Vec<u32> {
+        self.given_up.iter().map(|&id| id as u32).collect()
+    }
+
     /// The sites the planner is asked to fill: all but those left short.
     fn open_sites(&self) -> Vec<Site> {
         (self.sites.iter().enumerate())
@@ -525,10 +530,12 @@ impl<'a> Assembly<'a> {
             .collect();
         let mut left = false;
         for particle in near {
-            if !self.given_up.contains(&particle) {
-                self.given_up.push(particle);
+            if self.leave_short(particle)? {
+                left = true;
+                if !self.given_up.contains(&particle) {
+                    self.given_up.push(particle);
+                }
             }
-            left |= self.leave_short(particle)?;
         }
         Ok(left)
     }
@@ -834,7 +841,7 @@ impl<'a> Assembly<'a> {
             particles: planning_particles(&confirmed, &sizes),
         };
         let mut config = self.plan_config.clone();
-        config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+        config.immovable = self.immovable();
         let repushed = self.repush_next.map(|id| id as u32);
         let kept = self.plan_in_hand.take().map(|p| {
             let p = rebase_plan(&p, &layout, self.settings.keep_plan_shift_m, repushed)
@@ -850,7 +857,7 @@ impl<'a> Assembly<'a> {
         if let (Some(Err(_)), Some(particle)) = (&kept, unmoved) {
             // A fresh plan would ask for the push that did nothing again.
             self.fail(particle)?;
-            config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+            config.immovable = self.immovable();
         }
         let plan = match kept {
             Some(Ok(plan)) => plan,
@@ -865,7 +872,7 @@ impl<'a> Assembly<'a> {
                 if planned.is_err() && self.leave_near_particles_short()? {
                     // Boxed in a hair from its site (one 0.21 um off, between
                     // three filled sites, had stopped the run): plan without it.
-                    config.immovable = self.given_up.iter().map(|&id| id as u32).collect();
+                    config.immovable = self.immovable();
                     planned = plan_assembly(&layout, &self.open_sites(), &config);
                 }
                 match planned {
