@@ -559,6 +559,100 @@ fn plan_from_a_frame_lays_out_the_whole_frame() {
     );
 }
 
+/// Ids of the particles a layout file marks `"immovable": true`, read
+/// from its JSON (not through the library's reader, which it tests).
+fn marked_immovable(path: &str) -> Vec<u64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let layout: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let particles = layout["particles"].as_array().unwrap().iter();
+    let marked = particles.filter(|p| p["immovable"] == true);
+    marked.map(|p| p["id"].as_u64().unwrap()).collect()
+}
+
+/// Push steps of `plan` (a plan file) that move particle `id`.
+fn pushes_of(plan: &str, id: u64) -> usize {
+    let plan: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(plan).unwrap()).unwrap();
+    let steps = plan["steps"].as_array().unwrap().iter();
+    steps
+        .filter(|s| s["kind"] == "push" && s["particle"] == id)
+        .count()
+}
+
+/// The layout `plan --frame --save-layout` writes marks the particle the
+/// frame's edge cuts `"immovable"`, so `plan --layout` on it never pushes
+/// that particle, as the frame's own plan does not, and `verify-plan
+/// --layout` refuses a plan that does. Without the mark the saved layout
+/// planned "I" at (20, 40) um by pushing it, and verified.
+#[test]
+fn a_saved_layout_holds_the_particle_the_frames_edge_cuts() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, calib, found] = frame_files(dir.path());
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (held_plan, free_plan, free) = (at("held.json"), at("free.json"), at("free_layout.json"));
+    // Seed 5 has a particle 5.3 um from the left edge: its ring is cut.
+    run_line(&format!(
+        "synth layout --n 25 --field-um 120x100 --seed 5 --out {truth}"
+    ));
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
+    ));
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n",
+    )
+    .unwrap();
+    run_line(&format!(
+        "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
+    ));
+    let layout = nanopush::plan::Layout::read(Path::new(&found)).unwrap();
+    let cut: Vec<u64> = (layout.particles.iter())
+        .filter(|p| p.centre_m.x < 6e-6)
+        .map(|p| u64::from(p.id))
+        .collect();
+    assert_eq!(cut.len(), 1, "the particle 5.3 um from the edge");
+    assert_eq!(marked_immovable(&found), cut);
+    // Planned from the saved layout, where the pattern covers the cut
+    // particle's side: it stays, and the plan verifies with it held.
+    let plan_i = |layout: &str, out: &str| {
+        let line = format!("plan --text I --layout {layout} --at 20,40 --out {out} --json");
+        nanopush(&line.split_whitespace().collect::<Vec<_>>())
+    };
+    let (ok, text) = plan_i(&found, &held_plan);
+    assert!(ok, "{text}");
+    assert_eq!(
+        pushes_of(&held_plan, cut[0]),
+        0,
+        "the cut particle is pushed"
+    );
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(summary["particles_immovable"], 1, "{text}");
+    assert_eq!(summary["verified"], true, "{text}");
+    let (ok, text) = nanopush(&["verify-plan", &held_plan, "--layout", &found]);
+    assert!(ok, "{text}");
+    // The same particles unmarked: that plan pushes it, and the replay on
+    // the marked layout says so.
+    layout.write(Path::new(&free)).unwrap();
+    let (ok, text) = plan_i(&free, &free_plan);
+    assert!(ok, "{text}");
+    assert!(
+        pushes_of(&free_plan, cut[0]) > 0,
+        "unmarked, it is not pushed either: the scene no longer tests the mark"
+    );
+    let (ok, text) = nanopush(&["verify-plan", &free_plan, "--layout", &found, "--json"]);
+    assert!(!ok, "{text}");
+    // The report (stdout), without the error line after it (stderr).
+    let report: serde_json::Value =
+        serde_json::from_str(&text[..text.rfind('}').unwrap() + 1]).unwrap();
+    assert_eq!(report["ok"], false, "{text}");
+    assert!(
+        !report["moved_immovable"].as_array().unwrap().is_empty(),
+        "{text}"
+    );
+    let (ok, text) = nanopush(&["verify-plan", &free_plan, "--layout", &free]);
+    assert!(ok, "{text}");
+}
+
 /// `plan --frame` lays a spread batch (radii 5 % apart) out with each
 /// particle's measured size, as the rig's first frame is: every particle
 /// at least 1 um clear of the others within 0.1 um of its true radius.

@@ -201,7 +201,7 @@ fn a_dense_core_plans_with_the_tip_landing_nearer() {
         plan_file::from_json(&plan_file::to_json(&plan, &config), "mem").unwrap();
     assert!((geometry.standoff_um - 0.5).abs() < 1e-12);
     assert_eq!(read.standoff_m, plan.standoff_m);
-    let report = verify_plan_with(&read, &layout, &geometry, config.on_site_tolerance_m);
+    let report = verify_plan_with(&read, &layout, &[], &geometry, config.on_site_tolerance_m);
     assert!(report.ok && report.collisions.is_empty(), "{report:?}");
     // The same file read as if the tip landed 1 um behind: the replay
     // finds the tip hitting the core.
@@ -209,7 +209,7 @@ fn a_dense_core_plans_with_the_tip_landing_nearer() {
         standoff_um: 1.0,
         ..geometry
     };
-    let report = verify_plan_with(&read, &layout, &far, config.on_site_tolerance_m);
+    let report = verify_plan_with(&read, &layout, &[], &far, config.on_site_tolerance_m);
     assert!(!report.collisions.is_empty(), "{report:?}");
 }
 

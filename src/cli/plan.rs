@@ -9,7 +9,7 @@ use std::path::PathBuf;
 mod nanopush_plan_api {
     pub use crate::calib::camera_map::CameraCalibration;
     pub use crate::exec::frame_layout::layout_from_frame;
-    pub use crate::plan::layout::Layout;
+    pub use crate::plan::layout::MarkedLayout;
     pub use crate::plan::pattern::transform::{Reachable, place_at};
     pub use crate::plan::placement::{PlacementGoal, place_and_plan};
     pub use crate::plan::{
@@ -28,7 +28,8 @@ pub struct Args {
     /// What to assemble and where.
     #[command(flatten)]
     pub target: PatternArgs,
-    /// Particle layout (nanopush.layout/1 JSON).
+    /// Particle layout (nanopush.layout/1 JSON); its particles marked
+    /// immovable are obstacles, never pushed.
     #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
     pub layout: Option<PathBuf>,
     /// Microscope frame to detect particles in (needs --calib).
@@ -47,7 +48,8 @@ pub struct Args {
     #[arg(long)]
     pub channel: Option<Channel>,
     /// With --frame: write the particles found as a layout file (what
-    /// `verify-plan --layout` replays the plan on).
+    /// `verify-plan --layout` replays the plan on), those the frame's edge
+    /// cuts marked immovable.
     #[arg(long)]
     pub save_layout: Option<PathBuf>,
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
@@ -78,7 +80,8 @@ pub struct Args {
 const DEFAULT_RADIUS_UM: f64 = 5.0;
 
 /// The particles to plan with: the layout file's, or those found in the
-/// frame (written to `--save-layout` when asked), with the tip seen there.
+/// frame (written to `--save-layout` when asked), with the tip seen there;
+/// either way with those never to be pushed.
 fn particles(args: &Args) -> anyhow::Result<Particles> {
     let Some(frame_path) = &args.frame else {
         // Taken and ignored before: the layout's positions are in um already.
@@ -97,9 +100,8 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         }
         let path = args.layout.as_ref().context("give --layout or --frame")?;
         return Ok(Particles {
-            layout: Layout::read(path)?,
+            marked: MarkedLayout::read(path)?,
             tip_start_m: None,
-            cut_by_edge: Vec::new(),
             seen_in: None,
         });
     };
@@ -109,24 +111,29 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     let radius_um = args.radius_um.unwrap_or(DEFAULT_RADIUS_UM);
     let found = layout_from_frame(frame.clone(), &calibration, radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
+    // The cut particles marked, so that a plan from the saved layout, and
+    // its replay, hold them as this one does.
+    let marked = MarkedLayout {
+        layout: found.layout,
+        immovable: found.cut_by_edge,
+    };
     if let Some(path) = &args.save_layout {
-        found.layout.write(path)?;
+        marked.write(path)?;
     }
     Ok(Particles {
-        layout: found.layout,
+        marked,
         tip_start_m: found.tip_m,
-        cut_by_edge: found.cut_by_edge,
         seen_in: Some((frame, calibration)),
     })
 }
 
 /// What `nanopush plan` plans with.
 struct Particles {
-    layout: Layout,
+    /// The particles, and the obstacles never pushed: those the frame's
+    /// edge cuts, or those the layout file marks.
+    marked: MarkedLayout,
     /// The tip seen in the frame.
     tip_start_m: Option<nalgebra::Vector2<f64>>,
-    /// Particles the frame's edge cuts: obstacles, never pushed.
-    cut_by_edge: Vec<u32>,
     /// The frame the particles were found in, and its calibration.
     seen_in: Option<(Frame, CameraCalibration)>,
 }
@@ -157,9 +164,8 @@ fn check_files(args: &Args) -> anyhow::Result<()> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_files(&args)?;
     let Particles {
-        layout,
+        marked: MarkedLayout { layout, immovable },
         tip_start_m,
-        cut_by_edge,
         seen_in,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
@@ -179,7 +185,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         push_speed_m_per_s: args.speed_um_s * 1e-6,
         method: args.method,
         tip_start_m,
-        immovable: cut_by_edge.clone(),
+        immovable,
         ..PlanConfig::default()
     };
     let placing = std::time::Instant::now();
@@ -224,9 +230,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     summary["verified"] = report.ok.into();
     summary["placement_and_planning_time_s"] = placing_s.into();
     summary["standoff_um"] = (plan.standoff_m * 1e6).into();
+    let held = config.immovable.len();
     if args.frame.is_some() {
-        summary["particles_found"] = (layout.particles.len() - cut_by_edge.len()).into();
-        summary["particles_cut_by_edge"] = cut_by_edge.len().into();
+        summary["particles_found"] = (layout.particles.len() - held).into();
+        summary["particles_cut_by_edge"] = held.into();
+    } else {
+        summary["particles_immovable"] = held.into();
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&summary)?);
@@ -234,10 +243,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let s = &plan.summary;
         if args.frame.is_some() {
             println!(
-                "particles found  {} (+{} cut by the frame's edge: obstacles, not pushed)",
-                layout.particles.len() - cut_by_edge.len(),
-                cut_by_edge.len()
+                "particles found  {} (+{held} cut by the frame's edge: obstacles, not pushed)",
+                layout.particles.len() - held,
             );
+        } else if held > 0 {
+            println!("immovable        {held} (marked in the layout: obstacles, not pushed)");
         }
         println!("sites            {}", plan.sites.len());
         println!(
@@ -283,10 +293,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     }
     if !report.ok {
-        bail!(
-            "the plan failed its own replay: {} collisions",
-            report.collisions.len()
-        );
+        bail!("the plan failed its own replay: {}", report.summary());
     }
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! `nanopush verify-plan`: independent geometric replay of a plan file.
 
-use crate::plan::layout::Layout;
+use crate::plan::layout::MarkedLayout;
 use crate::plan::{plan_file, verify};
 use std::path::PathBuf;
 
@@ -9,7 +9,8 @@ use std::path::PathBuf;
 pub struct Args {
     /// Plan file (nanopush.plan/1).
     pub plan: PathBuf,
-    /// The layout the plan starts from.
+    /// The layout the plan starts from (its particles marked immovable
+    /// must not be pushed).
     #[arg(long)]
     pub layout: PathBuf,
     /// Allowed final position error in um.
@@ -28,9 +29,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.tolerance_um
         );
     }
-    let layout = Layout::read(&args.layout)?;
+    let marked = MarkedLayout::read(&args.layout)?;
     let (plan, geometry) = plan_file::read(&args.plan)?;
-    let rep = verify::verify_plan_with(&plan, &layout, &geometry, args.tolerance_um * 1e-6);
+    let rep = verify::verify_plan_with(
+        &plan,
+        &marked.layout,
+        &marked.immovable,
+        &geometry,
+        args.tolerance_um * 1e-6,
+    );
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
@@ -45,6 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("bad starts        {:?}", rep.bad_starts);
         println!("bad approaches    {:?}", rep.bad_approaches);
         println!("unreachable       {:?}", rep.unreachable);
+        println!("moved immovable   {:?}", rep.moved_immovable);
         println!("unfilled sites    {:?}", rep.unfilled_sites);
         println!("max final error   {:.4} um", rep.max_final_error_um);
         println!("result            {}", if rep.ok { "ok" } else { "FAILED" });

@@ -36,6 +36,18 @@ pub struct Layout {
     pub particles: Vec<Particle>,
 }
 
+/// A layout file's particles and the ids of those it marks `"immovable"`:
+/// obstacles a plan must never push (a frame's edge cut them, so their
+/// centres were never measured). Kept beside [`Layout`], not in it: only
+/// planning and its replay heed the mark, the simulated world does not.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MarkedLayout {
+    /// The particles and the field.
+    pub layout: Layout,
+    /// Ids of the particles a plan must leave where they are, in file order.
+    pub immovable: Vec<u32>,
+}
+
 /// Everything that can be wrong with a layout, and where.
 #[derive(Debug, thiserror::Error)]
 pub enum LayoutError {
@@ -54,6 +66,17 @@ pub enum LayoutError {
         path: String,
         /// Underlying JSON error.
         source: serde_json::Error,
+    },
+    /// A particle's `immovable` is not a boolean (serde would name neither
+    /// the particle nor the key).
+    #[error("layout file {path}: particle {id} immovable is {found} (must be true or false)")]
+    ImmovableNotBoolean {
+        /// Path of the file.
+        path: String,
+        /// Particle id.
+        id: u32,
+        /// The value found, as JSON text.
+        found: String,
     },
     /// The schema field names another kind or version.
     #[error("layout schema is {found:?}, expected {LAYOUT_SCHEMA:?}")]
@@ -143,6 +166,20 @@ struct ParticleFile {
     x_um: f64,
     y_um: f64,
     radius_um: f64,
+    /// Written only when true, so that files of tools without the mark
+    /// read the same; read as any value (null too) so that a non-boolean is
+    /// refused naming its particle.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "present"
+    )]
+    immovable: Option<serde_json::Value>,
+}
+
+/// A key's value, `Some` even when it is null (absent is `None`, by `default`).
+fn present<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<serde_json::Value>, D::Error> {
+    serde_json::Value::deserialize(d).map(Some)
 }
 
 /// Overlap (metres) tolerated between particles, to absorb rounding in files.
@@ -378,23 +415,34 @@ impl Layout {
             .fold(0.0, f64::max)
     }
 
-    /// Serialises to the `nanopush.layout/1` JSON text.
+    /// Serialises to the `nanopush.layout/1` JSON text, no particle marked immovable.
     pub fn to_json(&self) -> String {
-        let file = LayoutFile {
-            schema: LAYOUT_SCHEMA.to_string(),
-            field_um: [self.field_m[0] * UM_PER_M, self.field_m[1] * UM_PER_M],
-            particles: self
-                .particles
-                .iter()
-                .map(|p| ParticleFile {
-                    id: p.id,
-                    x_um: p.centre_m.x * UM_PER_M,
-                    y_um: p.centre_m.y * UM_PER_M,
-                    radius_um: p.radius_m * UM_PER_M,
-                })
-                .collect(),
-        };
-        serde_json::to_string_pretty(&file).expect("layout serialisation cannot fail")
+        file_text(self, &[])
+    }
+
+    /// Parses `nanopush.layout/1` JSON text and validates it, ignoring
+    /// immovable marks; `origin` names the source in errors.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, LayoutError> {
+        MarkedLayout::from_json(text, origin).map(|m| m.layout)
+    }
+
+    /// Reads and validates a layout file, ignoring immovable marks (what a
+    /// world or a drawing is built from; a plan reads [`MarkedLayout`]).
+    pub fn read(path: &Path) -> Result<Self, LayoutError> {
+        MarkedLayout::read(path).map(|m| m.layout)
+    }
+
+    /// Writes the layout file, no particle marked immovable.
+    pub fn write(&self, path: &Path) -> Result<(), LayoutError> {
+        write_text(path, &self.to_json())
+    }
+}
+
+impl MarkedLayout {
+    /// Serialises to the `nanopush.layout/1` JSON text, `"immovable": true`
+    /// on the marked particles.
+    pub fn to_json(&self) -> String {
+        file_text(&self.layout, &self.immovable)
     }
 
     /// Parses `nanopush.layout/1` JSON text and validates it; `origin` names the source in errors.
@@ -405,6 +453,20 @@ impl Layout {
         })?;
         if file.schema != LAYOUT_SCHEMA {
             return Err(LayoutError::Schema { found: file.schema });
+        }
+        let mut immovable = Vec::new();
+        for p in &file.particles {
+            match &p.immovable {
+                None | Some(serde_json::Value::Bool(false)) => {}
+                Some(serde_json::Value::Bool(true)) => immovable.push(p.id),
+                Some(other) => {
+                    return Err(LayoutError::ImmovableNotBoolean {
+                        path: origin.to_string(),
+                        id: p.id,
+                        found: other.to_string(),
+                    });
+                }
+            }
         }
         let layout = Layout {
             field_m: [file.field_um[0] / UM_PER_M, file.field_um[1] / UM_PER_M],
@@ -419,10 +481,10 @@ impl Layout {
                 .collect(),
         };
         layout.validate()?;
-        Ok(layout)
+        Ok(MarkedLayout { layout, immovable })
     }
 
-    /// Reads and validates a layout file.
+    /// Reads and validates a layout file with its immovable marks.
     pub fn read(path: &Path) -> Result<Self, LayoutError> {
         let text = std::fs::read_to_string(path).map_err(|source| LayoutError::Io {
             path: path.display().to_string(),
@@ -431,13 +493,39 @@ impl Layout {
         Self::from_json(&text, &path.display().to_string())
     }
 
-    /// Writes the layout file.
+    /// Writes the layout file with its immovable marks.
     pub fn write(&self, path: &Path) -> Result<(), LayoutError> {
-        std::fs::write(path, self.to_json()).map_err(|source| LayoutError::Io {
-            path: path.display().to_string(),
-            source,
-        })
+        write_text(path, &self.to_json())
     }
+}
+
+/// The `nanopush.layout/1` JSON text of `layout`, the particles in
+/// `immovable` marked.
+fn file_text(layout: &Layout, immovable: &[u32]) -> String {
+    let file = LayoutFile {
+        schema: LAYOUT_SCHEMA.to_string(),
+        field_um: [layout.field_m[0] * UM_PER_M, layout.field_m[1] * UM_PER_M],
+        particles: layout
+            .particles
+            .iter()
+            .map(|p| ParticleFile {
+                id: p.id,
+                x_um: p.centre_m.x * UM_PER_M,
+                y_um: p.centre_m.y * UM_PER_M,
+                radius_um: p.radius_m * UM_PER_M,
+                immovable: immovable.contains(&p.id).then_some(true.into()),
+            })
+            .collect(),
+    };
+    serde_json::to_string_pretty(&file).expect("layout serialisation cannot fail")
+}
+
+/// Writes a layout file's text to `path`.
+fn write_text(path: &Path, text: &str) -> Result<(), LayoutError> {
+    std::fs::write(path, text).map_err(|source| LayoutError::Io {
+        path: path.display().to_string(),
+        source,
+    })
 }
 
 #[cfg(test)]
@@ -471,6 +559,55 @@ mod tests {
             assert_eq!(a.id, b.id);
             assert!((a.centre_m - b.centre_m).norm() < 1e-15);
             assert!((a.radius_m - b.radius_m).abs() < 1e-15);
+        }
+    }
+
+    /// The immovable mark survives a file round trip, is written only on
+    /// the particles it marks, and a file without it (another tool's, an
+    /// older one) reads as marking none.
+    #[test]
+    fn immovable_marks_round_trip_and_a_file_without_them_marks_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("marked.json");
+        let marked = MarkedLayout {
+            layout: sample(),
+            immovable: vec![7],
+        };
+        marked.write(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.matches("\"immovable\": true").count(), 1, "{text}");
+        assert!(!text.contains("false"), "{text}");
+        assert_eq!(MarkedLayout::read(&path).unwrap(), marked);
+        // The plain layout of the same file, and a file without the key.
+        assert_eq!(Layout::read(&path).unwrap(), sample());
+        assert!(!sample().to_json().contains("immovable"));
+        let plain = MarkedLayout::from_json(&sample().to_json(), "mem").unwrap();
+        assert_eq!(plain.immovable, Vec::<u32>::new());
+        let text = text.replace("\"immovable\": true", "\"immovable\": false");
+        let unmarked = MarkedLayout::from_json(&text, "mem").unwrap();
+        assert_eq!(unmarked.immovable, Vec::<u32>::new());
+    }
+
+    /// A value other than true or false is refused naming the file and
+    /// the particle: serde's own error named neither.
+    #[test]
+    fn a_non_boolean_immovable_is_refused_naming_file_and_particle() {
+        let marked = MarkedLayout {
+            layout: sample(),
+            immovable: vec![7],
+        };
+        for (value, shown) in [("\"yes\"", "\"yes\""), ("1", "1"), ("null", "null")] {
+            let text = marked
+                .to_json()
+                .replace("\"immovable\": true", &format!("\"immovable\": {value}"));
+            let err = MarkedLayout::from_json(&text, "L.json").unwrap_err();
+            assert_eq!(
+                err.to_string(),
+                format!(
+                    "layout file L.json: particle 7 immovable is {shown} (must be true or false)"
+                )
+            );
+            assert!(Layout::from_json(&text, "L.json").is_err());
         }
     }
 

@@ -77,8 +77,9 @@ pub struct PlanConfig {
     pub method: AssignmentMethod,
     /// Where the tip starts; None = the first push's landing point.
     pub tip_start_m: Option<Vector2<f64>>,
-    /// Particles never assigned or pushed (the executor gave up on them); they
-    /// stay in the layout as obstacles.
+    /// Particles never assigned or pushed (the executor gave up on them, a
+    /// frame's edge cut them, or the layout file marks them); they stay in
+    /// the layout as obstacles.
     pub immovable: Vec<u32>,
     /// Work one order may spend per move and particle on buffer moves and
     /// detours before it is refused (cells read and particles tested by its

@@ -4,7 +4,8 @@
 //! distances over every particle (brute force), from the plan's own numbers.
 //! Reports collisions (a swept particle or tip disc overlapping another
 //! particle), pushes that do not start where the particle is, final position
-//! errors, unfilled sites and unreachable moves (beyond the nanostage window).
+//! errors, unfilled sites, unreachable moves (beyond the nanostage window)
+//! and pushes of particles that must not move.
 
 use super::layout::Layout;
 use super::plan_file::PlanGeometry;
@@ -53,6 +54,10 @@ pub struct VerifyReport {
     pub bad_approaches: Vec<usize>,
     /// Push steps whose tip path leaves the current nanostage window.
     pub unreachable: Vec<usize>,
+    /// Push steps that move a particle the plan must leave where it is (a
+    /// frame's edge cut it, so its centre is a guess, or the executor gave
+    /// up on it).
+    pub moved_immovable: Vec<usize>,
     /// Sites with no particle on them at the end (within tolerance).
     pub unfilled_sites: Vec<u32>,
     /// Largest distance between an assigned particle and its site at the end, um.
@@ -97,6 +102,12 @@ impl VerifyReport {
                 self.unreachable.len()
             ));
         }
+        if let Some(first) = self.moved_immovable.first() {
+            parts.push(format!(
+                "{} pushes move a particle that must not move (first: step {first})",
+                self.moved_immovable.len()
+            ));
+        }
         if !self.unfilled_sites.is_empty() {
             parts.push(format!("sites {:?} left unfilled", self.unfilled_sites));
         }
@@ -118,10 +129,12 @@ fn seg_dist(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     (p - (a + ab * t)).norm()
 }
 
-/// Replays `plan` on `layout`; `final_tolerance_m` is the allowed final error.
+/// Replays `plan` on `layout`, whose particles in `immovable` must not be
+/// pushed; `final_tolerance_m` is the allowed final error.
 pub fn verify_plan_with(
     plan: &Plan,
     layout: &Layout,
+    immovable: &[u32],
     geometry: &PlanGeometry,
     final_tolerance_m: f64,
 ) -> VerifyReport {
@@ -153,6 +166,9 @@ pub fn verify_plan_with(
                 };
                 if (pos[i] - from_m).norm() > START_TOLERANCE_M {
                     rep.bad_starts.push(k);
+                }
+                if immovable.contains(&particle) {
+                    rep.moved_immovable.push(k);
                 }
                 let r = layout.particles[i].radius_m;
                 let len = (to_m - from_m).norm();
@@ -224,16 +240,19 @@ pub fn verify_plan_with(
         && rep.bad_starts.is_empty()
         && rep.bad_approaches.is_empty()
         && rep.unreachable.is_empty()
+        && rep.moved_immovable.is_empty()
         && rep.unfilled_sites.is_empty();
     rep
 }
 
 /// Replays a plan made with `config` (the executor's entry point), its tip
-/// landing where the plan says (`Plan::standoff_m`).
+/// landing where the plan says (`Plan::standoff_m`), its `immovable`
+/// particles held.
 pub fn verify_plan(plan: &Plan, layout: &Layout, config: &super::PlanConfig) -> VerifyReport {
     verify_plan_with(
         plan,
         layout,
+        &config.immovable,
         &super::plan_file::geometry_of(plan, config),
         config.on_site_tolerance_m.max(1e-9),
     )
@@ -243,6 +262,53 @@ pub fn verify_plan(plan: &Plan, layout: &Layout, config: &super::PlanConfig) -> 
 mod tests {
     use super::*;
     use crate::plan::{Particle, PlanConfig, Site, plan_assembly};
+
+    /// The plan (and its config) that pushes `layout`'s particle at
+    /// (30, 50) um to a site at (60, 50) um; it verifies as planned.
+    fn plan_to_one_site(layout: &Layout) -> (Plan, PlanConfig) {
+        let sites = [Site {
+            id: 0,
+            centre_m: Vector2::new(60e-6, 50e-6),
+        }];
+        let config = PlanConfig::default();
+        let plan = plan_assembly(layout, &sites, &config).unwrap();
+        assert!(verify_plan(&plan, layout, &config).ok);
+        (plan, config)
+    }
+
+    /// A push of a particle the plan must not move (a frame's edge cut
+    /// it) is reported, by step: such plans replayed as ok, though the
+    /// particle's centre was never measured.
+    #[test]
+    fn a_push_of_an_immovable_particle_is_reported() {
+        let layout = Layout::of_test_centres_um(&[(30.0, 50.0), (30.0, 150.0)]);
+        let (plan, config) = plan_to_one_site(&layout);
+        let pushes: Vec<usize> = (plan.steps.iter().enumerate())
+            .filter(|(_, s)| matches!(s, Step::Push { particle: 0, .. }))
+            .map(|(k, _)| k)
+            .collect();
+        assert!(!pushes.is_empty());
+        let held = PlanConfig {
+            immovable: vec![0],
+            ..config.clone()
+        };
+        let report = verify_plan(&plan, &layout, &held);
+        assert_eq!(report.moved_immovable, pushes);
+        assert!(!report.ok, "{report:?}");
+        assert!(
+            report
+                .summary()
+                .contains("move a particle that must not move"),
+            "{}",
+            report.summary()
+        );
+        // Holding the particle it does not push changes nothing.
+        let other = PlanConfig {
+            immovable: vec![1],
+            ..config
+        };
+        assert!(verify_plan(&plan, &layout, &other).ok);
+    }
 
     /// A push whose approach point is not at the particle's back (beside
     /// it, or in front) is reported: such plans replayed as ok, though the
@@ -257,13 +323,7 @@ mod tests {
                 radius_m: 5e-6,
             }],
         };
-        let sites = [Site {
-            id: 0,
-            centre_m: Vector2::new(60e-6, 50e-6),
-        }];
-        let config = PlanConfig::default();
-        let plan = plan_assembly(&layout, &sites, &config).unwrap();
-        assert!(verify_plan(&plan, &layout, &config).ok);
+        let (plan, config) = plan_to_one_site(&layout);
         let k = plan
             .steps
             .iter()
