@@ -269,3 +269,49 @@ fn a_particle_boxed_in_a_hair_from_its_site_fills_it() {
         "no particle left short on a refusal: {short:?}"
     );
 }
+
+/// `assemble --no-drift-follow` runs without the drift estimate, and says
+/// so in its journal's run spec, where a resume reads it; by default the
+/// same run follows the drift.
+#[test]
+fn the_drift_is_not_followed_when_the_user_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
+    let scene = dir.path().join("scene.toml");
+    let text = std::fs::read_to_string(paper).unwrap();
+    std::fs::write(&scene, format!("{text}\n[environment]\ndrift_nm_s = 2\n")).unwrap();
+    let journal_of = |flag: Option<&str>| {
+        let out = dir.path().join(format!("run{}", flag.is_some()));
+        let ran = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .args(["assemble", "--text", "I", "--json", "--scene"])
+            .arg(&scene)
+            .arg("--out")
+            .arg(&out)
+            .args(flag)
+            .output()
+            .unwrap();
+        assert!(
+            ran.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ran.stderr)
+        );
+        nanopush::exec::journal::read_journal::<RunEvent>(&out.join("journal.jsonl"))
+            .unwrap()
+            .entries
+    };
+    let estimates = |entries: &[nanopush::exec::journal::Entry<RunEvent>]| {
+        (entries.iter())
+            .filter(|e| matches!(e.event, RunEvent::Observation { drift: Some(_), .. }))
+            .count()
+    };
+    let drift_off = |entries: &[nanopush::exec::journal::Entry<RunEvent>]| match &entries[0].event {
+        RunEvent::Start(spec) => spec.drift_off,
+        other => panic!("first entry {other:?}"),
+    };
+    let off = journal_of(Some("--no-drift-follow"));
+    assert!(drift_off(&off));
+    assert_eq!(estimates(&off), 0);
+    let followed = journal_of(None);
+    assert!(!drift_off(&followed));
+    assert!(estimates(&followed) > 0);
+}

@@ -148,7 +148,13 @@ fn watched_run(faults: SimFaults) -> Outcome {
         .iter()
         .map(|s| [s.centre_m.x, s.centre_m.y])
         .collect();
-    let inputs = inputs_for(&run.scene, run.sites.clone(), &run.rig, run.layout.field_m);
+    let inputs = inputs_for(
+        &run.scene,
+        run.sites.clone(),
+        &run.rig,
+        run.layout.field_m,
+        false,
+    );
     let mut watched = Watched {
         rig: &mut run.rig,
         sites: sites.clone(),

@@ -75,6 +75,12 @@ pub struct Args {
     /// Fault injection (tests): `particle:frame` pairs the camera does not show.
     #[arg(long, hide = true, value_delimiter = ',')]
     pub hide: Vec<String>,
+    /// Do not follow the tip's drift against the sample in the frames:
+    /// every move goes where the calibration alone says. For a rig whose
+    /// camera sees the tip's apex poorly; a resumed run keeps its run's
+    /// choice, so not with --resume.
+    #[arg(long, conflicts_with = "resume")]
+    pub no_drift_follow: bool,
     /// Hardware rig: --rig FILE, --dry-run, --yes-move-hardware.
     #[command(flatten)]
     pub hardware: super::assemble_rig::RigArgs,
@@ -130,6 +136,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
             fail_at_move: args.fail_at_move,
             hide,
         },
+        drift_off: args.no_drift_follow,
     })
 }
 
@@ -182,7 +189,7 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         )
     })?;
     rig.persist_to(args.out.join(SIM_STATE))?;
-    let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
+    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
@@ -227,7 +234,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let mut rig = build_sim_rig(&scene, &layout, spec.seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
-    let inputs = inputs_for(&scene, sites, &rig, layout.field_m);
+    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
         ANIMATION_SCALE,

@@ -229,7 +229,7 @@ fn assemble(
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
-    let mut settings = AssemblySettings::default();
+    let mut settings = AssemblySettings::default().with_drift_off(args.no_drift_follow);
     if args.hardware.dry_run {
         settings.max_pushes = 1;
     }
@@ -322,6 +322,7 @@ fn assemble(
                 .has_coarse()
                 .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
+        drift_off: args.no_drift_follow,
     };
     let inputs = AssemblyInputs {
         scene: scene.clone(),
@@ -369,7 +370,8 @@ fn resume(
     let settings = AssemblySettings {
         field_m: frame.field_um.map(|v| v * 1e-6),
         ..Default::default()
-    };
+    }
+    .with_drift_off(point.spec.drift_off);
     if let Some(view) = frame.first_view_coarse_um {
         // The tip up first: the coarse stage refuses to drag it.
         let (top, here) = (rig.range()[2].max_m, rig.position()?);

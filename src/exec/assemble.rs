@@ -78,6 +78,15 @@ pub struct AssemblySettings {
 }
 
 impl AssemblySettings {
+    /// These settings, the drift not followed when `drift_off` (every move
+    /// goes where the calibration alone says).
+    pub fn with_drift_off(self, drift_off: bool) -> Self {
+        Self {
+            drift: if drift_off { None } else { self.drift },
+            ..self
+        }
+    }
+
     /// The planner's settings for a run: the scene's pushing speed, the
     /// executor's travel speed and placement tolerance (so the plan that
     /// places the pattern and the loop's plans agree on what is placed and

@@ -26,6 +26,11 @@ pub struct RunSpec {
     /// absent on the simulated rig (and in journals from before 2026-11-28).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rig: Option<RigFrame>,
+    /// The run does not follow the tip's drift (`assemble
+    /// --no-drift-follow`), and neither does its resume; absent when it
+    /// does (and in journals from before 2026-11-29).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub drift_off: bool,
 }
 
 /// A hardware run's frame on its rig: the planner's field, and with a
@@ -196,4 +201,35 @@ pub enum RunEvent {
         /// Why.
         reason: String,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run spec says `drift_off` only when the drift is not followed, reads
+    /// it back, and a spec from before the field reads as followed.
+    #[test]
+    fn a_run_spec_keeps_whether_the_drift_is_followed() {
+        let spec = RunSpec {
+            pattern: "I".into(),
+            scene: "scene.toml".into(),
+            layout: None,
+            seed: 1,
+            sites_um: vec![[1.0, 2.0]],
+            radius_um: 5.0,
+            rig: None,
+            drift_off: true,
+        };
+        let text = serde_json::to_string(&spec).unwrap();
+        assert!(text.contains(r#""drift_off":true"#), "{text}");
+        assert_eq!(serde_json::from_str::<RunSpec>(&text).unwrap(), spec);
+        let followed = RunSpec {
+            drift_off: false,
+            ..spec
+        };
+        let older = serde_json::to_string(&followed).unwrap();
+        assert!(!older.contains("drift_off"), "{older}");
+        assert_eq!(serde_json::from_str::<RunSpec>(&older).unwrap(), followed);
+    }
 }

@@ -39,6 +39,8 @@ pub struct SimRunRequest {
     pub particles: usize,
     /// Faults to inject.
     pub faults: SimFaults,
+    /// Do not follow the tip's drift (`assemble --no-drift-follow`).
+    pub drift_off: bool,
 }
 
 /// Faults the simulated rig injects (tests).
@@ -127,6 +129,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         sites_um: sites_um(&sites),
         radius_um: scene.particle_radius_m * 1e6,
         rig: None,
+        drift_off: req.drift_off,
     };
     let mut rig = build_sim_rig(&scene, &layout, req.seed)?;
     for &n in &req.faults.drop_frames {
@@ -223,18 +226,21 @@ fn sites_for(
     )?)
 }
 
-/// The executor's inputs for a run on the simulated rig.
+/// The executor's inputs for a run on the simulated rig, following the
+/// tip's drift unless `drift_off`.
 pub fn inputs_for(
     scene: &Scene,
     sites: Vec<Site>,
     rig: &SimRig,
     field_m: [f64; 2],
+    drift_off: bool,
 ) -> AssemblyInputs {
     use crate::rig::Rig;
     let settings = AssemblySettings {
         field_m,
         ..AssemblySettings::default()
-    };
+    }
+    .with_drift_off(drift_off);
     AssemblyInputs {
         scene: scene.clone(),
         sites,

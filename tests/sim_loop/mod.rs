@@ -43,7 +43,13 @@ pub fn run_sim(request: &SimRunRequest, adjust: impl FnOnce(&mut AssemblyInputs)
     let mut run = prepare_sim_run(request).unwrap();
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();
-    let mut inputs = inputs_for(&run.scene, run.sites.clone(), &run.rig, run.layout.field_m);
+    let mut inputs = inputs_for(
+        &run.scene,
+        run.sites.clone(),
+        &run.rig,
+        run.layout.field_m,
+        false,
+    );
     adjust(&mut inputs);
     let end = Assembly::start(&mut run.rig, inputs, journal, run.spec)
         .unwrap()
