@@ -649,6 +649,11 @@ fn a_saved_layout_holds_the_particle_the_frames_edge_cuts() {
         !report["moved_immovable"].as_array().unwrap().is_empty(),
         "{text}"
     );
+    // The error line says why, not only that it failed.
+    assert!(
+        text.contains("failed verification: ") && text.contains("must not move"),
+        "{text}"
+    );
     let (ok, text) = nanopush(&["verify-plan", &free_plan, "--layout", &free]);
     assert!(ok, "{text}");
 }

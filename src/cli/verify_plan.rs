@@ -58,7 +58,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("result            {}", if rep.ok { "ok" } else { "FAILED" });
     }
     if !rep.ok {
-        anyhow::bail!("plan {} failed verification", args.plan.display());
+        anyhow::bail!(
+            "plan {} failed verification: {}",
+            args.plan.display(),
+            rep.summary()
+        );
     }
     Ok(())
 }
