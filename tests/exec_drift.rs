@@ -23,11 +23,11 @@ fn run(drift_nm_s: f64, seed: u64, follow: bool) -> Outcome {
     run_along(drift_nm_s, 0.0, seed, follow)
 }
 
-/// As [`run`], drifting along `direction_deg` (from +x towards +y).
-fn run_along(drift_nm_s: f64, direction_deg: f64, seed: u64, follow: bool) -> Outcome {
-    let dir = tempfile::tempdir().unwrap();
+/// The paper scene drifting `drift_nm_s` along `direction_deg`, written
+/// into `dir`.
+fn drifting_scene(dir: &Path, drift_nm_s: f64, direction_deg: f64) -> std::path::PathBuf {
     let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
-    let scene = dir.path().join("scene.toml");
+    let scene = dir.join("scene.toml");
     let text = std::fs::read_to_string(paper).unwrap();
     std::fs::write(
         &scene,
@@ -36,6 +36,13 @@ fn run_along(drift_nm_s: f64, direction_deg: f64, seed: u64, follow: bool) -> Ou
         ),
     )
     .unwrap();
+    scene
+}
+
+/// As [`run`], drifting along `direction_deg` (from +x towards +y).
+fn run_along(drift_nm_s: f64, direction_deg: f64, seed: u64, follow: bool) -> Outcome {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = drifting_scene(dir.path(), drift_nm_s, direction_deg);
     let request = SimRunRequest {
         target: Some(PatternRequest::text("CMU")),
         scene,
@@ -276,10 +283,7 @@ fn a_particle_boxed_in_a_hair_from_its_site_fills_it() {
 #[test]
 fn the_drift_is_not_followed_when_the_user_says_so() {
     let dir = tempfile::tempdir().unwrap();
-    let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
-    let scene = dir.path().join("scene.toml");
-    let text = std::fs::read_to_string(paper).unwrap();
-    std::fs::write(&scene, format!("{text}\n[environment]\ndrift_nm_s = 2\n")).unwrap();
+    let scene = drifting_scene(dir.path(), 2.0, 0.0);
     let journal_of = |flag: Option<&str>| {
         let out = dir.path().join(format!("run{}", flag.is_some()));
         let ran = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
@@ -314,4 +318,75 @@ fn the_drift_is_not_followed_when_the_user_says_so() {
     let followed = journal_of(None);
     assert!(!drift_off(&followed));
     assert!(estimates(&followed) > 0);
+}
+
+/// A resumed run leaves the sites its run left short as they were: the
+/// particle nearest each (5 nm/s along y, seed 6: site 24, 264 nm off) is
+/// left there again on the first look, before any push, not pushed three
+/// more times in vain. The run is killed once its journal has the entry.
+#[test]
+fn a_resumed_run_leaves_short_what_its_run_left_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = drifting_scene(dir.path(), 5.0, 90.0);
+    let out = dir.path().join("run");
+    let journal = out.join("journal.jsonl");
+    let nanopush = || std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"));
+    let mut child = nanopush()
+        .args(["assemble", "--text", "CMU", "--seed", "6", "--scene"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while !std::fs::read_to_string(&journal)
+        .unwrap_or_default()
+        .contains(r#""kind":"left_short""#)
+    {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended first");
+        assert!(started.elapsed().as_secs() < 300, "no site left short");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let ran = nanopush()
+        .args(["assemble", "--json", "--resume"])
+        .arg(&journal)
+        .output()
+        .unwrap();
+    let entries = nanopush::exec::journal::read_journal::<RunEvent>(&journal)
+        .unwrap()
+        .entries;
+    let events: Vec<&RunEvent> = entries.iter().map(|e| &e.event).collect();
+    let resumed_at = events
+        .iter()
+        .position(|e| **e == RunEvent::Resume)
+        .expect("a resume entry");
+    let (before, after) = events.split_at(resumed_at);
+    let sites_of = |events: &[&RunEvent]| -> Vec<usize> {
+        (events.iter())
+            .filter_map(|e| match e {
+                RunEvent::LeftShort { site, .. } => Some(*site),
+                _ => None,
+            })
+            .collect()
+    };
+    let first_push = (after.iter())
+        .position(|e| matches!(e, RunEvent::Decision { .. }))
+        .unwrap_or(after.len());
+    let left_before = sites_of(before);
+    let left_again = sites_of(&after[..first_push]);
+    eprintln!(
+        "left short before the kill {left_before:?}, again on resuming {left_again:?}: {}",
+        String::from_utf8_lossy(&ran.stdout)
+    );
+    assert!(!left_before.is_empty());
+    for site in &left_before {
+        assert!(
+            left_again.contains(site),
+            "site {site} not left short again"
+        );
+    }
 }

@@ -248,6 +248,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
             point.journal,
             point.pushes_done,
             point.last_tip_m,
+            point.left_short_sites,
         )?
         .with_sink(&mut fan);
         let end = assembly.run()?;

@@ -394,6 +394,7 @@ fn resume(
         point.journal,
         point.pushes_done,
         point.last_tip_m,
+        point.left_short_sites,
     )?);
     finish_run(ran, rig, out, scene, &settings, journal_path)
 }

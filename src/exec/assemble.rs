@@ -262,6 +262,9 @@ pub struct Assembly<'a> {
     unmoved: Option<usize>,
     /// Sites filled short by a particle left alone near them (`left_short_m`).
     left_short: Vec<LeftShort>,
+    /// Sites the run left short before a resume, to be left so again on
+    /// the first look.
+    left_short_before: Vec<usize>,
     repush_next: Option<usize>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
@@ -311,16 +314,21 @@ impl<'a> Assembly<'a> {
     }
 
     /// A resumed run: `pushes_done` counts the pushes journalled before the
-    /// stop; `last_tip_nano_m` is the last nanostage target the journal holds.
+    /// stop; `last_tip_nano_m` is the last nanostage target the journal
+    /// holds; `left_short_sites` the sites it left short, whose particles
+    /// (the nearest within `left_short_m` on the first look) are left there
+    /// again rather than pushed three more times in vain.
     pub fn resume(
         rig: &'a mut dyn Rig,
         inputs: AssemblyInputs,
         mut journal: JournalWriter,
         pushes_done: usize,
         last_tip_nano_m: Option<[f64; 2]>,
+        left_short_sites: Vec<usize>,
     ) -> Result<Self, ExecError> {
         journal.append(rig.now_s(), &RunEvent::Resume)?;
         let mut run = Self::with_journal(rig, inputs, journal, pushes_done);
+        run.left_short_before = left_short_sites;
         // The process may have stopped anywhere, with the tip down or hiding the
         // particle it just pushed: lift it and look from where a new run starts.
         run.park_before_first_look = true;
@@ -352,6 +360,7 @@ impl<'a> Assembly<'a> {
             given_up: Vec::new(),
             unmoved: None,
             left_short: Vec::new(),
+            left_short_before: Vec::new(),
             repush_next: None,
             stage_faults: 0,
             coarse_offset,
@@ -422,6 +431,7 @@ impl<'a> Assembly<'a> {
         if self.probe_axis().is_some() {
             self.park_at_start()?;
         }
+        self.leave_short_as_before()?;
         let mut pending: Option<PushIntent> = None;
         loop {
             let moved: Vec<Moved> = pending
@@ -539,22 +549,39 @@ impl<'a> Assembly<'a> {
             .collect();
         let mut left = false;
         for particle in near {
-            if self.leave_short(particle)? {
-                left = true;
-                if !self.given_up.contains(&particle) {
-                    self.given_up.push(particle);
-                }
-            }
+            left |= self.leave_short(particle)?;
         }
         Ok(left)
     }
 
-    /// Journals and keeps the site a particle just left alone fills, if any
-    /// (`site_left_short_by`). True if it fills one.
+    /// A resumed run leaves the particle nearest each site it left short
+    /// there again, if it still lies within `left_short_m`.
+    fn leave_short_as_before(&mut self) -> Result<(), ExecError> {
+        let errors = self.site_errors_m();
+        for site in std::mem::take(&mut self.left_short_before) {
+            let Some(s) = self.sites.get(site) else {
+                continue;
+            };
+            if errors[site] > self.settings.left_short_m {
+                continue;
+            }
+            if let Some(particle) = self.nearest_track(s).map(|t| t.id) {
+                self.leave_short(particle)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Journals and keeps the site a particle left alone fills, if any
+    /// (`site_left_short_by`), and plans around the particle from then on.
+    /// True if it fills one.
     fn leave_short(&mut self, particle: usize) -> Result<bool, ExecError> {
         let Some(short) = self.site_left_short_by(particle) else {
             return Ok(false);
         };
+        if !self.given_up.contains(&particle) {
+            self.given_up.push(particle);
+        }
         self.journal.append(
             self.rig.now_s(),
             &RunEvent::LeftShort {

@@ -21,6 +21,9 @@ pub struct ResumePoint {
     pub pushes_done: usize,
     /// Where the tip was last sent (nanostage x, y, metres), if anywhere.
     pub last_tip_m: Option<[f64; 2]>,
+    /// Sites the run left short (indices into its sites): the particles
+    /// near them are left there again (`Assembly::resume`).
+    pub left_short_sites: Vec<usize>,
     /// Resumes before this one.
     pub resumes: usize,
     /// The latest rig time in the journal, seconds: where a hardware rig's
@@ -67,7 +70,9 @@ impl ResumePoint {
             return Err(ResumeError::NoSpec(path.display().to_string()));
         };
         let tolerance_um = AssemblySettings::default().placed_tolerance_m * 1e6;
-        let pushes_done = count_journal(&contents.entries, &spec.sites_um, tolerance_um).pushes;
+        let counts = count_journal(&contents.entries, &spec.sites_um, tolerance_um);
+        let pushes_done = counts.pushes;
+        let left_short_sites = counts.left_short.iter().map(|l| l.site).collect();
         let last_tip_m = contents.entries.iter().rev().find_map(|e| match &e.event {
             RunEvent::Move { target_um, .. } => Some([target_um[0] * 1e-6, target_um[1] * 1e-6]),
             _ => None,
@@ -83,6 +88,7 @@ impl ResumePoint {
             spec,
             pushes_done,
             last_tip_m,
+            left_short_sites,
             resumes,
             last_t_s,
         })
