@@ -7,7 +7,7 @@
 //! particles with the same model, and a rig with a probe readout would put
 //! its measured curve here instead.
 
-use super::assemble::scene_for_push;
+use super::assemble::{AssemblySettings, scene_for_push};
 use super::events::RunEvent;
 use super::journal::Entry;
 use super::report::AssemblyReport;
@@ -215,8 +215,10 @@ pub fn write_report_md(
         md,
         "| site | x [um] | y [um] | error [nm] | filled |\n|---|---|---|---|---|"
     );
+    // The tolerance the report's `filled` counts with (both rigs run the default).
+    let tolerance_nm = AssemblySettings::default().placed_tolerance_m * 1e9;
     for (i, (s, e)) in sites_um.iter().zip(&report.site_errors_nm).enumerate() {
-        let ok = if *e <= 200.0 {
+        let ok = if *e <= tolerance_nm {
             "yes"
         } else if report.left_short.iter().any(|l| l.site == i) {
             "short"
