@@ -49,8 +49,9 @@ pub struct Args {
     /// is its odd `diameter`, --polarity dark its `invert`; quality is its
     /// `mass`, r_px its radius of gyration). `pixel-peak`, `centroid` and
     /// `radial-symmetry` are for `study vision`: they only place every
-    /// candidate above the threshold, noise included, and take neither
-    /// --polarity nor --centre ring-edge.
+    /// candidate above the threshold, noise included, skip particles within
+    /// half a diameter of the frame's edge, and take neither --polarity nor
+    /// --centre ring-edge.
     #[arg(long, value_enum, default_value = "profile-fit")]
     pub locator: LocatorArg,
     /// crocker-grier: minimum band-passed mass in frame counts (trackpy's

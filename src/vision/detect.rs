@@ -315,13 +315,21 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) 
     // needs the whole ring in the window (0.5 diameter) for its maximum to
     // sit at the centre (at 0.3 the pixel peak's centre RMS was 2.6 px
     // against 0.3 px, its maxima on the ring).
-    let frac =
-        if settings.locator != Locator::ProfileFit && model_for(settings) == ProfileModel::Ring {
-            0.5
-        } else {
-            0.3
-        };
+    let no_fit = settings.locator != Locator::ProfileFit;
+    let frac = if no_fit && model_for(settings) == ProfileModel::Ring {
+        0.5
+    } else {
+        0.3
+    };
     let r = (frac * settings.diameter_px).round().max(1.0) as usize;
+    // Without a fit, a maximum whose window leaves the frame is not taken:
+    // the band-pass's edges made maxima in the frame's corners (8 of 88
+    // pixel-peak detections at SNR 32), which a fit rejects and nothing else
+    // does, and a particle the edge cuts has no centre these locators find.
+    let inside = |i: usize| {
+        let (x, y) = (i % w, i / w);
+        !no_fit || (x >= r && y >= r && x + r < w && y + r < h)
+    };
     // Energy: local mean of the squared band-pass (in a reused work frame).
     let energy = &mut bp.work;
     for (e, v) in energy.iter_mut().zip(bp.values.iter()) {
@@ -335,7 +343,7 @@ fn candidates_from(frame: &Frame, settings: &DetectSettings, bp: &mut Bandpass) 
     let sat = frame.max_count();
     local_maxima(energy, w, h, r, threshold)
         .into_iter()
-        .filter(|&i| !(frame.pixels()[i] >= sat && bp.values[i] == 0.0))
+        .filter(|&i| !(frame.pixels()[i] >= sat && bp.values[i] == 0.0) && inside(i))
         .map(|i| Candidate {
             x: i % w,
             y: i / w,
