@@ -188,10 +188,10 @@ fn left_short(o: &Outcome) -> Vec<(usize, f64)> {
         .collect()
 }
 
-/// 5 nm/s along y, seed 6. Its early frames show the apex rarely, a
+/// 5 nm/s along y, seed 6. Its early frames show the apex rarely, and a
 /// particle 0.26 um short of its site was re-pushed three times in vain
-/// and given up on, and another 0.18 um from its own; either covers its
-/// site and cannot be moved, and the run stopped at 9 of 31. Now a
+/// and given up on; it covers its site and cannot be moved, and the run
+/// stopped at 9 of 31. Now a
 /// particle given up on within 0.5 um of a site fills it: the run is done.
 /// The loop judges the other sites by the camera, whose error against the
 /// truth is tens of nm under this drift (one site read within 0.2 um is
