@@ -539,37 +539,34 @@ impl<'a> Assembly<'a> {
     /// unfilled site there, filling it short. True if any was.
     fn leave_near_particles_short(&mut self) -> Result<bool, ExecError> {
         let errors = self.site_errors_m();
-        let near: Vec<usize> = (self.sites.iter().enumerate())
-            .filter(|(i, _)| {
-                errors[*i] > self.settings.placed_tolerance_m
-                    && errors[*i] <= self.settings.left_short_m
-                    && !self.is_left_short(*i)
+        let unfilled: Vec<usize> = (0..self.sites.len())
+            .filter(|&i| errors[i] > self.settings.placed_tolerance_m && !self.is_left_short(i))
+            .collect();
+        self.leave_nearest_short(&unfilled)
+    }
+
+    /// A resumed run leaves the particle nearest each site it left short
+    /// there again, if it still lies within `left_short_m`.
+    fn leave_short_as_before(&mut self) -> Result<(), ExecError> {
+        let sites = std::mem::take(&mut self.left_short_before);
+        self.leave_nearest_short(&sites).map(|_| ())
+    }
+
+    /// Leaves the particle nearest each of `sites` (indices) short, where
+    /// it lies within `left_short_m`. True if any fills a site.
+    fn leave_nearest_short(&mut self, sites: &[usize]) -> Result<bool, ExecError> {
+        let near: Vec<usize> = (sites.iter().filter_map(|&i| self.sites.get(i)))
+            .filter_map(|s| {
+                self.nearest_track(s)
+                    .filter(|t| track_to_site_m(t, s) <= self.settings.left_short_m)
             })
-            .filter_map(|(_, s)| self.nearest_track(s).map(|t| t.id))
+            .map(|t| t.id)
             .collect();
         let mut left = false;
         for particle in near {
             left |= self.leave_short(particle)?;
         }
         Ok(left)
-    }
-
-    /// A resumed run leaves the particle nearest each site it left short
-    /// there again, if it still lies within `left_short_m`.
-    fn leave_short_as_before(&mut self) -> Result<(), ExecError> {
-        let errors = self.site_errors_m();
-        for site in std::mem::take(&mut self.left_short_before) {
-            let Some(s) = self.sites.get(site) else {
-                continue;
-            };
-            if errors[site] > self.settings.left_short_m {
-                continue;
-            }
-            if let Some(particle) = self.nearest_track(s).map(|t| t.id) {
-                self.leave_short(particle)?;
-            }
-        }
-        Ok(())
     }
 
     /// Journals and keeps the site a particle left alone fills, if any
