@@ -227,9 +227,13 @@ pub const BINNED_SEARCH_MIN_DIAMETER_PX: f64 = 14.0;
 /// The pixel-peak and centroid locators and the spot model read the
 /// band-pass itself at full resolution, so they search the full frame.
 pub fn searches_binned(settings: &DetectSettings) -> bool {
-    settings.locator == Locator::ProfileFit
-        && model_for(settings) == ProfileModel::Ring
-        && settings.diameter_px >= BINNED_SEARCH_MIN_DIAMETER_PX
+    fits_rings(settings) && settings.diameter_px >= BINNED_SEARCH_MIN_DIAMETER_PX
+}
+
+/// True when each candidate is fitted with the ring model: only then are
+/// ring cores candidates, and touching rings refitted.
+fn fits_rings(settings: &DetectSettings) -> bool {
+    settings.locator == Locator::ProfileFit && model_for(settings) == ProfileModel::Ring
 }
 
 /// The candidate search: energy candidates first (`n_energy` of them), then
@@ -252,8 +256,7 @@ impl CandidateSearch {
             // of 656 on the bench frame), which a fit merges or rejects but
             // the pixel peak, centroid and radial-symmetry locators would
             // report as particles (precision 0.20-0.30 at SNR 4).
-            if settings.locator == Locator::ProfileFit && model_for(settings) == ProfileModel::Ring
-            {
+            if fits_rings(settings) {
                 let taken = 0.25 * settings.diameter_px;
                 add_core_candidates(
                     &mut cands,
@@ -637,7 +640,7 @@ pub fn detect_particles_excluding(
     if let Some(sep) = settings.min_separation_px {
         keep_separated(&mut out, sep);
     }
-    if settings.locator == Locator::ProfileFit && model == ProfileModel::Ring {
+    if fits_rings(settings) {
         refine_touching(frame, &mut out, radius, settings);
         // Neighbours of a dropped phantom had their windows cut by it.
         if drop_poor_overlapping_fits(&mut out) > 0 {
