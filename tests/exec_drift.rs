@@ -7,6 +7,7 @@
 use nanopush::exec::assemble::RunEnd;
 use nanopush::exec::drift::DriftEstimate;
 use nanopush::exec::events::RunEvent;
+use nanopush::exec::journal::{Entry, read_journal};
 use nanopush::exec::sim_run::SimRunRequest;
 use nanopush::plan::pattern_request::PatternRequest;
 use std::path::Path;
@@ -55,6 +56,11 @@ fn run_along(drift_nm_s: f64, direction_deg: f64, seed: u64, follow: bool) -> Ou
             inputs.settings.drift = None;
         }
     })
+}
+
+/// The binary under test.
+fn nanopush() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
 }
 
 /// How many of the journal's events are `is`.
@@ -286,7 +292,7 @@ fn the_drift_is_not_followed_when_the_user_says_so() {
     let scene = drifting_scene(dir.path(), 2.0, 0.0);
     let journal_of = |flag: Option<&str>| {
         let out = dir.path().join(format!("run{}", flag.is_some()));
-        let ran = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        let ran = nanopush()
             .args(["assemble", "--text", "I", "--json", "--scene"])
             .arg(&scene)
             .arg("--out")
@@ -299,16 +305,16 @@ fn the_drift_is_not_followed_when_the_user_says_so() {
             "{}",
             String::from_utf8_lossy(&ran.stderr)
         );
-        nanopush::exec::journal::read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        read_journal::<RunEvent>(&out.join("journal.jsonl"))
             .unwrap()
             .entries
     };
-    let estimates = |entries: &[nanopush::exec::journal::Entry<RunEvent>]| {
+    let estimates = |entries: &[Entry<RunEvent>]| {
         (entries.iter())
             .filter(|e| matches!(e.event, RunEvent::Observation { drift: Some(_), .. }))
             .count()
     };
-    let drift_off = |entries: &[nanopush::exec::journal::Entry<RunEvent>]| match &entries[0].event {
+    let drift_off = |entries: &[Entry<RunEvent>]| match &entries[0].event {
         RunEvent::Start(spec) => spec.drift_off,
         other => panic!("first entry {other:?}"),
     };
@@ -330,7 +336,6 @@ fn a_resumed_run_leaves_short_what_its_run_left_short() {
     let scene = drifting_scene(dir.path(), 5.0, 90.0);
     let out = dir.path().join("run");
     let journal = out.join("journal.jsonl");
-    let nanopush = || std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"));
     let mut child = nanopush()
         .args(["assemble", "--text", "CMU", "--seed", "6", "--scene"])
         .arg(&scene)
@@ -356,9 +361,7 @@ fn a_resumed_run_leaves_short_what_its_run_left_short() {
         .arg(&journal)
         .output()
         .unwrap();
-    let entries = nanopush::exec::journal::read_journal::<RunEvent>(&journal)
-        .unwrap()
-        .entries;
+    let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
     let events: Vec<&RunEvent> = entries.iter().map(|e| &e.event).collect();
     let resumed_at = events
         .iter()
