@@ -351,7 +351,7 @@ fn pushes_of(steps: &[nanopush::plan::Step]) -> Vec<nanopush::plan::Step> {
 /// dropped, and with every collision dropped. Each relaxed search starts
 /// from the constrained search's order, so none may be longer than it.
 #[test]
-#[ignore = "a study: prints the relaxed tours of docs/plan.md's twenty-third pass (about 5 s in release)"]
+#[ignore = "a study: prints the relaxed tours of docs/plan-history.md's twenty-third pass (about 5 s in release)"]
 fn tip_tour_relaxations_on_cmu() {
     use nanopush::plan::{bounds, tour};
     let config = PlanConfig::default();

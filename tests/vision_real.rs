@@ -87,7 +87,7 @@ fn brightfield_worst_offsets(centre: CentreEstimate) -> Vec<(String, f64)> {
 /// The brightfield particles are asymmetric (core ~1 px left of the dark
 /// ring): the ring-edge centre sits within 0.5 px of the independent
 /// ring-minimum fit, where the profile centre is up to 0.63 px off
-/// (docs/vision.md, ninth pass).
+/// (docs/vision-history.md, ninth pass).
 #[test]
 fn brightfield_exactly_five_particles_within_half_a_pixel_of_the_ring_fit() {
     for (name, worst) in brightfield_worst_offsets(CentreEstimate::RingEdge) {
@@ -175,7 +175,7 @@ fn profile_fit_versus_trackpy(
     assert!(extra <= 0.05, "{frame_rel}: extra {extra}");
 }
 
-/// nanopush's own detector against trackpy (docs/vision.md, sixth pass): with
+/// nanopush's own detector against trackpy (docs/vision-history.md, sixth pass): with
 /// trackpy's separation (12 px) and edge margin (5 px), 86.7 % of trackpy's
 /// detections on bulk_water_000 matched within 1.5 px and 36 % extra; the
 /// significance rules differ. The Crocker-Grier mode meets the target
@@ -202,7 +202,7 @@ fn profile_fit_bulk_water_matches_trackpy() {
     );
 }
 
-/// nanopush's own detector against trackpy (docs/vision.md, sixth pass): with
+/// nanopush's own detector against trackpy (docs/vision-history.md, sixth pass): with
 /// trackpy's separation (10 px) and edge margin (4 px), 94.2 % matched, 89.5 %
 /// extra. The Crocker-Grier mode meets the target
 /// (`crocker_grier_matches_trackpy_on_t76`).

@@ -151,7 +151,7 @@ pub fn site_radius_m(layout: &Layout, sites: &[Site], config: &PlanConfig) -> f6
 /// most 645 per move and particle on CMU's 120 acceptance layouts, 723 over
 /// a sweep of other fields and texts, 1.6 at N = 1,000; orders refused
 /// anyway ran to 354,000 (tens of seconds each) on crowded fields of small
-/// or polydisperse particles (docs/plan.md, twenty-fifth pass).
+/// or polydisperse particles (docs/plan-history.md, twenty-fifth pass).
 pub const DEFAULT_SEARCH_EFFORT: u64 = 5_000;
 
 /// Default gap between neighbouring sites: pitch = particle diameter + gap.

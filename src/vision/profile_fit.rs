@@ -159,7 +159,7 @@ fn fit_ring(
     // only background, which the band from r0 + 3 to `half` already gives
     // (27 % fewer pixels; SNR 8 centre RMS 0.0312 -> 0.0314 px, CRB 0.0322),
     // or worse, the probe's edge, which the fit took for a core (0.57 px off
-    // on the bench frame; docs/vision.md, twelfth pass).
+    // on the bench frame; docs/vision-history.md, twelfth pass).
     let mut win = PixelWindow::square(frame, cx, cy, half);
     win.retain(|x, y| (x - cx).powi(2) + (y - cy).powi(2) <= half * half);
     if !neighbours.is_empty() {

@@ -170,7 +170,7 @@ impl Blocking {
 }
 
 /// Which constraints a study's relaxed tour ignores, to show what each one
-/// costs in tip travel (docs/plan.md, the eleventh and twenty-third passes).
+/// costs in tip travel (docs/plan-history.md, the eleventh and twenty-third passes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Relaxation {
     /// Every collision: only each particle's own moves keep their sequence.

@@ -9,7 +9,7 @@
 //! the hop `l -> m` (Held-Karp for the sequential-ordering problem). Only
 //! sets reachable under [`super::blocking::Blocking::allows_next`] are
 //! expanded, layer by layer (layer k = the sets of k moves); on CMU's 30-37
-//! moves that is 0.6-18 M sets of 2^31 or more (docs/plan.md, thirteenth
+//! moves that is 0.6-18 M sets of 2^31 or more (docs/plan-history.md, thirteenth
 //! pass).
 //!
 //! Why a bound prunes: a state whose travel plus a lower bound on the rest
