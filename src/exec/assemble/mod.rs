@@ -1,0 +1,707 @@
+//! The closed loop: observe, plan, ask the model, push, check, recover.
+//!
+//! Every cycle starts from what the camera sees, so whatever happened (a lost
+//! contact, a missed detection, a stage fault, a resumed run) is handled the
+//! same way: the particles are re-tracked, the plan is made again from where
+//! they are (particles already on a site stay), and its first push is executed
+//! with the contact angle and duration the pushing model advises. After the
+//! push the next frame tells whether the particle followed the tip; if not,
+//! the contact was lost and the next cycle pushes it again from where it lies.
+//! A particle that fails `max_tries` times is left where it is.
+//!
+//! Coarse-stage moves are chosen here, not taken from the plan: before each
+//! push the window is moved only if the stroke does not fit the nanostage's
+//! range as it is, which keeps re-planning free of window state.
+//!
+//! Here: the loop, looking and checking. Beside it: `planning` (the next
+//! push), `pushing` (the model's advice and the stroke), `stage_moves`
+//! (parking, windows, moves on the sample) and `left_short`.
+
+use super::drift::{APEX_CLEAR_OF_PARTICLES_M, DriftFilter, DriftSettings};
+use super::events::{RunEvent, RunSpec, SeenParticle};
+use super::journal::{JournalError, JournalWriter};
+use super::observe::{ObserveError, Perception, Sighting};
+use super::push_check::{CheckTolerances, PushCheck, check_push};
+use super::tracker::{Moved, Track, Tracker};
+use crate::calib::camera_map::CameraCalibration;
+use crate::model::Scene;
+use crate::plan::pattern::Site;
+use crate::plan::rebase::without_first_push;
+use crate::plan::{Plan, PlanConfig};
+use crate::rig::{Rig, RigError};
+use std::collections::HashMap;
+
+mod left_short;
+mod planning;
+mod pushing;
+mod stage_moves;
+
+use left_short::LeftShort;
+pub use planning::{layout_measured, particles_seen, planning_particles};
+pub use pushing::{decide_push, scene_for_push};
+
+/// Executor settings; the defaults suit 10 um particles on the simulated rig.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AssemblySettings {
+    /// A particle this close to its site is placed (default 0.2 um). It is
+    /// also the smallest correction: shorter pushes are below what the stage
+    /// noise and the onset prediction can deliver, and would only chatter.
+    pub placed_tolerance_m: f64,
+    /// A pushed particle this far off its push line turned around the tip (default 1.5 um).
+    pub off_line_tolerance_m: f64,
+    /// Lost contacts on one particle before it is left alone (default 3).
+    pub max_tries: u32,
+    /// A particle left alone this close to a site no other particle fills
+    /// fills that site, short of `placed_tolerance_m`, and the run goes on
+    /// (default 0.5 um, 5 % of a 10 um particle's diameter). Under drift a
+    /// particle 0.21 um from its site with a neighbour above it was nudged
+    /// in vain by every fresh plan, and one left 0.3 um short stopped the
+    /// run: it covers its site and cannot be moved.
+    pub left_short_m: f64,
+    /// Pushes after which the run stops, done or not (default 400).
+    pub max_pushes: usize,
+    /// Stage faults in a row after which the run stops (default 3).
+    pub max_stage_faults: u32,
+    /// Speed of lifted travel and vertical moves (default 50 um/s: the tip is
+    /// off the sample, piezo nanostages travel at mm/s, and the lower bound is
+    /// computed at the same speed).
+    pub travel_speed_m_per_s: f64,
+    /// Gap between tip and particle where the tip is lowered (default 0.5 um:
+    /// 25x the particle detection error and 2.5x the placed tolerance; the
+    /// tip covers it at pushing speed, so every 0.1 um costs 0.1 s a push).
+    pub clearance_m: f64,
+    /// Farthest a particle may be from its predicted place and keep its identity (default 4 um).
+    pub track_gate_m: f64,
+    /// Width of the field the particles lie in, metres (the planner's layout field).
+    pub field_m: [f64; 2],
+    /// The plan in hand is kept while no particle it pushes is farther than
+    /// this from where it expects it (default 0.5 um, and the kept steps must
+    /// still verify collision-free); beyond, the loop plans afresh.
+    pub keep_plan_shift_m: f64,
+    /// How the tip's drift against the sample is followed in the frames and
+    /// taken out of every move (`exec::drift`); None: not at all, every
+    /// move goes where the calibration alone says.
+    pub drift: Option<DriftSettings>,
+}
+
+impl AssemblySettings {
+    /// These settings, the drift not followed when `drift_off` (every move
+    /// goes where the calibration alone says).
+    pub fn with_drift_off(self, drift_off: bool) -> Self {
+        Self {
+            drift: if drift_off { None } else { self.drift },
+            ..self
+        }
+    }
+
+    /// The planner's settings for a run: the scene's pushing speed, the
+    /// executor's travel speed and placement tolerance (so the plan that
+    /// places the pattern and the loop's plans agree on what is placed and
+    /// which particles fit the sites), defaults otherwise.
+    pub fn plan_config(&self, scene: &Scene) -> PlanConfig {
+        PlanConfig {
+            push_speed_m_per_s: scene.push.speed_m_per_s,
+            travel_speed_m_per_s: self.travel_speed_m_per_s,
+            on_site_tolerance_m: self.placed_tolerance_m,
+            ..PlanConfig::default()
+        }
+    }
+}
+
+impl Default for AssemblySettings {
+    fn default() -> Self {
+        Self {
+            placed_tolerance_m: 0.2e-6,
+            off_line_tolerance_m: 1.5e-6,
+            max_tries: 3,
+            left_short_m: 0.5e-6,
+            max_pushes: 400,
+            max_stage_faults: 3,
+            travel_speed_m_per_s: 50e-6,
+            clearance_m: 0.5e-6,
+            track_gate_m: 4e-6,
+            field_m: [120e-6, 100e-6],
+            keep_plan_shift_m: 0.5e-6,
+            drift: Some(DriftSettings::default()),
+        }
+    }
+}
+
+/// Why the loop could not go on.
+#[derive(Debug, thiserror::Error)]
+pub enum ExecError {
+    /// The journal could not be written: stop, or entries would be lost.
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    /// No frame could be analysed.
+    #[error(transparent)]
+    Observe(#[from] ObserveError),
+    /// The rig failed in a way that is not a recoverable fault.
+    #[error("rig: {0}")]
+    Rig(#[from] RigError),
+}
+
+/// How a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunEnd {
+    /// Every site filled within tolerance.
+    Done,
+    /// `max_pushes` pushes made first: the end a dry run, which allows one
+    /// push, expects (any other stop is a failure there).
+    PushesSpent(usize),
+    /// Stopped before that, with the reason.
+    Stopped(String),
+}
+
+impl RunEnd {
+    /// Why the run stopped, as the journal and the report say it; `None` when done.
+    pub fn reason(&self) -> Option<String> {
+        match self {
+            RunEnd::Done => None,
+            RunEnd::PushesSpent(n) => Some(format!("{n} pushes made without filling every site")),
+            RunEnd::Stopped(why) => Some(why.clone()),
+        }
+    }
+}
+
+/// One executed push, for reports (rig times bracket every move of the push).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PushRecord {
+    /// Rig time when the tip started down.
+    pub t_start_s: f64,
+    /// Rig time when the tip was lifted again.
+    pub t_end_s: f64,
+    /// True when the camera showed the contact was lost.
+    pub lost_contact_detected: bool,
+    /// Where the pushed particle was seen before the push, metres.
+    pub from_m: [f64; 2],
+    /// Where the push aimed it, metres.
+    pub to_m: [f64; 2],
+}
+
+/// Everything the loop knows when a frame has been analysed: what the
+/// animation, the recorder and the progress bar draw from.
+pub struct FrameView<'s> {
+    /// The analysed frame.
+    pub sighting: &'s Sighting,
+    /// Tracked particles after this frame (micrometres).
+    pub tracks: &'s [SeenParticle],
+    /// Target sites.
+    pub sites: &'s [Site],
+    /// The push whose result this frame shows, if any.
+    pub push: Option<&'s PushIntent>,
+    /// The pushes of the latest plan still to come (the first is next).
+    pub plan: &'s [PlannedPush],
+    /// Pixel -> nanostage map of the frame.
+    pub calibration: &'s CameraCalibration,
+}
+
+/// Something that wants to see every analysed frame (animation, recorder, progress).
+pub trait FrameSink {
+    /// Called once per analysed frame.
+    fn frame(&mut self, view: &FrameView<'_>);
+}
+
+/// Shows every frame to each of several sinks, in order.
+pub struct FanOut<'a>(pub Vec<&'a mut dyn FrameSink>);
+
+impl FrameSink for FanOut<'_> {
+    fn frame(&mut self, view: &FrameView<'_>) {
+        for sink in self.0.iter_mut() {
+            sink.frame(view);
+        }
+    }
+}
+
+/// One push of a plan, on the sample, metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlannedPush {
+    /// Particle centre before.
+    pub from: [f64; 2],
+    /// Particle centre after.
+    pub to: [f64; 2],
+}
+
+/// Distance from a tracked particle's centre to a site's, metres.
+fn track_to_site_m(t: &Track, s: &Site) -> f64 {
+    (t.last.x_m - s.centre_m.x).hypot(t.last.y_m - s.centre_m.y)
+}
+
+/// A push the loop is about to make or has just made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PushIntent {
+    /// Track id of the particle.
+    pub particle: usize,
+    /// Centre before, on the sample.
+    pub from: [f64; 2],
+    /// Centre wanted after.
+    pub to: [f64; 2],
+    /// Particle radius.
+    pub radius_m: f64,
+}
+
+/// The closed loop over one rig.
+pub struct Assembly<'a> {
+    rig: &'a mut dyn Rig,
+    scene: Scene,
+    sites: Vec<Site>,
+    plan_config: PlanConfig,
+    perception: Perception,
+    settings: AssemblySettings,
+    journal: JournalWriter,
+    tracker: Tracker,
+    failures: HashMap<usize, u32>,
+    given_up: Vec<usize>,
+    /// The particle the last push left unmoved within tolerance of its
+    /// target (`PushCheck::Unmoved`): a failure if the plan in hand then no
+    /// longer holds.
+    unmoved: Option<usize>,
+    /// Sites filled short by a particle left alone near them (`left_short_m`).
+    left_short: Vec<LeftShort>,
+    /// Sites the run left short before a resume, to be left so again on
+    /// the first look.
+    left_short_before: Vec<usize>,
+    repush_next: Option<usize>,
+    stage_faults: u32,
+    coarse_offset: [f64; 2],
+    /// The tip's drift as the frames show it; None when not followed.
+    drift: Option<DriftFilter>,
+    pushes_done: usize,
+    frames_seen: usize,
+    /// Every push executed in this process, in order.
+    pub records: Vec<PushRecord>,
+    /// The last analysed frame.
+    pub last_sighting: Option<Sighting>,
+    plan: Vec<PlannedPush>,
+    /// The steps of the current plan not yet made.
+    plan_in_hand: Option<Plan>,
+    /// Track ids issued when this process made its first plan (None before):
+    /// those tracks were all planned with, so they stay confirmed.
+    first_plan_ids: Option<usize>,
+    park_before_first_look: bool,
+    tip_hint_m: Option<[f64; 2]>,
+    sink: Option<&'a mut dyn FrameSink>,
+}
+
+/// What the loop needs besides the rig.
+pub struct AssemblyInputs {
+    /// The scene the model advises from.
+    pub scene: Scene,
+    /// Target sites on the sample.
+    pub sites: Vec<Site>,
+    /// Planner settings.
+    pub plan_config: PlanConfig,
+    /// Frame analysis.
+    pub perception: Perception,
+    /// Loop settings.
+    pub settings: AssemblySettings,
+}
+
+impl<'a> Assembly<'a> {
+    /// A new run: writes the run spec as the journal's first entry.
+    pub fn start(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        mut journal: JournalWriter,
+        spec: RunSpec,
+    ) -> Result<Self, ExecError> {
+        journal.append(rig.now_s(), &RunEvent::Start(spec))?;
+        Ok(Self::with_journal(rig, inputs, journal, 0))
+    }
+
+    /// A resumed run: `pushes_done` counts the pushes journalled before the
+    /// stop; `last_tip_nano_m` is the last nanostage target the journal
+    /// holds; `left_short_sites` the sites it left short, whose particles
+    /// (the nearest within `left_short_m` on the first look) are left there
+    /// again rather than pushed three more times in vain.
+    pub fn resume(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        mut journal: JournalWriter,
+        pushes_done: usize,
+        last_tip_nano_m: Option<[f64; 2]>,
+        left_short_sites: Vec<usize>,
+    ) -> Result<Self, ExecError> {
+        journal.append(rig.now_s(), &RunEvent::Resume)?;
+        let mut run = Self::with_journal(rig, inputs, journal, pushes_done);
+        run.left_short_before = left_short_sites;
+        // The process may have stopped anywhere, with the tip down or hiding the
+        // particle it just pushed: lift it and look from where a new run starts.
+        run.park_before_first_look = true;
+        // Plan on from where the tip was, as the stopped run would have: the
+        // planner's order depends on the tip's start.
+        run.tip_hint_m =
+            last_tip_nano_m.map(|t| [t[0] + run.coarse_offset[0], t[1] + run.coarse_offset[1]]);
+        Ok(run)
+    }
+
+    fn with_journal(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        journal: JournalWriter,
+        pushes_done: usize,
+    ) -> Self {
+        let coarse_offset = rig.coarse_position().unwrap_or([0.0, 0.0]);
+        Self {
+            rig,
+            tracker: Tracker::new(inputs.settings.track_gate_m),
+            drift: inputs.settings.drift.map(DriftFilter::new),
+            scene: inputs.scene,
+            sites: inputs.sites,
+            plan_config: inputs.plan_config,
+            perception: inputs.perception,
+            settings: inputs.settings,
+            journal,
+            failures: HashMap::new(),
+            given_up: Vec::new(),
+            unmoved: None,
+            left_short: Vec::new(),
+            left_short_before: Vec::new(),
+            repush_next: None,
+            stage_faults: 0,
+            coarse_offset,
+            pushes_done,
+            frames_seen: 0,
+            records: Vec::new(),
+            last_sighting: None,
+            plan: Vec::new(),
+            plan_in_hand: None,
+            first_plan_ids: None,
+            park_before_first_look: false,
+            tip_hint_m: None,
+            sink: None,
+        }
+    }
+
+    /// Shows every analysed frame to `sink` (the animation writer).
+    pub fn with_sink(mut self, sink: &'a mut dyn FrameSink) -> Self {
+        self.sink = Some(sink);
+        self
+    }
+
+    /// The target sites.
+    pub fn sites(&self) -> &[Site] {
+        &self.sites
+    }
+
+    /// Current particle tracks as journalled (micrometres).
+    pub fn tracks(&self) -> Vec<SeenParticle> {
+        self.tracker
+            .tracks()
+            .iter()
+            .map(|t| SeenParticle {
+                id: t.id,
+                x_um: t.last.x_m * 1e6,
+                y_um: t.last.y_m * 1e6,
+                r_um: t.last.radius_m * 1e6,
+            })
+            .collect()
+    }
+
+    /// Distance from every site to the nearest tracked particle, metres.
+    pub fn site_errors_m(&self) -> Vec<f64> {
+        self.sites
+            .iter()
+            .map(|s| {
+                self.nearest_track(s)
+                    .map_or(f64::INFINITY, |t| track_to_site_m(t, s))
+            })
+            .collect()
+    }
+
+    /// The tracked particle nearest to site `s`.
+    fn nearest_track(&self, s: &Site) -> Option<&Track> {
+        let tracks = self.tracker.tracks().iter();
+        tracks.min_by(|a, b| track_to_site_m(a, s).total_cmp(&track_to_site_m(b, s)))
+    }
+
+    /// Runs the loop until every site is filled or it has to stop.
+    pub fn run(&mut self) -> Result<RunEnd, ExecError> {
+        if std::mem::take(&mut self.park_before_first_look) {
+            self.park_at_start()?;
+        }
+        // The first frame finds the probe. Parked where its body leaves the
+        // frame, the next frame shows the particles it hid: one never seen
+        // would be an obstacle no plan knows of.
+        self.observe(&[], None)?;
+        if self.probe_axis().is_some() {
+            self.park_at_start()?;
+        }
+        self.leave_short_as_before()?;
+        let mut pending: Option<PushIntent> = None;
+        loop {
+            let moved: Vec<Moved> = pending
+                .iter()
+                .map(|p| Moved {
+                    id: p.particle,
+                    from: p.from,
+                    to: p.to,
+                })
+                .collect();
+            self.observe(&moved, pending.as_ref())?;
+            if let Some(intent) = pending.take() {
+                if !self.seen_now(intent.particle) {
+                    // Hidden under the probe, or not found: look again with the tip parked away.
+                    self.park_away_from(intent.to)?;
+                    self.observe(&moved, Some(&intent))?;
+                }
+                self.check(&intent)?;
+            }
+            if self.all_sites_filled() {
+                // Confirm on a frame with the probe parked clear of the work
+                // area: the last frame may hide particles under it, and the
+                // run's final image should show the whole pattern.
+                self.park_at_start()?;
+                self.observe(&[], None)?;
+                if self.all_sites_filled() {
+                    self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
+                    return Ok(RunEnd::Done);
+                }
+            }
+            if self.pushes_done >= self.settings.max_pushes {
+                return self.stop(RunEnd::PushesSpent(self.pushes_done));
+            }
+            let intent = match self.next_push()? {
+                Ok(intent) => intent,
+                Err(reason) => return self.stop(RunEnd::Stopped(reason)),
+            };
+            match self.push(&intent) {
+                Ok(()) => {
+                    self.stage_faults = 0;
+                    pending = Some(intent);
+                }
+                Err(PushError::Rig(RigError::StageFault(why))) => {
+                    self.recover_from_fault(why)?;
+                    if self.stage_faults > self.settings.max_stage_faults {
+                        return self.stop(RunEnd::Stopped(format!(
+                            "{} stage faults in a row",
+                            self.stage_faults
+                        )));
+                    }
+                }
+                Err(PushError::Rig(e)) => {
+                    let _ = self.rig.halt();
+                    self.journal.append(
+                        self.rig.now_s(),
+                        &RunEvent::MoveFailed {
+                            error: e.to_string(),
+                        },
+                    )?;
+                    return self.stop(RunEnd::Stopped(format!("rig error: {e}")));
+                }
+                Err(PushError::Journal(e)) => return Err(e.into()),
+                Err(PushError::Refused(why)) => {
+                    self.fail(intent.particle)?;
+                    self.journal.append(
+                        self.rig.now_s(),
+                        &RunEvent::Check {
+                            particle: intent.particle,
+                            result: format!("refused: {why}"),
+                            error_nm: 0.0,
+                            lost_contact: false,
+                        },
+                    )?;
+                }
+            }
+        }
+    }
+
+    fn all_sites_filled(&self) -> bool {
+        self.site_errors_m()
+            .iter()
+            .enumerate()
+            .all(|(i, e)| *e <= self.settings.placed_tolerance_m || self.is_left_short(i))
+    }
+
+    fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
+        let reason = end.reason().unwrap_or_default();
+        self.journal
+            .append(self.rig.now_s(), &RunEvent::Stopped { reason })?;
+        Ok(end)
+    }
+
+    /// Grabs, detects, tracks and journals one frame.
+    fn observe(&mut self, moved: &[Moved], push: Option<&PushIntent>) -> Result<(), ExecError> {
+        let calibration = *self.rig.calibration();
+        let mut sighting =
+            self.perception
+                .sight(&mut *self.rig, &calibration, self.coarse_offset)?;
+        sighting.stage_m = self.rig.position().ok();
+        for _ in 0..sighting.dropped {
+            self.journal
+                .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
+        }
+        self.tracker
+            .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
+        self.follow_drift(&sighting, push);
+        let tracks = self.tracks();
+        self.journal.append(
+            sighting.t_s,
+            &RunEvent::Observation {
+                frame: self.frames_seen,
+                particles: tracks.clone(),
+                tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
+                repaired_lines: sighting.repaired_lines.clone(),
+                clipped: sighting.exposure.clipped(),
+                drift: self
+                    .drift
+                    .as_ref()
+                    .and_then(|d| d.estimate_at(sighting.t_s)),
+            },
+        )?;
+        if let Some(sink) = self.sink.as_mut() {
+            sink.frame(&FrameView {
+                sighting: &sighting,
+                tracks: &tracks,
+                sites: &self.sites,
+                push,
+                plan: &self.plan,
+                calibration: &calibration,
+            });
+        }
+        self.last_sighting = Some(sighting);
+        self.frames_seen += 1;
+        Ok(())
+    }
+
+    /// Takes the frame's apex against where the stage was sent into the drift
+    /// estimate, when the apex is clear of every tracked particle and of
+    /// where the push just made aimed its particle (beside one the apex's
+    /// fit is pulled by up to 0.3 um on the simulated microscope; a pushed
+    /// particle under the probe keeps its old track). Not before the first
+    /// plan: until the loop has looked with the probe parked away, a
+    /// particle under the probe is not tracked (the frame drops detections
+    /// the probe's outline cuts).
+    fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
+        let (Some(drift), Some(_), Some(tip), Some(stage)) = (
+            self.drift.as_mut(),
+            self.first_plan_ids,
+            sighting.tip_m,
+            sighting.stage_m,
+        ) else {
+            return;
+        };
+        let tracked = self
+            .tracker
+            .tracks()
+            .iter()
+            .map(|t| ([t.last.x_m, t.last.y_m], t.last.radius_m));
+        let pushed = push.map(|p| (p.to, p.radius_m));
+        let clear = tracked.chain(pushed).all(|(centre, radius)| {
+            (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
+        });
+        if clear {
+            let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
+            let update = drift.add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
+            tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
+        }
+    }
+
+    /// The drift to take out of a move made now (zero when not followed).
+    fn drift_now(&self) -> [f64; 2] {
+        self.drift
+            .as_ref()
+            .map_or([0.0, 0.0], |d| d.correction_at(self.rig.now_s()))
+    }
+
+    /// True when the last frame showed this particle (a track outside the
+    /// view or under the probe keeps its old place and is not seen).
+    fn seen_now(&self, particle: usize) -> bool {
+        self.tracker.track(particle).is_some_and(|t| {
+            t.missed_frames == 0
+                && self
+                    .last_sighting
+                    .as_ref()
+                    .is_some_and(|s| s.shows(t.last.x_m, t.last.y_m))
+        })
+    }
+
+    /// Was the last push a success? Journals the check and counts failures.
+    fn check(&mut self, intent: &PushIntent) -> Result<(), ExecError> {
+        let seen = self
+            .tracker
+            .track(intent.particle)
+            .filter(|t| t.missed_frames == 0)
+            .map(|t| [t.last.x_m, t.last.y_m]);
+        let tol = CheckTolerances {
+            placed_m: self.settings.placed_tolerance_m,
+            off_line_m: self.settings.off_line_tolerance_m,
+        };
+        let (result, error_nm, lost) = match seen {
+            None => ("unseen".to_owned(), 0.0, false),
+            Some(at) => {
+                let c = check_push(intent.from, intent.to, at, &tol);
+                let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
+                let name = match c {
+                    PushCheck::Placed { .. } => "placed",
+                    PushCheck::Unmoved { .. } => "unmoved",
+                    PushCheck::FellShort { .. } => "fell-short",
+                    PushCheck::LeftLine { .. } => "left-line",
+                    PushCheck::Overshot { .. } => "overshot",
+                };
+                (name.to_owned(), error_nm, c.lost_contact())
+            }
+        };
+        if let Some(r) = self.records.last_mut() {
+            r.lost_contact_detected = lost;
+        }
+        if result == "placed" || result == "unmoved" {
+            self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
+        }
+        if result == "unmoved" {
+            self.unmoved = Some(intent.particle);
+        }
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Check {
+                particle: intent.particle,
+                result,
+                error_nm,
+                lost_contact: lost,
+            },
+        )?;
+        if lost {
+            self.fail(intent.particle)?;
+            self.repush_next = Some(intent.particle);
+        }
+        Ok(())
+    }
+
+    fn fail(&mut self, particle: usize) -> Result<(), ExecError> {
+        let tries = self.failures.entry(particle).or_insert(0);
+        *tries += 1;
+        if *tries >= self.settings.max_tries && !self.given_up.contains(&particle) {
+            let tries = *tries;
+            self.given_up.push(particle);
+            // The plan in hand still moves it: plan afresh around it.
+            self.plan_in_hand = None;
+            self.journal
+                .append(self.rig.now_s(), &RunEvent::GiveUp { particle, tries })?;
+            self.leave_short(particle)?;
+        }
+        Ok(())
+    }
+}
+
+/// Why one push was not made.
+#[derive(Debug, thiserror::Error)]
+enum PushError {
+    #[error(transparent)]
+    Rig(#[from] RigError),
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    /// The model or the geometry refused this push; the particle counts a failure.
+    #[error("{0}")]
+    Refused(String),
+}
+
+/// Outside a push (parking, lifting after a fault) a refused move is a stage fault.
+impl From<PushError> for ExecError {
+    fn from(e: PushError) -> Self {
+        match e {
+            PushError::Rig(r) => ExecError::Rig(r),
+            PushError::Journal(j) => ExecError::Journal(j),
+            PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
+        }
+    }
+}

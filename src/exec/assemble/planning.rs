@@ -1,0 +1,271 @@
+//! The next push: the tracks the planner is told about, the plan made
+//! (or the one in hand, moved onto the particles as they lie now), and
+//! the particles and layouts the planner is given.
+
+use super::{Assembly, ExecError, PlannedPush, PushIntent};
+use crate::exec::events::RunEvent;
+use crate::exec::particle_sizes::ParticleSizes;
+use crate::exec::tracker::{Track, Tracker};
+use crate::plan::layout::{Layout, Particle};
+use crate::plan::rebase::rebase_plan;
+use crate::plan::{Plan, Step, plan_assembly, verify_plan};
+use nalgebra::Vector2;
+
+impl Assembly<'_> {
+    /// The particles the planner must not push: those given up on.
+    pub(super) fn immovable(&self) -> Vec<u32> {
+        self.given_up.iter().map(|&id| id as u32).collect()
+    }
+
+    /// The tracks the planner is told about. The first plan takes every track
+    /// (the run's first looks find every particle) and they stay; a track new
+    /// after it must be seen twice: a one-frame false detection between
+    /// particles had become an obstacle that blocked the plan in hand and
+    /// every fresh plan. (A first-plan track seen once, then out of view, had
+    /// vanished from the next plan, which pushed a particle through it.)
+    pub(super) fn confirmed_tracks(&self) -> Vec<Track> {
+        let first = self.first_plan_ids.unwrap_or(usize::MAX);
+        self.tracker
+            .tracks()
+            .iter()
+            .filter(|t| t.hits >= 2 || t.id < first)
+            .cloned()
+            .collect()
+    }
+
+    /// The next push: from the plan in hand if, moved onto the particles as
+    /// seen now, it still verifies; otherwise from a fresh plan. Returns why
+    /// there is none when the planner refuses.
+    pub(super) fn next_push(&mut self) -> Result<Result<PushIntent, String>, ExecError> {
+        let confirmed = self.confirmed_tracks();
+        // The particles' measured sizes, for the plan and for the push.
+        // Not the scene's: a batch 2 % off its nominal size (4.9 um
+        // particles in a 5 um scene) put the tip's contact 0.15 um off
+        // along the push at a 70 deg contact angle, and every push, re-push
+        // included, fell 0.35 um short (or, 2 % over, overshot 0.3 um, back
+        // and forth 400 times): CMU stopped at 0 of 31.
+        let sizes = ParticleSizes::of(&confirmed, self.scene.particle_radius_m);
+        let layout = Layout {
+            field_m: self.settings.field_m,
+            particles: planning_particles(&confirmed, &sizes),
+        };
+        let mut config = self.plan_config.clone();
+        config.immovable = self.immovable();
+        let repushed = self.repush_next.map(|id| id as u32);
+        let kept = self.plan_in_hand.take().map(|p| {
+            let p = rebase_plan(&p, &layout, self.settings.keep_plan_shift_m, repushed)
+                .map_err(|e| e.to_string())?;
+            let report = verify_plan(&p, &layout, &config);
+            if report.ok {
+                Ok(p)
+            } else {
+                Err(format!("it no longer verifies: {}", report.summary()))
+            }
+        });
+        let unmoved = self.unmoved.take();
+        if let (Some(Err(_)), Some(particle)) = (&kept, unmoved) {
+            // A fresh plan would ask for the push that did nothing again.
+            self.fail(particle)?;
+            config.immovable = self.immovable();
+        }
+        let plan = match kept {
+            Some(Ok(plan)) => plan,
+            dropped => {
+                config.tip_start_m = self
+                    .tip_hint_m
+                    .take()
+                    .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
+                    .map(|t| Vector2::new(t[0], t[1]));
+                let because = dropped.and_then(Result::err);
+                let mut planned = plan_assembly(&layout, &self.open_sites(), &config);
+                if planned.is_err() && self.leave_near_particles_short()? {
+                    // Boxed in a hair from its site (one 0.21 um off, between
+                    // three filled sites, had stopped the run): plan without it.
+                    config.immovable = self.immovable();
+                    planned = plan_assembly(&layout, &self.open_sites(), &config);
+                }
+                match planned {
+                    Ok(plan) => {
+                        self.journal_plan(&plan, because)?;
+                        plan
+                    }
+                    Err(e) => {
+                        let kept = because
+                            .map(|b| format!(" (the plan in hand was dropped: {b})"))
+                            .unwrap_or_default();
+                        return Ok(Err(format!("planner: {e}{kept}")));
+                    }
+                }
+            }
+        };
+        self.plan = plan
+            .steps
+            .iter()
+            .filter_map(|step| match step {
+                Step::Push { from_m, to_m, .. } => Some(PlannedPush {
+                    from: [from_m.x, from_m.y],
+                    to: [to_m.x, to_m.y],
+                }),
+                _ => None,
+            })
+            .collect();
+        let first = plan.steps.iter().find_map(|step| match step {
+            Step::Push {
+                particle,
+                from_m,
+                to_m,
+                ..
+            } => Some((*particle as usize, *from_m, *to_m)),
+            _ => None,
+        });
+        // Its first push leaves the plan when the camera shows it placed (`check`).
+        self.plan_in_hand = Some(plan);
+        self.first_plan_ids.get_or_insert(self.tracker.ids_issued());
+        Ok(first
+            .ok_or_else(|| "the plan has no push left".to_owned())
+            .map(|(particle, from, to)| PushIntent {
+                particle,
+                from: [from.x, from.y],
+                to: [to.x, to.y],
+                radius_m: sizes.radius_of(&confirmed, particle),
+            }))
+    }
+
+    pub(super) fn journal_plan(
+        &mut self,
+        plan: &Plan,
+        replaced_because: Option<String>,
+    ) -> Result<(), ExecError> {
+        let s = &plan.summary;
+        self.journal.append(
+            self.rig.now_s(),
+            &RunEvent::Plan {
+                pushes: s.pushes,
+                push_distance_um: s.push_distance_m * 1e6,
+                tip_travel_um: s.tip_travel_m * 1e6,
+                lb_push_um: s.lb_push_m * 1e6,
+                lb_tip_um: s.lb_tip_m * 1e6,
+                planning_ms: s.planning_time_s * 1e3,
+                replaced_because,
+            },
+        )?;
+        Ok(())
+    }
+}
+
+/// The particles the planner is told about. A track the camera has missed
+/// for a few frames is dropped; one missed more recently is kept unless a
+/// particle seen in this frame overlaps it (then the stale one is wrong).
+/// Each particle has its size from `sizes`. Radii are capped so
+/// that no two discs overlap: touching spheres cannot, so a few nanometres
+/// of apparent overlap must not make the layout invalid.
+pub fn planning_particles(tracks: &[Track], sizes: &ParticleSizes) -> Vec<Particle> {
+    let overlaps = |a: &Track, b: &Track| {
+        (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
+    };
+    let seen: Vec<(usize, [f64; 2], f64)> = tracks
+        .iter()
+        .filter(|t| t.missed_frames < 3)
+        .filter(|t| {
+            t.missed_frames == 0
+                || !tracks
+                    .iter()
+                    .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
+        })
+        .map(|t| (t.id, [t.last.x_m, t.last.y_m], sizes.radius_m(t)))
+        .collect();
+    particles_seen(&seen)
+}
+
+/// The first frame's particles as a layout of `field_m` (ids by order
+/// seen), each with the size the loop will plan it with
+/// ([`ParticleSizes`]; `nominal_m` is the scene's radius), for placing the
+/// pattern on a rig: placed with the nominal radius for all, a spread
+/// batch's sites could count on particles the loop then finds too wide.
+pub fn layout_measured(
+    field_m: [f64; 2],
+    seen: &[crate::exec::tracker::Observation],
+    nominal_m: f64,
+) -> Layout {
+    let mut tracker = Tracker::new(f64::INFINITY);
+    tracker.update(seen, &[], &|_, _| true);
+    let sizes = ParticleSizes::of(tracker.tracks(), nominal_m);
+    Layout {
+        field_m,
+        particles: planning_particles(tracker.tracks(), &sizes),
+    }
+}
+
+/// Particles `(id, centre, radius)`, each radius capped at its share of
+/// the distance to every neighbour it would overlap (see
+/// [`planning_particles`]).
+pub fn particles_seen(seen: &[(usize, [f64; 2], f64)]) -> Vec<Particle> {
+    seen.iter()
+        .map(|&(id, c, r)| {
+            let capped = seen
+                .iter()
+                .filter(|&&(other, _, _)| other != id)
+                .map(|&(_, u, ru)| {
+                    let d = (c[0] - u[0]).hypot(c[1] - u[1]);
+                    d * r / (r + ru) * (1.0 - 1e-6)
+                })
+                .fold(r, f64::min);
+            Particle {
+                id: id as u32,
+                centre_m: Vector2::new(c[0], c[1]),
+                radius_m: capped,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::exec::tracker::Observation;
+
+    /// A first frame of a spread batch (4.6-5.4 um) places the pattern
+    /// with each particle's measured size; two touching get the batch's
+    /// median.
+    #[test]
+    fn the_first_frames_layout_has_the_sizes_the_loop_plans_with() {
+        let at = |x_um: f64, r_um: f64| Observation {
+            x_m: x_um * 1e-6,
+            y_m: 20e-6,
+            radius_m: r_um * 1e-6,
+        };
+        let seen = [
+            at(10.0, 4.6),
+            at(30.0, 5.0),
+            at(50.0, 5.4),
+            at(70.0, 4.8),
+            at(79.9, 5.0),
+        ];
+        let layout = layout_measured([100e-6, 40e-6], &seen, 5e-6);
+        let r: Vec<f64> = layout.particles.iter().map(|p| p.radius_m * 1e6).collect();
+        // The last two, 0.1 um apart, get the median (5 um), capped to
+        // half their 9.9 um distance.
+        for (got, want) in r.iter().zip([4.6, 5.0, 5.4, 4.95, 4.95]) {
+            assert!((got - want).abs() < 0.01, "{r:?}");
+        }
+    }
+
+    /// Particles of their own sizes, 5.2 and 4.8 um, seen 9.99 um apart
+    /// share the 10 nm of apparent overlap by size; a lone one keeps its own.
+    #[test]
+    fn touching_particles_of_two_sizes_share_the_overlap_by_size() {
+        let particles = particles_seen(&[
+            (3, [10e-6, 20e-6], 5.2e-6),
+            (8, [19.99e-6, 20e-6], 4.8e-6),
+            (9, [60e-6, 20e-6], 4.5e-6),
+        ]);
+        let ids: Vec<u32> = particles.iter().map(|p| p.id).collect();
+        assert_eq!(ids, [3, 8, 9]);
+        let near = |a: f64, b: f64| (a - b).abs() < 1e-11;
+        assert!(near(particles[0].radius_m, 5.2e-6 * 0.999), "{particles:?}");
+        assert!(near(particles[1].radius_m, 4.8e-6 * 0.999), "{particles:?}");
+        assert_eq!(particles[2].radius_m, 4.5e-6);
+        let gap = 9.99e-6 - particles[0].radius_m - particles[1].radius_m;
+        assert!(gap > 0.0, "overlap {gap}");
+    }
+}
