@@ -1072,3 +1072,64 @@ fn outputs_that_would_replace_an_input_or_each_other_are_refused() {
     assert_eq!(std::fs::read(&layout).unwrap(), before);
     assert_eq!(std::fs::read(&frame).unwrap(), frame_before);
 }
+
+/// A particle beside the probe in the frame, its ring too near the probe's
+/// outline for the loop to measure, is still an obstacle of the plan made
+/// from that frame: a site on it is refused, naming it, and a site
+/// elsewhere plans without pushing it. Before, it was left out of the
+/// layout altogether, and a plan (verified "ok") pushed another particle
+/// onto it.
+#[test]
+fn a_particle_beside_the_probe_is_an_obstacle_of_the_frames_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, calib, found] = frame_files(dir.path());
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (site, plan) = (at("site.toml"), at("plan.json"));
+    // Particle 0 touches the probe's apex at (90, 50) um (its centre a radius off).
+    std::fs::write(
+        &truth,
+        r#"{"schema": "nanopush.layout/1", "field_um": [120, 100], "particles": [
+            {"id": 0, "x_um": 85.1, "y_um": 50.5, "radius_um": 5},
+            {"id": 1, "x_um": 30.0, "y_um": 30.0, "radius_um": 5},
+            {"id": 2, "x_um": 20.0, "y_um": 70.0, "radius_um": 5},
+            {"id": 3, "x_um": 55.0, "y_um": 25.0, "radius_um": 5}]}"#,
+    )
+    .unwrap();
+    std::fs::write(&site, "sites = [ { x_um = 0.0, y_um = 0.0 } ]\n").unwrap();
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n",
+    )
+    .unwrap();
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --seed 1 --tip-x-px 180 --tip-y-px 100 --tip-angle-deg 90 --out {frame}"
+    ));
+    let args = |at_um: &str| {
+        format!(
+            "plan --pattern {site} --at {at_um} --frame {frame} --calib {calib} --save-layout {found} --out {plan}"
+        )
+    };
+    let (ok, text) = nanopush(&args("85.1,50.5").split_whitespace().collect::<Vec<_>>());
+    assert!(
+        !ok,
+        "a site on the particle beside the probe planned: {text}"
+    );
+    assert!(text.contains("cannot be moved (immovable)"), "{text}");
+    let held = marked_immovable(&found);
+    let layout = nanopush::plan::Layout::read(Path::new(&found)).unwrap();
+    let beside: Vec<u64> = (layout.particles.iter())
+        .filter(|p| (p.centre_m * 1e6 - nalgebra::Vector2::new(85.1, 50.5)).norm() < 2.0)
+        .map(|p| p.id as u64)
+        .collect();
+    assert!(
+        beside.len() == 1 && held.contains(&beside[0]),
+        "held {held:?}, beside {beside:?}"
+    );
+    run_line(&args("40,80"));
+    assert_eq!(
+        pushes_of(&plan, beside[0]),
+        0,
+        "the particle beside the probe was pushed"
+    );
+    run_line(&format!("verify-plan {plan} --layout {found}"));
+}

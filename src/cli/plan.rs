@@ -103,6 +103,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
             marked: MarkedLayout::read(path)?,
             tip_start_m: None,
             seen_in: None,
+            beside_probe: 0,
         });
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
@@ -111,11 +112,12 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     let radius_um = args.radius_um.unwrap_or(DEFAULT_RADIUS_UM);
     let found = layout_from_frame(frame.clone(), &calibration, radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
-    // The cut particles marked, so that a plan from the saved layout, and
-    // its replay, hold them as this one does.
+    // The cut particles and those beside the probe marked, so that a plan
+    // from the saved layout, and its replay, hold them as this one does.
+    let beside_probe = found.beside_probe.len();
     let marked = MarkedLayout {
         layout: found.layout,
-        immovable: found.cut_by_edge,
+        immovable: [found.cut_by_edge, found.beside_probe].concat(),
     };
     if let Some(path) = &args.save_layout {
         marked.write(path)?;
@@ -124,6 +126,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         marked,
         tip_start_m: found.tip_m,
         seen_in: Some((frame, calibration)),
+        beside_probe,
     })
 }
 
@@ -136,6 +139,9 @@ struct Particles {
     tip_start_m: Option<nalgebra::Vector2<f64>>,
     /// The frame the particles were found in, and its calibration.
     seen_in: Option<(Frame, CameraCalibration)>,
+    /// How many of the obstacles a frame shows lie beside the probe (the
+    /// rest are cut by its edge).
+    beside_probe: usize,
 }
 
 /// Refuses, before anything is read or written, outputs that would replace
@@ -167,6 +173,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         marked: MarkedLayout { layout, immovable },
         tip_start_m,
         seen_in,
+        beside_probe,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
     if radius <= 0.0 {
@@ -233,7 +240,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let held = config.immovable.len();
     if args.frame.is_some() {
         summary["particles_found"] = (layout.particles.len() - held).into();
-        summary["particles_cut_by_edge"] = held.into();
+        summary["particles_cut_by_edge"] = (held - beside_probe).into();
+        summary["particles_beside_probe"] = beside_probe.into();
     } else {
         summary["particles_immovable"] = held.into();
     }
@@ -243,8 +251,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let s = &plan.summary;
         if args.frame.is_some() {
             println!(
-                "particles found  {} (+{held} cut by the frame's edge: obstacles, not pushed)",
+                "particles found  {} (+{} cut by the frame's edge, +{beside_probe} beside the probe: obstacles, not pushed)",
                 layout.particles.len() - held,
+                held - beside_probe,
             );
         } else if held > 0 {
             println!("immovable        {held} (marked in the layout: obstacles, not pushed)");

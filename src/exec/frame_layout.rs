@@ -11,14 +11,20 @@
 //! plan sees, so the particles the frame's edge cuts (there, their centres
 //! not measured) join the layout as particles it never pushes; one whose
 //! centre falls below the stage origin makes it no layout (an error, not a
-//! particle dropped).
+//! particle dropped). So do the particles beside the probe: the loop does
+//! not fit a ring that close to the probe's outline (it will see it once
+//! the tip has moved), but a plan from this frame would push another
+//! particle onto it; a particle under the probe cannot be seen at all.
 
 use super::assemble::layout_measured;
-use super::observe::{ObserveError, Perception};
+use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, Sighting};
+use super::tracker::Observation;
 use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{Layout, LayoutError};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
+use crate::vision::analyse::prepare_frame;
+use crate::vision::detect::detect_particles_excluding;
 use crate::vision::frame::Frame;
 use nalgebra::Vector2;
 
@@ -31,6 +37,9 @@ pub struct FrameLayout {
     /// Ids of the particles the frame's edge cuts: obstacles, never pushed
     /// (the planner's `immovable`).
     pub cut_by_edge: Vec<u32>,
+    /// Ids of the particles found beside the probe, their rings too near its
+    /// outline for the loop to measure: obstacles too.
+    pub beside_probe: Vec<u32>,
     /// The probe's apex, when found: where the tip tour starts.
     pub tip_m: Option<Vector2<f64>>,
 }
@@ -65,10 +74,10 @@ pub fn layout_from_frame(
     let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
     let mut still = Still(Some(TimedFrame { t_s: 0.0, frame }));
     let sighting = perception.sight(&mut still, calibration, [0.0, 0.0])?;
-    let seen: Vec<_> = sighting
-        .particles
-        .iter()
+    let beside_probe = beside_the_probe(&sighting, &perception, radius_m)?;
+    let seen: Vec<_> = (sighting.particles.iter())
         .chain(&sighting.cut_by_edge)
+        .chain(&beside_probe)
         .cloned()
         .collect();
     // Each with the size the loop would plan it with, as a rig's first
@@ -80,15 +89,48 @@ pub fn layout_from_frame(
     // the frame less its discs' clearance did not fit).
     let layout = layout_measured(sighting.frame_m[1], &seen, radius_m);
     layout.validate()?;
-    let cut_by_edge = layout.particles[sighting.particles.len()..]
-        .iter()
-        .map(|p| p.id)
-        .collect();
+    let ids = |from: usize, n: usize| {
+        layout.particles[from..from + n]
+            .iter()
+            .map(|p| p.id)
+            .collect()
+    };
+    let (whole, cut) = (sighting.particles.len(), sighting.cut_by_edge.len());
     Ok(FrameLayout {
+        cut_by_edge: ids(whole, cut),
+        beside_probe: ids(whole + cut, beside_probe.len()),
         layout,
-        cut_by_edge,
         tip_m: sighting.tip_m.map(|[x, y]| Vector2::new(x, y)),
     })
+}
+
+/// The particles of about `radius_m` that the whole-frame analysis finds
+/// beside the probe where the loop's perception leaves them out (centres
+/// within the probe's shadow, `Sighting::probe_shadow_px`, but their discs
+/// clear of its outline). Their centres are biased by the outline: each
+/// takes `radius_m`, as an obstacle needs no more.
+fn beside_the_probe(
+    sighting: &Sighting,
+    perception: &Perception,
+    radius_m: f64,
+) -> Result<Vec<Observation>, FrameLayoutError> {
+    let Some((probe, calibration)) = &sighting.probe else {
+        return Ok(Vec::new());
+    };
+    let prepared = prepare_frame(&sighting.frame);
+    let outside = |x: f64, y: f64| probe.signed_distance(x, y) <= 0.0;
+    let found = detect_particles_excluding(&prepared.frame, &perception.detect, &outside)
+        .map_err(|e| ObserveError::Detect(e.to_string()))?;
+    let hint_r_px = perception.detect.diameter_px / 2.0;
+    Ok(found
+        .iter()
+        .filter(|d| probe.signed_distance(d.x_px, d.y_px) < sighting.probe_shadow_px)
+        .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
+        .map(|d| {
+            let [x_m, y_m] = calibration.pixel_to_stage_m(d.x_px, d.y_px);
+            Observation { x_m, y_m, radius_m }
+        })
+        .collect())
 }
 
 /// A camera that gives one frame, then none.
