@@ -860,7 +860,9 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
         .unwrap();
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(stderr.contains("resume it with --rig"), "{stderr}");
+    // The hint names the rig file, not the journal, as --rig's value.
+    let hint = format!("resume it with --rig {} --resume", b.rig_path.display());
+    assert!(stderr.contains(&hint), "{stderr}");
     assert_eq!(std::fs::read_to_string(&journal).unwrap(), before);
 
     let report = b.resumed(&journal);

@@ -214,9 +214,9 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let spec = &point.spec;
     if let Some(frame) = &spec.rig {
         bail!(
-            "{} is the journal of a run on the rig {}: resume it with --rig {0}",
-            journal_path.display(),
-            frame.rig_file
+            "{journal} is the journal of a run on the rig {rig}: resume it with --rig {rig} --resume {journal}",
+            journal = journal_path.display(),
+            rig = frame.rig_file
         );
     }
     let out = journal_path
