@@ -280,14 +280,14 @@ fn synth_frame_writes_the_frame_and_its_truth_or_neither() {
     let outputs = dir.path().join("outputs");
     std::fs::create_dir(&outputs).unwrap();
     let at = |name: &str| outputs.join(name).display().to_string();
+    // A truth that cannot be written once the frame is: it is a folder.
+    let a_folder = dir.path().join("a-folder");
+    std::fs::create_dir(&a_folder).unwrap();
+    let a_folder = a_folder.display().to_string();
     for (out, truth, needle) in [
         (at("f.jpg"), at("t.json"), "--out must end in .png or .tif"),
         (at("f.xyz"), at("t.json"), "--out must end in .png or .tif"),
-        (
-            at("f.png"),
-            at("no/such/folder/t.json"),
-            "no/such/folder/t.json",
-        ),
+        (at("f.png"), a_folder.clone(), "a-folder"),
         (at("f.png"), at("f.png"), "is also --out"),
     ] {
         let args = [

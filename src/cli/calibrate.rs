@@ -16,7 +16,7 @@ use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
 use crate::vision::tip::{TipSettings, detect_tip};
 
-use super::distinct_outputs::check_distinct_outputs;
+use super::distinct_outputs::prepare_outputs;
 use super::stage_csv::parse_stage_csv;
 
 /// Arguments of `nanopush calibrate`.
@@ -56,7 +56,7 @@ pub struct FitArgs {
 /// path), or an existing file without `force` (a good calibration is not
 /// lost to a re-run).
 pub fn check_output(out: &Path, inputs: &[(&str, &Path)], force: bool) -> anyhow::Result<()> {
-    check_distinct_outputs(inputs, &[("--out", out)])?;
+    prepare_outputs(inputs, &[("--out", out)])?;
     anyhow::ensure!(
         force || !out.exists(),
         "{} exists: pass --force to replace it, or --out another file",

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use super::distinct_outputs::{check_distinct_outputs, flagged, given};
+use super::distinct_outputs::{flagged, given, prepare_outputs};
 
 use anyhow::Context;
 use clap::ValueEnum;
@@ -174,7 +174,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some(("FRAME", args.frame.as_path())),
             flagged("--calib", &args.calib),
         ]);
-        check_distinct_outputs(&inputs, &[("--overlay", overlay)])?;
+        prepare_outputs(&inputs, &[("--overlay", overlay)])?;
     }
     let frame = load_frame(&args.frame, args.channel)
         .with_context(|| format!("loading {}", args.frame.display()))?;

@@ -1,7 +1,9 @@
 //! A command's output files must not be its input files, nor each other:
 //! `detect FRAME --overlay FRAME` replaced the microscope frame with the
 //! drawing, and `plan --layout L --out L` the layout with the plan, both
-//! with exit 0.
+//! with exit 0. And their folders are made before any work, as the
+//! commands that write a folder do: `rig calibrate --out new/camera.toml`
+//! drove the stage through its 19 stops, then failed on the folder.
 
 use std::path::{Path, PathBuf};
 
@@ -36,9 +38,31 @@ pub fn given<'a, const N: usize>(
     pairs.into_iter().flatten().collect()
 }
 
+/// Makes the folder of each output (flag, path) that is not there yet,
+/// then refuses an output that is one of `inputs` (flag, path) or another
+/// output, naming both flags.
+pub fn prepare_outputs(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> anyhow::Result<()> {
+    for &(flag, path) in outputs {
+        let Some(folder) = path.parent().filter(|p| !p.as_os_str().is_empty()) else {
+            continue;
+        };
+        if folder.exists() && !folder.is_dir() {
+            anyhow::bail!(
+                "{flag} {}: {} is a file, not a folder",
+                path.display(),
+                folder.display()
+            );
+        }
+        std::fs::create_dir_all(folder).map_err(|e| {
+            anyhow::anyhow!("{flag} {}: cannot make its folder: {e}", path.display())
+        })?;
+    }
+    check_distinct_outputs(inputs, outputs)
+}
+
 /// Refuses an output (flag, path) that is one of `inputs` (flag, path) or
 /// another output, naming both flags.
-pub fn check_distinct_outputs(
+fn check_distinct_outputs(
     inputs: &[(&str, &Path)],
     outputs: &[(&str, &Path)],
 ) -> anyhow::Result<()> {
@@ -94,5 +118,28 @@ mod tests {
         // A folder that does not exist is left to the write to report.
         let nowhere = dir.path().join("no/such/plan.json");
         assert!(check_distinct_outputs(&[("--layout", &layout)], &[("--out", &nowhere)]).is_ok());
+    }
+
+    /// Outputs in folders not there yet get them before any work, and two
+    /// outputs that are one file in such a folder are still refused.
+    #[test]
+    fn the_folders_of_outputs_are_made_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let plan = dir.path().join("new/deeper/plan.json");
+        let svg = dir.path().join("other/plan.svg");
+        prepare_outputs(&[], &[("--out", &plan), ("--overlay", &svg)]).unwrap();
+        assert!(plan.parent().unwrap().is_dir() && svg.parent().unwrap().is_dir());
+        assert!(!plan.exists(), "only the folder is made");
+        let twice = dir.path().join("third/a.json");
+        let e = prepare_outputs(&[], &[("--out", &twice), ("--overlay", &twice)]).unwrap_err();
+        assert!(e.to_string().contains("also --out"), "{e}");
+        // A folder that cannot be made (a file is in the way) is named.
+        let blocked = dir.path().join("new/deeper/plan.json/x.json");
+        std::fs::write(&plan, "{}").unwrap();
+        let e = prepare_outputs(&[], &[("--out", &blocked)]).unwrap_err();
+        assert!(
+            e.to_string().contains("--out") && e.to_string().contains("folder"),
+            "{e}"
+        );
     }
 }

@@ -1,6 +1,6 @@
 //! `nanopush plan`: pattern + particles -> ordered push plan, with a summary.
 
-use super::distinct_outputs::{check_distinct_outputs, flagged, given};
+use super::distinct_outputs::{flagged, given, prepare_outputs};
 use super::pattern_args::PatternArgs;
 use anyhow::{Context, bail};
 use nanopush_plan_api::*;
@@ -159,7 +159,7 @@ fn check_files(args: &Args) -> anyhow::Result<()> {
         flagged("--overlay", &args.overlay),
         flagged("--save-layout", &args.save_layout),
     ]);
-    check_distinct_outputs(&inputs, &outputs)?;
+    prepare_outputs(&inputs, &outputs)?;
     if let Some(path) = &args.overlay {
         overlay_kind(path)?;
     }

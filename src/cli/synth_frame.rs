@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use super::distinct_outputs::{check_distinct_outputs, flagged, given};
+use super::distinct_outputs::{flagged, given, prepare_outputs};
 
 use anyhow::Context;
 
@@ -79,7 +79,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
-    check_distinct_outputs(
+    prepare_outputs(
         &given([flagged("--layout", &args.layout)]),
         &given([
             Some(("--out", args.out.as_path())),
@@ -141,6 +141,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // renamed once both are (a frame without its truth passes for a study's input).
     let frame_tmp = hidden_sibling(&args.out);
     let mut written = vec![(frame_tmp.clone(), args.out.clone())];
+    let mut renamed = Vec::new();
     let mut write = || -> anyhow::Result<()> {
         save_png(&frame, &frame_tmp).with_context(|| format!("writing {}", args.out.display()))?;
         if let Some((path, text)) = &truth {
@@ -150,12 +151,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         for (tmp, path) in &written {
             std::fs::rename(tmp, path).with_context(|| format!("writing {}", path.display()))?;
+            renamed.push(path.clone());
         }
         Ok(())
     };
     if let Err(e) = write() {
-        for (tmp, _) in &written {
-            let _ = std::fs::remove_file(tmp);
+        // A truth that cannot take its name (a folder there) takes the frame
+        // renamed before it along.
+        for path in written.iter().map(|(tmp, _)| tmp).chain(&renamed) {
+            let _ = std::fs::remove_file(path);
         }
         return Err(e);
     }

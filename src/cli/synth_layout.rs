@@ -1,5 +1,6 @@
 //! `nanopush synth layout`: seeded synthetic particle layouts.
 
+use super::distinct_outputs::prepare_outputs;
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use std::path::PathBuf;
 
@@ -58,6 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         kind: args.kind,
         seed: args.seed,
     };
+    prepare_outputs(&[], &[("--out", &args.out)])?;
     let layout = synth_layout(&p)?;
     layout.write(&args.out)?;
     println!(
