@@ -70,6 +70,10 @@ struct CalibrationFile {
 /// Most a calibration's two pixel axes may differ in length, as a ratio:
 /// camera pixels are square ([`CameraCalibration::check_square_pixels`]).
 const MAX_AXIS_RATIO: f64 = 1.1;
+/// Plausible pixel sizes on the sample, um: an electron microscope's
+/// nanometre to a low-power objective's tens of micrometres. A map outside
+/// is in other units (metres, millimetres) or mistyped.
+pub const PLAUSIBLE_UM_PER_PX: std::ops::RangeInclusive<f64> = 1e-3..=100.0;
 /// Most the pixel axes may be off perpendicular on the sample, degrees.
 const MAX_SHEAR_DEG: f64 = 5.0;
 
@@ -240,6 +244,17 @@ impl CameraCalibration {
         if det.abs() < 1e-30 {
             return Err(CalibError::Singular(det));
         }
+        let um_per_px = cal.m_per_px() * 1e6;
+        if !PLAUSIBLE_UM_PER_PX.contains(&um_per_px) {
+            return Err(CalibError::Format {
+                path: origin.into(),
+                reason: format!(
+                    "pixel_to_stage_um gives {um_per_px:.3e} um/px, outside {}-{} um/px: are its numbers in micrometres?",
+                    PLAUSIBLE_UM_PER_PX.start(),
+                    PLAUSIBLE_UM_PER_PX.end()
+                ),
+            });
+        }
         // Every reader takes one scale for both axes, so a stretched map is
         // refused here, once, not by each command that loads one.
         cal.check_square_pixels()
@@ -263,6 +278,32 @@ impl CameraCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A map in metres or nanometres (a millionth or a thousand times the
+    /// scale) is refused on reading, naming its scale; one at either end
+    /// of the plausible range reads. Before, a map of 1e9 um/px read, and
+    /// `detect --calib` put particles at 2.5e11 um with exit 0.
+    #[test]
+    fn a_file_of_implausible_scale_is_refused_on_reading() {
+        let file = |um: f64| {
+            format!(
+                "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[{um}, 0.0, 0.0], [0.0, {um}, 0.0]]\n"
+            )
+        };
+        for um in [0.001, 0.588, 100.0] {
+            let cal = CameraCalibration::from_toml(&file(um), "cal.toml").unwrap();
+            assert!((cal.m_per_px() * 1e6 - um).abs() < 1e-9 * um);
+        }
+        for (um, says) in [
+            (1e9, "1.000e9 um/px"),
+            (5.88e-7, "5.880e-7 um/px"),
+            (250.0, "2.500e2 um/px"),
+        ] {
+            let err = CameraCalibration::from_toml(&file(um), "cal.toml").unwrap_err();
+            let text = err.to_string();
+            assert!(text.contains("cal.toml") && text.contains(says), "{text}");
+        }
+    }
 
     #[test]
     fn a_file_of_stretched_or_sheared_pixels_is_refused_on_reading() {

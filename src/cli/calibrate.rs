@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 
 use crate::calib::camera_fit::{LensModel, fit_camera_map};
-use crate::calib::camera_map::CameraCalibration;
+use crate::calib::camera_map::{CameraCalibration, PLAUSIBLE_UM_PER_PX};
 use crate::vision::analyse::{camera_notes, prepare_frame, report_camera_state};
 use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, load_frame};
@@ -87,21 +87,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     fit_recording(&args.recording, &out, args.channel, &args.fit, args.force).map(|_| ())
 }
 
-/// Plausible pixel sizes on the sample, um: an electron microscope's
-/// nanometre to a low-power objective's tens of micrometres.
-const SCALE_UM_PER_PX: std::ops::RangeInclusive<f64> = 1e-3..=100.0;
-
 /// Refuses a fitted scale no microscope has: a stage.csv written in metres
 /// or millimetres, not micrometres, was fitted to 5e-7 um/px and written
 /// with exit 0.
 fn check_scale(m_per_px: f64) -> anyhow::Result<()> {
     let um = m_per_px * 1e6;
-    if !SCALE_UM_PER_PX.contains(&um) {
+    if !PLAUSIBLE_UM_PER_PX.contains(&um) {
         bail!(
             "the fit gives {um:.3e} um/px, outside {}-{} um/px: are stage.csv's x_um and y_um in micrometres? \
              (metres or millimetres give a millionth or a thousandth of the true scale)",
-            SCALE_UM_PER_PX.start(),
-            SCALE_UM_PER_PX.end()
+            PLAUSIBLE_UM_PER_PX.start(),
+            PLAUSIBLE_UM_PER_PX.end()
         );
     }
     Ok(())

@@ -141,3 +141,26 @@ impl Camera for Still {
         Ok(self.0.take())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A calibration ten times too coarse (5.88 um/px for 0.588, a slip of
+    /// the decimal point) makes 5 um particles 1.7 px across: the error
+    /// names the scale and the radius, not a "diameter hint" the user never
+    /// gave.
+    #[test]
+    fn particles_too_small_at_the_calibrations_scale_are_named_with_it() {
+        let frame = Frame::new(64, 64, vec![100.0; 64 * 64], 8).unwrap();
+        let calibration = CameraCalibration::from_scale_rotation(5.88e-6, 0.0, [0.0, 0.0]);
+        let err = layout_from_frame(frame, &calibration, 5e-6).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("5.000 um radius")
+                && text.contains("1.701 px")
+                && text.contains("5.8800 um/px"),
+            "{text}"
+        );
+    }
+}

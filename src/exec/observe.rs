@@ -136,6 +136,19 @@ pub enum ObserveError {
     /// The detector refused the frame.
     #[error("detection failed: {0}")]
     Detect(String),
+    /// The particles would be too small to find at the calibration's scale.
+    #[error(
+        "particles of {radius_um:.3} um radius are {diameter_px:.3} px across at the calibration's {um_per_px:.4} um/px, \
+         and the detector needs at least 2 px: {SIZE_CHECK}"
+    )]
+    TooSmall {
+        /// The particle radius asked for, um.
+        radius_um: f64,
+        /// Their diameter in the frame, pixels.
+        diameter_px: f64,
+        /// The calibration's scale, um a pixel.
+        um_per_px: f64,
+    },
 }
 
 /// How frames are turned into observations.
@@ -180,6 +193,15 @@ impl Perception {
         calibration: &CameraCalibration,
         coarse_offset_m: [f64; 2],
     ) -> Result<Sighting, ObserveError> {
+        let m_per_px = calibration.m_per_px();
+        let diameter_px = self.detect.diameter_px;
+        if diameter_px.is_nan() || diameter_px < 2.0 {
+            return Err(ObserveError::TooSmall {
+                radius_um: diameter_px / 2.0 * m_per_px * 1e6,
+                diameter_px,
+                um_per_px: m_per_px * 1e6,
+            });
+        }
         let (timed, dropped) = grab_frame(camera, self.max_grabs)?;
         let on_sample = |x_px: f64, y_px: f64| {
             let [x, y] = calibration.pixel_to_stage_m(x_px, y_px);
