@@ -506,6 +506,28 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
         assert_refused(&dry_run(&rec, &out, &[]), "is inside the recording");
     }
     assert_eq!(snapshot(&rec), before, "the recording was changed");
+    // Nor in its frames' folder when that lies outside the recording: the
+    // animation was written among the frames.
+    let apart = dir.path().join("apart");
+    copy_dir(&fixture, &apart);
+    let frames = dir.path().join("frames-elsewhere");
+    std::fs::rename(apart.join("frames"), &frames).unwrap();
+    set_line(
+        &apart,
+        "recording.toml",
+        "frames =",
+        &format!("frames = {:?}", frames.display().to_string()),
+    );
+    let frames_before = snapshot(&frames);
+    assert_refused(
+        &dry_run(&apart, &frames, &[]),
+        "is inside its frames' folder",
+    );
+    assert_eq!(snapshot(&frames), frames_before, "the frames were changed");
+    ok_report(
+        &dry_run(&apart, &dir.path().join("beside"), &[]),
+        &dir.path().join("beside"),
+    );
 }
 
 mod deadline;

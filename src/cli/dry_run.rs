@@ -73,13 +73,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             there.display()
         );
     }
-    if inside(&args.out, &args.recording) {
-        bail!(
-            "--out {} is inside the recording {}: a dry-run only reads its recording; \
-             choose an --out outside it",
-            args.out.display(),
-            args.recording.display()
-        );
+    // The frames may lie outside the recording's folder (`frames` is a
+    // path): written among them, the animation would join the frames.
+    let frames = recording.file(&recording.spec.frames);
+    for (what, folder) in [
+        ("the recording", &args.recording),
+        ("its frames' folder", &frames),
+    ] {
+        if inside(&args.out, folder) {
+            bail!(
+                "--out {} is inside {what} {}: a dry-run only reads its recording; \
+                 choose an --out outside it",
+                args.out.display(),
+                folder.display()
+            );
+        }
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
