@@ -452,6 +452,10 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
         &dry_run(&rec, &out, &[]),
         "but the first frame shows 5 particles",
     );
+    assert!(
+        !out.exists(),
+        "a refused dry-run left its --out folder behind"
+    );
     // A glyph the font has not: the file and its key are named.
     std::fs::write(
         rec.join("recording.toml"),

@@ -89,6 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
+    let made_out = !args.out.exists();
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut animation = AnimationWriter::new(&animation_path, 1.0);
@@ -97,7 +98,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         scene.as_ref(),
         asked.as_ref(),
         Some(&mut animation),
-    )?;
+    );
+    let report = match report {
+        Ok(report) => report,
+        Err(e) => {
+            // A refused target leaves no empty --out behind (remove_dir
+            // takes only an empty folder).
+            if made_out {
+                let _ = std::fs::remove_dir(&args.out);
+            }
+            return Err(e.into());
+        }
+    };
     animation.finish().context("writing the animation")?;
     std::fs::write(&report_path, serde_json::to_string_pretty(&report)?)
         .with_context(|| format!("writing {}", report_path.display()))?;
