@@ -370,3 +370,23 @@ fn study_vision_refuses_what_it_cannot_study() {
     );
     assert!(table.with_extension("md").is_file() && table.with_extension("json").is_file());
 }
+
+/// `detect` on a folder of frames says which one it looked at (before,
+/// it took the first silently, after reading every one).
+#[test]
+fn detect_on_a_folder_names_the_frame_it_reads() {
+    let folder = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/recordings/sim-L-seed6/frames"
+    );
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args(["detect", folder, "--no-tip"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("detecting on its first image of 4, frame_00000.png"),
+        "{stderr}"
+    );
+}

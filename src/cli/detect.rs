@@ -14,7 +14,7 @@ use crate::vision::analyse::{
 use crate::vision::crocker_grier::{LocateParams, locate};
 use crate::vision::detect::{DetectSettings, Locator, Polarity};
 use crate::vision::detections_file::DetectionsFile;
-use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::frame_input::{Channel, first_of_several, load_frame};
 use crate::vision::overlay::draw_overlay;
 use crate::vision::ring_edge::CentreEstimate;
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -178,6 +178,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let frame = load_frame(&args.frame, args.channel)
         .with_context(|| format!("loading {}", args.frame.display()))?;
+    if let Some(which) = first_of_several(&args.frame) {
+        eprintln!("{}: detecting on {which}", args.frame.display());
+    }
     let calib = match &args.calib {
         Some(p) => Some(
             CameraCalibration::load(p)

@@ -108,22 +108,42 @@ fn extension(path: &Path) -> String {
         .to_ascii_lowercase()
 }
 
+/// Which of several frames [`load_frame`] reads from `path`, when it may
+/// hold several (a folder, a video), for a command to say so.
+pub fn first_of_several(path: &Path) -> Option<String> {
+    if path.is_dir() {
+        let files = image_files(path).ok()?;
+        let name = files.first()?.file_name()?.to_string_lossy().into_owned();
+        Some(format!("its first image of {}, {name}", files.len()))
+    } else if VIDEO_EXTENSIONS.contains(&extension(path).as_str()) {
+        Some("its first frame (a video)".into())
+    } else {
+        None
+    }
+}
+
 /// Reads one frame: the only (or first) image of the file.
 pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
     let ext = extension(path);
-    if path.is_dir() || VIDEO_EXTENSIONS.contains(&ext.as_str()) {
-        return load_frames(path, channel)?
-            .into_iter()
-            .next()
-            .ok_or_else(|| FrameInputError::Empty {
-                path: path.to_owned(),
-            });
-    }
-    let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
+    // Only the first is read: a long video or a big folder read whole
+    // took the memory of every frame for one.
+    let first = if path.is_dir() {
+        match image_files(path)?.first() {
+            Some(file) => Some(load_frame(file, channel)?),
+            None => None,
+        }
+    } else if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
+        load_video(path, channel, Some(1))?.pop()
+    } else {
+        let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        return decode_image(&bytes, path, channel);
+    };
+    first.ok_or_else(|| FrameInputError::Empty {
         path: path.to_owned(),
-        source,
-    })?;
-    decode_image(&bytes, path, channel)
+    })
 }
 
 /// The images of a folder, sorted by name, numbers by value (`img_2`
@@ -152,7 +172,7 @@ pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInp
             .map(|f| load_frame(f, channel))
             .collect::<Result<Vec<_>, _>>()?
     } else if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
-        load_video(path, channel)?
+        load_video(path, channel, None)?
     } else if ext == "tif" || ext == "tiff" {
         if !path.is_file() {
             return Err(FrameInputError::Io {
@@ -412,7 +432,12 @@ const WIDE_DEPTHS: [i32; 5] = [
     opencv::core::CV_64F,
 ];
 
-fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
+/// The frames of a video, the first `limit` when given.
+fn load_video(
+    path: &Path,
+    channel: Channel,
+    limit: Option<usize>,
+) -> Result<Vec<Frame>, FrameInputError> {
     if !path.is_file() {
         return Err(FrameInputError::Io {
             path: path.to_owned(),
@@ -425,9 +450,10 @@ fn load_video(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputErr
     .map_err(|e| decode_error(path, e.to_string()))?;
     let mut frames = Vec::new();
     let mut mat = Mat::default();
-    while cap
-        .read(&mut mat)
-        .map_err(|e| decode_error(path, e.to_string()))?
+    while limit.is_none_or(|n| frames.len() < n)
+        && cap
+            .read(&mut mat)
+            .map_err(|e| decode_error(path, e.to_string()))?
     {
         if mat.empty() {
             break;
@@ -508,6 +534,23 @@ mod tests {
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["img_1.png", "img_2.png", "img_9.png", "img_10.png"]);
+    }
+
+    /// One frame of a folder is its first image alone: the others are not
+    /// read (a broken one after it does not matter, as a long recording's
+    /// memory does not), while the whole folder's read names the broken one.
+    #[test]
+    fn a_folders_first_frame_is_read_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = Frame::new(4, 3, (0..12).map(|i| i as f32).collect(), 8).unwrap();
+        save_png(&first, &dir.path().join("img_1.png")).unwrap();
+        std::fs::write(dir.path().join("img_2.png"), b"not a png").unwrap();
+        assert_eq!(load_frame(dir.path(), Channel::Luminance).unwrap(), first);
+        let whole = load_frames(dir.path(), Channel::Luminance).unwrap_err();
+        assert!(whole.to_string().contains("img_2.png"), "{whole}");
+        let empty = tempfile::tempdir().unwrap();
+        let err = load_frame(empty.path(), Channel::Luminance).unwrap_err();
+        assert!(matches!(err, FrameInputError::Empty { .. }), "{err}");
     }
 
     #[test]
