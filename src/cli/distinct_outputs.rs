@@ -133,13 +133,10 @@ mod tests {
         let twice = dir.path().join("third/a.json");
         let e = prepare_outputs(&[], &[("--out", &twice), ("--overlay", &twice)]).unwrap_err();
         assert!(e.to_string().contains("also --out"), "{e}");
-        // A folder that cannot be made (a file is in the way) is named.
+        // A folder that is a file is named.
         let blocked = dir.path().join("new/deeper/plan.json/x.json");
         std::fs::write(&plan, "{}").unwrap();
         let e = prepare_outputs(&[], &[("--out", &blocked)]).unwrap_err();
-        assert!(
-            e.to_string().contains("--out") && e.to_string().contains("folder"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("is a file, not a folder"), "{e}");
     }
 }

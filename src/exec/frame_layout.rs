@@ -104,11 +104,11 @@ pub fn layout_from_frame(
     })
 }
 
-/// The particles of about `radius_m` that the whole-frame analysis finds
-/// beside the probe where the loop's perception leaves them out (centres
-/// within the probe's shadow, `Sighting::probe_shadow_px`, but their discs
-/// clear of its outline). Their centres are biased by the outline: each
-/// takes `radius_m`, as an obstacle needs no more.
+/// The particles of about `radius_m` found beside the probe where the
+/// loop's perception leaves them out: centres within the probe's shadow
+/// (`Sighting::probe_shadow_px`) but outside its silhouette. Their centres
+/// are biased by the outline: each takes `radius_m`, as an obstacle needs
+/// no more.
 fn beside_the_probe(
     sighting: &Sighting,
     perception: &Perception,
