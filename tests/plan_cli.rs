@@ -1133,3 +1133,42 @@ fn a_particle_beside_the_probe_is_an_obstacle_of_the_frames_plan() {
     );
     run_line(&format!("verify-plan {plan} --layout {found}"));
 }
+
+/// A size hint too small for the frame's particles (1 um for the real
+/// bright-field frame's 4.8 um) finds each one several times over, as
+/// pieces of its ring (49 for 5): `plan --frame` says so, naming the size
+/// a larger hint finds. At the right size it says nothing of the kind.
+#[test]
+fn plan_from_a_frame_warns_of_a_size_hint_that_finds_pieces_of_particles() {
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/recordings/real-brightfield");
+    let path = |p: &Path| p.to_str().unwrap().to_string();
+    let (frame, calib, pattern) = (
+        path(&fixture.join("frames").join("bf_0000.png")),
+        path(&fixture.join("calibration.toml")),
+        path(&fixture.join("pattern.toml")),
+    );
+    let plan = |radius_um: &str| {
+        nanopush(&[
+            "plan",
+            "--pattern",
+            &pattern,
+            "--frame",
+            &frame,
+            "--calib",
+            &calib,
+            "--radius-um",
+            radius_um,
+        ])
+        .1
+    };
+    let small = plan("1");
+    assert!(
+        small.contains("49 particles found near the size hint")
+            && small.contains("finds 5 whole")
+            && small.contains("several times over"),
+        "{small}"
+    );
+    let right = plan("5");
+    assert!(!right.contains("several times over"), "{right}");
+}

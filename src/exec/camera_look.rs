@@ -128,9 +128,10 @@ fn found_at_other_size(
     sighting: &Sighting,
     detect: &DetectSettings,
     m_per_px: f64,
+    factors: &[f64],
 ) -> Option<OtherSize> {
     let frame = prepare_frame(&sighting.frame).frame;
-    OTHER_SIZE_FACTORS
+    factors
         .iter()
         .filter_map(|factor| {
             let settings = DetectSettings {
@@ -156,10 +157,21 @@ fn found_at_other_size(
         .max_by_key(|found| found.count)
 }
 
+/// Larger hints tried when the hint is one the spot model fits, which
+/// takes any blob of about its size for a particle: 1 um for particles of
+/// 5 um found each real frame's 5 particles as 49 pieces of their rings.
+const LARGER_SIZE_FACTORS: [f64; 3] = [2.0, 4.0, 8.0];
+
+/// Fewest particles found at the hint for each one a larger hint finds
+/// whole that make the hint doubtful: each particle found several times.
+const PIECES_PER_PARTICLE: usize = 3;
+
 /// What to doubt when the particles a sighting found are not the scene's
 /// size: whole detections of another size, or none at all (and then which
-/// other hint than `detect`'s finds particles, 0.5 to 2 times it); `None`
-/// when particles of the size were found.
+/// other hint than `detect`'s finds particles, 0.5 to 2 times it), or, at
+/// a hint the spot model fits, a larger hint that finds whole particles
+/// [`PIECES_PER_PARTICLE`] times fewer (the hint's particles are pieces of
+/// them); `None` when particles of the size were found.
 pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Option<String> {
     if let Some(radius_m) = s.off_size_median_radius_m() {
         return Some(format!(
@@ -169,19 +181,37 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
         ));
     }
     if !s.particles.is_empty() || !s.cut_by_edge.is_empty() {
-        return None;
-    }
-    Some(match found_at_other_size(s, detect, m_per_px) {
-        Some(o) => format!(
-            "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
-            o.hint_radius_m * 1e6,
-            o.count,
-            o.median_radius_m * 1e6
-        ),
-        None => {
-            format!("no particle found near the size hint, nor at half or twice it: {SIZE_CHECK}")
+        if model_for(detect) == ProfileModel::Ring {
+            return None;
         }
-    })
+        let found = s.particles.len();
+        return found_at_other_size(s, detect, m_per_px, &LARGER_SIZE_FACTORS)
+            .filter(|o| o.count > 0 && found >= PIECES_PER_PARTICLE * o.count)
+            .map(|o| {
+                format!(
+                    "{found} particles found near the size hint, but a hint of radius {:.2} um finds {} whole \
+                     (median radius {:.2} um): each may be found several times over; {SIZE_CHECK}",
+                    o.hint_radius_m * 1e6,
+                    o.count,
+                    o.median_radius_m * 1e6
+                )
+            });
+    }
+    Some(
+        match found_at_other_size(s, detect, m_per_px, &OTHER_SIZE_FACTORS) {
+            Some(o) => format!(
+                "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
+                o.hint_radius_m * 1e6,
+                o.count,
+                o.median_radius_m * 1e6
+            ),
+            None => {
+                format!(
+                    "no particle found near the size hint, nor at half or twice it: {SIZE_CHECK}"
+                )
+            }
+        },
+    )
 }
 
 /// The source, frame and camera-state lines both looks begin with.
