@@ -214,6 +214,18 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
     )
 }
 
+/// Warns, naming `source`, when a first frame's particles look like
+/// pieces of larger ones ([`size_doubt`] with nothing left out for its
+/// size: that the sighting tells itself). A plan on them pushes pieces of
+/// rings, and nothing else would show it.
+pub fn warn_of_pieces(source: &str, s: &Sighting, detect: &DetectSettings, m_per_px: f64) {
+    if s.off_size.is_empty()
+        && let Some(doubt) = size_doubt(s, detect, m_per_px)
+    {
+        tracing::warn!("{source}: {doubt}");
+    }
+}
+
 /// The source, frame and camera-state lines both looks begin with.
 fn write_frame_lines(
     f: &mut fmt::Formatter<'_>,

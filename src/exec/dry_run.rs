@@ -6,6 +6,7 @@
 use super::assemble::{
     FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_measured, planning_particles,
 };
+use super::camera_look::warn_of_pieces;
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::particle_sizes::ParticleSizes;
@@ -168,6 +169,12 @@ pub fn dry_run(
             .map(|p| [p[0] * 1e-6, p[1] * 1e-6, p[2] * 1e-6]);
         tracker.update(&sighting.particles, &[], &|x, y| sighting.shows(x, y));
         if sites.is_none() {
+            warn_of_pieces(
+                "first frame",
+                &sighting,
+                &perception.detect,
+                calibration.m_per_px(),
+            );
             field_m = recording
                 .spec
                 .field_um

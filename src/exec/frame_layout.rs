@@ -17,7 +17,7 @@
 //! particle onto it; a particle under the probe cannot be seen at all.
 
 use super::assemble::layout_measured;
-use super::camera_look::size_doubt;
+use super::camera_look::warn_of_pieces;
 use super::observe::{ObserveError, Perception, RADIUS_TOLERANCE, Sighting};
 use super::tracker::Observation;
 use crate::calib::camera_map::CameraCalibration;
@@ -75,14 +75,12 @@ pub fn layout_from_frame(
     let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
     let mut still = Still(Some(TimedFrame { t_s: 0.0, frame }));
     let sighting = perception.sight(&mut still, calibration, [0.0, 0.0])?;
-    // A size hint too small finds each particle several times over, and
-    // the plan then pushes pieces of rings: say so (particles of another
-    // size left out are told of by the sighting itself).
-    if sighting.off_size.is_empty()
-        && let Some(doubt) = size_doubt(&sighting, &perception.detect, calibration.m_per_px())
-    {
-        tracing::warn!("frame: {doubt}");
-    }
+    warn_of_pieces(
+        "frame",
+        &sighting,
+        &perception.detect,
+        calibration.m_per_px(),
+    );
     let beside_probe = beside_the_probe(&sighting, &perception, radius_m)?;
     let seen: Vec<_> = (sighting.particles.iter())
         .chain(&sighting.cut_by_edge)
