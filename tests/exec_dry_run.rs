@@ -102,6 +102,17 @@ fn the_simulated_recording_replays_with_the_models_pushes() {
     }
     // The pushes made between frames show: sites fill up.
     assert!(r.frames[3].filled > r.frames[0].filled);
+    // Each frame names its file, for a user to find it.
+    let sources: Vec<&str> = r.frames.iter().map(|f| f.source.as_str()).collect();
+    assert_eq!(
+        sources,
+        [
+            "frame_00000.png",
+            "frame_00001.png",
+            "frame_00002.png",
+            "frame_00003.png"
+        ]
+    );
     let video = load_frames(&dir.path().join("dry-run.mp4"), Channel::Luminance).unwrap();
     assert_eq!(video.len(), 4);
     assert_eq!(snapshot(&rec), before, "the recording was changed");

@@ -146,8 +146,12 @@ fn print_frames(r: &DryRunReport) {
             format!("tip ({:.1}, {:.1}) um", t[0], t[1])
         });
         let camera = camera_notes(&f.repaired_lines, f.clipped);
+        let source = match f.source.as_str() {
+            "" => String::new(),
+            name => format!(" ({name})"),
+        };
         println!(
-            "frame {:>4}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
+            "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
             f.frame,
             f.t_s,
             f.particles.len(),

@@ -67,6 +67,11 @@ pub enum DryCommand {
 pub struct DryRunFrame {
     /// Frame number.
     pub frame: usize,
+    /// What the frame is called in the recording: its file's name, or the
+    /// video's name and frame number (absent in files written before this
+    /// field).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub source: String,
     /// Time of the frame, seconds.
     pub t_s: f64,
     /// Tracked particles.
@@ -233,6 +238,7 @@ pub fn dry_run(
         }
         frames.push(DryRunFrame {
             frame: i,
+            source: recording.frame_names.get(i).cloned().unwrap_or_default(),
             t_s: sighting.t_s,
             particles: tracks,
             tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),

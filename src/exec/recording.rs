@@ -21,7 +21,7 @@ use super::assemble::{FrameSink, FrameView};
 use super::recording_check::{check_frame_sizes, check_spec, check_stage_entry};
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
-use crate::vision::frame_input::{Channel, load_frames, save_png};
+use crate::vision::frame_input::{Channel, frame_names, load_frames, save_png};
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -139,6 +139,9 @@ pub struct Recording {
     pub calibration: CameraCalibration,
     /// Every frame, in order.
     pub frames: Vec<Frame>,
+    /// What each frame is called where it came from (a file's name, or a
+    /// video's name and frame number).
+    pub frame_names: Vec<String>,
     /// One entry per frame, when the recording has a stage log.
     pub stage_log: Option<Vec<StageLogEntry>>,
 }
@@ -230,6 +233,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         path: frames_path.clone(),
         message: e.to_string(),
     })?;
+    let frame_names = frame_names(&frames_path, frames.len());
     check_frame_sizes(&frames, &frames_path).map_err(|message| RecordingError::Mismatch {
         path: frames_path.clone(),
         message,
@@ -257,6 +261,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         spec,
         calibration,
         frames,
+        frame_names,
         stage_log,
     })
 }

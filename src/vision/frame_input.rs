@@ -108,6 +108,24 @@ fn extension(path: &Path) -> String {
         .to_ascii_lowercase()
 }
 
+/// What each of the `count` frames [`load_frames`] read from `path` is
+/// called, for a user to find it: a folder's file names, else the file's
+/// name with the frame's (or page's) number when it holds several.
+pub fn frame_names(path: &Path, count: usize) -> Vec<String> {
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    if path.is_dir() {
+        let files = image_files(path).unwrap_or_default();
+        let names = files.iter().filter_map(|f| f.file_name());
+        return names.map(|n| n.to_string_lossy().into_owned()).collect();
+    }
+    match count {
+        1 => vec![name],
+        _ => (0..count).map(|i| format!("{name} #{i}")).collect(),
+    }
+}
+
 /// Which of several frames [`load_frame`] reads from `path`, when it may
 /// hold several (a folder, a video), for a command to say so.
 pub fn first_of_several(path: &Path) -> Option<String> {
@@ -534,6 +552,20 @@ mod tests {
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["img_1.png", "img_2.png", "img_9.png", "img_10.png"]);
+    }
+
+    /// Frames are named as a user finds them: a folder's files, a stack's
+    /// or video's numbered frames, a single image's name.
+    #[test]
+    fn frames_are_named_by_file_or_number() {
+        let dir = tempfile::tempdir().unwrap();
+        for name in ["b_10.png", "b_2.png", "notes.txt"] {
+            std::fs::write(dir.path().join(name), b"").unwrap();
+        }
+        assert_eq!(frame_names(dir.path(), 2), ["b_2.png", "b_10.png"]);
+        let stack = dir.path().join("stack.tif");
+        assert_eq!(frame_names(&stack, 2), ["stack.tif #0", "stack.tif #1"]);
+        assert_eq!(frame_names(&stack, 1), ["stack.tif"]);
     }
 
     /// One frame of a folder is its first image alone: the others are not
