@@ -170,7 +170,7 @@ const PIECES_PER_PARTICLE: usize = 3;
 /// size: whole detections of another size, or none at all (and then which
 /// other hint than `detect`'s finds particles, 0.5 to 2 times it), or, at
 /// a hint the spot model fits, a larger hint that finds whole particles
-/// [`PIECES_PER_PARTICLE`] times fewer (the hint's particles are pieces of
+/// `PIECES_PER_PARTICLE` (3) times fewer (the hint's particles are pieces of
 /// them); `None` when particles of the size were found.
 pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Option<String> {
     if let Some(radius_m) = s.off_size_median_radius_m() {
