@@ -40,6 +40,11 @@ impl Default for TipSettings {
     }
 }
 
+/// A dark region touching the frame's edge needs this many times less
+/// area to be taken for the probe: the probe comes in from the edge, and
+/// with its apex 12-30 px inside it shows 130-400 px of itself.
+const EDGE_AREA_DIVISOR: usize = 4;
+
 /// The detected probe tip.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct TipDetection {
@@ -194,9 +199,13 @@ fn dark_region_lanes(
                         visit(x, y + 1);
                     }
                 }
-                if region.len() >= settings.min_area_px
-                    && best.as_ref().is_none_or(|b| region.len() > b.len())
-                {
+                // A probe enters the frame from its edge: one whose apex
+                // is near that edge shows only a short piece of itself.
+                let on_edge =
+                    || (region.iter()).any(|&(x, y)| x == 0 || y == 0 || x + 1 == w || y + 1 == h);
+                let large_enough = region.len() >= settings.min_area_px
+                    || (region.len() >= settings.min_area_px / EDGE_AREA_DIVISOR && on_edge());
+                if large_enough && best.as_ref().is_none_or(|b| region.len() > b.len()) {
                     best = Some(region);
                 }
             }
@@ -445,7 +454,7 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let radius = (taper + width).clamp(20.0, 150.0);
     let mut weights_from: Option<(SVector<f64, 8>, f64)> = None;
     let mut score = 0.0;
-    for _round in 0..3 {
+    for round in 0..3 {
         let sil = silhouette_of(&p).placed();
         let noise = weights_from.map_or(0.0, |(_, s)| s);
         let weighting = weights_from.map(|(q, s)| (TipModel::at(&q, full, noise), s));
@@ -474,8 +483,17 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
         let fit = levenberg_marquardt(&samples, p, 40, |q| {
             let model = TipModel::at(q, full, noise);
             move |x, y, g: &mut SVector<f64, 8>| model.value_grad(x, y, g)
-        })
-        .ok()?;
+        });
+        // A reweighted round may fail where the first held: a probe whose
+        // body is out of the frame shows only its taper, so its width and
+        // taper length are one unknown between them. The last round's fit
+        // stands then (its apex was within 0.1 px on the frames that did
+        // this); before, the whole tip was dropped.
+        let fit = match fit {
+            Ok(fit) => fit,
+            Err(_) if round > 0 => break,
+            Err(_) => return None,
+        };
         p = fit.params;
         // Robust noise scale for the next round's weights.
         let model = TipModel::at(&p, full, noise);
@@ -494,7 +512,11 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
             0.0
         };
     }
-    if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0) || score < settings.min_score
+    // The apex must be in view: a cantilever crossing the frame with its
+    // apex beyond it fits a silhouette too, extrapolated to nowhere.
+    let in_frame = (0.0..=(w - 1) as f64).contains(&p[0]) && (0.0..=(h - 1) as f64).contains(&p[1]);
+    if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0 && in_frame)
+        || score < settings.min_score
     {
         return None;
     }
