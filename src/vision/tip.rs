@@ -24,7 +24,11 @@ use crate::render::probe::{PlacedSilhouette, ProbeShape, ProbeSilhouette, normal
 pub struct TipSettings {
     /// A pixel is "probe" when darker than black + this fraction of (median - black).
     pub dark_fraction: f64,
-    /// Smallest silhouette area in pixels (smaller dark regions are particles).
+    /// Smallest dark region, pixels, taken for the probe; it must also
+    /// touch the frame's edge (the cantilever comes from beyond the view),
+    /// which keeps particles out. 100 px: with its apex 20-30 px inside,
+    /// a probe shows 100-400 px of itself (the limit was 400 px anywhere,
+    /// and large dark particles of 30 px radius were taken for the probe).
     pub min_area_px: usize,
     /// Smallest score to report a tip.
     pub min_score: f64,
@@ -34,16 +38,11 @@ impl Default for TipSettings {
     fn default() -> Self {
         Self {
             dark_fraction: 0.45,
-            min_area_px: 400,
+            min_area_px: 100,
             min_score: 0.5,
         }
     }
 }
-
-/// A dark region touching the frame's edge needs this many times less
-/// area to be taken for the probe: the probe comes in from the edge, and
-/// with its apex 12-30 px inside it shows 130-400 px of itself.
-const EDGE_AREA_DIVISOR: usize = 4;
 
 /// The detected probe tip.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -199,13 +198,12 @@ fn dark_region_lanes(
                         visit(x, y + 1);
                     }
                 }
-                // A probe enters the frame from its edge: one whose apex
-                // is near that edge shows only a short piece of itself.
+                // The probe enters the frame from its edge.
                 let on_edge =
                     || (region.iter()).any(|&(x, y)| x == 0 || y == 0 || x + 1 == w || y + 1 == h);
-                let large_enough = region.len() >= settings.min_area_px
-                    || (region.len() >= settings.min_area_px / EDGE_AREA_DIVISOR && on_edge());
-                if large_enough && best.as_ref().is_none_or(|b| region.len() > b.len()) {
+                let larger = region.len() >= settings.min_area_px
+                    && best.as_ref().is_none_or(|b| region.len() > b.len());
+                if larger && on_edge() {
                     best = Some(region);
                 }
             }
