@@ -9,6 +9,7 @@
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::band_noise;
 use super::filter::{
     bin_frame, box_mean_in_place, box_mean_into, local_extrema_both, local_maxima,
 };
@@ -170,6 +171,8 @@ pub struct Candidate {
 /// The band-passed frame and its noise, shared by the locators.
 struct Bandpass {
     values: WorkBuffer,
+    /// Width and height of the frame filtered (the binned one, when searched binned).
+    size: (usize, usize),
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
@@ -177,7 +180,9 @@ struct Bandpass {
     work: WorkBuffer,
 }
 
-fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
+/// `noise_floor`: a band-pass noise variance measured on the frame's
+/// background ([`band_noise`]), which the white estimate's cannot go under.
+fn bandpass(frame: &Frame, diameter: f64, noise_floor: Option<f64>) -> Bandpass {
     let (w, h) = (frame.width(), frame.height());
     // Two full-frame buffers in all, from the pool (see `frame_pool`).
     let mut values = frame_pool::take(w * h);
@@ -188,14 +193,17 @@ fn bandpass(frame: &Frame, diameter: f64) -> Bandpass {
     for (v, b) in values.iter_mut().zip(bg.iter()) {
         *v -= b;
     }
-    let sigma = estimate_noise_sigma(frame);
     let big = ((2 * bg_r + 1) as f64).powi(2);
     // White noise through (3x3 mean - big mean): sum of squared kernel weights.
-    let noise_var = sigma * sigma * (1.0 / 9.0 - 1.0 / big);
+    let gain = 1.0 / 9.0 - 1.0 / big;
+    let white_var = estimate_noise_sigma(frame).powi(2) * gain;
+    let noise_var = white_var.max(noise_floor.unwrap_or(0.0));
     Bandpass {
         values,
+        size: (w, h),
         noise_var,
-        noise_sigma: sigma,
+        // The white noise per pixel that would pass the filter as this does.
+        noise_sigma: (noise_var / gain).sqrt(),
         work: bg,
     }
 }
@@ -208,7 +216,7 @@ pub fn find_candidates(
     settings: &DetectSettings,
 ) -> Result<Vec<Candidate>, DetectError> {
     check(frame, settings)?;
-    let mut search = CandidateSearch::run(frame, settings);
+    let mut search = CandidateSearch::run(frame, settings, None);
     search.cands.truncate(search.n_energy);
     Ok(search.cands)
 }
@@ -247,9 +255,9 @@ struct CandidateSearch {
 }
 
 impl CandidateSearch {
-    fn run(frame: &Frame, settings: &DetectSettings) -> Self {
+    fn run(frame: &Frame, settings: &DetectSettings, noise_floor: Option<f64>) -> Self {
         if !searches_binned(settings) {
-            let mut bp = bandpass(frame, settings.diameter_px);
+            let mut bp = bandpass(frame, settings.diameter_px, noise_floor);
             let mut cands = candidates_from(frame, settings, &mut bp);
             let n_energy = cands.len();
             // Cores only where a fit follows: most are arcs of a ring (485
@@ -284,7 +292,7 @@ impl CandidateSearch {
             model: Some(ProfileModel::Ring),
             ..DetectSettings::default()
         };
-        let mut bp = bandpass(small, half.diameter_px);
+        let mut bp = bandpass(small, half.diameter_px, noise_floor);
         let mut cands = candidates_from(small, &half, &mut bp);
         let n_energy = cands.len();
         // No core is dropped for lying near an energy candidate: on the
@@ -504,13 +512,51 @@ pub fn detect_particles_excluding(
     exclude: &dyn Fn(f64, f64) -> bool,
 ) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
+    let (found, bp) = detect_at_noise(frame, settings, exclude, None);
+    Ok(match correlated_noise_var(&found, &bp, settings) {
+        Some(floor) => detect_at_noise(frame, settings, exclude, Some(floor)).0,
+        None => found,
+    })
+}
+
+/// The band-pass noise variance on the background between `found`, when
+/// it stands above the white estimate's by [`band_noise::CORRELATED_NOISE_RATIO`]
+/// (in the search's own pixels: the binned frame's when it searched binned).
+fn correlated_noise_var(
+    found: &[Detection],
+    bp: &Bandpass,
+    settings: &DetectSettings,
+) -> Option<f64> {
+    let scale = if searches_binned(settings) { 0.5 } else { 1.0 };
+    let half_diameter = 0.5 * settings.diameter_px;
+    // Half a diameter beyond each particle's ring: its halo stays out.
+    let discs: Vec<band_noise::Disc> = found
+        .iter()
+        .map(|d| {
+            let r = d.r_px.max(half_diameter) + half_diameter;
+            (d.x_px * scale, d.y_px * scale, r * scale + 1.0)
+        })
+        .collect();
+    let lag = (settings.diameter_px * scale).round().max(3.0) as usize;
+    let var = band_noise::background_band_var(&bp.values, bp.size, &discs, lag)?;
+    (var > band_noise::CORRELATED_NOISE_RATIO.powi(2) * bp.noise_var).then_some(var)
+}
+
+/// One detection with the band-pass noise at least `noise_floor`, and the
+/// band-pass searched.
+fn detect_at_noise(
+    frame: &Frame,
+    settings: &DetectSettings,
+    exclude: &dyn Fn(f64, f64) -> bool,
+    noise_floor: Option<f64>,
+) -> (Vec<Detection>, Bandpass) {
     let (w, h) = (frame.width(), frame.height());
     let CandidateSearch {
         cands,
         n_energy,
         bp,
         binned,
-    } = CandidateSearch::run(frame, settings);
+    } = CandidateSearch::run(frame, settings, noise_floor);
     let radius = 0.5 * settings.diameter_px;
     let r_int = radius.round().max(1.0) as usize;
     let model = model_for(settings);
@@ -650,7 +696,7 @@ pub fn detect_particles_excluding(
     if settings.centre == CentreEstimate::RingEdge && model == ProfileModel::Ring {
         recentre_on_ring_edges(frame, &mut out, bp.noise_sigma);
     }
-    Ok(out)
+    (out, bp)
 }
 
 /// Keeps, most significant first, only particles at least `separation_px`

@@ -2,6 +2,7 @@
 //! and the Cramer-Rao bound that says how good detection can get.
 
 pub mod analyse;
+pub mod band_noise;
 pub mod camera_bits;
 pub mod cpu_dispatch;
 pub mod cramer_rao;
