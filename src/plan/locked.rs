@@ -19,15 +19,19 @@ const DIRECTIONS: usize = 72;
 /// the particle lies, not a path blocked further on.
 const PROBE_M: f64 = 1e-6;
 
-/// Indices of the particles with no free push of `PROBE_M` in any of
-/// `DIRECTIONS` directions (the corridor test of the planner: tip landing,
-/// tip and particle paths clear of every other particle by the clearance).
+/// Indices of the movable particles with no free push of `PROBE_M` in any
+/// of `DIRECTIONS` directions (the corridor test of the planner: tip
+/// landing, tip and particle paths clear of every other particle by the
+/// clearance). A particle no plan may push (`PlanConfig::immovable`: cut by
+/// the frame's edge, beside the probe, given up on) is an obstacle here,
+/// never counted as locked.
 pub fn locked_particles(layout: &Layout, config: &PlanConfig) -> Vec<usize> {
     let particles = &layout.particles;
     let max_radius = layout.max_radius_m();
     let grid = Grid::new(particles.iter().map(|p| p.centre_m), 2.0 * max_radius);
     let reach = max_radius + config.clearance_m;
     (0..particles.len())
+        .filter(|&i| !config.immovable.contains(&particles[i].id))
         .filter(|&i| {
             let p = &particles[i];
             !(0..DIRECTIONS).any(|k| {
@@ -44,8 +48,8 @@ pub fn locked_particles(layout: &Layout, config: &PlanConfig) -> Vec<usize> {
         .collect()
 }
 
-/// A sentence for a refusal: how many particles are locked and the first
-/// few ids; empty when none is.
+/// A sentence for a refusal: how many of the movable particles are locked
+/// and the first few ids; empty when none is.
 pub fn locked_note(layout: &Layout, config: &PlanConfig) -> String {
     let locked = locked_particles(layout, config);
     if locked.is_empty() {
@@ -61,10 +65,14 @@ pub fn locked_note(layout: &Layout, config: &PlanConfig) -> String {
     } else {
         ""
     };
+    let movable = layout
+        .particles
+        .iter()
+        .filter(|p| !config.immovable.contains(&p.id))
+        .count();
     format!(
-        "; {} of {} particles cannot be pushed even {:.0} um in any direction from where they lie (boxed in, or no room for the {:.1} um tip behind them; ids {}{more})",
+        "; {} of the {movable} movable particles cannot be pushed even {:.0} um in any direction from where they lie (boxed in, or no room for the {:.1} um tip behind them; ids {}{more})",
         locked.len(),
-        layout.particles.len(),
         PROBE_M * 1e6,
         2.0 * config.tip_radius_m * 1e6,
         ids.join(", ")
@@ -104,7 +112,21 @@ mod tests {
         assert!(locked.len() < 25, "a corner has room behind it");
         let note = locked_note(&dense, &config);
         assert!(
-            note.contains(&format!("{} of 25 particles", locked.len())),
+            note.contains(&format!("{} of the 25 movable particles", locked.len())),
+            "{note}"
+        );
+        // Particles no plan may push are obstacles, neither counted nor
+        // named: the centre (id 12) and a corner (id 0).
+        let held = PlanConfig {
+            immovable: vec![0, 12],
+            ..PlanConfig::default()
+        };
+        let locked_held = locked_particles(&dense, &held);
+        assert!(!locked_held.contains(&12) && !locked_held.contains(&0));
+        assert_eq!(locked_held.len(), locked.len() - 1, "{locked_held:?}");
+        let note = locked_note(&dense, &held);
+        assert!(
+            note.contains(&format!("{} of the 23 movable particles", locked.len() - 1)),
             "{note}"
         );
         assert!(locked_particles(&Layout::of_test_centres_um(&hex(14.0)), &config).is_empty());
