@@ -697,3 +697,66 @@ fn a_particle_radius_that_finds_pieces_of_particles_is_warned_of() {
         "{stderr}"
     );
 }
+
+/// The fixture's frames as an MJPG video at 25 fps, its stage log left out:
+/// frames are the video's frame rate apart (they had been 1 s, so the
+/// model's advice was asked for a session 25 times older), and a copy of
+/// the video cut short says how many frames it read of how many.
+#[test]
+fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);
+    let frames = load_frames(&rec.join("frames"), Channel::Luminance).unwrap();
+    let (w, h) = (frames[0].width() as u32, frames[0].height() as u32);
+    let mut video =
+        nanopush::render::video::VideoWriter::create(&rec.join("frames.avi"), 25.0, (w, h))
+            .unwrap();
+    for f in &frames {
+        let grey = image::GrayImage::from_fn(w, h, |x, y| {
+            image::Luma([(f.at(x as usize, y as usize) * 255.0 / f.max_count()).round() as u8])
+        });
+        video
+            .write(&image::DynamicImage::ImageLuma8(grey).to_rgb8())
+            .unwrap();
+    }
+    assert_eq!(video.finish().unwrap(), 4);
+    let spec_path = rec.join("recording.toml");
+    let spec: String = std::fs::read_to_string(&spec_path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with("stage_log"))
+        .map(|l| match l {
+            "frames = \"frames\"" => "frames = \"frames.avi\"\n".to_owned(),
+            l => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&spec_path, &spec).unwrap();
+    let out = dir.path().join("out");
+    let r = ok_report(&dry_run(&rec, &out, &[]), &out);
+    let times: Vec<f64> = r.frames.iter().map(|f| f.t_s).collect();
+    assert_eq!(times.len(), 4);
+    for (i, t) in times.iter().enumerate() {
+        assert!((t - 0.04 * i as f64).abs() < 1e-9, "{times:?}");
+    }
+    // The description's own interval stands over the video's.
+    std::fs::write(&spec_path, format!("{spec}frame_interval_s = 2.0\n")).unwrap();
+    let out2 = dir.path().join("out2");
+    let r = ok_report(&dry_run(&rec, &out2, &[]), &out2);
+    assert!((r.frames[3].t_s - 6.0).abs() < 1e-9, "{}", r.frames[3].t_s);
+    // Cut to its first half: fewer frames, and a warning that says so.
+    let bytes = std::fs::read(rec.join("frames.avi")).unwrap();
+    std::fs::write(rec.join("frames.avi"), &bytes[..bytes.len() / 2]).unwrap();
+    let out3 = dir.path().join("out3");
+    let o = dry_run(&rec, &out3, &[]);
+    let r = ok_report(&o, &out3);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(r.frames.len() < 4, "{} frames", r.frames.len());
+    assert!(
+        stderr.contains(&format!(
+            "the video says it has 4 frames, but only the first {} could be read",
+            r.frames.len()
+        )),
+        "{stderr}"
+    );
+}

@@ -21,7 +21,9 @@ use super::assemble::{FrameSink, FrameView};
 use super::recording_check::{check_frame_sizes, check_spec, check_stage_entry};
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
-use crate::vision::frame_input::{Channel, frame_names, load_frames, save_png};
+use crate::vision::frame_input::{
+    Channel, frame_names, load_frames, save_png, video_frame_interval_s,
+};
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -49,7 +51,8 @@ pub struct RecordingSpec {
     pub calibration: String,
     /// Radius of the particles, micrometres.
     pub particle_radius_um: f64,
-    /// Seconds between frames when there is no stage log (default 1).
+    /// Seconds between frames when there is no stage log (default: a
+    /// video's own frame rate, else 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_interval_s: Option<f64>,
     /// Stage log (JSON Lines), relative to the recording.
@@ -142,6 +145,11 @@ pub struct Recording {
     /// What each frame is called where it came from (a file's name, or a
     /// video's name and frame number).
     pub frame_names: Vec<String>,
+    /// Seconds between frames without a stage log: `frame_interval_s`, else
+    /// the video's own frame rate (a 25 fps video had read as 1 s a frame,
+    /// and the model's advice was asked for the session's time 25 times
+    /// too late), else 1.
+    pub frame_interval_s: f64,
     /// One entry per frame, when the recording has a stage log.
     pub stage_log: Option<Vec<StageLogEntry>>,
 }
@@ -151,7 +159,7 @@ impl Recording {
     pub fn time_s(&self, i: usize) -> f64 {
         match &self.stage_log {
             Some(log) => log[i].t_s,
-            None => i as f64 * self.spec.frame_interval_s.unwrap_or(1.0),
+            None => i as f64 * self.frame_interval_s,
         }
     }
 
@@ -234,6 +242,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         message: e.to_string(),
     })?;
     let frame_names = frame_names(&frames_path, frames.len());
+    let frame_interval_s = spec
+        .frame_interval_s
+        .or_else(|| video_frame_interval_s(&frames_path))
+        .unwrap_or(1.0);
     check_frame_sizes(&frames, &frames_path).map_err(|message| RecordingError::Mismatch {
         path: frames_path.clone(),
         message,
@@ -262,6 +274,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         calibration,
         frames,
         frame_names,
+        frame_interval_s,
         stage_log,
     })
 }

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use image::{DynamicImage, ImageReader};
 use opencv::core::{Mat, MatTraitConst, MatTraitConstManual, Vector};
-use opencv::prelude::VideoCaptureTrait;
+use opencv::prelude::{VideoCaptureTrait, VideoCaptureTraitConst};
 use thiserror::Error;
 
 use super::camera_bits::at_camera_bits;
@@ -478,7 +478,33 @@ fn load_video(
         }
         frames.push(mat_to_frame(&mat, path, channel)?);
     }
+    // A video cut short (a copy stopped midway, a recorder that crashed)
+    // reads as its first frames and nothing else: say how many are missing.
+    let said = cap
+        .get(opencv::videoio::CAP_PROP_FRAME_COUNT)
+        .unwrap_or(0.0);
+    if limit.is_none() && said.is_finite() && said > frames.len() as f64 {
+        tracing::warn!(
+            "{}: the video says it has {said:.0} frames, but only the first {} could be read (is the file cut short?)",
+            path.display(),
+            frames.len()
+        );
+    }
     Ok(frames)
+}
+
+/// Seconds between a video file's frames, from the frame rate its container
+/// states; `None` for other inputs, or a rate that is not a positive number.
+pub fn video_frame_interval_s(path: &Path) -> Option<f64> {
+    if !(VIDEO_EXTENSIONS.contains(&extension(path).as_str()) && path.is_file()) {
+        return None;
+    }
+    let cap = quietly(|| {
+        opencv::videoio::VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
+    })
+    .ok()?;
+    let fps = cap.get(opencv::videoio::CAP_PROP_FPS).ok()?;
+    (fps.is_finite() && fps > 0.0).then(|| 1.0 / fps)
 }
 
 /// Runs `f` with OpenCV's log silenced: trying its backends on a file that
