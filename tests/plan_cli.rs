@@ -1172,3 +1172,21 @@ fn plan_from_a_frame_warns_of_a_size_hint_that_finds_pieces_of_particles() {
     let right = plan("5");
     assert!(!right.contains("several times over"), "{right}");
 }
+
+/// `plan --frame` on a folder plans from its first image and says which,
+/// as `detect` does (a helper walking recorded videos had to guess).
+#[test]
+fn plan_from_a_folder_names_the_frame_it_plans_from() {
+    let rec = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/recordings/sim-L-seed6"
+    );
+    let frames = format!("{rec}/frames");
+    let calib = format!("{rec}/calibration.toml");
+    let (ok, text) = nanopush(&["plan", "--text", "L", "--frame", &frames, "--calib", &calib]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("planning from its first image of 4, frame_00000.png"),
+        "{text}"
+    );
+}

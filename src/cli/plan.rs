@@ -18,7 +18,7 @@ mod nanopush_plan_api {
     pub use crate::render::plan_on_frame::draw_plan_on_frame;
     pub use crate::render::plan_overlay::{OverlayKind, overlay_kind};
     pub use crate::vision::frame::Frame;
-    pub use crate::vision::frame_input::{Channel, load_frame};
+    pub use crate::vision::frame_input::{Channel, first_of_several, load_frame};
 }
 
 /// Arguments of `nanopush plan`.
@@ -109,6 +109,9 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
     let calibration = CameraCalibration::load(calib)?;
     let frame = load_frame(frame_path, args.channel.unwrap_or(Channel::Luminance))?;
+    if let Some(which) = first_of_several(frame_path) {
+        eprintln!("{}: planning from {which}", frame_path.display());
+    }
     let radius_um = args.radius_um.unwrap_or(DEFAULT_RADIUS_UM);
     let found = layout_from_frame(frame.clone(), &calibration, radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
