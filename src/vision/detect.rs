@@ -15,7 +15,7 @@ use super::filter::{
 };
 use super::frame::Frame;
 use super::frame_pool::{self, WorkBuffer};
-use super::noise::estimate_noise_sigma;
+use super::noise::{MIN_NOISE_COUNTS, estimate_noise_sigma};
 use super::poor_fits::drop_poor_overlapping_fits;
 use super::profile_fit::{ProfileModel, fit_particle, fit_particle_among};
 use super::radial_symmetry::radial_symmetry_centre;
@@ -176,6 +176,9 @@ struct Bandpass {
     noise_var: f64,
     /// Per-pixel noise of the raw frame, counts.
     noise_sigma: f64,
+    /// The white estimate is at the quantisation floor: the frame has no
+    /// pixel noise (a lossy codec smoothed it away, or a clean render).
+    white_at_floor: bool,
     /// A frame-sized work buffer the energy map reuses.
     work: WorkBuffer,
 }
@@ -196,7 +199,8 @@ fn bandpass(frame: &Frame, diameter: f64, noise_floor: Option<f64>) -> Bandpass 
     let big = ((2 * bg_r + 1) as f64).powi(2);
     // White noise through (3x3 mean - big mean): sum of squared kernel weights.
     let gain = 1.0 / 9.0 - 1.0 / big;
-    let white_var = estimate_noise_sigma(frame).powi(2) * gain;
+    let white_sigma = estimate_noise_sigma(frame);
+    let white_var = white_sigma.powi(2) * gain;
     let noise_var = white_var.max(noise_floor.unwrap_or(0.0));
     Bandpass {
         values,
@@ -204,6 +208,7 @@ fn bandpass(frame: &Frame, diameter: f64, noise_floor: Option<f64>) -> Bandpass 
         noise_var,
         // The white noise per pixel that would pass the filter as this does.
         noise_sigma: (noise_var / gain).sqrt(),
+        white_at_floor: white_sigma <= MIN_NOISE_COUNTS,
         work: bg,
     }
 }
@@ -513,19 +518,23 @@ pub fn detect_particles_excluding(
 ) -> Result<Vec<Detection>, DetectError> {
     check(frame, settings)?;
     let (found, bp) = detect_at_noise(frame, settings, exclude, None);
-    Ok(match correlated_noise_var(&found, &bp, settings) {
-        Some(floor) => detect_at_noise(frame, settings, exclude, Some(floor)).0,
-        None => found,
-    })
+    Ok(
+        match correlated_noise_var(frame, &found, &bp, settings, exclude) {
+            Some(floor) => detect_at_noise(frame, settings, exclude, Some(floor)).0,
+            None => found,
+        },
+    )
 }
 
 /// The band-pass noise variance on the background between `found`, when
 /// it stands above the white estimate's by [`band_noise::CORRELATED_NOISE_RATIO`]
 /// (in the search's own pixels: the binned frame's when it searched binned).
 fn correlated_noise_var(
+    frame: &Frame,
     found: &[Detection],
     bp: &Bandpass,
     settings: &DetectSettings,
+    exclude: &dyn Fn(f64, f64) -> bool,
 ) -> Option<f64> {
     let scale = if searches_binned(settings) { 0.5 } else { 1.0 };
     let half_diameter = 0.5 * settings.diameter_px;
@@ -538,7 +547,26 @@ fn correlated_noise_var(
         })
         .collect();
     let lag = (settings.diameter_px * scale).round().max(3.0) as usize;
-    let var = band_noise::background_band_var(&bp.values, bp.size, &discs, lag)?;
+    // The probe and clipped pixels are left out too: their edges are the
+    // frame's largest steps, which the differences' tail (`Reading::Tail`)
+    // would take for noise.
+    let (w, h) = (frame.width(), frame.height());
+    let sat = frame.max_count();
+    let clipped = |x: f64, y: f64| {
+        let (i, j) = (x.max(0.0) as usize, y.max(0.0) as usize);
+        i < w && j < h && frame.at(i, j) >= sat
+    };
+    let excluded = |x: f64, y: f64| {
+        let (x, y) = (x / scale, y / scale);
+        exclude(x, y) || clipped(x, y)
+    };
+    let reading = if bp.white_at_floor {
+        band_noise::Reading::Tail
+    } else {
+        band_noise::Reading::Median
+    };
+    let var =
+        band_noise::background_band_var(&bp.values, bp.size, &discs, &excluded, lag, reading)?;
     (var > band_noise::CORRELATED_NOISE_RATIO.powi(2) * bp.noise_var).then_some(var)
 }
 
