@@ -721,17 +721,13 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
             .unwrap();
     }
     assert_eq!(video.finish().unwrap(), 4);
-    let spec_path = rec.join("recording.toml");
-    let spec: String = std::fs::read_to_string(&spec_path)
-        .unwrap()
-        .lines()
-        .filter(|l| !l.starts_with("stage_log"))
-        .map(|l| match l {
-            "frames = \"frames\"" => "frames = \"frames.avi\"\n".to_owned(),
-            l => format!("{l}\n"),
-        })
-        .collect();
-    std::fs::write(&spec_path, &spec).unwrap();
+    set_line(
+        &rec,
+        "recording.toml",
+        "frames =",
+        "frames = \"frames.avi\"",
+    );
+    set_line(&rec, "recording.toml", "stage_log", "# no stage log");
     let out = dir.path().join("out");
     let r = ok_report(&dry_run(&rec, &out, &[]), &out);
     let times: Vec<f64> = r.frames.iter().map(|f| f.t_s).collect();
@@ -740,7 +736,12 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
         assert!((t - 0.04 * i as f64).abs() < 1e-9, "{times:?}");
     }
     // The description's own interval stands over the video's.
-    std::fs::write(&spec_path, format!("{spec}frame_interval_s = 2.0\n")).unwrap();
+    set_line(
+        &rec,
+        "recording.toml",
+        "# no stage log",
+        "frame_interval_s = 2.0",
+    );
     let out2 = dir.path().join("out2");
     let r = ok_report(&dry_run(&rec, &out2, &[]), &out2);
     assert!((r.frames[3].t_s - 6.0).abs() < 1e-9, "{}", r.frames[3].t_s);

@@ -169,6 +169,15 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
 
+    /// A `w` x `h` frame of 8 x 8 blocks, each of one value from `value`
+    /// (drawn row of blocks by row of blocks).
+    fn blocks_of_8(w: usize, h: usize, mut value: impl FnMut() -> f32) -> Vec<f32> {
+        let blocks: Vec<f32> = (0..(w / 8) * h.div_ceil(8)).map(|_| value()).collect();
+        (0..w * h)
+            .map(|i| blocks[(i / w / 8) * (w / 8) + (i % w) / 8])
+            .collect()
+    }
+
     fn white(w: usize, h: usize, sd: f64, seed: u64) -> Vec<f32> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let n = Normal::new(0.0, sd).unwrap();
@@ -225,12 +234,7 @@ mod tests {
         // difference of two uniforms is not a Gaussian).
         let (w, h): (usize, usize) = (400, 300);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let blocks: Vec<f32> = (0..(w / 8) * h.div_ceil(8))
-            .map(|_| rng.random_range(-2.0..2.0))
-            .collect();
-        let v: Vec<f32> = (0..w * h)
-            .map(|i| blocks[(i / w / 8) * (w / 8) + (i % w) / 8])
-            .collect();
+        let v = blocks_of_8(w, h, || rng.random_range(-2.0..2.0));
         let near = background_band_var(&v, (w, h), &[], &|_, _| false, 1, Reading::Median)
             .unwrap()
             .sqrt();
@@ -248,16 +252,11 @@ mod tests {
         // are what a threshold must stand above.
         let (w, h): (usize, usize) = (400, 304);
         let mut rng = ChaCha8Rng::seed_from_u64(6);
-        let blocks: Vec<f32> = (0..(w / 8) * (h / 8))
-            .map(|_| match rng.random_range(0..10) {
-                0 => 3.0,
-                1 => -3.0,
-                _ => 0.0,
-            })
-            .collect();
-        let v: Vec<f32> = (0..w * h)
-            .map(|i| blocks[(i / w / 8) * (w / 8) + (i % w) / 8])
-            .collect();
+        let v = blocks_of_8(w, h, || match rng.random_range(0..10) {
+            0 => 3.0,
+            1 => -3.0,
+            _ => 0.0,
+        });
         let read = |reading| {
             background_band_var(&v, (w, h), &[], &|_, _| false, 8, reading)
                 .unwrap()
