@@ -140,7 +140,10 @@ fn files_read_back_and_agree() {
     // The recording reads back with one frame per observation, and the
     // recorded first frame is the journal's first observation.
     let recording = open_recording(rec).unwrap();
-    assert_eq!(recording.frames.len(), observations);
+    assert_eq!(
+        recording.frames().unwrap().map(Result::unwrap).count(),
+        observations
+    );
     let first_obs_t = entries
         .iter()
         .find(|e| matches!(e.event, RunEvent::Observation { .. }))

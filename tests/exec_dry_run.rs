@@ -212,15 +212,20 @@ fn recording_through(dir: &Path, camera: impl Fn(&Frame) -> Vec<f32>) -> (PathBu
     (rec, fixture)
 }
 
-/// The dry-run of `rec` as printed for people: stdout and stderr.
-fn printed_dry_run(rec: &Path, out: &Path) -> (String, String) {
-    let o = nanopush(&[
+/// The dry-run of `rec` as printed for people (no `--json`).
+fn dry_run_for_people(rec: &Path, out: &Path) -> Output {
+    nanopush(&[
         "dry-run",
         "--recording",
         rec.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
-    ]);
+    ])
+}
+
+/// The dry-run of `rec` as printed for people: stdout and stderr.
+fn printed_dry_run(rec: &Path, out: &Path) -> (String, String) {
+    let o = dry_run_for_people(rec, out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     (
         String::from_utf8_lossy(&o.stdout).into_owned(),
@@ -760,4 +765,26 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
         )),
         "{stderr}"
     );
+    // With the fixture's stage log of 4 entries (copied with it), the cut
+    // video is refused when it ends: the frames before it were printed, and
+    // no --out is left behind.
+    set_line(
+        &rec,
+        "recording.toml",
+        "frame_interval_s",
+        "stage_log = \"stage.jsonl\"",
+    );
+    let out4 = dir.path().join("out4");
+    let o = dry_run_for_people(&rec, &out4);
+    assert_refused(
+        &o,
+        &format!("4 stage-log entries for {} frames", r.frames.len()),
+    );
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        printed.lines().filter(|l| l.starts_with("frame ")).count(),
+        r.frames.len(),
+        "{printed}"
+    );
+    assert!(!out4.exists(), "a refused dry-run left its --out behind");
 }

@@ -5,7 +5,7 @@
 
 use super::pattern_args::PatternArgs;
 use crate::exec::animation::AnimationWriter;
-use crate::exec::dry_run::{DryRunReport, dry_run};
+use crate::exec::dry_run::{DryRunFrame, dry_run};
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
 use crate::vision::analyse::camera_notes;
@@ -93,17 +93,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut animation = AnimationWriter::new(&animation_path, 1.0);
+    // Each frame is printed as it is analysed: a long recording shows its
+    // progress, and a frame that stops it is seen after those before.
+    let mut print = |f: &DryRunFrame, sites: usize| {
+        if !args.json {
+            print_frame(f, sites);
+        }
+    };
     let report = dry_run(
         &recording,
         scene.as_ref(),
         asked.as_ref(),
         Some(&mut animation),
+        &mut print,
     );
     let report = match report {
         Ok(report) => report,
         Err(e) => {
-            // A refused target leaves no empty --out behind (remove_dir
-            // takes only an empty folder).
+            // A refused recording leaves no part-written animation, nor an
+            // empty --out, behind (remove_dir takes only an empty folder).
+            animation.discard();
             if made_out {
                 let _ = std::fs::remove_dir(&args.out);
             }
@@ -116,7 +125,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print_frames(&report);
         println!(
             "dry-run: {} and {}",
             report_path.display(),
@@ -140,24 +148,23 @@ fn inside(path: &Path, folder: &Path) -> bool {
         .is_some_and(|real| real.starts_with(&folder))
 }
 
-fn print_frames(r: &DryRunReport) {
-    for f in &r.frames {
-        let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
-            format!("tip ({:.1}, {:.1}) um", t[0], t[1])
-        });
-        let camera = camera_notes(&f.repaired_lines, f.clipped);
-        let source = match f.source.as_str() {
-            "" => String::new(),
-            name => format!(" ({name})"),
-        };
-        println!(
-            "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
-            f.frame,
-            f.t_s,
-            f.particles.len(),
-            f.filled,
-            r.sites_um.len(),
-            f.command.describe()
-        );
-    }
+/// One line of the printed dry-run: frame `f` of a target of `sites` sites.
+fn print_frame(f: &DryRunFrame, sites: usize) {
+    let tip = f.tip_um.map_or("tip not seen".to_owned(), |t| {
+        format!("tip ({:.1}, {:.1}) um", t[0], t[1])
+    });
+    let camera = camera_notes(&f.repaired_lines, f.clipped);
+    let source = match f.source.as_str() {
+        "" => String::new(),
+        name => format!(" ({name})"),
+    };
+    println!(
+        "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
+        f.frame,
+        f.t_s,
+        f.particles.len(),
+        f.filled,
+        sites,
+        f.command.describe()
+    );
 }

@@ -69,6 +69,15 @@ impl AnimationWriter {
         Ok(())
     }
 
+    /// Drops the animation of a run that did not end: the part written
+    /// under its hidden name is removed.
+    pub fn discard(self) {
+        if let Some(v) = self.video {
+            let _ = v.finish();
+            let _ = std::fs::remove_file(hidden_sibling(&self.path));
+        }
+    }
+
     /// Closes the video: its path and frame count, `None` when no frame came, or the first error.
     /// The video is written under a hidden name and takes its own only
     /// here: a run killed part way leaves no `run.mp4` that cannot be

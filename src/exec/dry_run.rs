@@ -10,7 +10,7 @@ use super::camera_look::warn_of_pieces;
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::particle_sizes::ParticleSizes;
-use super::recording::{RECORDING_FILE, Recording};
+use super::recording::{RECORDING_FILE, Recording, RecordingError};
 use super::recording_check::{check_sites_in_field, sites_of};
 use super::tracker::Tracker;
 use crate::model::Scene;
@@ -111,6 +111,9 @@ pub enum DryRunError {
     /// The target pattern could not be read or placed on the recorded particles.
     #[error("target: {0}")]
     Target(String),
+    /// The recording's frames could not be read, or do not fit together.
+    #[error(transparent)]
+    Recording(#[from] RecordingError),
     /// A frame could not be analysed.
     #[error("frame {frame}: {source}")]
     Frame {
@@ -120,47 +123,43 @@ pub enum DryRunError {
     },
 }
 
-/// The recorded frames as a camera: each grab gives the next frame.
-struct Replay<'r> {
-    recording: &'r Recording,
-    next: usize,
-}
+/// One recorded frame as a camera: the grab gives it.
+struct Replay(Option<TimedFrame>);
 
-impl Camera for Replay<'_> {
+impl Camera for Replay {
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
-        let i = self.next;
-        let frame = self
-            .recording
-            .frames
-            .get(i)
-            .ok_or_else(|| RigError::Io("the recording has no more frames".into()))?;
-        self.next += 1;
-        Ok(Some(TimedFrame {
-            t_s: self.recording.time_s(i),
-            frame: frame.clone(),
-        }))
+        self.0
+            .take()
+            .map(Some)
+            .ok_or_else(|| RigError::Io("the recording has no more frames".into()))
     }
 }
 
-/// Runs perception, tracking and planning over every frame of `recording`;
-/// with a `scene`, also the model's decision for each push; the pattern
-/// `asked` for instead of the recording's target, when given. `sink` sees
-/// every frame (the annotated animation).
+/// Runs perception, tracking and planning over every frame of `recording`,
+/// read one at a time; with a `scene`, also the model's decision for each
+/// push; the pattern `asked` for instead of the recording's target, when
+/// given. `sink` sees every frame (the annotated animation), and
+/// `on_frame` each frame's outcome as it is made, with the number of sites.
 pub fn dry_run(
     recording: &Recording,
     scene: Option<&Scene>,
     asked: Option<&PatternRequest>,
     mut sink: Option<&mut dyn FrameSink>,
+    on_frame: &mut dyn FnMut(&DryRunFrame, usize),
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
     let calibration = recording.calibration;
     let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
-    let mut camera = Replay { recording, next: 0 };
     let mut tracker = Tracker::new(TRACK_GATE_M);
     let mut sites: Option<Vec<Site>> = None;
     let mut field_m = [0.0, 0.0];
     let mut frames = Vec::new();
-    for i in 0..recording.frames.len() {
+    for (i, recorded) in recording.frames()?.enumerate() {
+        let recorded = recorded?;
+        let mut camera = Replay(Some(TimedFrame {
+            t_s: recording.time_s(i),
+            frame: recorded.frame,
+        }));
         let mut sighting = perception
             .sight(&mut camera, &calibration, recording.coarse_offset_m(i))
             .map_err(|source| DryRunError::Frame { frame: i, source })?;
@@ -236,9 +235,9 @@ pub fn dry_run(
                 calibration: &calibration,
             });
         }
-        frames.push(DryRunFrame {
+        let outcome = DryRunFrame {
             frame: i,
-            source: recording.frame_names.get(i).cloned().unwrap_or_default(),
+            source: recorded.name,
             t_s: sighting.t_s,
             particles: tracks,
             tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
@@ -246,7 +245,9 @@ pub fn dry_run(
             command,
             repaired_lines: sighting.repaired_lines,
             clipped: sighting.exposure.clipped(),
-        });
+        };
+        on_frame(&outcome, sites.len());
+        frames.push(outcome);
     }
     Ok(DryRunReport {
         schema: DRY_RUN_SCHEMA.to_owned(),

@@ -14,6 +14,7 @@ pub mod particle_sizes;
 pub mod push_check;
 pub mod recording;
 mod recording_check;
+pub mod recording_frames;
 pub mod report;
 pub mod resume_point;
 pub mod sim_run;

@@ -19,11 +19,12 @@
 
 use super::assemble::{FrameSink, FrameView};
 use super::recording_check::{check_frame_sizes, check_spec, check_stage_entry};
+pub use super::recording_frames::RecordingFrames;
+use super::recording_frames::entries_for_frames;
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
-use crate::vision::frame_input::{
-    Channel, frame_names, load_frames, save_png, video_frame_interval_s,
-};
+use crate::vision::frame_input::{Channel, FrameInputError, save_png};
+use crate::vision::frame_stream::FrameStream;
 use serde::{Deserialize, Serialize};
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -140,11 +141,12 @@ pub struct Recording {
     pub spec: RecordingSpec,
     /// Pixel -> nanostage map.
     pub calibration: CameraCalibration,
-    /// Every frame, in order.
-    pub frames: Vec<Frame>,
-    /// What each frame is called where it came from (a file's name, or a
-    /// video's name and frame number).
-    pub frame_names: Vec<String>,
+    /// Where the frames are: a folder of images, a video or a TIFF stack,
+    /// read one at a time by [`Recording::frames`].
+    pub frames_path: PathBuf,
+    /// How many frames the source says it holds (a video's container may
+    /// only estimate it).
+    pub stated_frames: Option<usize>,
     /// Seconds between frames without a stage log: `frame_interval_s`, else
     /// the video's own frame rate (a 25 fps video had read as 1 s a frame,
     /// and the model's advice was asked for the session's time 25 times
@@ -171,6 +173,18 @@ impl Recording {
                 log[i].coarse_offset_um[1] * 1e-6,
             ]
         })
+    }
+
+    /// The frames, in order, read as they are asked for and checked as they
+    /// come ([`RecordingFrames`]).
+    pub fn frames(&self) -> Result<RecordingFrames<'_>, RecordingError> {
+        let stream = FrameStream::open(&self.frames_path, self.spec.channel).map_err(|e| {
+            RecordingError::Format {
+                path: self.frames_path.clone(),
+                message: e.to_string(),
+            }
+        })?;
+        Ok(RecordingFrames::new(self, stream))
     }
 
     /// A path inside the recording.
@@ -237,32 +251,38 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     if !frames_path.exists() {
         return Err(RecordingError::Missing { path: frames_path });
     }
-    let frames = load_frames(&frames_path, spec.channel).map_err(|e| RecordingError::Format {
+    let frames_error = |e: FrameInputError| RecordingError::Format {
         path: frames_path.clone(),
         message: e.to_string(),
-    })?;
-    let frame_names = frame_names(&frames_path, frames.len());
+    };
+    let mut stream = FrameStream::open(&frames_path, spec.channel).map_err(frames_error)?;
+    let stated_frames = stream.stated_len();
+    let exact_frames = stream.len_is_exact().then_some(stated_frames).flatten();
     let frame_interval_s = spec
         .frame_interval_s
-        .or_else(|| video_frame_interval_s(&frames_path))
+        .or_else(|| stream.frame_interval_s())
         .unwrap_or(1.0);
-    check_frame_sizes(&frames, &frames_path).map_err(|message| RecordingError::Mismatch {
-        path: frames_path.clone(),
-        message,
-    })?;
+    check_frame_sizes(stream.files(), &frames_path, spec.channel)?;
+    // The first frame is read now: a video or stack that cannot be decoded
+    // is refused before anything is written.
+    match stream.next() {
+        Some(Ok(_)) => {}
+        Some(Err(e)) => return Err(frames_error(e)),
+        None => {
+            return Err(frames_error(FrameInputError::Empty {
+                path: frames_path.clone(),
+            }));
+        }
+    }
     let stage_log = match &spec.stage_log {
         None => None,
         Some(rel) => {
             let path = dir.join(rel);
             let log = read_stage_log(&path)?;
-            if log.len() != frames.len() {
+            if let Some(n) = exact_frames.filter(|&n| n != log.len()) {
                 return Err(RecordingError::Mismatch {
                     path,
-                    message: format!(
-                        "{} stage-log entries for {} frames",
-                        log.len(),
-                        frames.len()
-                    ),
+                    message: entries_for_frames(log.len(), &n.to_string()),
                 });
             }
             Some(log)
@@ -272,8 +292,8 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         dir: dir.to_owned(),
         spec,
         calibration,
-        frames,
-        frame_names,
+        frames_path,
+        stated_frames,
         frame_interval_s,
         stage_log,
     })
@@ -488,6 +508,10 @@ mod tests {
         Frame::new(16, 12, vec![v; 16 * 12], 8).unwrap()
     }
 
+    fn all_frames(r: &Recording) -> Vec<Frame> {
+        r.frames().unwrap().map(|f| f.unwrap().frame).collect()
+    }
+
     #[test]
     fn a_written_recording_reads_back_with_its_frames_log_and_calibration() {
         let dir = tempfile::tempdir().unwrap();
@@ -509,8 +533,9 @@ mod tests {
         }
         assert_eq!(w.finish().unwrap(), 3);
         let r = open_recording(&rec_dir).unwrap();
-        assert_eq!(r.frames.len(), 3);
-        assert_eq!(r.frames[2].at(3, 3), 20.0);
+        let frames = all_frames(&r);
+        assert_eq!(frames.len(), 3);
+        assert_eq!(frames[2].at(3, 3), 20.0);
         let log = r.stage_log.as_ref().unwrap();
         assert_eq!(
             log.iter().map(|e| e.frame).collect::<Vec<_>>(),
@@ -588,7 +613,7 @@ mod tests {
             std::fs::write(&toml_path, format!("{written}channel = \"{name}\"\n")).unwrap();
             let r = open_recording(&rec_dir).unwrap();
             assert_eq!(r.spec.channel, channel);
-            assert_eq!(r.frames[0].at(5, 5), count);
+            assert_eq!(all_frames(&r)[0].at(5, 5), count);
             let again: RecordingSpec = toml::from_str(&toml::to_string(&r.spec).unwrap()).unwrap();
             assert_eq!(again, r.spec);
         }

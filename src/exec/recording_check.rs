@@ -4,13 +4,13 @@
 //! Unchecked, such a recording made every frame's plan fail (and the
 //! dry-run exit 0), planned pushes off the field, or never ended.
 
-use super::recording::{RecordingSpec, StageLogEntry};
+use super::recording::{RecordingError, RecordingSpec, StageLogEntry};
 use crate::plan::layout::{UM_PER_M, um_text};
 use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
-use crate::vision::frame::{Frame, check_one_size};
-use crate::vision::frame_input::image_files;
+use crate::vision::frame::check_one_size;
+use crate::vision::frame_input::{Channel, load_frame};
 use nalgebra::Vector2;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// `field_um` and `sites_um`: finite, within a metre, sites apart by a
 /// particle diameter and (with a field) in the field as a layout's particles.
@@ -113,19 +113,34 @@ pub(super) fn check_stage_entry(e: &StageLogEntry) -> Result<(), String> {
     }
 }
 
-/// Every frame is the size of the first (the animation and the view are
-/// one size); the message names the odd frame (its file, in a folder).
-pub(super) fn check_frame_sizes(frames: &[Frame], frames_path: &Path) -> Result<(), String> {
-    let sizes: Vec<_> = frames.iter().map(|f| (f.width(), f.height())).collect();
-    check_one_size(&sizes, |k| {
-        let files = if frames_path.is_dir() {
-            image_files(frames_path).unwrap_or_default()
-        } else {
-            Vec::new()
-        };
-        files.get(k).and_then(|f| f.file_name()).map_or_else(
-            || format!("frame {k}"),
-            |n| n.to_string_lossy().into_owned(),
-        )
+/// Every image of a frames folder is the size of the first (the animation
+/// and the view are one size), read from the files' headers before any
+/// frame is analysed; a file whose header the `image` crate cannot read is
+/// decoded whole (a TIFF of wide samples), so one that cannot be a frame is
+/// refused here, named. Videos and stacks are checked as they are read.
+pub(super) fn check_frame_sizes(
+    files: &[PathBuf],
+    frames_path: &Path,
+    channel: Channel,
+) -> Result<(), RecordingError> {
+    let sizes = files
+        .iter()
+        .map(|file| match image::image_dimensions(file) {
+            Ok((w, h)) => Ok((w as usize, h as usize)),
+            Err(_) => load_frame(file, channel).map(|f| (f.width(), f.height())),
+        })
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| RecordingError::Format {
+            path: frames_path.to_owned(),
+            message: e.to_string(),
+        })?;
+    check_one_size(&sizes, |k| file_name(&files[k])).map_err(|message| RecordingError::Mismatch {
+        path: frames_path.to_owned(),
+        message,
     })
+}
+
+fn file_name(file: &Path) -> String {
+    file.file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
 }

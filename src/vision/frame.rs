@@ -122,16 +122,22 @@ pub fn check_one_size(
     };
     match sizes.iter().position(|&s| s != first) {
         None => Ok(()),
-        Some(i) => Err(format!(
-            "{} is {}x{} px but {} is {}x{} px: every frame of a recording must be one size",
-            name(i),
-            sizes[i].0,
-            sizes[i].1,
-            name(0),
-            first.0,
-            first.1
-        )),
+        Some(i) => Err(not_one_size(&name(i), sizes[i], &name(0), first)),
     }
+}
+
+/// What is said of frame `name`, of `size`, in a recording whose first frame
+/// `first_name` is `first_size` (width, height in pixels).
+pub fn not_one_size(
+    name: &str,
+    size: (usize, usize),
+    first_name: &str,
+    first_size: (usize, usize),
+) -> String {
+    format!(
+        "{name} is {}x{} px but {first_name} is {}x{} px: every frame of a recording must be one size",
+        size.0, size.1, first_size.0, first_size.1
+    )
 }
 
 #[cfg(test)]

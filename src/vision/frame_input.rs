@@ -13,12 +13,12 @@
 use std::path::{Path, PathBuf};
 
 use image::{DynamicImage, ImageReader};
-use opencv::core::{Mat, MatTraitConst, MatTraitConstManual, Vector};
-use opencv::prelude::{VideoCaptureTrait, VideoCaptureTraitConst};
+use opencv::core::{Mat, MatTraitConst, MatTraitConstManual};
 use thiserror::Error;
 
 use super::camera_bits::at_camera_bits;
 use super::frame::{Frame, FrameError};
+use super::frame_stream::FrameStream;
 use super::tiff_fallback;
 use super::wide_samples::frame_from_wide;
 
@@ -101,29 +101,16 @@ pub enum FrameInputError {
 const VIDEO_EXTENSIONS: [&str; 5] = ["avi", "mp4", "mov", "mkv", "m4v"];
 const IMAGE_EXTENSIONS: [&str; 7] = ["png", "tif", "tiff", "bmp", "jpg", "jpeg", "pgm"];
 
+/// True for a file name ending as a video does (`.avi`, `.mp4`, ...).
+pub(super) fn is_video(path: &Path) -> bool {
+    VIDEO_EXTENSIONS.contains(&extension(path).as_str())
+}
+
 fn extension(path: &Path) -> String {
     path.extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase()
-}
-
-/// What each of the `count` frames [`load_frames`] read from `path` is
-/// called, for a user to find it: a folder's file names, else the file's
-/// name with the frame's (or page's) number when it holds several.
-pub fn frame_names(path: &Path, count: usize) -> Vec<String> {
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    if path.is_dir() {
-        let files = image_files(path).unwrap_or_default();
-        let names = files.iter().filter_map(|f| f.file_name());
-        return names.map(|n| n.to_string_lossy().into_owned()).collect();
-    }
-    match count {
-        1 => vec![name],
-        _ => (0..count).map(|i| format!("{name} #{i}")).collect(),
-    }
 }
 
 /// Which of several frames [`load_frame`] reads from `path`, when it may
@@ -133,7 +120,7 @@ pub fn first_of_several(path: &Path) -> Option<String> {
         let files = image_files(path).ok()?;
         let name = files.first()?.file_name()?.to_string_lossy().into_owned();
         Some(format!("its first image of {}, {name}", files.len()))
-    } else if VIDEO_EXTENSIONS.contains(&extension(path).as_str()) {
+    } else if is_video(path) {
         Some("its first frame (a video)".into())
     } else {
         None
@@ -142,26 +129,21 @@ pub fn first_of_several(path: &Path) -> Option<String> {
 
 /// Reads one frame: the only (or first) image of the file.
 pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputError> {
-    let ext = extension(path);
-    // Only the first is read: a long video or a big folder read whole
-    // took the memory of every frame for one.
-    let first = if path.is_dir() {
-        match image_files(path)?.first() {
-            Some(file) => Some(load_frame(file, channel)?),
-            None => None,
-        }
-    } else if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
-        load_video(path, channel, Some(1))?.pop()
-    } else {
+    if !(path.is_dir() || is_video(path)) {
         let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
             path: path.to_owned(),
             source,
         })?;
         return decode_image(&bytes, path, channel);
-    };
-    first.ok_or_else(|| FrameInputError::Empty {
-        path: path.to_owned(),
-    })
+    }
+    // Only the first is read: a long video or a big folder read whole
+    // took the memory of every frame for one.
+    let first = FrameStream::open(path, channel)?.next().transpose()?;
+    first
+        .map(|named| named.frame)
+        .ok_or_else(|| FrameInputError::Empty {
+            path: path.to_owned(),
+        })
 }
 
 /// The images of a folder, sorted by name, numbers by value (`img_2`
@@ -182,46 +164,11 @@ pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
 
 /// Reads every frame: all pages of a TIFF stack, all images of a folder (sorted
 /// by name), all frames of a video, or the single image of any other file.
+/// A long recording is better read a frame at a time ([`FrameStream`]).
 pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInputError> {
-    let ext = extension(path);
-    let frames = if path.is_dir() {
-        image_files(path)?
-            .iter()
-            .map(|f| load_frame(f, channel))
-            .collect::<Result<Vec<_>, _>>()?
-    } else if VIDEO_EXTENSIONS.contains(&ext.as_str()) {
-        load_video(path, channel, None)?
-    } else if ext == "tif" || ext == "tiff" {
-        if !path.is_file() {
-            return Err(FrameInputError::Io {
-                path: path.to_owned(),
-                source: std::io::Error::from(std::io::ErrorKind::NotFound),
-            });
-        }
-        let mut mats = Vector::<Mat>::new();
-        let flags = opencv::imgcodecs::IMREAD_ANYDEPTH | opencv::imgcodecs::IMREAD_ANYCOLOR;
-        let read = !tiff_fallback::opencv_lacks_format(path)
-            && quietly(|| {
-                opencv::imgcodecs::imreadmulti(&path.to_string_lossy(), &mut mats, flags)
-            })
-            .is_ok_and(|ok| ok);
-        if read {
-            mats.iter()
-                .map(|m| mat_to_frame(&m, path, channel))
-                .collect::<Result<Vec<_>, _>>()?
-        } else {
-            // Sample types OpenCV has not (unsigned 32-bit, half floats).
-            let bytes = std::fs::read(path).map_err(|source| FrameInputError::Io {
-                path: path.to_owned(),
-                source,
-            })?;
-            tiff_fallback::decode_pages(&bytes, channel, false).map_err(|reason| {
-                decode_error(path, format!("cannot read the TIFF stack: {reason}"))
-            })?
-        }
-    } else {
-        vec![load_frame(path, channel)?]
-    };
+    let frames = FrameStream::open(path, channel)?
+        .map(|named| named.map(|n| n.frame))
+        .collect::<Result<Vec<_>, _>>()?;
     if frames.is_empty() {
         return Err(FrameInputError::Empty {
             path: path.to_owned(),
@@ -230,7 +177,7 @@ pub fn load_frames(path: &Path, channel: Channel) -> Result<Vec<Frame>, FrameInp
     Ok(frames)
 }
 
-fn decode_error(path: &Path, reason: String) -> FrameInputError {
+pub(super) fn decode_error(path: &Path, reason: String) -> FrameInputError {
     FrameInputError::Decode {
         path: path.to_owned(),
         reason,
@@ -450,67 +397,10 @@ const WIDE_DEPTHS: [i32; 5] = [
     opencv::core::CV_64F,
 ];
 
-/// The frames of a video, the first `limit` when given.
-fn load_video(
-    path: &Path,
-    channel: Channel,
-    limit: Option<usize>,
-) -> Result<Vec<Frame>, FrameInputError> {
-    if !path.is_file() {
-        return Err(FrameInputError::Io {
-            path: path.to_owned(),
-            source: std::io::Error::from(std::io::ErrorKind::NotFound),
-        });
-    }
-    let mut cap = quietly(|| {
-        opencv::videoio::VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
-    })
-    .map_err(|e| decode_error(path, e.to_string()))?;
-    let mut frames = Vec::new();
-    let mut mat = Mat::default();
-    while limit.is_none_or(|n| frames.len() < n)
-        && cap
-            .read(&mut mat)
-            .map_err(|e| decode_error(path, e.to_string()))?
-    {
-        if mat.empty() {
-            break;
-        }
-        frames.push(mat_to_frame(&mat, path, channel)?);
-    }
-    // A video cut short (a copy stopped midway, a recorder that crashed)
-    // reads as its first frames and nothing else: say how many are missing.
-    let said = cap
-        .get(opencv::videoio::CAP_PROP_FRAME_COUNT)
-        .unwrap_or(0.0);
-    if limit.is_none() && said.is_finite() && said > frames.len() as f64 {
-        tracing::warn!(
-            "{}: the video says it has {said:.0} frames, but only the first {} could be read (is the file cut short?)",
-            path.display(),
-            frames.len()
-        );
-    }
-    Ok(frames)
-}
-
-/// Seconds between a video file's frames, from the frame rate its container
-/// states; `None` for other inputs, or a rate that is not a positive number.
-pub fn video_frame_interval_s(path: &Path) -> Option<f64> {
-    if !(VIDEO_EXTENSIONS.contains(&extension(path).as_str()) && path.is_file()) {
-        return None;
-    }
-    let cap = quietly(|| {
-        opencv::videoio::VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
-    })
-    .ok()?;
-    let fps = cap.get(opencv::videoio::CAP_PROP_FPS).ok()?;
-    (fps.is_finite() && fps > 0.0).then(|| 1.0 / fps)
-}
-
 /// Runs `f` with OpenCV's log silenced: trying its backends on a file that
 /// is not a video prints a page of GStreamer and image-sequence errors
 /// before our own one-line error says the same.
-fn quietly<T>(f: impl FnOnce() -> T) -> T {
+pub(super) fn quietly<T>(f: impl FnOnce() -> T) -> T {
     use opencv::core::{LogLevel, set_log_level};
     let before = set_log_level(LogLevel::LOG_LEVEL_SILENT);
     let out = f();
@@ -558,6 +448,7 @@ pub fn save_png(frame: &Frame, path: &Path) -> Result<(), image::ImageError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use opencv::core::Vector;
 
     /// A camera's unpadded frame numbers come back in the order written.
     #[test]
@@ -578,20 +469,6 @@ mod tests {
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["img_1.png", "img_2.png", "img_9.png", "img_10.png"]);
-    }
-
-    /// Frames are named as a user finds them: a folder's files, a stack's
-    /// or video's numbered frames, a single image's name.
-    #[test]
-    fn frames_are_named_by_file_or_number() {
-        let dir = tempfile::tempdir().unwrap();
-        for name in ["b_10.png", "b_2.png", "notes.txt"] {
-            std::fs::write(dir.path().join(name), b"").unwrap();
-        }
-        assert_eq!(frame_names(dir.path(), 2), ["b_2.png", "b_10.png"]);
-        let stack = dir.path().join("stack.tif");
-        assert_eq!(frame_names(&stack, 2), ["stack.tif #0", "stack.tif #1"]);
-        assert_eq!(frame_names(&stack, 1), ["stack.tif"]);
     }
 
     /// One frame of a folder is its first image alone: the others are not

@@ -15,6 +15,7 @@ pub mod filter;
 pub mod frame;
 pub mod frame_input;
 pub mod frame_pool;
+pub mod frame_stream;
 pub mod least_squares;
 pub mod line_defects;
 pub mod log_on_change;
