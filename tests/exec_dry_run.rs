@@ -788,3 +788,49 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
     );
     assert!(!out4.exists(), "a refused dry-run left its --out behind");
 }
+
+/// A camera that sees beyond the field (here the calibration puts the
+/// frame's left 80 um at negative x): the particles there are left out of
+/// the plans, with a warning, and the others are planned. Every frame's
+/// plan had been refused whole: "particle 2 at (-43.473, 87.954) um lies
+/// outside the 120.0 x 100.0 um field".
+#[test]
+fn particles_beyond_the_field_are_left_out_of_the_plans_not_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);
+    let cal = std::fs::read_to_string(rec.join("calibration.toml")).unwrap();
+    assert!(cal.contains("-20.0]"), "{cal}");
+    std::fs::write(
+        rec.join("calibration.toml"),
+        cal.replace("-20.0]", "-80.0]"),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let o = dry_run(&rec, &out, &[]);
+    let r = ok_report(&o, &out);
+    let beyond = |f: &nanopush::exec::dry_run::DryRunFrame| {
+        f.particles
+            .iter()
+            .filter(|p| p.x_um < -2.0 * p.r_um)
+            .count()
+    };
+    assert!(beyond(&r.frames[0]) >= 3, "{:?}", r.frames[0].particles);
+    for f in &r.frames {
+        assert!(
+            matches!(f.command, DryCommand::Push { .. }),
+            "frame {}: {:?}",
+            f.frame,
+            f.command
+        );
+        if let DryCommand::Push { from_um, .. } = f.command {
+            assert!(from_um[0] > -10.0, "frame {}: pushes {from_um:?}", f.frame);
+        }
+    }
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let warned = format!(
+        "{} particles lie beyond the 120.0 x 100.0 um field",
+        beyond(&r.frames[0])
+    );
+    assert!(stderr.contains(&warned), "{stderr}");
+}

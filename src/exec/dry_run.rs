@@ -342,7 +342,7 @@ fn next_command(
     let sizes = ParticleSizes::of(tracks, scene.map_or(5e-6, |s| s.particle_radius_m));
     let layout = Layout {
         field_m,
-        particles: planning_particles(tracks, &sizes),
+        particles: planning_particles(tracks, &sizes, field_m),
     };
     let config = PlanConfig {
         tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),

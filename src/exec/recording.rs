@@ -144,9 +144,6 @@ pub struct Recording {
     /// Where the frames are: a folder of images, a video or a TIFF stack,
     /// read one at a time by [`Recording::frames`].
     pub frames_path: PathBuf,
-    /// How many frames the source says it holds (a video's container may
-    /// only estimate it).
-    pub stated_frames: Option<usize>,
     /// Seconds between frames without a stage log: `frame_interval_s`, else
     /// the video's own frame rate (a 25 fps video had read as 1 s a frame,
     /// and the model's advice was asked for the session's time 25 times
@@ -256,8 +253,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         message: e.to_string(),
     };
     let mut stream = FrameStream::open(&frames_path, spec.channel).map_err(frames_error)?;
-    let stated_frames = stream.stated_len();
-    let exact_frames = stream.len_is_exact().then_some(stated_frames).flatten();
+    let exact_frames = stream.len_is_exact().then_some(stream.stated_len()).flatten();
     let frame_interval_s = spec
         .frame_interval_s
         .or_else(|| stream.frame_interval_s())
@@ -293,7 +289,6 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         spec,
         calibration,
         frames_path,
-        stated_frames,
         frame_interval_s,
         stage_log,
     })

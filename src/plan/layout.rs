@@ -192,6 +192,23 @@ const OVERLAP_TOLERANCE_M: f64 = 1e-9;
 /// unit or origin rather than a particle of this field.
 const OUTSIDE_FIELD_RADII: f64 = 2.0;
 
+/// How far `c` lies outside the field `field_m` (from the origin), metres
+/// (0 inside; NaN for a NaN coordinate, which `f64::max` would otherwise drop).
+fn beyond_field_m(field_m: [f64; 2], c: Vector2<f64>) -> f64 {
+    if c.x.is_nan() || c.y.is_nan() {
+        return f64::NAN;
+    }
+    let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
+    out(c.x, field_m[0]).hypot(out(c.y, field_m[1]))
+}
+
+/// True when a particle of `radius_m` centred at `c` may be in a layout of
+/// the field `field_m` (at most [`OUTSIDE_FIELD_RADII`] radii beyond an
+/// edge): what a camera sees beyond that is out of the plan's reach.
+pub fn may_lie_in_field(field_m: [f64; 2], c: Vector2<f64>, radius_m: f64) -> bool {
+    beyond_field_m(field_m, c) <= OUTSIDE_FIELD_RADII * radius_m
+}
+
 /// `value` with `decimals` decimals, or in exponent form when a mistyped
 /// input (a position, an --at or a --pitch-um of 1e300) makes it too long
 /// to read: the planner's error messages print sizes with it.
@@ -323,7 +340,7 @@ impl Layout {
                 height_um,
             });
         }
-        if self.beyond_field_m(p.centre_m) > OUTSIDE_FIELD_RADII * p.radius_m {
+        if !may_lie_in_field(self.field_m, p.centre_m, p.radius_m) {
             return Err(LayoutError::OutsideField(self.off_field(p.id, p.centre_m)));
         }
         Ok(())
@@ -333,7 +350,7 @@ impl Layout {
     /// field than a particle may (`OUTSIDE_FIELD_RADII`).
     pub fn check_site_in_field(&self, site: &Site, radius_m: f64) -> Result<(), LayoutError> {
         let c = site.centre_m;
-        let beyond = self.beyond_field_m(c);
+        let beyond = beyond_field_m(self.field_m, c);
         if beyond.is_nan() || beyond > OUTSIDE_FIELD_RADII * radius_m {
             return Err(LayoutError::SiteOutsideField(self.off_field(site.id, c)));
         }
@@ -349,17 +366,6 @@ impl Layout {
             width_um: self.field_m[0] * UM_PER_M,
             height_um: self.field_m[1] * UM_PER_M,
         }
-    }
-
-    /// How far `c` lies outside the field, metres (0 inside; NaN for a
-    /// NaN coordinate, which `f64::max` would otherwise drop).
-    fn beyond_field_m(&self, c: Vector2<f64>) -> f64 {
-        if c.x.is_nan() || c.y.is_nan() {
-            return f64::NAN;
-        }
-        let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
-        let [w, h] = self.field_m;
-        out(c.x, w).hypot(out(c.y, h))
     }
 
     /// Particle index by id (ids are unique in a valid layout). Hashed

@@ -6,9 +6,10 @@ use super::{Assembly, ExecError, PlannedPush, PushIntent};
 use crate::exec::events::RunEvent;
 use crate::exec::particle_sizes::ParticleSizes;
 use crate::exec::tracker::{Track, Tracker};
-use crate::plan::layout::{Layout, Particle};
+use crate::plan::layout::{Layout, Particle, UM_PER_M, may_lie_in_field};
 use crate::plan::rebase::rebase_plan;
 use crate::plan::{Plan, Step, plan_assembly, verify_plan};
+use crate::vision::log_on_change::changed;
 use nalgebra::Vector2;
 
 impl Assembly<'_> {
@@ -47,7 +48,7 @@ impl Assembly<'_> {
         let sizes = ParticleSizes::of(&confirmed, self.scene.particle_radius_m);
         let layout = Layout {
             field_m: self.settings.field_m,
-            particles: planning_particles(&confirmed, &sizes),
+            particles: planning_particles(&confirmed, &sizes, self.settings.field_m),
         };
         let mut config = self.plan_config.clone();
         config.immovable = self.immovable();
@@ -158,12 +159,19 @@ impl Assembly<'_> {
 /// particle seen in this frame overlaps it (then the stale one is wrong).
 /// Each particle has its size from `sizes`. Radii are capped so
 /// that no two discs overlap: touching spheres cannot, so a few nanometres
-/// of apparent overlap must not make the layout invalid.
-pub fn planning_particles(tracks: &[Track], sizes: &ParticleSizes) -> Vec<Particle> {
+/// of apparent overlap must not make the layout invalid. A particle
+/// farther outside `field_m` than a layout may hold is left out, with a
+/// warning when their number changes: a camera that sees beyond the
+/// nanostage's range had made every plan refuse the whole layout.
+pub fn planning_particles(
+    tracks: &[Track],
+    sizes: &ParticleSizes,
+    field_m: [f64; 2],
+) -> Vec<Particle> {
     let overlaps = |a: &Track, b: &Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
-    let seen: Vec<(usize, [f64; 2], f64)> = tracks
+    let (seen, beyond): (Vec<_>, Vec<_>) = tracks
         .iter()
         .filter(|t| t.missed_frames < 3)
         .filter(|t| {
@@ -173,8 +181,36 @@ pub fn planning_particles(tracks: &[Track], sizes: &ParticleSizes) -> Vec<Partic
                     .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
         })
         .map(|t| (t.id, [t.last.x_m, t.last.y_m], sizes.radius_m(t)))
-        .collect();
+        .partition(|&(_, c, r)| may_lie_in_field(field_m, Vector2::from(c), r));
+    warn_of_particles_beyond(&beyond, field_m);
     particles_seen(&seen)
+}
+
+/// Says how many particles the plans leave out beyond the field, when that
+/// number changes, naming the nearest.
+fn warn_of_particles_beyond(beyond: &[(usize, [f64; 2], f64)], field_m: [f64; 2]) {
+    let topic = format!("beyond the field {field_m:?}");
+    if !changed(topic, beyond.len().to_string()) || beyond.is_empty() {
+        return;
+    }
+    let centre = [field_m[0] / 2.0, field_m[1] / 2.0];
+    let distance = |c: &[f64; 2]| (c[0] - centre[0]).hypot(c[1] - centre[1]);
+    let nearest = beyond
+        .iter()
+        .min_by(|a, b| distance(&a.1).total_cmp(&distance(&b.1)));
+    if let Some((id, c, _)) = nearest {
+        let count = match beyond.len() {
+            1 => "1 particle lies".to_owned(),
+            n => format!("{n} particles lie"),
+        };
+        tracing::warn!(
+            "{count} beyond the {:.1} x {:.1} um field and out of the plans (no push reaches them); the nearest is particle {id} at ({:.1}, {:.1}) um",
+            field_m[0] * UM_PER_M,
+            field_m[1] * UM_PER_M,
+            c[0] * UM_PER_M,
+            c[1] * UM_PER_M
+        );
+    }
 }
 
 /// The first frame's particles as a layout of `field_m` (ids by order
@@ -192,7 +228,7 @@ pub fn layout_measured(
     let sizes = ParticleSizes::of(tracker.tracks(), nominal_m);
     Layout {
         field_m,
-        particles: planning_particles(tracker.tracks(), &sizes),
+        particles: planning_particles(tracker.tracks(), &sizes, field_m),
     }
 }
 
@@ -248,6 +284,36 @@ mod tests {
         for (got, want) in r.iter().zip([4.6, 5.0, 5.4, 4.95, 4.95]) {
             assert!((got - want).abs() < 0.01, "{r:?}");
         }
+    }
+
+    /// A particle centred up to two radii beyond the field's edge is held
+    /// (a frame's edge may cut it); one farther out, or missed for three
+    /// frames, is left out.
+    #[test]
+    fn particles_beyond_the_field_are_left_out() {
+        let at = |x_um: f64, y_um: f64| Observation {
+            x_m: x_um * 1e-6,
+            y_m: y_um * 1e-6,
+            radius_m: 5e-6,
+        };
+        let mut tracker = Tracker::new(4e-6);
+        let seen = [
+            at(50.0, 50.0),
+            at(-9.0, 50.0),
+            at(-11.0, 70.0),
+            at(50.0, 113.0),
+            at(30.0, 30.0),
+        ];
+        tracker.update(&seen, &[], &|_, _| true);
+        for _ in 0..3 {
+            tracker.update(&seen[..4], &[], &|_, _| true);
+        }
+        let sizes = ParticleSizes::of(tracker.tracks(), 5e-6);
+        let held: Vec<u32> = planning_particles(tracker.tracks(), &sizes, [100e-6, 100e-6])
+            .iter()
+            .map(|p| p.id)
+            .collect();
+        assert_eq!(held, [0, 1]);
     }
 
     /// Particles of their own sizes, 5.2 and 4.8 um, seen 9.99 um apart
