@@ -16,3 +16,4 @@ pub mod plan;
 pub mod render;
 pub mod rig;
 pub mod vision;
+pub mod wording;

@@ -464,12 +464,14 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
         spec.replace("pattern = \"pattern.toml\"", "pattern_text = \"CMU\""),
     )
     .unwrap();
+    // Nor the folders it made for a nested --out.
+    let nested = dir.path().join("nested");
     assert_refused(
-        &dry_run(&rec, &out, &[]),
+        &dry_run(&rec, &nested.join("a/b"), &[]),
         "but the first frame shows 5 particles",
     );
     assert!(
-        !out.exists(),
+        !nested.exists(),
         "a refused dry-run left its --out folder behind"
     );
     // A glyph the font has not: the file and its key are named.
@@ -833,4 +835,19 @@ fn particles_beyond_the_field_are_left_out_of_the_plans_not_refused() {
         beyond(&r.frames[0])
     );
     assert!(stderr.contains(&warned), "{stderr}");
+    // A pattern the particles in the field cannot fill is refused on the
+    // first frame, counting only those (it had been taken, and every
+    // frame's plan refused "3 sites but only 1 particles").
+    let bf = dir.path().join("bf");
+    copy_dir(&root().join("fixtures/recordings/real-brightfield"), &bf);
+    set_line(
+        &bf,
+        "calibration.toml",
+        "pixel_to_stage_um",
+        "pixel_to_stage_um = [[0.588235, 0.0, -200.0], [0.0, -0.588235, 294.1176]]",
+    );
+    assert_refused(
+        &dry_run(&bf, &dir.path().join("bf-out"), &[]),
+        "the pattern has 3 sites but the first frame shows 1 particle in the field (4 more beyond it)",
+    );
 }

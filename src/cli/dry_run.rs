@@ -89,7 +89,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    let made_out = !args.out.exists();
+    // The outermost folder of --out this run makes, if any: removed, with
+    // those inside it, when the run is refused.
+    let made_out = args
+        .out
+        .ancestors()
+        .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+        .last()
+        .map(Path::to_path_buf);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut animation = AnimationWriter::new(&animation_path, 1.0);
@@ -110,11 +117,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let report = match report {
         Ok(report) => report,
         Err(e) => {
-            // A refused recording leaves no part-written animation, nor an
-            // empty --out, behind (remove_dir takes only an empty folder).
+            // A refused recording leaves no part-written animation, nor the
+            // empty folders of --out it made, behind (remove_dir takes only
+            // an empty folder).
             animation.discard();
-            if made_out {
-                let _ = std::fs::remove_dir(&args.out);
+            if let Some(made) = &made_out {
+                for folder in args.out.ancestors() {
+                    let _ = std::fs::remove_dir(folder);
+                    if folder == made {
+                        break;
+                    }
+                }
             }
             return Err(e.into());
         }

@@ -23,6 +23,7 @@ use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineDefect;
+use crate::wording::counted;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
@@ -310,21 +311,22 @@ fn target_sites(
     let pattern = request
         .pattern_for_batch(radius_m, &radii, &area)
         .map_err(|e| target(format!("{from}{e}")))?;
-    if pattern.offsets_m.len() > first.len() {
+    // Counted in the field: particles beyond it are left out of the plans.
+    let layout = layout_measured(field_m, first, radius_m);
+    let held = layout.particles.len();
+    if pattern.offsets_m.len() > held {
+        let beyond = match first.len().saturating_sub(held) {
+            0 => String::new(),
+            n => format!(" ({n} more beyond it)"),
+        };
         return Err(target(format!(
-            "the pattern has {} sites but the first frame shows {} particles",
+            "the pattern has {} sites but the first frame shows {} in the field{beyond}",
             pattern.offsets_m.len(),
-            first.len()
+            counted(held, "particle"),
         )));
     }
     request
-        .sites(
-            &pattern,
-            &area,
-            &layout_measured(field_m, first, radius_m),
-            config,
-            PlacementGoal::LeastTime,
-        )
+        .sites(&pattern, &area, &layout, config, PlacementGoal::LeastTime)
         .map_err(|e| target(e.to_string()))
 }
 

@@ -154,17 +154,7 @@ mod tests {
     fn a_videos_length_is_checked_against_the_stage_log_as_it_goes() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("v.avi");
-        let mut video = crate::render::video::VideoWriter::create(&path, 10.0, (16, 12)).unwrap();
-        for k in 0..3u8 {
-            video
-                .write(&image::RgbImage::from_pixel(
-                    16,
-                    12,
-                    image::Rgb([60 * k; 3]),
-                ))
-                .unwrap();
-        }
-        video.finish().unwrap();
+        crate::render::video::flat_grey_video(&path, 10.0, (16, 12), &[0, 60, 120]);
         for (entries, want) in [
             (3, (3, None)),
             (2, (2, Some("2 stage-log entries for more than 2 frames"))),

@@ -19,6 +19,7 @@ use crate::rig::RigError;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
 use crate::rig::sim::stage::TimedContact;
+use crate::wording::counted;
 use std::path::{Path, PathBuf};
 
 /// Field of the simulated rig's random layouts, micrometres.
@@ -212,9 +213,9 @@ fn sites_for(
         })?;
     if pattern.offsets_m.len() > layout.particles.len() {
         return Err(mismatch(format!(
-            "{} sites but only {} particles",
+            "{} sites but only {}",
             pattern.offsets_m.len(),
-            layout.particles.len()
+            counted(layout.particles.len(), "particle")
         )));
     }
     Ok(target.sites(

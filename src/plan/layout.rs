@@ -194,7 +194,7 @@ const OUTSIDE_FIELD_RADII: f64 = 2.0;
 
 /// How far `c` lies outside the field `field_m` (from the origin), metres
 /// (0 inside; NaN for a NaN coordinate, which `f64::max` would otherwise drop).
-fn beyond_field_m(field_m: [f64; 2], c: Vector2<f64>) -> f64 {
+pub fn beyond_field_m(field_m: [f64; 2], c: Vector2<f64>) -> f64 {
     if c.x.is_nan() || c.y.is_nan() {
         return f64::NAN;
     }
@@ -203,7 +203,7 @@ fn beyond_field_m(field_m: [f64; 2], c: Vector2<f64>) -> f64 {
 }
 
 /// True when a particle of `radius_m` centred at `c` may be in a layout of
-/// the field `field_m` (at most [`OUTSIDE_FIELD_RADII`] radii beyond an
+/// the field `field_m` (at most two radii beyond an
 /// edge): what a camera sees beyond that is out of the plan's reach.
 pub fn may_lie_in_field(field_m: [f64; 2], c: Vector2<f64>, radius_m: f64) -> bool {
     beyond_field_m(field_m, c) <= OUTSIDE_FIELD_RADII * radius_m

@@ -126,6 +126,23 @@ impl VideoWriter {
     }
 }
 
+/// A video of flat grey frames of `size`, one a level, for tests of what
+/// reads videos.
+#[cfg(test)]
+pub(crate) fn flat_grey_video(path: &Path, fps: f64, size: (u32, u32), levels: &[u8]) {
+    let mut video = VideoWriter::create(path, fps, size).unwrap();
+    for &level in levels {
+        video
+            .write(&RgbImage::from_pixel(
+                size.0,
+                size.1,
+                image::Rgb([level; 3]),
+            ))
+            .unwrap();
+    }
+    assert_eq!(video.finish().unwrap(), levels.len());
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -94,12 +94,22 @@ pub enum FrameInputError {
     #[error("{path}: {source}")]
     Invalid { path: PathBuf, source: FrameError },
     /// A stack, sequence or video held no frames.
-    #[error("{path} holds no frames")]
+    #[error("{path} holds no frames{}", why_empty(path))]
     Empty { path: PathBuf },
 }
 
 const VIDEO_EXTENSIONS: [&str; 5] = ["avi", "mp4", "mov", "mkv", "m4v"];
 const IMAGE_EXTENSIONS: [&str; 7] = ["png", "tif", "tiff", "bmp", "jpg", "jpeg", "pgm"];
+
+/// What an empty video may be: a cut-short MP4 lacks the index at its end
+/// and reads as nothing at all.
+fn why_empty(path: &Path) -> &'static str {
+    if is_video(path) {
+        " (a video cut short, or still being written, may read as none)"
+    } else {
+        ""
+    }
+}
 
 /// True for a file name ending as a video does (`.avi`, `.mp4`, ...).
 pub(super) fn is_video(path: &Path) -> bool {
@@ -149,6 +159,8 @@ pub fn load_frame(path: &Path, channel: Channel) -> Result<Frame, FrameInputErro
 /// The images of a folder, sorted by name, numbers by value (`img_2`
 /// before `img_10`, [`crate::natural_order`]): the frames [`load_frames`]
 /// reads from it, in its order (so an error can name a frame's file).
+/// Hidden files are not frames: a frame being written (this program writes
+/// one under a dot name first), or the `._` files macOS leaves on a copy.
 pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|source| FrameInputError::Io {
@@ -157,6 +169,10 @@ pub fn image_files(dir: &Path) -> Result<Vec<PathBuf>, FrameInputError> {
         })?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| IMAGE_EXTENSIONS.contains(&extension(p).as_str()))
+        .filter(|p| {
+            !p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with('.'))
+        })
         .collect();
     files.sort_by(|a, b| crate::natural_order::natural_cmp(a, b));
     Ok(files)
@@ -452,7 +468,7 @@ mod tests {
 
     /// A camera's unpadded frame numbers come back in the order written.
     #[test]
-    fn a_folders_images_are_listed_by_their_numbers() {
+    fn a_folders_images_are_listed_by_their_numbers_hidden_ones_left_out() {
         let dir = tempfile::tempdir().unwrap();
         for name in [
             "img_10.png",
@@ -460,6 +476,8 @@ mod tests {
             "img_1.png",
             "notes.txt",
             "img_9.png",
+            "._img_9.png",
+            ".img_11.png",
         ] {
             std::fs::write(dir.path().join(name), b"").unwrap();
         }

@@ -169,6 +169,23 @@ impl FrameStream {
                     Ok(Some(frame)) => Some(Ok((frame, several))),
                     Ok(None) => {
                         *ended = true;
+                        // A frame that cannot be decoded also reads as the
+                        // end: the next read tells a damaged video from one
+                        // cut short.
+                        let more = said.is_some_and(|n| i + 1 < n)
+                            && matches!(
+                                next_video_frame(capture, &self.path, self.channel),
+                                Ok(Some(_))
+                            );
+                        if more {
+                            return Some(Err(decode_error(
+                                &self.path,
+                                format!(
+                                    "frame {i} cannot be decoded, but the frames after it can: \
+                                     the video is damaged there"
+                                ),
+                            )));
+                        }
                         warn_if_cut_short(&self.path, *said, i);
                         None
                     }
@@ -316,6 +333,7 @@ fn warn_if_cut_short(path: &Path, said: Option<usize>, read: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::video::flat_grey_video;
     use crate::vision::frame_input::save_png;
 
     fn frame(w: usize, h: usize, k: usize, bits: u8) -> Frame {
@@ -407,13 +425,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for n in [1, 3] {
             let path = dir.path().join(format!("v{n}.avi"));
-            let mut video =
-                crate::render::video::VideoWriter::create(&path, 20.0, (32, 24)).unwrap();
-            for k in 0..n {
-                let img = image::RgbImage::from_pixel(32, 24, image::Rgb([40 * k as u8 + 20; 3]));
-                video.write(&img).unwrap();
-            }
-            assert_eq!(video.finish().unwrap(), n);
+            let levels: Vec<u8> = (0..n).map(|k| 40 * k as u8 + 20).collect();
+            flat_grey_video(&path, 20.0, (32, 24), &levels);
             let stream = FrameStream::open(&path, Channel::Luminance).unwrap();
             assert_eq!(
                 (stream.stated_len(), stream.len_is_exact()),
@@ -427,6 +440,30 @@ mod tests {
             let grey: Vec<f32> = read.iter().map(|r| r.frame.at(16, 12)).collect();
             assert!(grey.windows(2).all(|p| p[1] > p[0] + 30.0), "{grey:?}");
         }
+    }
+
+    /// A video frame that cannot be decoded is an error naming it, not the
+    /// video's end: the frames after it had been dropped with a warning that
+    /// the file was cut short.
+    #[test]
+    fn a_damaged_video_frame_is_an_error_not_the_end() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("v.avi");
+        flat_grey_video(&path, 10.0, (32, 24), &[20, 60, 100, 140, 180]);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let jpegs: Vec<usize> = (0..bytes.len() - 3)
+            .filter(|&i| bytes[i..i + 3] == [0xff, 0xd8, 0xff])
+            .collect();
+        assert_eq!(jpegs.len(), 5, "one JPEG a frame");
+        bytes[jpegs[2]..jpegs[2] + 200].fill(0);
+        std::fs::write(&path, bytes).unwrap();
+        let mut stream = FrameStream::open(&path, Channel::Luminance).unwrap();
+        for _ in 0..2 {
+            assert!(stream.next().unwrap().is_ok());
+        }
+        let err = stream.next().unwrap().unwrap_err().to_string();
+        assert!(err.contains("frame 2 cannot be decoded"), "{err}");
+        assert!(stream.next().is_none());
     }
 
     /// A folder's broken frame stops the stream where it lies, named; the

@@ -6,10 +6,11 @@ use super::{Assembly, ExecError, PlannedPush, PushIntent};
 use crate::exec::events::RunEvent;
 use crate::exec::particle_sizes::ParticleSizes;
 use crate::exec::tracker::{Track, Tracker};
-use crate::plan::layout::{Layout, Particle, UM_PER_M, may_lie_in_field};
+use crate::plan::layout::{Layout, Particle, UM_PER_M, beyond_field_m, may_lie_in_field};
 use crate::plan::rebase::rebase_plan;
 use crate::plan::{Plan, Step, plan_assembly, verify_plan};
 use crate::vision::log_on_change::changed;
+use crate::wording::counted;
 use nalgebra::Vector2;
 
 impl Assembly<'_> {
@@ -187,24 +188,21 @@ pub fn planning_particles(
 }
 
 /// Says how many particles the plans leave out beyond the field, when that
-/// number changes, naming the nearest.
+/// number changes, naming the one nearest its edge.
 fn warn_of_particles_beyond(beyond: &[(usize, [f64; 2], f64)], field_m: [f64; 2]) {
     let topic = format!("beyond the field {field_m:?}");
     if !changed(topic, beyond.len().to_string()) || beyond.is_empty() {
         return;
     }
-    let centre = [field_m[0] / 2.0, field_m[1] / 2.0];
-    let distance = |c: &[f64; 2]| (c[0] - centre[0]).hypot(c[1] - centre[1]);
+    let distance = |c: &[f64; 2]| beyond_field_m(field_m, Vector2::from(*c));
     let nearest = beyond
         .iter()
         .min_by(|a, b| distance(&a.1).total_cmp(&distance(&b.1)));
     if let Some((id, c, _)) = nearest {
-        let count = match beyond.len() {
-            1 => "1 particle lies".to_owned(),
-            n => format!("{n} particles lie"),
-        };
+        let verb = if beyond.len() == 1 { "lies" } else { "lie" };
         tracing::warn!(
-            "{count} beyond the {:.1} x {:.1} um field and out of the plans (no push reaches them); the nearest is particle {id} at ({:.1}, {:.1}) um",
+            "{} {verb} beyond the {:.1} x {:.1} um field and out of the plans (no push reaches them); the nearest is particle {id} at ({:.1}, {:.1}) um",
+            counted(beyond.len(), "particle"),
             field_m[0] * UM_PER_M,
             field_m[1] * UM_PER_M,
             c[0] * UM_PER_M,

@@ -72,7 +72,7 @@ pub struct Assignment {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AssignmentError {
     /// More sites than particles.
-    #[error("{sites} sites but only {particles} particles: cannot fill the pattern")]
+    #[error("{sites} sites but only {}: cannot fill the pattern", crate::wording::counted(*particles, "particle"))]
     TooFewParticles {
         /// Number of sites.
         sites: usize,
