@@ -335,16 +335,21 @@ fn kill_and_resume(kill_after: usize) {
     let at_kill = SimState::load(&out.join("sim-state.json")).unwrap();
     let placed = on_site(&particles(&at_kill), &sites_m);
 
+    // A crash mid-write leaves half a line: the resume says so, and cuts it off.
+    let mut file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&journal)
+        .unwrap();
+    std::io::Write::write_all(&mut file, b"{\"seq\": 99999, \"t_s\"").unwrap();
+    drop(file);
     let resumed = binary()
         .current_dir(&out)
         .args(["assemble", "--json", "--resume", journal.to_str().unwrap()])
         .output()
         .unwrap();
-    assert!(
-        resumed.status.success(),
-        "resume failed: {}",
-        String::from_utf8_lossy(&resumed.stderr)
-    );
+    let stderr = String::from_utf8_lossy(&resumed.stderr);
+    assert!(resumed.status.success(), "resume failed: {stderr}");
+    assert!(stderr.contains("its last line was cut off"), "{stderr}");
     // No entry lost: the old lines are still there, byte for byte, and the
     // whole journal reads back with a gap-free sequence.
     let after = complete_lines(&journal);

@@ -120,6 +120,26 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         ),
         (frame.iter().map(|s| s.to_string()).collect(), "c.toml"),
     ];
+    // Synthetic layouts: negative numbers reach the checks, and a layout of
+    // no particle is refused (it was written, exit 0).
+    let synth_out = dir.path().join("synth.json");
+    let synth = |more: &[&str]| -> Vec<String> {
+        let out = synth_out.to_str().unwrap();
+        let head = ["synth", "layout", "--out", out];
+        head.iter().chain(more).map(|s| s.to_string()).collect()
+    };
+    let cases = cases.into_iter().chain([
+        (synth(&["--n", "5", "--radius-um", "-5"]), "radius_um is -5"),
+        (
+            synth(&["--n", "5", "--min-gap-um", "-1"]),
+            "min_gap_um is -1",
+        ),
+        (
+            synth(&["--n", "5", "--field-um", "-120x100"]),
+            "width_um is -1",
+        ),
+        (synth(&["--n", "0"]), "at least one particle"),
+    ]);
     for (args, expect) in cases {
         let refs: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
         let (ok, text) = nanopush(&refs);
@@ -129,6 +149,7 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
             "{args:?}: expected {expect:?} in {text}"
         );
     }
+    assert!(!synth_out.exists(), "a refused layout was written");
     let negative = write_layout(
         dir.path(),
         "neg.json",
@@ -847,6 +868,27 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
     assert_eq!(centres_um(&found).len(), 5);
     let (ok, text) = nanopush(&["verify-plan", &path(&plan), "--layout", &path(&found)]);
     assert!(ok, "{text}");
+    // A plan refused still leaves the layout of what was found, and says so.
+    let (refused, kept) = (
+        dir.path().join("refused.json"),
+        dir.path().join("kept.json"),
+    );
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--text",
+        "HI",
+        "--frame",
+        &path(&frame),
+        "--calib",
+        &path(&fixture.join("calibration.toml")),
+        "--save-layout",
+        &path(&kept),
+        "--out",
+        &path(&refused),
+    ]);
+    assert!(!ok && text.contains("written before planning"), "{text}");
+    assert_eq!(centres_um(&kept).len(), 5);
+    assert!(!refused.exists());
     // The calibration: x_um = 0.588235 x_px, y_um = 294.1176 - 0.588235 y_px.
     let to_px = |x_um: f64, y_um: f64| (x_um / 0.588235, (294.1176 - y_um) / 0.588235);
     let plan_json: serde_json::Value =

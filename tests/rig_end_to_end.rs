@@ -1060,3 +1060,53 @@ fn a_dry_run_with_a_coarse_stage_moves_neither_stage_and_logs_both() {
         "no nanostage move logged"
     );
 }
+
+/// `--record` on a rig writes a recording the dry-run replays: its first
+/// plan is the run's first decision (the flag had been ignored on a rig
+/// without a word).
+#[test]
+fn a_rig_run_is_recorded_and_its_recording_replays() {
+    let b = bench(50.0);
+    let rec = b.dir.path().join("rec");
+    let out = finish(
+        b.assemble(
+            "recorded",
+            &["--dry-run", "--record", rec.to_str().unwrap()],
+        ),
+        RUN_LIMIT,
+    );
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let events = journal_events(&b.dir.path().join("recorded"));
+    let observations = events.iter().filter(|e| e["kind"] == "observation").count();
+    let decision = events
+        .iter()
+        .find(|e| e["kind"] == "decision")
+        .expect("a decision");
+    assert!(rec.join("scene.toml").is_file(), "no scene recorded");
+    let dry = b.dir.path().join("dry");
+    let o = nanopush()
+        .args(["dry-run", "--json", "--recording"])
+        .arg(&rec)
+        .arg("--out")
+        .arg(&dry)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let frames = report["frames"].as_array().unwrap();
+    assert_eq!(frames.len(), observations);
+    let planned = frames
+        .iter()
+        .map(|f| &f["command"])
+        .find(|c| c["kind"] == "push")
+        .expect("a push commanded");
+    assert_eq!(planned["particle"], decision["particle"]);
+    let xy = |v: &serde_json::Value| [v[0].as_f64().unwrap(), v[1].as_f64().unwrap()];
+    for key in ["from_um", "to_um"] {
+        let (a, b) = (xy(&planned[key]), xy(&decision[key]));
+        assert!(
+            (a[0] - b[0]).hypot(a[1] - b[1]) < 1e-6,
+            "{key}: {a:?} vs {b:?}"
+        );
+    }
+}

@@ -12,7 +12,7 @@ use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, wri
 use crate::exec::assemble::{
     Assembly, AssemblySettings, FanOut, FrameSink, FrameView, PushRecord, RunEnd,
 };
-use crate::exec::events::RunEvent;
+use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
@@ -63,8 +63,11 @@ pub struct Args {
     /// and world are the journal's).
     #[arg(long, conflicts_with_all = ["text", "pattern", "pitch_um", "rotation_deg", "at", "layout", "scene", "seed", "particles"])]
     pub resume: Option<PathBuf>,
-    /// Also write a recording of the run (frames, stage log, calibration) to this folder.
-    #[arg(long)]
+    /// Also write a recording of the run (frames, stage log, calibration,
+    /// scene) to this folder, for `nanopush dry-run`; on the simulated rig
+    /// or a real one. Not with --resume: a recording holds a run from its
+    /// start (a resumed run's --record had been ignored without a word).
+    #[arg(long, conflicts_with = "resume")]
     pub record: Option<PathBuf>,
     /// Fault injection (tests): frames the camera drops, counted from 0.
     #[arg(long, hide = true, value_delimiter = ',')]
@@ -149,34 +152,11 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         spec,
         mut rig,
     } = prepare_sim_run(&request(args)?)?;
-    let mut recorder = match &args.record {
-        Some(dir) => Some(RecordingWriter::create(
-            dir,
-            RecordingSpec {
-                schema: String::new(),
-                source: format!(
-                    "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
-                    spec.pattern, spec.seed, args.particles
-                ),
-                frames: String::new(),
-                calibration: String::new(),
-                particle_radius_um: spec.radius_um,
-                frame_interval_s: None,
-                stage_log: None,
-                sites_um: Some(spec.sites_um.clone()),
-                pattern_text: None,
-                pattern: None,
-                field_um: Some([layout.field_m[0] * 1e6, layout.field_m[1] * 1e6]),
-                scene: None,
-                detect_tip: true,
-                channel: Default::default(),
-            },
-            rig.calibration(),
-            std::fs::read_to_string(&args.scene).ok().as_deref(),
-        )
-        .with_context(|| format!("--record {}", dir.display()))?),
-        None => None,
-    };
+    let source = format!(
+        "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
+        spec.pattern, spec.seed, args.particles
+    );
+    let mut recorder = open_recorder(args, source, &spec, layout.field_m, rig.calibration())?;
     // The journal comes last: a journal holding no run could not be resumed
     // and would block this --out.
     std::fs::create_dir_all(&args.out)
@@ -207,6 +187,42 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
     }
     animation.finish().context("writing the animation")?;
     finish(run, &rig, &scene, &args.out, &journal_path)
+}
+
+/// The recording `--record` asks for, made before the journal (a set-up
+/// failure leaves the same command free to run again): the run's sites,
+/// field, calibration and scene (its text, the built-in copy's when the
+/// run used that), described by `source`.
+pub(super) fn open_recorder(
+    args: &Args,
+    source: String,
+    spec: &RunSpec,
+    field_m: [f64; 2],
+    calibration: &CameraCalibration,
+) -> anyhow::Result<Option<RecordingWriter>> {
+    let Some(dir) = &args.record else {
+        return Ok(None);
+    };
+    let description = RecordingSpec {
+        schema: String::new(),
+        source,
+        frames: String::new(),
+        calibration: String::new(),
+        particle_radius_um: spec.radius_um,
+        frame_interval_s: None,
+        stage_log: None,
+        sites_um: Some(spec.sites_um.clone()),
+        pattern_text: None,
+        pattern: None,
+        field_um: Some(field_m.map(|v| v * 1e6)),
+        scene: None,
+        detect_tip: true,
+        channel: Default::default(),
+    };
+    let scene = crate::model::scene::scene_text(&args.scene).ok();
+    RecordingWriter::create(dir, description, calibration, scene.as_deref())
+        .map(Some)
+        .with_context(|| format!("--record {}", dir.display()))
 }
 
 fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {

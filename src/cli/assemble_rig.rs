@@ -28,7 +28,7 @@
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
-use super::assemble::{Args, write_sites};
+use super::assemble::{Args, open_recorder, write_sites};
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
@@ -331,11 +331,24 @@ fn assemble(
         perception,
         settings: settings.clone(),
     };
+    let source = format!(
+        "nanopush assemble on the rig {}: pattern {:?}",
+        rig_file.display(),
+        spec.pattern
+    );
+    let mut recorder = open_recorder(args, source, &spec, settings.field_m, &calibration)?;
     // Created only now, when the run spec is known: a journal without one
     // (the first frame failed, say) would block this --out for nothing.
     let journal = JournalWriter::create(journal_path)
         .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
-    let ran = RunResult::of(Assembly::start(rig, inputs, journal, spec)?);
+    let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
+    if let Some(r) = recorder.as_mut() {
+        assembly = assembly.with_sink(r);
+    }
+    let ran = RunResult::of(assembly);
+    if let Some(r) = recorder {
+        r.finish().context("writing the recording")?;
+    }
     finish_run(ran, rig, &args.out, scene, &settings, journal_path)
 }
 

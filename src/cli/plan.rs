@@ -49,7 +49,8 @@ pub struct Args {
     pub channel: Option<Channel>,
     /// With --frame: write the particles found as a layout file (what
     /// `verify-plan --layout` replays the plan on), those the frame's edge
-    /// cuts marked immovable.
+    /// cuts marked immovable; written before planning, so a refused plan
+    /// leaves it too.
     #[arg(long)]
     pub save_layout: Option<PathBuf>,
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
@@ -122,8 +123,16 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         layout: found.layout,
         immovable: [found.cut_by_edge, found.beside_probe].concat(),
     };
+    // Written before planning: a refused plan still leaves what the frame
+    // showed, and says so (it had been left without a word).
     if let Some(path) = &args.save_layout {
         marked.write(path)?;
+        if !args.json {
+            eprintln!(
+                "the particles found are in {} (written before planning)",
+                path.display()
+            );
+        }
     }
     Ok(Particles {
         marked,

@@ -4,7 +4,8 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_measured, planning_particles,
+    AssemblySettings, FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_measured,
+    planning_particles,
 };
 use super::camera_look::warn_of_pieces;
 use super::events::SeenParticle;
@@ -12,7 +13,7 @@ use super::observe::{ObserveError, Perception};
 use super::particle_sizes::ParticleSizes;
 use super::recording::{RECORDING_FILE, Recording, RecordingError};
 use super::recording_check::{check_sites_in_field, sites_of};
-use super::tracker::Tracker;
+use super::tracker::{Moved, Tracker};
 use crate::model::Scene;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
@@ -155,6 +156,7 @@ pub fn dry_run(
     let mut sites: Option<Vec<Site>> = None;
     let mut field_m = [0.0, 0.0];
     let mut frames = Vec::new();
+    let mut commanded: Option<Moved> = None;
     for (i, recorded) in recording.frames()?.enumerate() {
         let recorded = recorded?;
         let mut camera = Replay(Some(TimedFrame {
@@ -172,7 +174,14 @@ pub fn dry_run(
             .as_ref()
             .and_then(|log| log[i].stage_um)
             .map(|p| [p[0] * 1e-6, p[1] * 1e-6, p[2] * 1e-6]);
-        tracker.update(&sighting.particles, &[], &|x, y| sighting.shows(x, y));
+        // The push the last frame commanded is taken as made, as the loop
+        // takes its own: the particle is matched along its line. Matched
+        // as unpushed, a particle pushed out from under the probe got a
+        // new id, and its old place stayed behind as a ghost the planner
+        // pushed.
+        tracker.update(&sighting.particles, commanded.as_slice(), &|x, y| {
+            sighting.shows(x, y)
+        });
         if sites.is_none() {
             warn_of_pieces(
                 "first frame",
@@ -247,6 +256,19 @@ pub fn dry_run(
             repaired_lines: sighting.repaired_lines,
             clipped: sighting.exposure.clipped(),
         };
+        commanded = match outcome.command {
+            DryCommand::Push {
+                particle,
+                from_um,
+                to_um,
+                ..
+            } => Some(Moved {
+                id: particle,
+                from: from_um.map(|v| v * 1e-6),
+                to: to_um.map(|v| v * 1e-6),
+            }),
+            _ => None,
+        };
         on_frame(&outcome, sites.len());
         frames.push(outcome);
     }
@@ -261,9 +283,14 @@ pub fn dry_run(
 /// The planner's settings without the tip: the scene's push speed (1 um/s
 /// without a scene).
 fn plan_config(scene: Option<&Scene>) -> PlanConfig {
+    // The loop's own tip travel speed: at the planner's default (10 um/s,
+    // not the loop's 50) the tour weighed travel more and chose other
+    // orders than the loop's.
+    let loop_settings = AssemblySettings::default();
     PlanConfig {
-        on_site_tolerance_m: PLACED_TOLERANCE_M,
+        on_site_tolerance_m: loop_settings.placed_tolerance_m,
         push_speed_m_per_s: scene.map_or(1e-6, |s| s.push.speed_m_per_s),
+        travel_speed_m_per_s: loop_settings.travel_speed_m_per_s,
         ..PlanConfig::default()
     }
 }

@@ -92,6 +92,12 @@ impl JournalWriter {
         path: &Path,
     ) -> Result<(Self, JournalContents<E>), JournalError> {
         let contents = read_journal::<E>(path)?;
+        if contents.truncated_tail {
+            tracing::warn!(
+                "{}: its last line was cut off (a crash while it was written); it is dropped, and the run goes on from the line before",
+                path.display()
+            );
+        }
         let io = |source| JournalError::Io {
             path: path.to_owned(),
             source,

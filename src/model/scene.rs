@@ -308,19 +308,25 @@ pub fn built_in_scene_paths() -> impl Iterator<Item = &'static str> {
     BUILT_IN_SCENES.iter().map(|(path, _)| *path)
 }
 
+/// The text of the scene file at `path`, or of the built-in copy when a
+/// built-in scene's path is not there (a command run from another folder):
+/// what [`Scene::load`] reads, and what a recording keeps of the scene
+/// (a run outside the project folder had recorded none).
+pub fn scene_text(path: &Path) -> Result<String, ModelError> {
+    if !path.exists()
+        && let Some((_, text)) = BUILT_IN_SCENES.iter().find(|(p, _)| path == Path::new(p))
+    {
+        return Ok((*text).to_owned());
+    }
+    std::fs::read_to_string(path).map_err(|e| ModelError::SceneText(format!("cannot read: {e}")))
+}
+
 impl Scene {
     /// Reads and validates a scene file. A built-in scene's path falls back
     /// to the built-in copy when it is not there (a command run from another
     /// folder).
     pub fn load(path: &Path) -> Result<Scene, ModelError> {
-        if !path.exists()
-            && let Some((_, text)) = BUILT_IN_SCENES.iter().find(|(p, _)| path == Path::new(p))
-        {
-            return Scene::from_toml_str(text);
-        }
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ModelError::SceneText(format!("cannot read: {e}")))?;
-        Scene::from_toml_str(&text)
+        Scene::from_toml_str(&scene_text(path)?)
     }
 
     /// Parses and validates scene TOML text.

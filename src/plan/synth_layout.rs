@@ -62,6 +62,9 @@ pub enum SynthError {
     /// Bad parameter.
     #[error(transparent)]
     Bad(#[from] super::layout::LayoutError),
+    /// No particle asked for: a layout of none plans nothing.
+    #[error("a layout needs at least one particle (n is 0)")]
+    NoParticles,
     /// More particles than any packing holds.
     #[error(
         "{n} particles of radius {r_um:.3} um at least {gap_um:.3} um apart cannot fit in {w_um:.1} x {h_um:.1} um: no packing holds more than {most} (ask for fewer particles, a larger field or a smaller gap)"
@@ -121,6 +124,9 @@ pub fn synth_layout(p: &SynthParams) -> Result<Layout, SynthError> {
     check_finite("field height_um", p.field_m[1] * 1e6, Sign::Positive)?;
     check_finite("radius_um", p.radius_m * 1e6, Sign::Positive)?;
     check_finite("min_gap_um", p.min_gap_m * 1e6, Sign::NonNegative)?;
+    if p.n == 0 {
+        return Err(SynthError::NoParticles);
+    }
     let [w, h] = p.field_m;
     let rmin = p.radius_m * if p.polydisperse { 0.85 } else { 1.0 };
     let most = most_that_fit(w - 2.0 * rmin, h - 2.0 * rmin, 2.0 * rmin + p.min_gap_m);

@@ -72,11 +72,17 @@ impl SiteList {
         for (i, s) in self.sites.iter().enumerate() {
             for (name, v) in [("x_um", s.x_um), ("y_um", s.y_um)] {
                 if !coordinate_in_range(v) {
+                    // NaN had been told it was not within a metre.
+                    let why = if v.is_finite() {
+                        format!(
+                            "is not within {MAX_COORDINATE_UM:e} um (a metre) of the origin: site lists are in micrometres"
+                        )
+                    } else {
+                        "is not a number: give each site's x_um and y_um in micrometres".to_owned()
+                    };
                     return Err(PatternError::File {
                         path: origin.into(),
-                        message: format!(
-                            "site {i}: {name} = {v:e} is not within {MAX_COORDINATE_UM:e} um (a metre) of the origin: site lists are in micrometres"
-                        ),
+                        message: format!("site {i}: {name} = {v:e} {why}"),
                     });
                 }
             }
@@ -139,6 +145,12 @@ mod tests {
             "{message}"
         );
         assert!(message.len() < 200, "{message}");
+        let nan = SiteList::parse("sites = [{ x_um = nan, y_um = 0.0 }]", true, "nan.toml")
+            .unwrap()
+            .to_pattern("nan.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(nan.contains("site 0: x_um = NaN is not a number"), "{nan}");
         let near = SiteList::parse(
             "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 5.0, y_um = 1e6 }]",
             true,
