@@ -136,7 +136,7 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         ),
         (
             synth(&["--n", "5", "--field-um", "-120x100"]),
-            "width_um is -1",
+            "width_um is -120 (must",
         ),
         (synth(&["--n", "0"]), "at least one particle"),
     ]);

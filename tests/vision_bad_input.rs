@@ -371,10 +371,10 @@ fn study_vision_refuses_what_it_cannot_study() {
     assert!(table.with_extension("md").is_file() && table.with_extension("json").is_file());
 }
 
-/// `detect` on a folder of frames says which one it looked at (before,
+/// `detect` on a folder of frames, or a TIFF stack, says which one it looked at (before,
 /// it took the first silently, after reading every one).
 #[test]
-fn detect_on_a_folder_names_the_frame_it_reads() {
+fn detect_on_a_folder_or_a_stack_names_the_frame_it_reads() {
     let folder = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/fixtures/recordings/sim-L-seed6/frames"
@@ -387,6 +387,37 @@ fn detect_on_a_folder_names_the_frame_it_reads() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("detecting on its first image of 4, frame_00000.png"),
+        "{stderr}"
+    );
+    // So does a TIFF stack, of its first page.
+    let dir = tempfile::tempdir().unwrap();
+    let stack = dir.path().join("stack.tif");
+    let frames = nanopush::vision::frame_input::load_frames(
+        std::path::Path::new(folder),
+        nanopush::vision::frame_input::Channel::Luminance,
+    )
+    .unwrap();
+    let mut encoder =
+        tiff::encoder::TiffEncoder::new(std::fs::File::create(&stack).unwrap()).unwrap();
+    for f in &frames[..3] {
+        let page: Vec<u16> = f.pixels().iter().map(|&p| p as u16).collect();
+        encoder
+            .write_image::<tiff::encoder::colortype::Gray16>(
+                f.width() as u32,
+                f.height() as u32,
+                &page,
+            )
+            .unwrap();
+    }
+    drop(encoder);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .args(["detect", stack.to_str().unwrap(), "--no-tip"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("detecting on its first page of 3 (a TIFF stack)"),
         "{stderr}"
     );
 }

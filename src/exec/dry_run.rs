@@ -280,8 +280,9 @@ pub fn dry_run(
     })
 }
 
-/// The planner's settings without the tip: the scene's push speed (1 um/s
-/// without a scene).
+/// The planner's settings without the tip, as the loop's: its placed
+/// tolerance and travel speed, the scene's push speed (1 um/s without a
+/// scene).
 fn plan_config(scene: Option<&Scene>) -> PlanConfig {
     // The loop's own tip travel speed: at the planner's default (10 um/s,
     // not the loop's 50) the tour weighed travel more and chose other

@@ -85,7 +85,7 @@ pub enum LayoutError {
         found: String,
     },
     /// A value is NaN, infinite, negative or zero where it must be positive.
-    #[error("layout: {what} is {value} (must be finite{needs})")]
+    #[error("layout: {what} is {} (must be finite{needs})", short_text(*value))]
     BadValue {
         /// Which value, e.g. "particle 3 radius_um".
         what: String,
@@ -217,6 +217,22 @@ pub(crate) fn um_text(value: f64, decimals: usize) -> String {
         format!("{value:.decimals$}")
     } else {
         format!("{value:.3e}")
+    }
+}
+
+/// `value` as a person wrote it: six decimals at most, trailing zeros
+/// dropped, exponent form when that would hide it ("-120", not the
+/// "-119.99999999999999" a width in um took through metres and back).
+fn short_text(value: f64) -> String {
+    let tiny = value != 0.0 && value.abs() < 1e-6;
+    if !value.is_finite() || tiny || value.abs() >= 1e9 {
+        return format!("{value:e}");
+    }
+    let fixed = format!("{value:.6}");
+    let trimmed = fixed.trim_end_matches('0').trim_end_matches('.');
+    match trimmed {
+        "-0" => "0".to_owned(),
+        t => t.to_owned(),
     }
 }
 
@@ -537,6 +553,24 @@ fn write_text(path: &Path, text: &str) -> Result<(), LayoutError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A bad value reads as it was written, not as its trip through metres.
+    #[test]
+    fn bad_values_are_written_short() {
+        let cases = [
+            (-119.99999999999999, "-120"),
+            (-5.0, "-5"),
+            (0.25, "0.25"),
+            (-0.0, "0"),
+            (1e-12, "1e-12"),
+            (3e12, "3e12"),
+            (f64::NAN, "NaN"),
+            (f64::NEG_INFINITY, "-inf"),
+        ];
+        for (value, text) in cases {
+            assert_eq!(short_text(value), text, "{value}");
+        }
+    }
 
     fn sample() -> Layout {
         Layout {

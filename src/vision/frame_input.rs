@@ -123,8 +123,9 @@ fn extension(path: &Path) -> String {
         .to_ascii_lowercase()
 }
 
-/// Which of several frames [`load_frame`] reads from `path`, when it may
-/// hold several (a folder, a video), for a command to say so.
+/// Which of several frames [`load_frame`] reads from `path`, when it holds
+/// several (a folder, a video, a TIFF stack), for a command to say so (a
+/// stack's first page had been taken without a word).
 pub fn first_of_several(path: &Path) -> Option<String> {
     if path.is_dir() {
         let files = image_files(path).ok()?;
@@ -132,6 +133,11 @@ pub fn first_of_several(path: &Path) -> Option<String> {
         Some(format!("its first image of {}, {name}", files.len()))
     } else if is_video(path) {
         Some("its first frame (a video)".into())
+    } else if matches!(extension(path).as_str(), "tif" | "tiff") {
+        let pages = FrameStream::open(path, Channel::Luminance)
+            .ok()?
+            .stated_len()?;
+        (pages > 1).then(|| format!("its first page of {pages} (a TIFF stack)"))
     } else {
         None
     }
