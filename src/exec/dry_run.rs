@@ -8,6 +8,7 @@ use super::assemble::{
     planning_particles,
 };
 use super::camera_look::warn_of_pieces;
+use super::dry_run_plan::kept_plan;
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::particle_sizes::ParticleSizes;
@@ -19,7 +20,7 @@ use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::{PatternRequest, PatternSource};
 use crate::plan::placement::PlacementGoal;
-use crate::plan::{Layout, PlanConfig, Site, Step, plan_assembly};
+use crate::plan::{Layout, Plan, PlanConfig, Site, Step, plan_assembly};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::exposure::Exposure;
@@ -157,6 +158,7 @@ pub fn dry_run(
     let mut field_m = [0.0, 0.0];
     let mut frames = Vec::new();
     let mut commanded: Option<Moved> = None;
+    let mut in_hand: Option<Plan> = None;
     for (i, recorded) in recording.frames()?.enumerate() {
         let recorded = recorded?;
         let mut camera = Replay(Some(TimedFrame {
@@ -227,7 +229,8 @@ pub fn dry_run(
             (DryCommand::Done, Vec::new())
         } else {
             next_command(
-                tracker.tracks(),
+                &tracker,
+                (&mut in_hand, commanded),
                 sites,
                 field_m,
                 sighting.tip_m,
@@ -360,7 +363,8 @@ fn target_sites(
 
 /// Plans from the tracks and names the first push (with the model's choice).
 fn next_command(
-    tracks: &[super::tracker::Track],
+    tracker: &Tracker,
+    (in_hand, commanded): (&mut Option<Plan>, Option<Moved>),
     sites: &[Site],
     field_m: [f64; 2],
     tip_m: Option<[f64; 2]>,
@@ -369,6 +373,7 @@ fn next_command(
 ) -> (DryCommand, Vec<PlannedPush>) {
     // As the loop does: the particles' measured sizes, the scene's (or 5
     // um) before any is seen.
+    let tracks = tracker.tracks();
     let sizes = ParticleSizes::of(tracks, scene.map_or(5e-6, |s| s.particle_radius_m));
     let layout = Layout {
         field_m,
@@ -378,7 +383,8 @@ fn next_command(
         tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),
         ..plan_config(scene)
     };
-    let plan = match plan_assembly(&layout, sites, &config) {
+    let kept = kept_plan(in_hand.take(), commanded, tracker, &layout, &config);
+    let plan = match kept.map_or_else(|| plan_assembly(&layout, sites, &config), Ok) {
         Ok(p) => p,
         Err(e) => {
             return (
@@ -389,6 +395,7 @@ fn next_command(
             );
         }
     };
+    *in_hand = Some(plan.clone());
     let pushes: Vec<(u32, PlannedPush)> = plan
         .steps
         .iter()

@@ -6,6 +6,7 @@ pub mod assemble;
 pub mod camera_look;
 pub mod drift;
 pub mod dry_run;
+mod dry_run_plan;
 pub mod events;
 pub mod frame_layout;
 pub mod journal;

@@ -1,0 +1,63 @@
+//! The dry-run's plan in hand, kept as the loop keeps its own
+//! ([`super::assemble`]): the push commanded last leaves it when the next
+//! frame shows it placed (or unmoved); a push that lost contact is made
+//! again from where its particle lies; one the recording does not show made
+//! drops the plan; the rest is kept while, moved onto
+//! the particles seen, it still verifies. Planned afresh every frame, the
+//! dry-run had commanded other orders than the loop whenever the planner
+//! chose differently from the particles' new places.
+
+use super::assemble::AssemblySettings;
+use super::push_check::{CheckTolerances, PushCheck, check_push};
+use super::tracker::{Moved, Tracker};
+use crate::plan::rebase::{rebase_plan, without_first_push};
+use crate::plan::{Layout, Plan, PlanConfig, verify_plan};
+
+/// The plan in hand after the frame `tracker` has just seen: `None` when
+/// there was none, or when it no longer fits the particles of `layout`.
+pub(super) fn kept_plan(
+    in_hand: Option<Plan>,
+    commanded: Option<Moved>,
+    tracker: &Tracker,
+    layout: &Layout,
+    config: &PlanConfig,
+) -> Option<Plan> {
+    let plan = in_hand?;
+    let settings = AssemblySettings::default();
+    let tolerances = CheckTolerances {
+        placed_m: settings.placed_tolerance_m,
+        off_line_m: settings.off_line_tolerance_m,
+    };
+    let mut repushed = None;
+    let plan = match commanded {
+        None => plan,
+        Some(m) => {
+            let seen = tracker
+                .track(m.id)
+                .filter(|t| t.missed_frames == 0)
+                .map(|t| [t.last.x_m, t.last.y_m]);
+            let distance = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+            let long = distance(m.from, m.to) > tolerances.placed_m;
+            if long && seen.is_some_and(|at| distance(at, m.from) <= tolerances.placed_m) {
+                // The recorded run did not make this push (the frame 0
+                // plan, made before the loop's first, or another order):
+                // plan from what it did.
+                return None;
+            }
+            match seen.map(|at| check_push(m.from, m.to, at, &tolerances)) {
+                Some(PushCheck::Placed { .. } | PushCheck::Unmoved { .. }) => {
+                    without_first_push(&plan)
+                }
+                Some(check) => {
+                    if check.lost_contact() {
+                        repushed = Some(m.id as u32);
+                    }
+                    plan
+                }
+                None => plan,
+            }
+        }
+    };
+    let rebased = rebase_plan(&plan, layout, settings.keep_plan_shift_m, repushed).ok()?;
+    verify_plan(&rebased, layout, config).ok.then_some(rebased)
+}
