@@ -32,11 +32,6 @@ use serde::{Deserialize, Serialize};
 /// Schema of `dry-run.json`.
 pub const DRY_RUN_SCHEMA: &str = "nanopush.dry-run/1";
 
-/// A particle this close to its site counts as placed (the loop's default).
-const PLACED_TOLERANCE_M: f64 = 0.2e-6;
-/// Tracking gate (the loop's default).
-const TRACK_GATE_M: f64 = 4e-6;
-
 /// What the loop would command after one frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -153,7 +148,9 @@ pub fn dry_run(
     let radius_m = recording.spec.particle_radius_um * 1e-6;
     let calibration = recording.calibration;
     let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
-    let mut tracker = Tracker::new(TRACK_GATE_M);
+    // The loop's own tracking gate and placed tolerance.
+    let loop_settings = AssemblySettings::default();
+    let mut tracker = Tracker::new(loop_settings.track_gate_m);
     let mut sites: Option<Vec<Site>> = None;
     let mut field_m = [0.0, 0.0];
     let mut frames = Vec::new();
@@ -221,7 +218,7 @@ pub fn dry_run(
             .filter(|s| {
                 tracks.iter().any(|t| {
                     (t.x_um * 1e-6 - s.centre_m.x).hypot(t.y_um * 1e-6 - s.centre_m.y)
-                        <= PLACED_TOLERANCE_M
+                        <= loop_settings.placed_tolerance_m
                 })
             })
             .count();

@@ -8,7 +8,7 @@
 //! chose differently from the particles' new places.
 
 use super::assemble::AssemblySettings;
-use super::push_check::{CheckTolerances, PushCheck, check_push};
+use super::push_check::check_push;
 use super::tracker::{Moved, Tracker};
 use crate::plan::rebase::{rebase_plan, without_first_push};
 use crate::plan::{Layout, Plan, PlanConfig, verify_plan};
@@ -24,10 +24,7 @@ pub(super) fn kept_plan(
 ) -> Option<Plan> {
     let plan = in_hand?;
     let settings = AssemblySettings::default();
-    let tolerances = CheckTolerances {
-        placed_m: settings.placed_tolerance_m,
-        off_line_m: settings.off_line_tolerance_m,
-    };
+    let tolerances = settings.check_tolerances();
     let mut repushed = None;
     let plan = match commanded {
         None => plan,
@@ -45,9 +42,7 @@ pub(super) fn kept_plan(
                 return None;
             }
             match seen.map(|at| check_push(m.from, m.to, at, &tolerances)) {
-                Some(PushCheck::Placed { .. } | PushCheck::Unmoved { .. }) => {
-                    without_first_push(&plan)
-                }
+                Some(check) if check.completes_step() => without_first_push(&plan),
                 Some(check) => {
                     if check.lost_contact() {
                         repushed = Some(m.id as u32);

@@ -33,6 +33,12 @@ pub enum PushCheck {
 }
 
 impl PushCheck {
+    /// True when the push is done with: its step leaves the plan in hand
+    /// (placed, or a push under the tolerance that did nothing).
+    pub fn completes_step(&self) -> bool {
+        matches!(self, PushCheck::Placed { .. } | PushCheck::Unmoved { .. })
+    }
+
     /// True for the outcomes that mean the tip lost the particle.
     pub fn lost_contact(&self) -> bool {
         matches!(

@@ -94,6 +94,14 @@ impl AssemblySettings {
         }
     }
 
+    /// What a push's check holds it to: the placed and off-line tolerances.
+    pub fn check_tolerances(&self) -> CheckTolerances {
+        CheckTolerances {
+            placed_m: self.placed_tolerance_m,
+            off_line_m: self.off_line_tolerance_m,
+        }
+    }
+
     /// The planner's settings for a run: the scene's pushing speed, the
     /// executor's travel speed and placement tolerance (so the plan that
     /// places the pattern and the loop's plans agree on what is placed and
@@ -623,12 +631,9 @@ impl<'a> Assembly<'a> {
             .track(intent.particle)
             .filter(|t| t.missed_frames == 0)
             .map(|t| [t.last.x_m, t.last.y_m]);
-        let tol = CheckTolerances {
-            placed_m: self.settings.placed_tolerance_m,
-            off_line_m: self.settings.off_line_tolerance_m,
-        };
-        let (result, error_nm, lost) = match seen {
-            None => ("unseen".to_owned(), 0.0, false),
+        let tol = self.settings.check_tolerances();
+        let (result, error_nm, lost, completes) = match seen {
+            None => ("unseen".to_owned(), 0.0, false, false),
             Some(at) => {
                 let c = check_push(intent.from, intent.to, at, &tol);
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
@@ -639,13 +644,18 @@ impl<'a> Assembly<'a> {
                     PushCheck::LeftLine { .. } => "left-line",
                     PushCheck::Overshot { .. } => "overshot",
                 };
-                (name.to_owned(), error_nm, c.lost_contact())
+                (
+                    name.to_owned(),
+                    error_nm,
+                    c.lost_contact(),
+                    c.completes_step(),
+                )
             }
         };
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
         }
-        if result == "placed" || result == "unmoved" {
+        if completes {
             self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
         }
         if result == "unmoved" {
