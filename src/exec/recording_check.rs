@@ -8,7 +8,7 @@ use super::recording::{RecordingError, RecordingSpec, StageLogEntry};
 use crate::plan::layout::{UM_PER_M, um_text};
 use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
 use crate::vision::frame::check_one_size;
-use crate::vision::frame_input::{Channel, load_frame};
+use crate::vision::frame_input::{Channel, file_name_text, load_frame};
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
 
@@ -134,13 +134,10 @@ pub(super) fn check_frame_sizes(
             path: frames_path.to_owned(),
             message: e.to_string(),
         })?;
-    check_one_size(&sizes, |k| file_name(&files[k])).map_err(|message| RecordingError::Mismatch {
-        path: frames_path.to_owned(),
-        message,
+    check_one_size(&sizes, |k| file_name_text(&files[k])).map_err(|message| {
+        RecordingError::Mismatch {
+            path: frames_path.to_owned(),
+            message,
+        }
     })
-}
-
-fn file_name(file: &Path) -> String {
-    file.file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
 }

@@ -116,6 +116,18 @@ pub(super) fn is_video(path: &Path) -> bool {
     VIDEO_EXTENSIONS.contains(&extension(path).as_str())
 }
 
+/// The last part of `path` as text ("" when it has none): what a frame
+/// from that file is called.
+pub fn file_name_text(path: &Path) -> String {
+    path.file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+}
+
+/// True for a file name ending in `.tif` or `.tiff` (a stack, maybe).
+pub(super) fn is_tiff(path: &Path) -> bool {
+    matches!(extension(path).as_str(), "tif" | "tiff")
+}
+
 fn extension(path: &Path) -> String {
     path.extension()
         .and_then(|e| e.to_str())
@@ -133,7 +145,7 @@ pub fn first_of_several(path: &Path) -> Option<String> {
         Some(format!("its first image of {}, {name}", files.len()))
     } else if is_video(path) {
         Some("its first frame (a video)".into())
-    } else if matches!(extension(path).as_str(), "tif" | "tiff") {
+    } else if is_tiff(path) {
         let pages = FrameStream::open(path, Channel::Luminance)
             .ok()?
             .stated_len()?;

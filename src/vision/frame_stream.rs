@@ -13,8 +13,8 @@ use opencv::videoio::VideoCapture;
 
 use super::frame::Frame;
 use super::frame_input::{
-    Channel, FrameInputError, decode_error, image_files, is_video, load_frame, mat_to_frame,
-    quietly,
+    Channel, FrameInputError, decode_error, file_name_text, image_files, is_tiff, is_video,
+    load_frame, mat_to_frame, quietly,
 };
 use super::tiff_fallback;
 
@@ -99,9 +99,7 @@ impl FrameStream {
         };
         Ok(Self {
             path: path.to_owned(),
-            name: path
-                .file_name()
-                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            name: file_name_text(path),
             channel,
             source,
             read: 0,
@@ -150,10 +148,7 @@ impl FrameStream {
         match &mut self.source {
             Source::Files(files) => {
                 let file = files.get(i)?;
-                let name = file
-                    .file_name()
-                    .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-                Some(load_frame(file, self.channel).map(|f| (f, name)))
+                Some(load_frame(file, self.channel).map(|f| (f, file_name_text(file))))
             }
             // A video is always named with its frame's number: a one-frame
             // video is still one frame of a video.
@@ -231,12 +226,6 @@ impl Iterator for FrameStream {
         self.read += 1;
         Some(Ok(NamedFrame { frame, name }))
     }
-}
-
-fn is_tiff(path: &Path) -> bool {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("tif") || e.eq_ignore_ascii_case("tiff"))
 }
 
 const ANY_DEPTH_OR_COLOUR: i32 =
