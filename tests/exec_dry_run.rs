@@ -800,12 +800,12 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
 }
 
 /// A camera that sees beyond the field (here the calibration puts the
-/// frame's left 80 um at negative x): the particles there are left out of
-/// the plans, with a warning, and the others are planned. Every frame's
+/// frame's left 80 um at negative x): the particles there are obstacles
+/// no plan pushes, with a warning, and the others are planned. Every frame's
 /// plan had been refused whole: "particle 2 at (-43.473, 87.954) um lies
 /// outside the 120.0 x 100.0 um field".
 #[test]
-fn particles_beyond_the_field_are_left_out_of_the_plans_not_refused() {
+fn particles_beyond_the_field_are_obstacles_of_the_plans_not_refused() {
     let dir = tempfile::tempdir().unwrap();
     let rec = dir.path().join("rec");
     copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);

@@ -679,6 +679,59 @@ fn a_saved_layout_holds_the_particle_the_frames_edge_cuts() {
     assert!(ok, "{text}");
 }
 
+/// A frame whose calibration puts its left 30 um at negative x: the
+/// particles there are obstacles, counted apart, never pushed, and marked
+/// in the saved layout, which reads back and plans and replays the same.
+/// `plan --frame` had panicked (the ids of the cut particles were taken
+/// by index from a layout that had left those beyond the field out).
+#[test]
+fn a_frame_reaching_beyond_the_field_plans_round_what_lies_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, calib, found] = frame_files(dir.path());
+    let plan = dir.path().join("plan.json").to_str().unwrap().to_string();
+    run_line(&format!(
+        "synth layout --n 40 --field-um 120x100 --seed 2 --out {truth}"
+    ));
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
+    ));
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.5, 0.0, -30.0], [0.0, 0.5, 0.0]]\n",
+    )
+    .unwrap();
+    let truth = nanopush::plan::Layout::read(Path::new(&truth)).unwrap();
+    // Beyond two radii outside: centres below x = -10 um on the stage.
+    let beyond = (truth.particles.iter())
+        .filter(|p| p.centre_m.x - 30e-6 < -2.0 * p.radius_m)
+        .count();
+    assert!(beyond >= 2, "the scene has {beyond} beyond the field");
+    let line = format!(
+        "plan --text L --frame {frame} --calib {calib} --save-layout {found} --out {plan} --json"
+    );
+    let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+    assert!(ok, "{text}");
+    // The summary (stdout), without the warnings after it (stderr).
+    let summary: serde_json::Value = serde_json::Deserializer::from_str(&text)
+        .into_iter()
+        .next()
+        .unwrap()
+        .unwrap();
+    assert_eq!(summary["particles_beyond_field"], beyond, "{text}");
+    assert_eq!(summary["verified"], true, "{text}");
+    let saved = nanopush::plan::layout::MarkedLayout::read(Path::new(&found)).unwrap();
+    let ids = saved.layout.beyond_field_ids();
+    assert_eq!(ids.len(), beyond);
+    for id in &ids {
+        assert!(saved.immovable.contains(id), "{id} is not marked");
+        assert_eq!(pushes_of(&plan, u64::from(*id)), 0, "{id} is pushed");
+    }
+    let (ok, text) = nanopush(&["verify-plan", &plan, "--layout", &found]);
+    assert!(ok, "{text}");
+    let (ok, text) = nanopush(&["plan", "--text", "L", "--layout", &found, "--json"]);
+    assert!(ok, "{text}");
+}
+
 /// `plan --frame` lays a spread batch (radii 5 % apart) out with each
 /// particle's measured size, as the rig's first frame is: every particle
 /// at least 1 um clear of the others within 0.1 um of its true radius.

@@ -105,6 +105,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
             tip_start_m: None,
             seen_in: None,
             beside_probe: 0,
+            beyond_field: 0,
         });
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
@@ -116,12 +117,15 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     let radius_um = args.radius_um.unwrap_or(DEFAULT_RADIUS_UM);
     let found = layout_from_frame(frame.clone(), &calibration, radius_um * 1e-6)
         .with_context(|| format!("frame {}", frame_path.display()))?;
-    // The cut particles and those beside the probe marked, so that a plan
-    // from the saved layout, and its replay, hold them as this one does.
+    // The cut particles, those beside the probe and those beyond the field
+    // marked, so that a plan from the saved layout, and its replay, hold
+    // them as this one does.
     let beside_probe = found.beside_probe.len();
+    let beyond = found.layout.beyond_field_ids();
+    let beyond_field = beyond.len();
     let marked = MarkedLayout {
         layout: found.layout,
-        immovable: [found.cut_by_edge, found.beside_probe].concat(),
+        immovable: [found.cut_by_edge, found.beside_probe, beyond].concat(),
     };
     // Written before planning: a refused plan still leaves what the frame
     // showed, and says so (it had been left without a word).
@@ -139,6 +143,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         tip_start_m: found.tip_m,
         seen_in: Some((frame, calibration)),
         beside_probe,
+        beyond_field,
     })
 }
 
@@ -151,9 +156,10 @@ struct Particles {
     tip_start_m: Option<nalgebra::Vector2<f64>>,
     /// The frame the particles were found in, and its calibration.
     seen_in: Option<(Frame, CameraCalibration)>,
-    /// How many of the obstacles a frame shows lie beside the probe (the
-    /// rest are cut by its edge).
+    /// How many of the obstacles a frame shows lie beside the probe.
     beside_probe: usize,
+    /// How many lie beyond the field (the rest are cut by its edge).
+    beyond_field: usize,
 }
 
 /// Refuses, before anything is read or written, outputs that would replace
@@ -186,6 +192,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tip_start_m,
         seen_in,
         beside_probe,
+        beyond_field,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
     if radius <= 0.0 {
@@ -252,8 +259,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let held = config.immovable.len();
     if args.frame.is_some() {
         summary["particles_found"] = (layout.particles.len() - held).into();
-        summary["particles_cut_by_edge"] = (held - beside_probe).into();
+        summary["particles_cut_by_edge"] = (held - beside_probe - beyond_field).into();
         summary["particles_beside_probe"] = beside_probe.into();
+        summary["particles_beyond_field"] = beyond_field.into();
     } else {
         summary["particles_immovable"] = held.into();
     }
@@ -262,10 +270,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         let s = &plan.summary;
         if args.frame.is_some() {
+            let beyond = match beyond_field {
+                0 => String::new(),
+                n => format!(", +{n} beyond the field"),
+            };
             println!(
-                "particles found  {} (+{} cut by the frame's edge, +{beside_probe} beside the probe: obstacles, not pushed)",
+                "particles found  {} (+{} cut by the frame's edge, +{beside_probe} beside the probe{beyond}: obstacles, not pushed)",
                 layout.particles.len() - held,
-                held - beside_probe,
+                held - beside_probe - beyond_field,
             );
         } else if held > 0 {
             println!("immovable        {held} (marked in the layout: obstacles, not pushed)");

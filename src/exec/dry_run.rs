@@ -339,9 +339,9 @@ fn target_sites(
     let pattern = request
         .pattern_for_batch(radius_m, &radii, &area)
         .map_err(|e| target(format!("{from}{e}")))?;
-    // Counted in the field: particles beyond it are left out of the plans.
+    // Counted in the field: particles beyond it are never pushed.
     let layout = layout_measured(field_m, first, radius_m);
-    let held = layout.particles.len();
+    let held = layout.particles.len() - layout.beyond_field_ids().len();
     if pattern.offsets_m.len() > held {
         let beyond = match first.len().saturating_sub(held) {
             0 => String::new(),

@@ -95,7 +95,7 @@ pub fn layout_from_frame(
     // tracks in is a diameter in from each edge, and a pattern as wide as
     // the frame less its discs' clearance did not fit).
     let layout = layout_measured(sighting.frame_m[1], &seen, radius_m);
-    layout.validate()?;
+    layout.validate_holding(&layout.beyond_field_ids())?;
     let ids = |from: usize, n: usize| {
         layout.particles[from..from + n]
             .iter()

@@ -279,8 +279,17 @@ pub(crate) fn check_finite(what: &str, value: f64, sign: Sign) -> Result<(), Lay
 }
 
 impl Layout {
-    /// Checks every value is finite, radii positive, ids unique and no two particles overlap.
+    /// Checks every value is finite, radii positive, ids unique, no two
+    /// particles overlap and each lies in the field (at most two radii
+    /// beyond an edge).
     pub fn validate(&self) -> Result<(), LayoutError> {
+        self.validate_holding(&[])
+    }
+
+    /// [`Layout::validate`], with the particles `held` (obstacles never
+    /// pushed) allowed anywhere beyond the field: a camera sees past the
+    /// nanostage's range, and what it sees there is in the tip's way.
+    pub fn validate_holding(&self, held: &[u32]) -> Result<(), LayoutError> {
         check_finite("field width_um", self.field_m[0] * UM_PER_M, Sign::Positive)?;
         check_finite(
             "field height_um",
@@ -318,7 +327,9 @@ impl Layout {
             if !ids.insert(p.id) {
                 return Err(LayoutError::DuplicateId(p.id));
             }
-            self.check_in_field(p)?;
+            if !held.contains(&p.id) {
+                self.check_in_field(p)?;
+            }
         }
         let grid = crate::plan::grid::Grid::new(
             self.particles.iter().map(|p| p.centre_m),
@@ -371,6 +382,15 @@ impl Layout {
             return Err(LayoutError::SiteOutsideField(self.off_field(site.id, c)));
         }
         Ok(())
+    }
+
+    /// The ids of the particles centred farther beyond the field than a
+    /// push may start ([`may_lie_in_field`]): obstacles, held where they are.
+    pub fn beyond_field_ids(&self) -> Vec<u32> {
+        (self.particles.iter())
+            .filter(|p| !may_lie_in_field(self.field_m, p.centre_m, p.radius_m))
+            .map(|p| p.id)
+            .collect()
     }
 
     /// The error payload for `id` at `c`, in um.
@@ -502,7 +522,7 @@ impl MarkedLayout {
                 })
                 .collect(),
         };
-        layout.validate()?;
+        layout.validate_holding(&immovable)?;
         Ok(MarkedLayout { layout, immovable })
     }
 

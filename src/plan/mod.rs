@@ -391,6 +391,15 @@ pub fn plan_assembly(
     sites: &[Site],
     config: &PlanConfig,
 ) -> Result<Plan, PlanError> {
+    // A particle beyond the field (a camera sees past the nanostage's
+    // range) is never pushed, but the tip landing behind one at the
+    // field's edge may hit it: it stays, as an obstacle.
+    let mut immovable = layout.beyond_field_ids();
+    immovable.retain(|id| !config.immovable.contains(id));
+    let config = &PlanConfig {
+        immovable: [&config.immovable[..], &immovable].concat(),
+        ..config.clone()
+    };
     let first = plan_at_standoff(layout, sites, config);
     let Err(PlanError::Blocked(_)) = first else {
         return first;
@@ -441,7 +450,7 @@ fn plan_at_standoff(
 ) -> Result<Plan, PlanError> {
     let t0 = Instant::now();
     config.validate()?;
-    layout.validate()?;
+    layout.validate_holding(&config.immovable)?;
     if sites.is_empty() {
         return Err(pattern::PatternError::Empty("no site to fill".into()).into());
     }
@@ -948,6 +957,40 @@ mod tests {
                 "{err}"
             );
         }
+    }
+
+    /// A particle beyond the field (a camera sees past the nanostage) is
+    /// never pushed, and the tip keeps clear of it: landing behind the
+    /// particle at the field's edge for the straight push to its site, it
+    /// would hit the one 1 um behind that.
+    #[test]
+    fn a_particle_beyond_the_field_is_an_obstacle_not_pushed() {
+        let mut layout = Layout::of_test_centres_um(&[(1.0, 50.0), (-10.5, 50.0)]);
+        layout.field_m = [100e-6, 100e-6];
+        assert_eq!(layout.beyond_field_ids(), [1]);
+        assert!(layout.validate().is_err(), "a file holding it is refused");
+        let sites = [Site {
+            id: 0,
+            centre_m: Vector2::new(50.0, 50.0) * 1e-6,
+        }];
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&layout, &sites, &config).unwrap();
+        let report = verify_plan(&plan, &layout, &config);
+        assert!(report.ok, "{}", report.summary());
+        assert!(
+            plan.steps
+                .iter()
+                .filter_map(Step::push_move)
+                .all(|(p, ..)| p != 1),
+            "{:?}",
+            plan.steps
+        );
+        // Without it, the plan's tip lands in it.
+        let mut without = layout.clone();
+        without.particles.remove(1);
+        let blind = plan_assembly(&without, &sites, &config).unwrap();
+        let report = verify_plan(&blind, &layout, &config);
+        assert!(!report.collisions.is_empty(), "{}", report.summary());
     }
 
     /// A plan within the goal is kept without a second order; one above it

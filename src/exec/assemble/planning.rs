@@ -161,9 +161,10 @@ impl Assembly<'_> {
 /// Each particle has its size from `sizes`. Radii are capped so
 /// that no two discs overlap: touching spheres cannot, so a few nanometres
 /// of apparent overlap must not make the layout invalid. A particle
-/// farther outside `field_m` than a layout may hold is left out, with a
-/// warning when their number changes: a camera that sees beyond the
-/// nanostage's range had made every plan refuse the whole layout.
+/// farther outside `field_m` than a push may start is said once (when
+/// their number changes): the planner holds it as an obstacle
+/// (`Layout::beyond_field_ids`). Left out, it had been in the way of a
+/// tip landing behind a particle at the field's edge.
 pub fn planning_particles(
     tracks: &[Track],
     sizes: &ParticleSizes,
@@ -172,7 +173,7 @@ pub fn planning_particles(
     let overlaps = |a: &Track, b: &Track| {
         (a.last.x_m - b.last.x_m).hypot(a.last.y_m - b.last.y_m) < a.last.radius_m + b.last.radius_m
     };
-    let (seen, beyond): (Vec<_>, Vec<_>) = tracks
+    let seen: Vec<_> = tracks
         .iter()
         .filter(|t| t.missed_frames < 3)
         .filter(|t| {
@@ -182,14 +183,17 @@ pub fn planning_particles(
                     .any(|u| u.id != t.id && u.missed_frames == 0 && overlaps(t, u))
         })
         .map(|t| (t.id, [t.last.x_m, t.last.y_m], sizes.radius_m(t)))
-        .partition(|&(_, c, r)| may_lie_in_field(field_m, Vector2::from(c), r));
+        .collect();
+    let beyond: Vec<_> = (seen.iter())
+        .filter(|&&(_, c, r)| !may_lie_in_field(field_m, Vector2::from(c), r))
+        .collect();
     warn_of_particles_beyond(&beyond, field_m);
     particles_seen(&seen)
 }
 
-/// Says how many particles the plans leave out beyond the field, when that
-/// number changes, naming the one nearest its edge.
-fn warn_of_particles_beyond(beyond: &[(usize, [f64; 2], f64)], field_m: [f64; 2]) {
+/// Says how many particles lie beyond the field, when that number
+/// changes, naming the one nearest its edge.
+fn warn_of_particles_beyond(beyond: &[&(usize, [f64; 2], f64)], field_m: [f64; 2]) {
     let topic = format!("beyond the field {field_m:?}");
     if !changed(topic, beyond.len().to_string()) || beyond.is_empty() {
         return;
@@ -201,7 +205,7 @@ fn warn_of_particles_beyond(beyond: &[(usize, [f64; 2], f64)], field_m: [f64; 2]
     if let Some((id, c, _)) = nearest {
         let verb = if beyond.len() == 1 { "lies" } else { "lie" };
         tracing::warn!(
-            "{} {verb} beyond the {:.1} x {:.1} um field and out of the plans (no push reaches them); the nearest is particle {id} at ({:.1}, {:.1}) um",
+            "{} {verb} beyond the {:.1} x {:.1} um field, where no push reaches: the plans keep clear of them; the nearest is particle {id} at ({:.1}, {:.1}) um",
             counted(beyond.len(), "particle"),
             field_m[0] * UM_PER_M,
             field_m[1] * UM_PER_M,
@@ -284,11 +288,11 @@ mod tests {
         }
     }
 
-    /// A particle centred up to two radii beyond the field's edge is held
-    /// (a frame's edge may cut it); one farther out, or missed for three
-    /// frames, is left out.
+    /// Every particle seen lies in the planner's layout, those beyond the
+    /// field too (its obstacles, `Layout::beyond_field_ids`); one missed
+    /// for three frames is left out.
     #[test]
-    fn particles_beyond_the_field_are_left_out() {
+    fn particles_beyond_the_field_stay_as_obstacles() {
         let at = |x_um: f64, y_um: f64| Observation {
             x_m: x_um * 1e-6,
             y_m: y_um * 1e-6,
@@ -307,11 +311,13 @@ mod tests {
             tracker.update(&seen[..4], &[], &|_, _| true);
         }
         let sizes = ParticleSizes::of(tracker.tracks(), 5e-6);
-        let held: Vec<u32> = planning_particles(tracker.tracks(), &sizes, [100e-6, 100e-6])
-            .iter()
-            .map(|p| p.id)
-            .collect();
-        assert_eq!(held, [0, 1]);
+        let layout = Layout {
+            field_m: [100e-6, 100e-6],
+            particles: planning_particles(tracker.tracks(), &sizes, [100e-6, 100e-6]),
+        };
+        let held: Vec<u32> = layout.particles.iter().map(|p| p.id).collect();
+        assert_eq!(held, [0, 1, 2, 3]);
+        assert_eq!(layout.beyond_field_ids(), [2, 3]);
     }
 
     /// Particles of their own sizes, 5.2 and 4.8 um, seen 9.99 um apart
