@@ -6,6 +6,7 @@
 //! [`exec`] (asks [`model`] for contact angle and push duration) -> [`rig`].
 //! The [`cli`] module is a thin layer over these.
 
+pub mod byte_order_mark;
 pub mod calib;
 pub mod cli;
 pub mod exec;

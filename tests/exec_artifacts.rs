@@ -352,6 +352,28 @@ fn a_record_folder_that_cannot_be_made_leaves_out_unwritten_and_retryable() {
     }
 }
 
+/// An --out that holds a run, or is a file, is refused before the
+/// --record folder is made: made first, it had refused the corrected
+/// command ("already holds recording.toml").
+#[test]
+fn an_out_holding_a_run_is_refused_before_the_recording_is_made() {
+    let (_, out, _) = run();
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let o = assemble_recorded(out, &rec);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("journal.jsonl exists"), "{err}");
+    assert!(!rec.exists(), "{err}");
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "notes").unwrap();
+    let o = assemble_recorded(&file, &rec);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("is a file: give a folder"), "{err}");
+    assert!(!rec.exists(), "{err}");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "notes");
+}
+
 #[test]
 fn resuming_a_finished_run_is_refused_and_leaves_its_journal_alone() {
     let (_, out, _) = run();

@@ -284,6 +284,70 @@ fn particles(state: &SimState) -> Vec<(usize, f64, f64)> {
         .collect()
 }
 
+/// Ctrl-C (SIGINT) part way: the run stops as a run stops, its journal
+/// ending "stopped", its report and animation written, the error saying
+/// how to go on; resumed so, it fills every site. It had ended without a
+/// word, leaving neither.
+#[test]
+fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out: PathBuf = dir.path().join("run");
+    let journal = out.join("journal.jsonl");
+    let child = binary()
+        .args(["assemble", "--out", out.to_str().unwrap()])
+        .args(RUN)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while complete_lines(&journal).len() < 30 {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the journal never reached 30 lines"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    let go_on = format!(
+        "go on with it: nanopush assemble --resume {}",
+        journal.display()
+    );
+    assert!(
+        stderr.contains("interrupted by the user (Ctrl-C)"),
+        "{stderr}"
+    );
+    assert!(stderr.contains(&go_on), "{stderr}");
+    let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
+    assert!(
+        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason } if reason.contains("Ctrl-C")),
+        "{:?}",
+        entries.last()
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert!(
+        report["outcome"].as_str().unwrap().contains("Ctrl-C"),
+        "{report}"
+    );
+    assert!(out.join("run.mp4").is_file());
+    let resumed = binary()
+        .args(["assemble", "--json", "--resume", journal.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&resumed.stderr);
+    assert!(resumed.status.success(), "resume failed: {stderr}");
+    let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
+    assert_eq!(entries.last().unwrap().event, RunEvent::Done);
+}
+
 /// Kills `assemble` once its journal has `kill_after` lines, then resumes it.
 fn kill_and_resume(kill_after: usize) {
     let dir = tempfile::tempdir().unwrap();

@@ -722,6 +722,21 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("interrupted"), "{stderr}");
     assert!(!b.moving(), "the stage was left moving");
+    // The run stops as a run stops: journalled, reported, and the error
+    // says how to go on (it had been a "stage fault" with no report).
+    assert!(
+        stderr.contains("go on with it: nanopush assemble --rig"),
+        "{stderr}"
+    );
+    let stopped = b.dir.path().join("interrupted");
+    let report = std::fs::read_to_string(stopped.join("report.json")).unwrap();
+    assert!(
+        report.contains("interrupted by the user (Ctrl-C)"),
+        "{report}"
+    );
+    let journal = std::fs::read_to_string(stopped.join("journal.jsonl")).unwrap();
+    let last = journal.lines().last().unwrap();
+    assert!(last.contains("\"kind\":\"stopped\""), "{last}");
     let here = b.positions_um();
     let target: Vec<f64> = target
         .iter()

@@ -25,6 +25,7 @@ use crate::model::Scene;
 use crate::plan::Site;
 use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
+use crate::rig::interrupt::ctrlc_flag;
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
 use crate::vision::frame_input::save_png;
@@ -55,7 +56,7 @@ pub struct Args {
     /// next to its journal, so not with --resume).
     #[arg(long, default_value = "out/assemble", conflicts_with = "resume")]
     pub out: PathBuf,
-    /// Print the report as one JSON object.
+    /// Print the report as one JSON object (what report.json holds).
     #[arg(long)]
     pub json: bool,
     /// Continue the run whose journal this is: on the same simulated world,
@@ -108,12 +109,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => args.out.clone(),
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json_summary(&report))?);
+        println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print_summary(&report, &out);
     }
     if report.outcome != "done" {
-        bail!("assembly did not finish: {}", report.outcome);
+        bail!(
+            "assembly did not finish: {}; go on with it: nanopush assemble --resume {}",
+            report.outcome,
+            out.join(JOURNAL).display()
+        );
     }
     Ok(())
 }
@@ -156,12 +161,12 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
         spec.pattern, spec.seed, args.particles
     );
+    let journal_path = check_out_free(&args.out)?;
     let mut recorder = open_recorder(args, source, &spec, layout.field_m, rig.calibration())?;
     // The journal comes last: a journal holding no run could not be resumed
     // and would block this --out.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let journal_path = args.out.join(JOURNAL);
     let journal = JournalWriter::create(&journal_path).with_context(|| {
         format!(
             "{} exists: use --resume {0} or another --out",
@@ -169,6 +174,7 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
         )
     })?;
     rig.persist_to(args.out.join(SIM_STATE))?;
+    rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
@@ -187,6 +193,23 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
     }
     animation.finish().context("writing the animation")?;
     finish(run, &rig, &scene, &args.out, &journal_path)
+}
+
+/// The journal a new run in `out` writes, refused before anything is
+/// written when `out` is a file or holds a run already (a `--record`
+/// folder made first had then blocked the corrected command).
+pub(super) fn check_out_free(out: &Path) -> anyhow::Result<PathBuf> {
+    if out.exists() && !out.is_dir() {
+        bail!("--out {} is a file: give a folder", out.display());
+    }
+    let journal = out.join(JOURNAL);
+    if journal.exists() {
+        bail!(
+            "{} exists: use --resume {0} or another --out",
+            journal.display()
+        );
+    }
+    Ok(journal)
 }
 
 /// The recording `--record` asks for, made before the journal (a set-up
@@ -250,6 +273,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let mut rig = build_sim_rig(&scene, &layout, spec.seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
+    rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
@@ -442,26 +466,6 @@ impl FrameSink for Progress {
                 .set_message(format!("pushing particle {}", p.particle));
         }
     }
-}
-
-fn json_summary(r: &AssemblyReport) -> serde_json::Value {
-    serde_json::json!({
-        "sites": r.sites,
-        "filled": r.filled,
-        "rms_error_nm": r.rms_error_nm,
-        "max_error_nm": r.max_error_nm,
-        "pushes": r.pushes,
-        "repushes": r.repushes,
-        "lost_contacts_detected": r.lost_contacts_detected,
-        "lost_contacts_missed": r.lost_contacts_missed,
-        "time_s": r.time_s,
-        "lower_bound_s": r.lower_bound_s,
-        "active_effects": r.active_effects,
-        "repaired_lines": r.repaired_lines,
-        "clipped_frames": r.clipped_frames,
-        "left_short": r.left_short,
-        "outcome": r.outcome,
-    })
 }
 
 fn print_summary(r: &AssemblyReport, out: &Path) {

@@ -28,7 +28,7 @@
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
-use super::assemble::{Args, open_recorder, write_sites};
+use super::assemble::{Args, check_out_free, open_recorder, write_sites};
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
@@ -71,7 +71,6 @@ pub struct RigArgs {
     pub yes_move_hardware: bool,
 }
 
-const JOURNAL: &str = "journal.jsonl";
 const SENT_BYTES: &str = "sent-bytes.log";
 const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
 
@@ -106,6 +105,11 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => new_start(args)?,
     };
     let (RigStart::New { journal_path, .. } | RigStart::Resume { journal_path, .. }) = &start;
+    let go_on = format!(
+        "go on with it: nanopush assemble --rig {} --resume {}",
+        rig_path.display(),
+        journal_path.display()
+    );
     let out = journal_path
         .parent()
         .unwrap_or(Path::new("."))
@@ -162,9 +166,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .interrupt_flag()
         .load(std::sync::atomic::Ordering::SeqCst)
     {
-        bail!("interrupted: the stage was halted");
+        bail!("interrupted: the stage was halted; {go_on}");
     }
-    check_end(&end, hw.dry_run)
+    check_end(&end, hw.dry_run, &go_on)
 }
 
 /// A new run's scene, pattern and journal, checked before the rig is opened.
@@ -175,10 +179,7 @@ fn new_start(args: &Args) -> anyhow::Result<RigStart> {
     // Checked before the rig is opened; built again for the batch the
     // first frame shows.
     target.pattern(scene.particle_radius_m)?;
-    let journal_path = args.out.join(JOURNAL);
-    if journal_path.exists() {
-        bail!("{} exists: use another --out", journal_path.display());
-    }
+    let journal_path = check_out_free(&args.out)?;
     Ok(RigStart::New {
         scene,
         target,
@@ -209,14 +210,14 @@ fn resume_start(journal: &Path, dry_run: bool) -> anyhow::Result<RigStart> {
 
 /// Fails unless every site was filled, or a dry run spent its one push (it
 /// stops there by design); any other end, a stage error above all, is a
-/// non-zero exit even though the journal and report are written.
-fn check_end(end: &RunEnd, dry_run: bool) -> anyhow::Result<()> {
+/// non-zero exit even though the journal and report are written, saying
+/// how to `go_on` (a dry run is not resumed).
+fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
+    let reason = end.reason().unwrap_or_default();
     match (end, dry_run) {
         (RunEnd::Done, _) | (RunEnd::PushesSpent(_), true) => Ok(()),
-        (end, _) => bail!(
-            "assembly did not finish: stopped: {}",
-            end.reason().unwrap_or_default()
-        ),
+        (_, true) => bail!("assembly did not finish: stopped: {reason}"),
+        (_, false) => bail!("assembly did not finish: stopped: {reason}; {go_on}"),
     }
 }
 
@@ -569,11 +570,14 @@ mod tests {
     #[test]
     fn a_dry_run_fails_on_a_stage_error_and_passes_on_its_one_push() {
         let stage = RunEnd::Stopped("rig error: stage did not answer within 10000 ms".into());
-        let err = check_end(&stage, true).unwrap_err().to_string();
+        let go_on = "go on with it: nanopush assemble --rig R --resume J";
+        let err = check_end(&stage, true, go_on).unwrap_err().to_string();
         assert!(err.contains("did not answer within 10000 ms"), "{err}");
-        assert!(check_end(&stage, false).is_err());
-        assert!(check_end(&RunEnd::PushesSpent(1), true).is_ok());
-        assert!(check_end(&RunEnd::PushesSpent(40), false).is_err());
-        assert!(check_end(&RunEnd::Done, false).is_ok());
+        assert!(!err.contains(go_on), "a dry run is not resumed: {err}");
+        let err = check_end(&stage, false, go_on).unwrap_err().to_string();
+        assert!(err.ends_with(go_on), "{err}");
+        assert!(check_end(&RunEnd::PushesSpent(1), true, go_on).is_ok());
+        assert!(check_end(&RunEnd::PushesSpent(40), false, go_on).is_err());
+        assert!(check_end(&RunEnd::Done, false, go_on).is_ok());
     }
 }

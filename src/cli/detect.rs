@@ -191,7 +191,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let diameter_px = match (args.diameter_px, args.radius_um, &calib) {
         (Some(d), _, _) => d,
         (None, Some(r), Some(c)) => diameter_from_radius(r, c.m_per_px())?,
-        _ => DetectSettings::default().diameter_px,
+        _ => {
+            // Said, since a frame of particles 40 px across found 1 of 48
+            // at the default without a word.
+            let d = DetectSettings::default().diameter_px;
+            eprintln!(
+                "size hint: the default {d} px across (give --diameter-px, or --calib with --radius-um, for particles of another size)"
+            );
+            d
+        }
     };
     let tip_settings = (!args.no_tip).then(TipSettings::default);
     let places_only = matches!(
@@ -254,7 +262,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
-        println!("{} particles", doc.particles.len());
+        println!(
+            "{}",
+            crate::wording::counted(doc.particles.len(), "particle")
+        );
         // With --calib, where each lies on the stage too.
         let on_stage = |x: Option<f64>, y: Option<f64>| match (x, y) {
             (Some(x), Some(y)) => format!("  at ({x:.3}, {y:.3}) um"),

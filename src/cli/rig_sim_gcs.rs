@@ -12,7 +12,8 @@
 use crate::exec::sim_run::layout_for;
 use crate::model::Scene;
 use crate::plan::Layout;
-use crate::rig::gcs::{RigFile, SimAxisConfig, SimConfig, SimServer, interrupt};
+use crate::rig::gcs::{RigFile, SimAxisConfig, SimConfig, SimServer};
+use crate::rig::interrupt;
 use crate::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
 use anyhow::Context;
 use std::io::Write;

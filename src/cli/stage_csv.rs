@@ -25,7 +25,7 @@ const HEADER: [&str; 3] = ["frame", "x_um", "y_um"];
 /// Parses stage.csv text; errors name the line.
 pub fn parse_stage_csv(text: &str) -> anyhow::Result<Vec<StageRow>> {
     // A spreadsheet's UTF-8 export starts with a byte-order mark.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::byte_order_mark::without_bom(text);
     // A spreadsheet whose locale writes decimal commas separates fields
     // with semicolons: the header says which.
     let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");

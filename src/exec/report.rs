@@ -189,8 +189,11 @@ impl AssemblyReport {
             .collect()
     }
 
-    /// "site 24 by particle 14 (264 nm), ...: each given up on near its
-    /// site, which it fills";
+    /// "site 24 by particle 14 (264 nm off by the camera when left), ...:
+    /// ...". The distance is the camera's at the time, not the site's error
+    /// at the end, and the particle was given up on or boxed in: the line
+    /// had said "given up on near its site, which it fills" beside a table
+    /// showing that site unfilled by the ground truth.
     /// None when no site was left short.
     pub fn left_short_summary(&self) -> Option<String> {
         let sites: Vec<String> = self
@@ -198,14 +201,14 @@ impl AssemblyReport {
             .iter()
             .map(|l| {
                 format!(
-                    "site {} by particle {} ({:.0} nm)",
+                    "site {} by particle {} ({:.0} nm off by the camera when left)",
                     l.site, l.particle, l.error_nm
                 )
             })
             .collect();
         (!sites.is_empty()).then(|| {
             format!(
-                "{}: each given up on near its site, which it fills",
+                "{}: each particle left alone near its site (given up on, or boxed in), and the site no longer planned for",
                 sites.join(", ")
             )
         })
@@ -692,7 +695,7 @@ mod tests {
             r.notes().first().map(|n| (n.0, n.1.as_str())),
             Some((
                 "left short",
-                "site 7 by particle 2 (180 nm), site 4 by particle 9 (310 nm): each given up on near its site, which it fills"
+                "site 7 by particle 2 (180 nm off by the camera when left), site 4 by particle 9 (310 nm off by the camera when left): each particle left alone near its site (given up on, or boxed in), and the site no longer planned for"
             ))
         );
         let text = serde_json::to_string(&r).unwrap();

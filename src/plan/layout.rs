@@ -489,6 +489,7 @@ impl MarkedLayout {
 
     /// Parses `nanopush.layout/1` JSON text and validates it; `origin` names the source in errors.
     pub fn from_json(text: &str, origin: &str) -> Result<Self, LayoutError> {
+        let text = crate::byte_order_mark::without_bom(text);
         let file: LayoutFile = serde_json::from_str(text).map_err(|source| LayoutError::Parse {
             path: origin.to_string(),
             source,
@@ -615,6 +616,9 @@ mod tests {
         let layout = sample();
         let back = Layout::from_json(&layout.to_json(), "mem").unwrap();
         assert_eq!(back.particles.len(), 2);
+        // Saved by a Windows editor, with a byte-order mark: the same.
+        let marked = format!("\u{feff}{}", layout.to_json());
+        assert_eq!(Layout::from_json(&marked, "mem").unwrap(), back);
         for (a, b) in layout.particles.iter().zip(&back.particles) {
             assert_eq!(a.id, b.id);
             assert!((a.centre_m - b.centre_m).norm() < 1e-15);

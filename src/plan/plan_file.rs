@@ -228,6 +228,7 @@ pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
 
 /// Parses `nanopush.plan/1` JSON; returns the plan and its geometry.
 pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanFileError> {
+    let text = crate::byte_order_mark::without_bom(text);
     let f: PlanJ = serde_json::from_str(text).map_err(|source| PlanFileError::Parse {
         path: origin.into(),
         source,
@@ -421,6 +422,17 @@ mod tests {
                 Err(e) => panic!("{angle} deg: {e}"),
             }
         }
+    }
+
+    /// A plan saved with a byte-order mark (a Windows editor's) reads as
+    /// without it: serde_json had refused it at "line 1 column 1".
+    #[test]
+    fn a_byte_order_mark_is_not_the_plan() {
+        let (doc, _) = one_push_document();
+        let text = doc.to_string();
+        let plain = from_json(&text, "plain").unwrap();
+        let marked = from_json(&format!("\u{feff}{text}"), "marked").unwrap();
+        assert_eq!(marked.0, plain.0);
     }
 
     /// A point a metre or more out is refused by step (its distances would

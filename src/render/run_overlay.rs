@@ -88,14 +88,37 @@ pub fn draw_run_frame(frame: &Frame, overlay: &RunOverlay, scale: f64) -> Result
                     .map_err(e)?;
             }
         }
-        if !overlay.caption.is_empty() {
-            let style = ("sans-serif", 14).into_font().color(&YELLOW);
-            root.draw(&Text::new(overlay.caption.clone(), (4, 4), style))
+        let style = ("sans-serif", 14).into_font().color(&YELLOW);
+        let fits = |line: &str| {
+            root.estimate_text_size(line, &style)
+                .is_ok_and(|(tw, _)| tw + 8 <= w)
+        };
+        for (i, line) in caption_lines(&overlay.caption, fits).iter().enumerate() {
+            let y = 4 + 16 * i as i32;
+            root.draw(&Text::new(line.clone(), (4, y), style.clone()))
                 .map_err(e)?;
         }
         root.present().map_err(e)?;
     }
     RgbImage::from_raw(w, h, buf).ok_or_else(|| "overlay buffer size".to_owned())
+}
+
+/// The caption's parts (separated by three spaces) gathered into lines
+/// that `fits` takes: a half-size run animation had cut "checking push of
+/// particle 12" off at its right edge. A part too long alone is a line of
+/// its own.
+fn caption_lines(caption: &str, fits: impl Fn(&str) -> bool) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for part in caption.split("   ").filter(|p| !p.is_empty()) {
+        match lines.last_mut() {
+            Some(line) if fits(&format!("{line}   {part}")) => {
+                line.push_str("   ");
+                line.push_str(part);
+            }
+            _ => lines.push(part.to_owned()),
+        }
+    }
+    lines
 }
 
 fn draw_arrow<DB: DrawingBackend>(
@@ -160,6 +183,43 @@ mod tests {
         assert!(has(PUSH, 30, 70, 74, 76), "push line along y = 75");
         assert!(has(TIP, 47, 53, 47, 53), "tip cross at (50, 50)");
         assert!(!has(PLAN, 0, 100, 0, 100), "no plan was given");
+    }
+
+    /// A caption wider than the frame goes on in lines below, each part
+    /// whole; in one line at 280 px, "checking push of particle 12" was cut.
+    #[test]
+    fn a_long_caption_is_wrapped_not_cut() {
+        let caption = "t 12.5 s   particles 48   sites filled 15/31   checking push of particle 12";
+        let lines = caption_lines(caption, |l| l.len() <= 40);
+        assert_eq!(
+            lines,
+            [
+                "t 12.5 s   particles 48",
+                "sites filled 15/31",
+                "checking push of particle 12"
+            ]
+        );
+        assert_eq!(caption_lines("a   b", |_| true), ["a   b"]);
+        assert_eq!(caption_lines("a long part", |_| false), ["a long part"]);
+        let overlay = RunOverlay {
+            caption: caption.to_owned(),
+            ..RunOverlay::default()
+        };
+        // Black: one bright pixel in a corner sets the stretch.
+        let mut px = vec![0.0f32; 560 * 560];
+        px[560 * 560 - 1] = 100.0;
+        let dark = Frame::new(560, 560, px, 8).unwrap();
+        let img = draw_run_frame(&dark, &overlay, 0.5).unwrap();
+        let yellow_in_rows = |y0: u32, y1: u32| {
+            (0..img.width()).any(|x| {
+                (y0..y1).any(|y| {
+                    let [r, g, b] = img.get_pixel(x, y).0;
+                    r > 150 && g > 150 && b < 60
+                })
+            })
+        };
+        assert!(yellow_in_rows(4, 18), "first line");
+        assert!(yellow_in_rows(20, 34), "second line");
     }
 
     #[test]

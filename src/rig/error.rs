@@ -27,6 +27,11 @@ pub enum RigError {
     /// nothing was moved.
     #[error("this rig has no coarse stage: move the sample by hand, or add one to the rig")]
     NoCoarseStage,
+    /// Ctrl-C was pressed ([`crate::rig::interrupt`]): the stage was halted
+    /// and nothing more is moved. A run stops on it as on any stop: it is
+    /// journalled and can be resumed (it had been a "stage fault", retried).
+    #[error("interrupted by the user (Ctrl-C); the stage was halted")]
+    Interrupted,
     /// The camera or another input could not be read.
     #[error("{0}")]
     Io(String),

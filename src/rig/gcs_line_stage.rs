@@ -265,6 +265,7 @@ impl GcsLineStage {
                 device: format!("stage {} (`{command}`)", self.endpoint),
                 timeout_ms: timeout.as_millis() as u64,
             },
+            GcsError::Interrupted => RigError::Interrupted,
             other => RigError::StageFault(other.to_string()),
         }
     }

@@ -100,7 +100,7 @@ pub struct HardwareRigOptions {
     /// move on a rig file with `real_hardware = true`.
     pub waive_confirmation: bool,
     /// The Ctrl-C flag; `None` installs the process's Ctrl-C handler
-    /// ([`gcs::interrupt::ctrlc_flag`]). Raising it halts the stage.
+    /// ([`crate::rig::interrupt::ctrlc_flag`]). Raising it halts the stage.
     pub interrupt: Option<Arc<AtomicBool>>,
     /// A camera to use instead of the rig file's (required for `kind = "simulated"`).
     pub camera: Option<BoxedCamera>,
@@ -233,7 +233,7 @@ impl RigDevices {
         };
         let interrupt = match opts.interrupt {
             Some(flag) => flag,
-            None => gcs::interrupt::ctrlc_flag()?,
+            None => crate::rig::interrupt::ctrlc_flag()?,
         };
         let (stage, sent_log) = gcs::open_stage(
             &rig,

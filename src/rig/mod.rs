@@ -15,6 +15,7 @@ pub mod gcs;
 pub mod gcs_coarse_stage;
 pub mod gcs_line_stage;
 pub mod hardware;
+pub mod interrupt;
 pub mod microscope_feeder;
 pub mod sim;
 pub mod stage;

@@ -149,6 +149,18 @@ pub enum ExecError {
     Rig(#[from] RigError),
 }
 
+impl ExecError {
+    /// The user pressed Ctrl-C ([`RigError::Interrupted`]), at the stage or
+    /// the camera.
+    pub fn is_interrupt(&self) -> bool {
+        matches!(
+            self,
+            ExecError::Rig(RigError::Interrupted)
+                | ExecError::Observe(ObserveError::Rig(RigError::Interrupted))
+        )
+    }
+}
+
 /// How a run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RunEnd {
@@ -425,6 +437,16 @@ impl<'a> Assembly<'a> {
 
     /// Runs the loop until every site is filled or it has to stop.
     pub fn run(&mut self) -> Result<RunEnd, ExecError> {
+        match self.cycles() {
+            Err(e) if e.is_interrupt() => {
+                self.stop(RunEnd::Stopped(RigError::Interrupted.to_string()))
+            }
+            ended => ended,
+        }
+    }
+
+    /// Looks, checks, plans and pushes until the run ends ([`Assembly::run`]).
+    fn cycles(&mut self) -> Result<RunEnd, ExecError> {
         if std::mem::take(&mut self.park_before_first_look) {
             self.park_at_start()?;
         }
@@ -477,6 +499,9 @@ impl<'a> Assembly<'a> {
                 Ok(()) => {
                     self.stage_faults = 0;
                     pending = Some(intent);
+                }
+                Err(PushError::Rig(RigError::Interrupted)) => {
+                    return Err(RigError::Interrupted.into());
                 }
                 Err(PushError::Rig(RigError::StageFault(why))) => {
                     self.recover_from_fault(why)?;

@@ -52,6 +52,7 @@ impl SiteList {
             path: origin.into(),
             message,
         };
+        let text = crate::byte_order_mark::without_bom(text);
         if is_toml {
             toml::from_str(text).map_err(|e| err(e.to_string()))
         } else if text.trim_start().starts_with('[') {
@@ -177,6 +178,12 @@ mod tests {
         assert!(json_arrays.contains("expected a map"), "{json_arrays}");
         let third = refused(r#"{"sites": [{"x_um": 0, "y_um": 0, "z_um": 4}]}"#, false);
         assert!(third.contains("`z_um`"), "{third}");
+        // A byte-order mark (a Windows editor's) is not the text.
+        let one = r#"{"sites": [{"x_um": 1, "y_um": 2}]}"#;
+        assert_eq!(
+            SiteList::parse(&format!("\u{feff}{one}"), false, "s").unwrap(),
+            SiteList::parse(one, false, "s").unwrap()
+        );
         let missing = refused("sites = [{ x_um = 1.0 }]", true);
         assert!(missing.contains("needs `y_um`"), "{missing}");
         let bare = refused(r#" [{"x_um": 0, "y_um": 0}]"#, false);

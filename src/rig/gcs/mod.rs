@@ -12,7 +12,6 @@ pub mod controller;
 pub mod controller_error;
 pub mod dry_run_link;
 pub mod error;
-pub mod interrupt;
 pub mod protocol;
 pub mod rig_file;
 pub mod safety;
@@ -90,7 +89,7 @@ fn connect_section(
 /// Opens the stage a rig file describes, behind all host-side checks: the
 /// first move asks for confirmation on real hardware unless `dry_run` or
 /// `waive_confirmation` (the explicit CLI flag); `interrupt` is the Ctrl-C
-/// flag (see [`interrupt::ctrlc_flag`]).
+/// flag (see [`crate::rig::interrupt::ctrlc_flag`]).
 pub fn open_stage(
     rig: &RigFile,
     dry_run: bool,

@@ -16,6 +16,8 @@ use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// How the simulated camera sees the nanostage's range.
 #[derive(Debug, Clone)]
@@ -67,6 +69,7 @@ pub struct SimRig {
     drop_frames: Vec<usize>,
     hidden: Vec<(usize, usize)>,
     persist_to: Option<PathBuf>,
+    interrupt: Option<Arc<AtomicBool>>,
 }
 
 impl SimRig {
@@ -80,6 +83,21 @@ impl SimRig {
             drop_frames: Vec::new(),
             hidden: Vec::new(),
             persist_to: None,
+            interrupt: None,
+        }
+    }
+
+    /// Refuses every frame and move once `flag` is raised (Ctrl-C,
+    /// [`crate::rig::interrupt`]), as a hardware stage does: the run then
+    /// stops, journalled and resumable. It had ended without a word.
+    pub fn stop_on(&mut self, flag: Arc<AtomicBool>) {
+        self.interrupt = Some(flag);
+    }
+
+    fn check_interrupt(&self) -> Result<(), RigError> {
+        match &self.interrupt {
+            Some(flag) if flag.load(Ordering::SeqCst) => Err(RigError::Interrupted),
+            _ => Ok(()),
         }
     }
 
@@ -188,6 +206,7 @@ impl crate::rig::Rig for SimRig {
 
 impl Camera for SimRig {
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        self.check_interrupt()?;
         let n = self.frames;
         self.frames += 1;
         self.stage.wait(self.camera.frame_time_s);
@@ -214,6 +233,7 @@ impl NanoStage for SimRig {
         self.stage.position()
     }
     fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
+        self.check_interrupt()?;
         let moved = self.stage.move_to(target, speed_m_per_s);
         self.persist()?;
         moved
@@ -228,6 +248,7 @@ impl CoarseStage for SimRig {
         Ok(self.stage.coarse_offset())
     }
     fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+        self.check_interrupt()?;
         self.stage.move_coarse(target)?;
         self.persist()
     }
