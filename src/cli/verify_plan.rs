@@ -52,6 +52,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("bad starts        {:?}", rep.bad_starts);
         println!("bad approaches    {:?}", rep.bad_approaches);
         println!("unreachable       {:?}", rep.unreachable);
+        println!("left the field    {:?}", rep.left_field);
         println!("moved immovable   {:?}", rep.moved_immovable);
         println!("unfilled sites    {:?}", rep.unfilled_sites);
         println!("max final error   {:.4} um", rep.max_final_error_um);

@@ -143,7 +143,10 @@ pub fn site_radius_m(layout: &Layout, sites: &[Site], config: &PlanConfig) -> f6
         .iter()
         .filter_map(|&c| grid.nearest(c, 2).get(1).map(|&(d, _)| d))
         .fold(f64::INFINITY, f64::min);
-    largest.min(0.5 * (nearest_m - config.clearance_m - config.on_site_tolerance_m))
+    // A picometre over: the radius a pitch was built for comes back from
+    // it a rounding short ("wider than the 5.000 um radius" of 5 um
+    // particles at the 10.35 um pitch that fits them).
+    largest.min(0.5 * (nearest_m - config.clearance_m - config.on_site_tolerance_m) + 1e-12)
 }
 
 /// Default [`PlanConfig::search_effort`], in cells read and particles
@@ -299,7 +302,7 @@ pub enum PlanError {
     Blocked(String),
     /// Too few particles narrow enough for the sites' spacing.
     #[error(
-        "{sites} sites to fill but only {fitting} free particles fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch)"
+        "{sites} sites to fill but only {fitting} free particles fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch: {sites} of them fit sites at least {spacing_um:.3} um apart, their diameter plus the clearance and on-site tolerance)"
     )]
     TooFewFitting {
         /// Sites still to fill.
@@ -310,6 +313,8 @@ pub enum PlanError {
         too_wide: usize,
         /// The largest radius the sites take ([`site_radius_m`]), um.
         site_radius_um: f64,
+        /// The sites' nearest spacing that `sites` free particles would fit, um.
+        spacing_um: f64,
     },
 }
 
@@ -334,6 +339,15 @@ impl PlanConfig {
                     if positive { "> 0" } else { ">= 0" }
                 )));
             }
+        }
+        // A tip that wide touches every particle in reach: planning with
+        // one of 1e9 um ran for ten minutes and more.
+        if self.tip_radius_m > self.nanostage_range_m / 2.0 {
+            return Err(PlanError::Config(format!(
+                "tip_radius_um is {} (must be at most half the nanostage range, {} um)",
+                self.tip_radius_m * 1e6,
+                self.nanostage_range_m * 0.5e6
+            )));
         }
         if let Some(r) = self.site_radius_m.filter(|r| !(r.is_finite() && *r > 0.0)) {
             return Err(PlanError::Config(format!(
@@ -721,20 +735,25 @@ impl FreeProblem {
             .filter(|&p| !particle_taken[p] && !immovable(p) && fits(p))
             .collect();
         if free_particles.len() < free_sites.len() {
-            let too_wide = (0..layout.particles.len())
-                .filter(|&p| !particle_taken[p] && !immovable(p) && !fits(p))
-                .count();
-            if too_wide > 0 {
+            let mut radii: Vec<f64> = (0..layout.particles.len())
+                .filter(|&p| !particle_taken[p] && !immovable(p))
+                .map(|p| layout.particles[p].radius_m)
+                .collect();
+            radii.sort_by(f64::total_cmp);
+            // With too few particles of any width, that is the error.
+            if let Some(&needed) = radii.get(free_sites.len() - 1) {
                 return Err(PlanError::TooFewFitting {
                     sites: free_sites.len(),
                     fitting: free_particles.len(),
-                    too_wide,
+                    too_wide: radii.len() - free_particles.len(),
                     site_radius_um: site_radius * 1e6,
+                    spacing_um: (2.0 * needed + config.clearance_m + config.on_site_tolerance_m)
+                        * 1e6,
                 });
             }
             return Err(assignment::AssignmentError::TooFewParticles {
                 sites: free_sites.len(),
-                particles: free_particles.len(),
+                particles: radii.len(),
             }
             .into());
         }
@@ -956,6 +975,47 @@ mod tests {
                 ),
                 "{err}"
             );
+        }
+    }
+
+    /// A tip wider than half the stage's reach is refused at once: one of
+    /// 1e9 um had planned for over ten minutes.
+    #[test]
+    fn a_tip_wider_than_half_the_stage_range_is_refused() {
+        let with_tip = |r_um: f64| PlanConfig {
+            tip_radius_m: r_um * 1e-6,
+            ..PlanConfig::default()
+        };
+        assert!(with_tip(50.0).validate().is_ok());
+        for r_um in [50.1, 1e9] {
+            let e = with_tip(r_um).validate().unwrap_err().to_string();
+            assert!(e.contains("at most half the nanostage range, 50 um"), "{e}");
+        }
+    }
+
+    /// 5 um particles fit sites 10.35 um apart (their diameter, the 0.1 um
+    /// clearance and the 0.25 um on-site tolerance): at that pitch they
+    /// had been "wider than the 5.000 um radius" by a rounding. At 10.3 um
+    /// the refusal names the spacing that fits them.
+    #[test]
+    fn the_pitch_that_fits_a_batch_is_the_one_the_refusal_names() {
+        let centres: Vec<(f64, f64)> = (0..3).map(|i| (20.0 + 15.0 * i as f64, 20.0)).collect();
+        let layout = Layout::of_test_centres_um(&centres);
+        let sites = |pitch_um: f64| -> Vec<Site> {
+            (0..3)
+                .map(|i| Site {
+                    id: i,
+                    centre_m: Vector2::new(50.0 + pitch_um * f64::from(i), 80.0) * 1e-6,
+                })
+                .collect()
+        };
+        let config = PlanConfig::default();
+        assert!(plan_assembly(&layout, &sites(10.35), &config).is_ok());
+        match plan_assembly(&layout, &sites(10.3), &config) {
+            Err(PlanError::TooFewFitting { spacing_um, .. }) => {
+                assert!((spacing_um - 10.35).abs() < 1e-9, "{spacing_um}");
+            }
+            other => panic!("{other:?}"),
         }
     }
 

@@ -253,6 +253,11 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
                 sign.bound()
             )));
         }
+        if !super::coordinate_in_range(v) {
+            return Err(PlanFileError::OutOfRange(format!(
+                "{name} is {v} (a metre or more: no probe or stage is)"
+            )));
+        }
     }
     let mut sites = Vec::new();
     for s in &f.sites {
@@ -465,6 +470,16 @@ mod tests {
                 "nanostage_range_um is 0 (must be > 0)",
             ),
             ("standoff_um", -0.5, "standoff_um is -0.5 (must be >= 0)"),
+            (
+                "tip_radius_um",
+                2e6,
+                "tip_radius_um is 2000000 (a metre or more",
+            ),
+            (
+                "nanostage_range_um",
+                1e7,
+                "nanostage_range_um is 10000000 (a metre",
+            ),
         ] {
             let mut d = doc.clone();
             d["geometry"][key] = value.into();

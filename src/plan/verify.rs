@@ -54,6 +54,11 @@ pub struct VerifyReport {
     pub bad_approaches: Vec<usize>,
     /// Push steps whose tip path leaves the current nanostage window.
     pub unreachable: Vec<usize>,
+    /// Push steps that leave their particle's centre farther beyond the
+    /// field than a layout may hold one, two radii (another tool's plan had
+    /// pushed one 90 um off it and replayed ok; the planner parks a
+    /// particle it does not need partly over the edge).
+    pub left_field: Vec<usize>,
     /// Push steps that move a particle the plan must leave where it is (a
     /// frame's edge cut it, so its centre is a guess, or the executor gave
     /// up on it).
@@ -84,9 +89,9 @@ impl VerifyReport {
                 c.depth_um
             ));
         }
-        if !self.bad_starts.is_empty() {
+        if let Some(first) = self.bad_starts.first() {
             parts.push(format!(
-                "{} pushes start away from their particle",
+                "{} pushes start away from their particle, or push one the layout does not have (first: step {first})",
                 self.bad_starts.len()
             ));
         }
@@ -100,6 +105,12 @@ impl VerifyReport {
             parts.push(format!(
                 "{} pushes leave the nanostage window",
                 self.unreachable.len()
+            ));
+        }
+        if let Some(first) = self.left_field.first() {
+            parts.push(format!(
+                "{} pushes leave their particle more than two radii beyond the field (first: step {first})",
+                self.left_field.len()
             ));
         }
         if let Some(first) = self.moved_immovable.first() {
@@ -196,6 +207,11 @@ pub fn verify_plan_with(
                 } else if len > range {
                     rep.unreachable.push(k);
                 }
+                let [w, h] = layout.field_m;
+                let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
+                if out(to_m.x, w).hypot(out(to_m.y, h)) > 2.0 * r + 1e-12 {
+                    rep.left_field.push(k);
+                }
                 for (j, q) in pos.iter().enumerate() {
                     if j == i {
                         continue;
@@ -240,6 +256,7 @@ pub fn verify_plan_with(
         && rep.bad_starts.is_empty()
         && rep.bad_approaches.is_empty()
         && rep.unreachable.is_empty()
+        && rep.left_field.is_empty()
         && rep.moved_immovable.is_empty()
         && rep.unfilled_sites.is_empty();
     rep
@@ -341,5 +358,42 @@ mod tests {
             assert_eq!(report.bad_approaches, [k], "{shift:?}");
             assert!(!report.ok && report.summary().contains("approach"));
         }
+    }
+
+    /// A push that leaves its particle outside the field is reported by
+    /// step: another tool's plan pushing one 90 um off the field had
+    /// replayed as ok. A push of a particle the layout does not have is
+    /// named as such.
+    #[test]
+    fn a_push_off_the_field_or_of_no_particle_is_reported() {
+        let layout = Layout {
+            field_m: [100e-6, 100e-6],
+            ..Layout::of_test_centres_um(&[(30.0, 50.0)])
+        };
+        let (plan, config) = plan_to_one_site(&layout);
+        assert!(verify_plan(&plan, &layout, &config).left_field.is_empty());
+        let k = plan
+            .steps
+            .iter()
+            .position(|s| matches!(s, Step::Push { .. }))
+            .unwrap();
+        let mut off = plan.clone();
+        if let Step::Push { to_m, .. } = &mut off.steps[k] {
+            *to_m = Vector2::new(-60e-6, 50e-6);
+        }
+        let report = verify_plan(&off, &layout, &config);
+        assert_eq!(report.left_field, [k]);
+        assert!(
+            report.summary().contains("beyond the field"),
+            "{}",
+            report.summary()
+        );
+        let mut nobody = plan.clone();
+        if let Step::Push { particle, .. } = &mut nobody.steps[k] {
+            *particle = 999;
+        }
+        let report = verify_plan(&nobody, &layout, &config);
+        assert_eq!(report.bad_starts, [k]);
+        assert!(report.summary().contains("the layout does not have"));
     }
 }
