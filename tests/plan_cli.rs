@@ -458,7 +458,7 @@ fn plan_from_a_frame_plans_on_the_particles_it_finds() {
         assert!(ok, "{text}");
     };
     synth_frame(&frame, &[]);
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     let plan_args = |frame: &str| {
         let head = ["plan", "--text", "I", "--frame", frame, "--calib", &calib];
         let tail = ["--save-layout", &found, "--out", &plan, "--json"];
@@ -532,10 +532,10 @@ fn frame_files(dir: &Path) -> [String; 4] {
 }
 
 /// Writes a calibration of `um_per_px` (image y along the stage's y) whose
-/// pixel (0, 0) lies at stage x `x0_um`, y 0.
-fn write_calibration(path: &str, um_per_px: f64, x0_um: f64) {
+/// pixel (0, 0) lies at stage `[x0, y0]` um.
+fn write_calibration(path: &str, um_per_px: f64, [x0, y0]: [f64; 2]) {
     let text = format!(
-        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[{um_per_px:?}, 0.0, {x0_um:?}], [0.0, {um_per_px:?}, 0.0]]\n"
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[{um_per_px:?}, 0.0, {x0:?}], [0.0, {um_per_px:?}, {y0:?}]]\n"
     );
     std::fs::write(path, text).unwrap();
 }
@@ -561,7 +561,7 @@ fn plan_from_a_frame_lays_out_the_whole_frame() {
     run_line(&format!(
         "synth frame --layout {truth} --um-per-px 0.5 --seed 5 --out {frame}"
     ));
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     run_line(&format!(
         "plan --text CMU --frame {frame} --calib {calib} --save-layout {found}"
     ));
@@ -619,7 +619,7 @@ fn a_saved_layout_holds_the_particle_the_frames_edge_cuts() {
     run_line(&format!(
         "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
     ));
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     run_line(&format!(
         "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
     ));
@@ -692,7 +692,7 @@ fn a_frame_reaching_beyond_the_field_plans_round_what_lies_there() {
     run_line(&format!(
         "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
     ));
-    write_calibration(&calib, 0.5, -30.0);
+    write_calibration(&calib, 0.5, [-30.0, 0.0]);
     let truth = nanopush::plan::Layout::read(Path::new(&truth)).unwrap();
     // Beyond two radii outside: centres below x = -10 um on the stage.
     let beyond = (truth.particles.iter())
@@ -740,7 +740,7 @@ fn plan_from_a_frame_keeps_each_particles_measured_size() {
     run(format!(
         "synth frame --layout {truth} --um-per-px 0.25 --out {frame}"
     ));
-    write_calibration(&calib, 0.25, 0.0);
+    write_calibration(&calib, 0.25, [0.0, 0.0]);
     run(format!(
         "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
     ));
@@ -793,7 +793,7 @@ fn plan_from_a_colour_frame_plans_on_the_channel_asked_for() {
     let dir = tempfile::tempdir().unwrap();
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let calib = at("calib.toml");
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     // Two layouts, each drawn at 0.5 um a pixel as a grey frame.
     let grey = |seed: &str| {
         let (layout, frame) = (at(&format!("l{seed}.json")), at(&format!("f{seed}.png")));
@@ -1176,7 +1176,7 @@ fn a_particle_beside_the_probe_is_an_obstacle_of_the_frames_plan() {
     )
     .unwrap();
     std::fs::write(&site, "sites = [ { x_um = 0.0, y_um = 0.0 } ]\n").unwrap();
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     run_line(&format!(
         "synth frame --layout {truth} --um-per-px 0.5 --seed 1 --tip-x-px 180 --tip-y-px 100 --tip-angle-deg 90 --out {frame}"
     ));
@@ -1210,6 +1210,41 @@ fn a_particle_beside_the_probe_is_an_obstacle_of_the_frames_plan() {
     run_line(&format!("verify-plan {plan} --layout {found}"));
 }
 
+/// A frame the calibration puts at (1000, 1000) um: the pattern is placed
+/// where the camera saw, and the user told so. The field runs from the
+/// stage origin, and half of CMU's sites had gone where no particle could
+/// be seen (1,361 um of pushing against 291 um from the same frame at the
+/// origin); `--at` outside the frame is refused with the centres allowed.
+#[test]
+fn a_frame_far_from_the_stage_origin_places_its_pattern_in_the_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, calib, _] = frame_files(dir.path());
+    let plan = dir.path().join("plan.json").to_str().unwrap().to_string();
+    run_line(&format!(
+        "synth layout --n 25 --field-um 120x100 --seed 5 --out {truth}"
+    ));
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
+    ));
+    write_calibration(&calib, 0.5, [1000.0, 1000.0]);
+    let line = format!("plan --text L --frame {frame} --calib {calib} --out {plan}");
+    let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("the frame starts at (1000.0, 1000.0) um"),
+        "{text}"
+    );
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    for s in doc["sites"].as_array().unwrap() {
+        let (x, y) = (s["x_um"].as_f64().unwrap(), s["y_um"].as_f64().unwrap());
+        assert!(x >= 1005.0 && y >= 1005.0, "site at ({x}, {y}) um: {text}");
+    }
+    let line = format!("plan --text L --at 60,50 --frame {frame} --calib {calib}");
+    let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+    assert!(!ok, "{text}");
+}
+
 /// A particle the probe's body half covers (its centre 2.5 px off the
 /// outline) is found and held: the body is painted over with the
 /// background before the second look, so its visible part is a ring the
@@ -1229,7 +1264,7 @@ fn a_particle_the_probe_half_covers_is_an_obstacle_of_the_frames_plan() {
         }
     }
     let truth = write_layout(dir.path(), "truth.json", &particles, (120.0, 100.0));
-    write_calibration(&calib, 0.5, 0.0);
+    write_calibration(&calib, 0.5, [0.0, 0.0]);
     run_line(&format!(
         "synth frame --layout {truth} --um-per-px 0.5 --tip-x-px 200 --tip-y-px 120 --tip-angle-deg 180 --out {frame}"
     ));

@@ -19,6 +19,7 @@ mod nanopush_plan_api {
     pub use crate::render::plan_overlay::{OverlayKind, overlay_kind};
     pub use crate::vision::frame::Frame;
     pub use crate::vision::frame_input::{Channel, first_of_several, load_frame};
+    pub use nalgebra::Vector2;
 }
 
 /// Arguments of `nanopush plan`.
@@ -106,6 +107,7 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
             seen_in: None,
             beside_probe: 0,
             beyond_field: 0,
+            seen_m: None,
         });
     };
     let calib = args.calib.as_ref().context("--frame needs --calib")?;
@@ -144,7 +146,36 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         seen_in: Some((frame, calibration)),
         beside_probe,
         beyond_field,
+        seen_m: Some(found.seen_m),
     })
+}
+
+/// Where sites may go: the field less a particle radius, and from a frame
+/// only where the camera saw (the field runs from the stage origin, so a
+/// calibration putting the frame at (1000, 1000) um had placed sites, and
+/// pushed particles, where no particle could have been seen). Says so when
+/// `tell` (not with --json, as the other notes).
+fn placement_area(
+    field_m: [f64; 2],
+    radius_m: f64,
+    seen_m: Option<[[f64; 2]; 2]>,
+    tell: bool,
+) -> Reachable {
+    let mut area = Reachable::for_field(field_m, radius_m);
+    if let Some([lo, _]) = seen_m {
+        let seen_lo = Vector2::new(lo[0], lo[1]).add_scalar(radius_m);
+        if seen_lo.x > area.lo_m.x || seen_lo.y > area.lo_m.y {
+            area.lo_m = area.lo_m.sup(&seen_lo);
+            if tell {
+                eprintln!(
+                    "the frame starts at ({:.1}, {:.1}) um on the stage: the pattern is placed within what it shows",
+                    lo[0] * 1e6,
+                    lo[1] * 1e6
+                );
+            }
+        }
+    }
+    area
 }
 
 /// What `nanopush plan` plans with.
@@ -160,6 +191,8 @@ struct Particles {
     beside_probe: usize,
     /// How many lie beyond the field (the rest are cut by its edge).
     beyond_field: usize,
+    /// The frame's corners on the stage, when planning from one.
+    seen_m: Option<[[f64; 2]; 2]>,
 }
 
 /// Refuses, before anything is read or written, outputs that would replace
@@ -193,6 +226,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seen_in,
         beside_probe,
         beyond_field,
+        seen_m,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
     if radius <= 0.0 {
@@ -203,7 +237,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // spread; a particle too wide for the sites is left off them
     // (`PlanConfig::site_radius_m`).
     let radii: Vec<f64> = layout.particles.iter().map(|p| p.radius_m).collect();
-    let area = Reachable::for_field(layout.field_m, radius);
+    let area = placement_area(layout.field_m, radius, seen_m, !args.json);
     let pattern = request.pattern_for_batch(layout.median_radius_m(), &radii, &area)?;
     let config = PlanConfig {
         contact_angle_rad: args.contact_angle_deg.to_radians(),

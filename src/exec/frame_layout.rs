@@ -43,6 +43,9 @@ pub struct FrameLayout {
     pub beside_probe: Vec<u32>,
     /// The probe's apex, when found: where the tip tour starts.
     pub tip_m: Option<Vector2<f64>>,
+    /// The frame's near and far corners on the stage: what the camera
+    /// saw. The layout's field runs from the stage origin to the far one.
+    pub seen_m: [[f64; 2]; 2],
 }
 
 /// Why a frame gave no layout.
@@ -108,6 +111,7 @@ pub fn layout_from_frame(
         beside_probe: ids(whole + cut, beside_probe.len()),
         layout,
         tip_m: sighting.tip_m.map(|[x, y]| Vector2::new(x, y)),
+        seen_m: sighting.frame_m,
     })
 }
 
