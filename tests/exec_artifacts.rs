@@ -45,6 +45,13 @@ fn run() -> &'static (tempfile::TempDir, PathBuf, PathBuf) {
         let rec = dir.path().join("rec");
         let o = assemble_recorded(&out, &rec);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        // Where the recording went, and how to replay it.
+        let printed = String::from_utf8_lossy(&o.stdout);
+        let said = format!(
+            "recording: {} (replay it with nanopush dry-run",
+            rec.display()
+        );
+        assert!(printed.contains(&said), "{printed}");
         (dir, out, rec)
     })
 }

@@ -504,7 +504,10 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
             &out,
             &["--scene", small.to_str().unwrap()],
         ),
-        "radius",
+        &format!(
+            "the scene {} (--scene) has particles of radius 0.50 um",
+            small.display()
+        ),
     );
     // An earlier dry-run is not overwritten.
     let first = dir.path().join("first");

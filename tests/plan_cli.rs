@@ -76,7 +76,15 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         (on_easy("I", &["--pitch-um", "NaN"]), "pitch-um"),
         (
             on_easy("I", &["--contact-angle-deg", "120"]),
-            "contact_angle_deg is 120.000 (must be in 0..90",
+            "--contact-angle-deg is 120.000 (must be in 0..90",
+        ),
+        (
+            on_easy("I", &["--speed-um-s", "0"]),
+            "--speed-um-s is 0 (must be finite and > 0)",
+        ),
+        (
+            on_easy("I", &["--tip-radius-um", "1e9"]),
+            "--tip-radius-um is 1000000000 (must be at most half",
         ),
         (on_easy("I", &["--pitch-um", "5"]), "overlap"),
         (on_easy("I", &["--at", "5,5"]), "outside the reachable area"),

@@ -139,6 +139,16 @@ fn calibrate_and_detect_fail_cleanly_on_bad_input() {
     let out = calibrate(dir.path(), &[]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("stage.csv"));
+    // A run's recording is named as one, with the command that replays it.
+    let run_recording =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/recordings/sim-L-seed6");
+    let out = calibrate(&run_recording, &["--out", "/nonexistent/c.toml"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("is a run's recording") && err.contains("dry-run --recording"),
+        "{err}"
+    );
     let out = calibrate(dir.path(), &["--threshold-px=0"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--threshold-px must be a positive"));

@@ -112,6 +112,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print_summary(&report, &out);
+        print_recording(&args);
     }
     if report.outcome != "done" {
         bail!(
@@ -210,6 +211,16 @@ pub(super) fn check_out_free(out: &Path) -> anyhow::Result<PathBuf> {
         );
     }
     Ok(journal)
+}
+
+/// Where `--record` wrote, and how to replay it (it went unsaid).
+pub(super) fn print_recording(args: &Args) {
+    if let Some(dir) = &args.record {
+        println!(
+            "recording: {} (replay it with nanopush dry-run --recording {0})",
+            dir.display()
+        );
+    }
 }
 
 /// The recording `--record` asks for, made before the journal (a set-up

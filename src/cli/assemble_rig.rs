@@ -28,7 +28,7 @@
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
-use super::assemble::{Args, check_out_free, open_recorder, write_sites};
+use super::assemble::{Args, check_out_free, open_recorder, print_recording, write_sites};
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
@@ -161,6 +161,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print_summary(&report, rig_path, &out);
+        print_recording(args);
     }
     if rig
         .interrupt_flag()

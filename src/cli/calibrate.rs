@@ -115,6 +115,15 @@ pub fn fit_recording(
     force: bool,
 ) -> anyhow::Result<CameraCalibration> {
     let csv = dir.join("stage.csv");
+    // A run's recording (assemble --record) is another kind of folder: it
+    // had been answered "reading DIR/stage.csv: No such file".
+    if !csv.exists() && dir.join("recording.toml").exists() {
+        anyhow::bail!(
+            "{} is a run's recording (recording.toml, stage.jsonl), which `nanopush dry-run --recording` replays; \
+             `calibrate` reads a calibration recording: frames of the tip at known stage positions and their stage.csv (frame,x_um,y_um)",
+            dir.display()
+        );
+    }
     let text =
         std::fs::read_to_string(&csv).with_context(|| format!("reading {}", csv.display()))?;
     let rows = parse_stage_csv(&text)?;

@@ -44,13 +44,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(p) => Some(Scene::load(p).with_context(|| format!("scene {}", p.display()))?),
         None => None,
     };
-    if let Some(s) = &scene {
+    if let (Some(s), Some(path)) = (&scene, &scene_path) {
         let want = recording.spec.particle_radius_um;
         let have = s.particle_radius_m * 1e6;
         if (want - have).abs() > 0.05 * want {
+            // Naming the scene, and which gave it: "give a scene with
+            // --scene" had answered a --scene given.
+            let given = if args.scene.is_some() {
+                "--scene"
+            } else {
+                "the recording"
+            };
             bail!(
-                "the scene's particles have radius {have:.2} um, the recording's {want:.2} um: \
-                 give a scene for these particles with --scene"
+                "the scene {} ({given}) has particles of radius {have:.2} um, the recording's are {want:.2} um: \
+                 give a scene for these particles with --scene",
+                path.display()
             );
         }
     }

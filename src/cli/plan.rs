@@ -248,6 +248,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         immovable,
         ..PlanConfig::default()
     };
+    // Named as the flags that set them ("push_speed_um_s is 0" had answered
+    // --speed-um-s 0).
+    config.validate().map_err(|e| {
+        let text = [
+            ("tip_radius_um", "--tip-radius-um"),
+            ("push_speed_um_s", "--speed-um-s"),
+            ("contact_angle_deg", "--contact-angle-deg"),
+        ]
+        .iter()
+        .fold(e.to_string(), |t, (name, flag)| t.replace(name, flag));
+        anyhow::anyhow!(text)
+    })?;
     let placing = std::time::Instant::now();
     let plan = match request.at_m {
         Some(at) => plan_assembly(&layout, &place_at(&pattern, at, &area, radius)?, &config)?,
