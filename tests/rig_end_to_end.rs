@@ -652,6 +652,16 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
         .filter(|l| l.contains("\"kind\":\"decision\""))
         .count();
     assert_eq!(pushes, 1);
+    // The camera saw the sample unmoved: no placement error, contact or
+    // drift figure reads as if a push had been made.
+    let printed = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        printed.contains("1 on paper: the stage did not move"),
+        "{printed}"
+    );
+    for figure in ["placement error  rms", "lost contacts)", "tip drift:"] {
+        assert!(!printed.contains(figure), "{figure}: {printed}");
+    }
 }
 
 #[test]
