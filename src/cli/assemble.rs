@@ -67,7 +67,8 @@ pub struct Args {
     /// Also write a recording of the run (frames, stage log, calibration,
     /// scene) to this folder, for `nanopush dry-run`; on the simulated rig
     /// or a real one. Not with --resume: a recording holds a run from its
-    /// start (a resumed run's --record had been ignored without a word).
+    /// start.
+    // (A resumed run's --record had been ignored without a word.)
     #[arg(long, conflicts_with = "resume")]
     pub record: Option<PathBuf>,
     /// Fault injection (tests): frames the camera drops, counted from 0.

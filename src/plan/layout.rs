@@ -490,10 +490,17 @@ impl MarkedLayout {
     /// Parses `nanopush.layout/1` JSON text and validates it; `origin` names the source in errors.
     pub fn from_json(text: &str, origin: &str) -> Result<Self, LayoutError> {
         let text = crate::byte_order_mark::without_bom(text);
-        let file: LayoutFile = serde_json::from_str(text).map_err(|source| LayoutError::Parse {
-            path: origin.to_string(),
-            source,
-        })?;
+        let file: LayoutFile =
+            serde_json::from_str(text).map_err(|source| match super::file_schema::other_schema(
+                text,
+                LAYOUT_SCHEMA,
+            ) {
+                Some(found) => LayoutError::Schema { found },
+                None => LayoutError::Parse {
+                    path: origin.to_string(),
+                    source,
+                },
+            })?;
         if file.schema != LAYOUT_SCHEMA {
             return Err(LayoutError::Schema { found: file.schema });
         }
@@ -616,6 +623,12 @@ mod tests {
         let layout = sample();
         let back = Layout::from_json(&layout.to_json(), "mem").unwrap();
         assert_eq!(back.particles.len(), 2);
+        // A plan given as the layout is named by its schema.
+        let plan = r#"{"schema": "nanopush.plan/1", "sites": [], "steps": []}"#;
+        assert!(matches!(
+            Layout::from_json(plan, "p.json"),
+            Err(LayoutError::Schema { found }) if found == "nanopush.plan/1"
+        ));
         // Saved by a Windows editor, with a byte-order mark: the same.
         let marked = format!("\u{feff}{}", layout.to_json());
         assert_eq!(Layout::from_json(&marked, "mem").unwrap(), back);

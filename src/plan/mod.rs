@@ -15,6 +15,7 @@ pub mod assignment;
 pub mod bounds;
 pub mod cmu_scene;
 pub mod failed_routes;
+pub mod file_schema;
 pub mod fixed_detours;
 pub mod grid;
 pub mod layout;

@@ -229,9 +229,16 @@ pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
 /// Parses `nanopush.plan/1` JSON; returns the plan and its geometry.
 pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanFileError> {
     let text = crate::byte_order_mark::without_bom(text);
-    let f: PlanJ = serde_json::from_str(text).map_err(|source| PlanFileError::Parse {
-        path: origin.into(),
-        source,
+    let f: PlanJ = serde_json::from_str(text).map_err(|source| {
+        // Another file's schema first: a layout given as the plan had been
+        // "missing field `geometry`".
+        match super::file_schema::other_schema(text, PLAN_SCHEMA) {
+            Some(s) => PlanFileError::Schema(s),
+            None => PlanFileError::Parse {
+                path: origin.into(),
+                source,
+            },
+        }
     })?;
     if f.schema != PLAN_SCHEMA {
         return Err(PlanFileError::Schema(f.schema));
@@ -553,6 +560,12 @@ mod tests {
         doc["schema"] = "nanopush.plan/2".into();
         match from_json(&doc.to_string(), "edited") {
             Err(PlanFileError::Schema(s)) => assert_eq!(s, "nanopush.plan/2"),
+            other => panic!("{other:?}"),
+        }
+        // A layout given as the plan: its schema, not a missing field.
+        let layout = crate::plan::layout::Layout::of_test_centres_um(&[(1.0, 2.0)]).to_json();
+        match from_json(&layout, "layout.json") {
+            Err(PlanFileError::Schema(s)) => assert_eq!(s, "nanopush.layout/1"),
             other => panic!("{other:?}"),
         }
     }
