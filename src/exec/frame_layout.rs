@@ -119,8 +119,8 @@ pub fn layout_from_frame(
 /// level (the frame's median): a particle the probe's dark body half
 /// covers then shows a partial ring the detector finds, where against the
 /// body its fit failed and the particle was lost (a plan, verified ok,
-/// pushed another 2.1 um into it).
-/// Also returns how many pixels were painted.
+/// pushed another 2.1 um into it). Also returns how many pixels were
+/// painted.
 fn without_probe(
     frame: &Frame,
     under_probe: &dyn Fn(f64, f64) -> bool,
@@ -170,10 +170,10 @@ fn beside_the_probe(
         return Ok(Vec::new());
     };
     let prepared = prepare_frame(&sighting.frame);
-    let outside = |x: f64, y: f64| probe.signed_distance(x, y) <= 0.0;
-    let (unveiled, hidden) = without_probe(&prepared.frame, &outside)?;
+    let under_probe = |x: f64, y: f64| probe.signed_distance(x, y) <= 0.0;
+    let (unveiled, hidden) = without_probe(&prepared.frame, &under_probe)?;
     warn_of_hidden(hidden, unveiled.width() * unveiled.height());
-    let found = detect_particles_excluding(&unveiled, &perception.detect, &outside)
+    let found = detect_particles_excluding(&unveiled, &perception.detect, &under_probe)
         .map_err(|e| ObserveError::Detect(e.to_string()))?;
     let hint_r_px = perception.detect.diameter_px / 2.0;
     Ok(found
