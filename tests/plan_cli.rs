@@ -539,6 +539,17 @@ fn frame_files(dir: &Path) -> [String; 4] {
         .map(|name| dir.join(name).to_str().unwrap().to_string())
 }
 
+/// `synth layout` of `n` particles (seed `seed`) in a 120 x 100 um field
+/// into `truth`, and its frame at 0.5 um a pixel into `frame`.
+fn synth_frame(truth: &str, frame: &str, n: usize, seed: u64) {
+    run_line(&format!(
+        "synth layout --n {n} --field-um 120x100 --seed {seed} --out {truth}"
+    ));
+    run_line(&format!(
+        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
+    ));
+}
+
 /// Writes a calibration of `um_per_px` (image y along the stage's y) whose
 /// pixel (0, 0) lies at stage `[x0, y0]` um.
 fn write_calibration(path: &str, um_per_px: f64, [x0, y0]: [f64; 2]) {
@@ -621,12 +632,7 @@ fn a_saved_layout_holds_the_particle_the_frames_edge_cuts() {
     let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let (held_plan, free_plan, free) = (at("held.json"), at("free.json"), at("free_layout.json"));
     // Seed 5 has a particle 5.3 um from the left edge: its ring is cut.
-    run_line(&format!(
-        "synth layout --n 25 --field-um 120x100 --seed 5 --out {truth}"
-    ));
-    run_line(&format!(
-        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
-    ));
+    synth_frame(&truth, &frame, 25, 5);
     write_calibration(&calib, 0.5, [0.0, 0.0]);
     run_line(&format!(
         "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
@@ -694,12 +700,7 @@ fn a_frame_reaching_beyond_the_field_plans_round_what_lies_there() {
     let dir = tempfile::tempdir().unwrap();
     let [truth, frame, calib, found] = frame_files(dir.path());
     let plan = dir.path().join("plan.json").to_str().unwrap().to_string();
-    run_line(&format!(
-        "synth layout --n 40 --field-um 120x100 --seed 2 --out {truth}"
-    ));
-    run_line(&format!(
-        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
-    ));
+    synth_frame(&truth, &frame, 40, 2);
     write_calibration(&calib, 0.5, [-30.0, 0.0]);
     let truth = nanopush::plan::Layout::read(Path::new(&truth)).unwrap();
     // Beyond two radii outside: centres below x = -10 um on the stage.
@@ -1228,12 +1229,7 @@ fn a_frame_far_from_the_stage_origin_places_its_pattern_in_the_frame() {
     let dir = tempfile::tempdir().unwrap();
     let [truth, frame, calib, _] = frame_files(dir.path());
     let plan = dir.path().join("plan.json").to_str().unwrap().to_string();
-    run_line(&format!(
-        "synth layout --n 25 --field-um 120x100 --seed 5 --out {truth}"
-    ));
-    run_line(&format!(
-        "synth frame --layout {truth} --um-per-px 0.5 --out {frame}"
-    ));
+    synth_frame(&truth, &frame, 25, 5);
     write_calibration(&calib, 0.5, [1000.0, 1000.0]);
     let line = format!("plan --text L --frame {frame} --calib {calib} --out {plan}");
     let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());

@@ -169,12 +169,9 @@ fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
     // and would block this --out.
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let journal = JournalWriter::create(&journal_path).with_context(|| {
-        format!(
-            "{} exists: use --resume {0} or another --out",
-            journal_path.display()
-        )
-    })?;
+    // Its being there already was refused by `check_out_free`.
+    let journal = JournalWriter::create(&journal_path)
+        .with_context(|| format!("creating {}", journal_path.display()))?;
     rig.persist_to(args.out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);

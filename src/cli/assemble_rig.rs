@@ -342,7 +342,7 @@ fn assemble(
     // Created only now, when the run spec is known: a journal without one
     // (the first frame failed, say) would block this --out for nothing.
     let journal = JournalWriter::create(journal_path)
-        .with_context(|| format!("{} exists: use another --out", journal_path.display()))?;
+        .with_context(|| format!("creating {}", journal_path.display()))?;
     let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
     if let Some(r) = recorder.as_mut() {
         assembly = assembly.with_sink(r);

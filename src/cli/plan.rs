@@ -106,7 +106,6 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
             tip_start_m: None,
             seen_in: None,
             beside_probe: 0,
-            beyond_field: 0,
             seen_m: None,
         });
     };
@@ -124,7 +123,6 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
     // them as this one does.
     let beside_probe = found.beside_probe.len();
     let beyond = found.layout.beyond_field_ids();
-    let beyond_field = beyond.len();
     let marked = MarkedLayout {
         layout: found.layout,
         immovable: [found.cut_by_edge, found.beside_probe, beyond].concat(),
@@ -145,7 +143,6 @@ fn particles(args: &Args) -> anyhow::Result<Particles> {
         tip_start_m: found.tip_m,
         seen_in: Some((frame, calibration)),
         beside_probe,
-        beyond_field,
         seen_m: Some(found.seen_m),
     })
 }
@@ -187,10 +184,10 @@ struct Particles {
     tip_start_m: Option<nalgebra::Vector2<f64>>,
     /// The frame the particles were found in, and its calibration.
     seen_in: Option<(Frame, CameraCalibration)>,
-    /// How many of the obstacles a frame shows lie beside the probe.
+    /// How many of the obstacles a frame shows lie beside the probe (the
+    /// rest lie beyond the field, `Layout::beyond_field_ids`, or are cut
+    /// by its edge).
     beside_probe: usize,
-    /// How many lie beyond the field (the rest are cut by its edge).
-    beyond_field: usize,
     /// The frame's corners on the stage, when planning from one.
     seen_m: Option<[[f64; 2]; 2]>,
 }
@@ -225,7 +222,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         tip_start_m,
         seen_in,
         beside_probe,
-        beyond_field,
         seen_m,
     } = particles(&args)?;
     let radius = layout.max_radius_m();
@@ -303,6 +299,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     summary["placement_and_planning_time_s"] = placing_s.into();
     summary["standoff_um"] = (plan.standoff_m * 1e6).into();
     let held = config.immovable.len();
+    let beyond_field = layout.beyond_field_ids().len();
     if args.frame.is_some() {
         summary["particles_found"] = (layout.particles.len() - held).into();
         summary["particles_cut_by_edge"] = (held - beside_probe - beyond_field).into();

@@ -341,9 +341,10 @@ fn target_sites(
         .map_err(|e| target(format!("{from}{e}")))?;
     // Counted in the field: particles beyond it are never pushed.
     let layout = layout_measured(field_m, first, radius_m);
-    let held = layout.particles.len() - layout.beyond_field_ids().len();
+    let beyond_field = layout.beyond_field_ids().len();
+    let held = layout.particles.len() - beyond_field;
     if pattern.offsets_m.len() > held {
-        let beyond = match first.len().saturating_sub(held) {
+        let beyond = match beyond_field {
             0 => String::new(),
             n => format!(" ({n} more beyond it)"),
         };

@@ -7,7 +7,7 @@
 //! errors, unfilled sites, unreachable moves (beyond the nanostage window)
 //! and pushes of particles that must not move.
 
-use super::layout::Layout;
+use super::layout::{Layout, may_lie_in_field};
 use super::plan_file::PlanGeometry;
 use super::{Plan, Step};
 use nalgebra::Vector2;
@@ -207,9 +207,7 @@ pub fn verify_plan_with(
                 } else if len > range {
                     rep.unreachable.push(k);
                 }
-                let [w, h] = layout.field_m;
-                let out = |v: f64, size: f64| (-v).max(v - size).max(0.0);
-                if out(to_m.x, w).hypot(out(to_m.y, h)) > 2.0 * r + 1e-12 {
+                if !may_lie_in_field(layout.field_m, to_m, r) {
                     rep.left_field.push(k);
                 }
                 for (j, q) in pos.iter().enumerate() {
