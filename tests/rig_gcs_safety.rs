@@ -145,15 +145,34 @@ fn too_large_a_step_or_speed_sends_no_motion() {
 fn first_move_needs_confirmation_once() {
     let asked = Arc::new(AtomicUsize::new(0));
     let counter = Arc::clone(&asked);
-    let refuse = FirstMoveConfirmation::Ask(Box::new(|_: &str| false));
+    let refusals = Arc::new(AtomicUsize::new(0));
+    let refused = Arc::clone(&refusals);
+    let refuse = FirstMoveConfirmation::Ask(Box::new(move |_: &str| {
+        refused.fetch_add(1, Ordering::SeqCst);
+        false
+    }));
     let (mut stage, log, _) = dry_stage(refuse);
-    stage.enable_servo().unwrap();
-    let err = stage.start_move_m(&[55e-6, 50e-6]).unwrap_err();
+    // Servo on powers the axes: not before the operator said yes.
+    let err = stage.enable_servo().unwrap_err();
     assert!(
         matches!(err, GcsError::Safety(SafetyViolation::NotConfirmed)),
         "{err}"
     );
+    for _ in 0..2 {
+        let err = stage.start_move_m(&[55e-6, 50e-6]).unwrap_err();
+        assert!(
+            matches!(err, GcsError::Safety(SafetyViolation::NotConfirmed)),
+            "{err}"
+        );
+    }
+    // Refused once, refused for good: a clean-up move does not ask again.
+    assert_eq!(refusals.load(Ordering::SeqCst), 1);
     assert!(motion_commands(&log).is_empty());
+    assert!(
+        !sent(&log).iter().any(|c| c.starts_with("SVO")),
+        "{:?}",
+        sent(&log)
+    );
 
     let accept = FirstMoveConfirmation::Ask(Box::new(move |text: &str| {
         assert!(text.contains("first move"), "{text}");
@@ -161,11 +180,31 @@ fn first_move_needs_confirmation_once() {
         true
     }));
     let (mut stage, log, _) = dry_stage(accept);
+    stage
+        .confirm_first_move(&[50e-6, 50e-6], &[55e-6, 50e-6])
+        .unwrap();
     stage.enable_servo().unwrap();
     stage.move_to_m(&[55e-6, 50e-6]).unwrap();
     stage.move_to_m(&[60e-6, 50e-6]).unwrap();
     assert_eq!(asked.load(Ordering::SeqCst), 1);
     assert_eq!(motion_commands(&log).len(), 2);
+}
+
+/// The line stage (what every command moves with) asks before servo on and
+/// VEL: a "no" leaves the controller with nothing but queries.
+#[test]
+fn a_refused_first_move_sends_no_servo_or_velocity() {
+    use nanopush::rig::gcs_line_stage::GcsLineStage;
+    let refuse = FirstMoveConfirmation::Ask(Box::new(|_: &str| false));
+    let (stage, log, interrupt) = dry_stage(refuse);
+    let mut line = GcsLineStage::new(stage, interrupt, &['x', 'y']).unwrap();
+    let err = line.move_to_m(&[55e-6, 50e-6], 20e-6).unwrap_err();
+    assert!(err.to_string().contains("not confirmed"), "{err}");
+    let changing: Vec<String> = sent(&log)
+        .into_iter()
+        .filter(|c| !c.trim_end().ends_with('?') && !c.contains("? "))
+        .collect();
+    assert!(changing.is_empty(), "{changing:?}");
 }
 
 #[test]

@@ -209,16 +209,18 @@ impl GcsLineStage {
             .limits
             .check_speed(speed_m_per_s)
             .map_err(GcsError::Safety)?;
+        let from = self.stage.position_m()?;
+        // Limits and step are checked again by the stage before MOV; checking
+        // here first keeps a refused move from touching SVO or VEL.
+        let limits = &self.stage.settings().limits;
+        limits.check_target(&self.stage.settings().axes, target)?;
+        limits.check_step(&from, target)?;
+        // Asked before servo on and VEL: a refusal leaves the axes as found.
+        self.stage.confirm_first_move(&from, target)?;
         if !self.servo_on {
             self.stage.enable_servo()?;
             self.servo_on = true;
         }
-        let from = self.stage.position_m()?;
-        // Limits and step are checked again by the stage before MOV; checking
-        // here first keeps a refused move from touching VEL.
-        let limits = &self.stage.settings().limits;
-        limits.check_target(&self.stage.settings().axes, target)?;
-        limits.check_step(&from, target)?;
         self.set_line_velocities(&from, target, speed_m_per_s)?;
         self.stage.move_to_m(target)
     }

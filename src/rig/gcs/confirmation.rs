@@ -9,6 +9,9 @@ pub enum FirstMoveConfirmation {
     NotNeeded,
     /// Ask this callback once, with a description of the move; `false` refuses.
     Ask(Box<dyn FnMut(&str) -> bool + Send>),
+    /// The operator refused: this stage moves nothing more in this process
+    /// (a command's clean-up move after a refusal must not ask again).
+    Refused,
 }
 
 impl FirstMoveConfirmation {
@@ -37,6 +40,7 @@ refused: no terminal to confirm on (pass the explicit flag to waive)"
     }
     eprint!(
         "{description}
+(nothing has been sent that moves or powers an axis; the command's later moves follow without asking)
 Type `yes` to move the real stage: "
     );
     let _ = std::io::stderr().flush();

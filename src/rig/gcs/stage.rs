@@ -135,8 +135,13 @@ impl GcsStage {
         Ok(pos.into_iter().map(|p| p * unit).collect())
     }
 
-    /// Switches closed-loop servo on for every stage axis.
+    /// Switches closed-loop servo on for every stage axis; on real hardware
+    /// only once the first move is confirmed ([`GcsStage::confirm_first_move`]):
+    /// servo on powers the axes.
     pub fn enable_servo(&mut self) -> Result<(), GcsError> {
+        if !matches!(self.confirmation, FirstMoveConfirmation::NotNeeded) {
+            return Err(SafetyViolation::NotConfirmed.into());
+        }
         self.check_interrupt()?;
         let axes = self.settings.axes.clone();
         let refs: Vec<(&str, bool)> = axes.iter().map(|a| (a.as_str(), true)).collect();
@@ -162,24 +167,38 @@ impl GcsStage {
         self.check_interrupt()?;
         let from_m = self.position_m()?;
         self.settings.limits.check_step(&from_m, target_m)?;
-        if let FirstMoveConfirmation::Ask(ask) = &mut self.confirmation {
-            let text = format!(
-                "first move on {}: axes {:?} from {:?} um to {:?} um",
-                self.controller.endpoint(),
-                self.settings.axes,
-                from_m.iter().map(|v| v * 1e6).collect::<Vec<_>>(),
-                target_m.iter().map(|v| v * 1e6).collect::<Vec<_>>()
-            );
-            if !ask(&text) {
-                return Err(SafetyViolation::NotConfirmed.into());
-            }
-            self.confirmation = FirstMoveConfirmation::NotNeeded;
-        }
+        self.confirm_first_move(&from_m, target_m)?;
         let axes = self.settings.axes.clone();
         let units: Vec<f64> = target_m.iter().map(|&t| self.to_units(t)).collect();
         let pairs: Vec<(&str, f64)> = axes.iter().map(String::as_str).zip(units).collect();
         self.may_be_moving = true;
         self.guarded(|s| s.controller.move_to(&pairs))
+    }
+
+    /// Asks the operator once, on real hardware, before the first command
+    /// that powers or moves an axis (servo on, velocities, the move); a
+    /// refusal holds for the rest of the process, so a clean-up move after
+    /// it is refused too instead of asking again.
+    pub fn confirm_first_move(&mut self, from_m: &[f64], target_m: &[f64]) -> Result<(), GcsError> {
+        let ask = match &mut self.confirmation {
+            FirstMoveConfirmation::NotNeeded => return Ok(()),
+            FirstMoveConfirmation::Refused => return Err(SafetyViolation::NotConfirmed.into()),
+            FirstMoveConfirmation::Ask(ask) => ask,
+        };
+        let text = format!(
+            "first move on {}: axes {:?} from {:?} um to {:?} um",
+            self.controller.endpoint(),
+            self.settings.axes,
+            from_m.iter().map(|v| v * 1e6).collect::<Vec<_>>(),
+            target_m.iter().map(|v| v * 1e6).collect::<Vec<_>>()
+        );
+        if ask(&text) {
+            self.confirmation = FirstMoveConfirmation::NotNeeded;
+            Ok(())
+        } else {
+            self.confirmation = FirstMoveConfirmation::Refused;
+            Err(SafetyViolation::NotConfirmed.into())
+        }
     }
 
     /// Waits until every axis is on target; halts the stage and fails on
