@@ -13,9 +13,15 @@
 //! tip slip along t   c = t . D - N t . K^-1 g
 //! ```
 //!
-//! If `m . K^-1 g <= 0` the friction cone contains every spring direction: the
-//! tip self-locks on the particle and the force is the full spring K D
-//! (psi = 90 deg). The model is linearised about the initial contact: the
+//! The tip self-locks when the force of the springs with the tip held still,
+//! K D (horizontal), lies inside the friction cone about m: cos phi <=
+//! mu_tip sin phi, i.e. phi >= atan(1 / mu_tip). Then the force is the full
+//! spring K D (psi = 90 deg). The slip formula gives the same boundary
+//! (c (m . K^-1 g) = K_z^-1 (cos phi - mu_tip sin phi)), but past it the slip
+//! comes out negative, the tip sliding down against the friction assumed
+//! for sliding up: a force above the lateral spring itself (106 N/m on a
+//! 32.9 N/m spring at 89 deg) until 2026-11-29, when only `m . K^-1 g <= 0`
+//! (a subset: phi >= 83 deg at mu_tip 0.23 was missed from 77 deg) locked. The model is linearised about the initial contact: the
 //! contact angle phi is held (as in the source); whether the tip then climbs
 //! over the top is the separate "tip riding over" effect.
 
@@ -47,8 +53,9 @@ pub fn load_path(springs: &Springs, phi: Radians, mu_tip: f64) -> LoadPath {
     let m_k_t = s * c * (cy - cz);
     let t_k_t = c * c * cy + s * s * cz;
     let den = m_k_m + mu_tip * m_k_t;
-    // Relative threshold: den is a sum of compliances of very different size.
-    if den <= 1e-12 * (cy + cz) {
+    // Locked: the stuck force lies in the friction cone (then also every
+    // den <= 0). Sliding, den >= sin phi cy (sin phi + mu cos phi) > 0.
+    if c <= mu_tip * s {
         return LoadPath {
             force_per_travel: springs.lateral_n_per_m,
             force_angle: Radians(std::f64::consts::FRAC_PI_2),
@@ -110,6 +117,30 @@ mod tests {
         let a = load_path(&s, Radians(30f64.to_radians()), 0.23).force_per_travel;
         let b = load_path(&s, Radians(45f64.to_radians()), 0.23).force_per_travel;
         assert!(a < b);
+    }
+
+    /// The tip locks exactly where the stuck (horizontal) spring force enters
+    /// the friction cone, phi >= atan(1 / mu_tip); sliding, it slides up
+    /// (slip >= 0) and the force never exceeds the lateral spring's.
+    #[test]
+    fn the_tip_locks_exactly_inside_the_friction_cone() {
+        let springs = paper_springs();
+        for mu in [0.05f64, 0.23, 0.5, 1.0, 2.0] {
+            let lock_from = (1.0 / mu).atan();
+            for tenth in 1..900 {
+                let phi = (tenth as f64 / 10.0).to_radians();
+                let lp = load_path(&springs, Radians(phi), mu);
+                if (phi - lock_from).abs() > 1e-9 {
+                    assert_eq!(lp.tip_locked, phi > lock_from, "mu {mu} phi {phi}");
+                }
+                assert!(lp.tip_slip_per_travel >= 0.0, "mu {mu} phi {phi}: {lp:?}");
+                assert!(
+                    lp.force_per_travel <= springs.lateral_n_per_m * (1.0 + 1e-12),
+                    "mu {mu} phi {phi}: {lp:?}"
+                );
+                assert!(lp.force_angle.0 <= std::f64::consts::FRAC_PI_2 + 1e-12);
+            }
+        }
     }
 
     #[test]
