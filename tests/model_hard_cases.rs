@@ -219,4 +219,14 @@ fn a_push_longer_than_any_stage_travel_is_refused() {
     p.duration_s = 1e5; // 0.1 m at 1 um/s: long, but a push
     p.speed_m_per_s = 1e-6;
     assert!(simulate_push_with(&s, &p, &SolverSettings::default()).is_ok());
+    // Drift travels with the stage: 1e15 nm/s had pushed 3e13 um.
+    let mut drifting = s.clone();
+    drifting.environment.drift_m_per_s = 1e6;
+    match simulate_push_with(&drifting, &s.push, &SolverSettings::default()) {
+        Err(ModelError::Scene { field, problem }) => {
+            assert_eq!(field, "environment.drift_nm_s");
+            assert!(problem.contains("unit slip"), "{problem}");
+        }
+        other => panic!("drift 1e15 nm/s: {other:?}"),
+    }
 }

@@ -153,6 +153,19 @@ impl<'a> Prepared<'a> {
         );
         let (substrate, tip) = scene.interfaces(settings.contact_override);
         let effects = effects::decide(scene, &substrate, &tip);
+        let drift_m_per_s = effects.drift_m_per_s.unwrap_or(0.0);
+        let travel_m = (params.speed_m_per_s + drift_m_per_s).abs() * params.duration_s;
+        if travel_m > MAX_PUSH_TRAVEL_M {
+            // The push's own check saw the speed alone; drift adds to it.
+            return Err(ModelError::scene(
+                "environment.drift_nm_s",
+                format!(
+                    "{:.3e} nm/s of drift for {:.3e} s makes a push of {travel_m:.3e} m; no stage travels more than {MAX_PUSH_TRAVEL_M} m (a unit slip?)",
+                    drift_m_per_s * 1e9,
+                    params.duration_s
+                ),
+            ));
+        }
         let geometry = PushGeometry {
             psi_rad: path.force_angle.0 + effects.tilt_rad.unwrap_or(0.0),
             phi_rad: params.contact_angle_rad,

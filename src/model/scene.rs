@@ -368,12 +368,15 @@ impl RawScene {
                 m.youngs_modulus_gpa,
                 &format!("materials.{name}.youngs_modulus_gpa"),
             )? * 1e9;
-            let nu = in_range(
-                need(m.poisson_ratio, &format!("materials.{name}.poisson_ratio"))?,
-                -1.0,
-                0.5,
-                &format!("materials.{name}.poisson_ratio"),
-            )?;
+            let field = format!("materials.{name}.poisson_ratio");
+            let nu = in_range(need(m.poisson_ratio, &field)?, -1.0, 0.5, &field)?;
+            if nu <= -1.0 {
+                // G = E / 2(1 + nu): the torsional spring would be infinite.
+                return Err(ModelError::scene(
+                    &field,
+                    format!("must be above -1 (no isotropic solid reaches it), got {nu}"),
+                ));
+            }
             mats.insert(name.clone(), (e, nu));
         }
         let material = |name: Option<String>, field: &str| -> Result<(f64, f64), ModelError> {
@@ -691,6 +694,23 @@ mod tests {
         );
         assert!(Scene::from_toml_str(&offset(-5.0)).is_err());
         assert!(Scene::from_toml_str(&offset(2.0)).is_ok());
+        // A Poisson ratio of -1 makes the torsional spring infinite.
+        let poisson = |nu: &str| {
+            paper.replacen(
+                "poisson_ratio = 0.27 ",
+                &format!("poisson_ratio = {nu} "),
+                1,
+            )
+        };
+        assert!(paper.contains("poisson_ratio = 0.27 "));
+        let err = Scene::from_toml_str(&poisson("-1.0"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("poisson_ratio") && err.contains("above -1"),
+            "{err}"
+        );
+        assert!(Scene::from_toml_str(&poisson("-0.5")).is_ok());
     }
 
     /// The drift's direction is read in degrees and refused when not a number.
