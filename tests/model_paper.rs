@@ -24,6 +24,32 @@ fn paper_scene_rolls_at_9_s_and_3_un_and_moves_21_um() {
     assert!((d - 21.0).abs() <= 0.5, "displacement {d} um");
 }
 
+/// The held angle carries the tip 12.65 um along the sphere by onset, past
+/// the top 3.94 um away: said in the notes; with the angle free the push
+/// ends when the tip reaches the top, and then nothing needs saying.
+#[test]
+fn a_held_contact_angle_says_when_the_tip_has_passed_the_top() {
+    let s = paper();
+    let r = simulate_push(&s, &s.push).unwrap();
+    let note = r
+        .notes
+        .iter()
+        .find(|n| n.contains("contact angle held"))
+        .unwrap_or_else(|| panic!("no held-angle note in {:?}", r.notes));
+    assert!(note.contains("past the top") && note.contains("2.81"), "{note}");
+    let mut free = s.clone();
+    free.hold_contact_angle = false;
+    let r = simulate_push(&free, &free.push).unwrap();
+    assert_eq!(r.outcome, Outcome::TipSlippedOver);
+    assert!((r.end_s - 2.81).abs() < 0.01, "{}", r.end_s);
+    assert!(!r.notes.iter().any(|n| n.contains("contact angle held")));
+    // A short push that stops before the top says nothing either.
+    let mut p = s.push;
+    p.duration_s = 2.0;
+    let r = simulate_push(&s, &p).unwrap();
+    assert!(!r.notes.iter().any(|n| n.contains("contact angle held")), "{:?}", r.notes);
+}
+
 #[test]
 fn after_onset_the_particle_follows_the_stage_unfitted() {
     // 21 um = V (30 s - onset) must come out, not be fitted: check it for
