@@ -50,3 +50,37 @@ fn a_closed_output_pipe_is_not_a_panic() {
         "not ended by SIGPIPE: {stderr}"
     );
 }
+
+/// `study assemble` keeps what it measured: the summary is written after
+/// every run, an --out holding a study is refused without --force (it had
+/// overwritten the summary and deleted a same-seed run's folder), and a
+/// study where no run produced a report fails (it had exited 0).
+#[test]
+fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let study = |text: &str, extra: &[&str]| {
+        nanopush()
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(["study", "assemble", "--text", text, "--runs", "1", "--out"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .expect("run nanopush")
+    };
+    let first = study("L", &[]);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let summary = out.join("study-assemble.json");
+    let written = std::fs::read_to_string(&summary).unwrap();
+    let again = study("L", &[]);
+    let said = String::from_utf8_lossy(&again.stderr);
+    assert!(!again.status.success() && said.contains("--force"), "{said}");
+    assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
+    assert!(study("L", &["--force"]).status.success());
+    let too_big = study("HELLO WORLD NANOPUSH", &["--force"]);
+    let said = String::from_utf8_lossy(&too_big.stderr);
+    assert!(
+        !too_big.status.success() && said.contains("no run produced a report"),
+        "{said}"
+    );
+}

@@ -36,7 +36,10 @@ fn a_held_contact_angle_says_when_the_tip_has_passed_the_top() {
         .iter()
         .find(|n| n.contains("contact angle held"))
         .unwrap_or_else(|| panic!("no held-angle note in {:?}", r.notes));
-    assert!(note.contains("past the top") && note.contains("2.81"), "{note}");
+    assert!(
+        note.contains("past the top") && note.contains("2.81"),
+        "{note}"
+    );
     let mut free = s.clone();
     free.hold_contact_angle = false;
     let r = simulate_push(&free, &free.push).unwrap();
@@ -47,7 +50,11 @@ fn a_held_contact_angle_says_when_the_tip_has_passed_the_top() {
     let mut p = s.push;
     p.duration_s = 2.0;
     let r = simulate_push(&s, &p).unwrap();
-    assert!(!r.notes.iter().any(|n| n.contains("contact angle held")), "{:?}", r.notes);
+    assert!(
+        !r.notes.iter().any(|n| n.contains("contact angle held")),
+        "{:?}",
+        r.notes
+    );
 }
 
 #[test]
