@@ -69,12 +69,19 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
             .expect("run nanopush")
     };
     let first = study("L", &[]);
-    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
     let summary = out.join("study-assemble.json");
     let written = std::fs::read_to_string(&summary).unwrap();
     let again = study("L", &[]);
     let said = String::from_utf8_lossy(&again.stderr);
-    assert!(!again.status.success() && said.contains("--force"), "{said}");
+    assert!(
+        !again.status.success() && said.contains("--force"),
+        "{said}"
+    );
     assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
     assert!(study("L", &["--force"]).status.success());
     let too_big = study("HELLO WORLD NANOPUSH", &["--force"]);

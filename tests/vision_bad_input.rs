@@ -347,6 +347,13 @@ fn study_vision_refuses_what_it_cannot_study() {
         err.contains("--snr must be > 0 and at most 1e6, got 0") && !err.contains("0e0"),
         "{err}"
     );
+    // A frame too small for any sphere: it had printed recall 0, precision
+    // 1 and radius error 0 % for particles never drawn, and exited 0.
+    let mut tiny = study.to_vec();
+    let size = tiny.iter().position(|a| *a == "--size-px").unwrap() + 1;
+    tiny[size] = "17";
+    let err = refused(dir.path(), &tiny);
+    assert!(err.contains("nothing to study"), "{err}");
     // A frame of no pixels is said of the frame (it blamed --radius-px).
     let mut empty = study.to_vec();
     let size = empty.iter().position(|a| *a == "--size-px").unwrap() + 1;

@@ -41,6 +41,10 @@ pub struct Args {
     /// Write the table as Markdown and JSON here (FILE.md, FILE.json).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace FILE.md and FILE.json when they exist (refused without it: a
+    /// document holding more than the table would lose the rest).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// One row of the study.
@@ -67,10 +71,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     // Before the bound, whose cost grows with the particle's area.
     check_particle_fits("--radius-px", args.radius_px, args.size_px, args.size_px)?;
+    for &snr in &args.snr {
+        check_snr("--snr", snr).map_err(anyhow::Error::msg)?;
+    }
+    let outputs = args
+        .out
+        .as_deref()
+        .map(|out| study_outputs(out, args.force))
+        .transpose()?;
     let mut rows = Vec::new();
     let mut placed: Vec<usize> = Vec::new();
     for &snr in &args.snr {
-        check_snr("--snr", snr).map_err(anyhow::Error::msg)?;
         let settings = RenderSettings::with_snr(snr, args.bits);
         let crb = centre_crb_px(args.radius_px, &settings).unwrap_or(f64::NAN);
         let frames: Vec<_> = (0..args.frames as u64)
@@ -87,6 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             })
             .collect::<anyhow::Result<_>>()?;
         placed.extend(frames.iter().map(|(scene, _)| scene.particles.len()));
+        anyhow::ensure!(
+            placed.iter().all(|&n| n > 0),
+            "no sphere of --radius-px {} fits a {} px frame clear of its edges: nothing to study",
+            args.radius_px,
+            args.size_px
+        );
         for locator in Locator::ALL {
             let detect = DetectSettings {
                 diameter_px: 2.0 * args.radius_px + 1.0,
@@ -160,21 +177,51 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     print!("{md}");
-    if let Some(out) = &args.out {
-        if let Some(folder) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+    if let Some([md_path, json_path]) = outputs {
+        if let Some(folder) = md_path.parent().filter(|p| !p.as_os_str().is_empty()) {
             std::fs::create_dir_all(folder)
                 .with_context(|| format!("creating {}", folder.display()))?;
         }
-        std::fs::write(out.with_extension("md"), &md)
-            .with_context(|| format!("writing {}", out.display()))?;
+        std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
         let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});
-        std::fs::write(
-            out.with_extension("json"),
-            serde_json::to_string_pretty(&json)?,
-        )
-        .with_context(|| format!("writing {}", out.display()))?;
+        std::fs::write(&json_path, serde_json::to_string_pretty(&json)?)
+            .with_context(|| format!("writing {}", json_path.display()))?;
+        println!(
+            "table: {}  data: {}",
+            md_path.display(),
+            json_path.display()
+        );
     }
     Ok(())
+}
+
+/// FILE.md and FILE.json for `--out FILE`: a given `.md` or `.json` is
+/// dropped, any other dot kept (`run.2026.11.29` had written
+/// `run.2026.11.md`); refused, before the study's minutes of work, when
+/// FILE is a folder or either file exists without `force`.
+fn study_outputs(out: &std::path::Path, force: bool) -> anyhow::Result<[PathBuf; 2]> {
+    let text = out.to_string_lossy();
+    anyhow::ensure!(
+        !out.is_dir() && !text.ends_with('/'),
+        "--out {text} is a folder: give a file name (FOLDER/study-vision writes study-vision.md and .json there)"
+    );
+    let stem = match out.extension().and_then(|e| e.to_str()) {
+        Some("md" | "json") => out.with_extension(""),
+        _ => out.to_path_buf(),
+    };
+    let with = |ext: &str| {
+        let mut name = stem.clone().into_os_string();
+        name.push(ext);
+        PathBuf::from(name)
+    };
+    let paths = [with(".md"), with(".json")];
+    if !force && let Some(held) = paths.iter().find(|p| p.exists()) {
+        anyhow::bail!(
+            "{} exists: pass --force to replace it, or --out another file",
+            held.display()
+        );
+    }
+    Ok(paths)
 }
 
 /// How many spheres the frames hold: the number asked for, or as many as
@@ -192,7 +239,30 @@ fn spheres_text(placed: &[usize], asked: usize) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::spheres_text;
+    use super::{spheres_text, study_outputs};
+    use std::path::PathBuf;
+
+    #[test]
+    fn the_outputs_keep_the_name_given_and_refuse_to_replace() {
+        let dir = tempfile::tempdir().unwrap();
+        let at = |name: &str| dir.path().join(name);
+        let paths = study_outputs(&at("run.2026.11.29"), false).unwrap();
+        assert_eq!(paths, [at("run.2026.11.29.md"), at("run.2026.11.29.json")]);
+        let paths = study_outputs(&at("table.md"), false).unwrap();
+        assert_eq!(paths, [at("table.md"), at("table.json")]);
+        assert!(study_outputs(dir.path(), false).is_err());
+        std::fs::write(at("table.json"), "{}").unwrap();
+        let err = study_outputs(&at("table"), false).unwrap_err().to_string();
+        assert!(
+            err.contains("table.json exists") && err.contains("--force"),
+            "{err}"
+        );
+        assert!(study_outputs(&at("table"), true).is_ok());
+        assert_eq!(
+            study_outputs(&PathBuf::from("docs/study-vision"), true).unwrap()[0],
+            PathBuf::from("docs/study-vision.md")
+        );
+    }
 
     #[test]
     fn the_header_counts_the_spheres_drawn() {
