@@ -58,11 +58,14 @@ fn on_site(particles: &[(usize, f64, f64)], sites: &[[f64; 2]]) -> Vec<(usize, f
         .collect()
 }
 
-/// The simulated rig, watched: every move is checked for disturbed placed particles.
+/// The simulated rig, watched: every move is checked for disturbed placed
+/// particles; `calibration`, when given, is what the loop is told instead
+/// of the camera's own map.
 struct Watched<'r> {
     rig: &'r mut SimRig,
     sites: Vec<[f64; 2]>,
     disturbed: Vec<String>,
+    calibration: Option<CameraCalibration>,
 }
 
 impl Watched<'_> {
@@ -126,7 +129,9 @@ impl Rig for Watched<'_> {
         self.rig.now_s()
     }
     fn calibration(&self) -> &CameraCalibration {
-        self.rig.calibration()
+        self.calibration
+            .as_ref()
+            .unwrap_or_else(|| self.rig.calibration())
     }
 }
 
@@ -159,6 +164,7 @@ fn watched_run(faults: SimFaults) -> Outcome {
         rig: &mut run.rig,
         sites: sites.clone(),
         disturbed: Vec::new(),
+        calibration: None,
     };
     let end = {
         let mut assembly = Assembly::start(&mut watched, inputs, journal, run.spec).unwrap();
@@ -493,4 +499,62 @@ fn an_unreadable_journal_is_refused_and_left_as_it_was() {
         .unwrap();
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("nope.jsonl"));
+}
+
+/// Another camera's calibration (0.30 for 0.25 um/px, turned 90 deg) puts
+/// the apex far from where the stage has it: the run stops on its first
+/// frame, naming the calibration, before any move (it had pushed three
+/// times, lost contact three times and stopped on "no collision-free
+/// order").
+#[test]
+fn a_calibration_of_another_camera_stops_the_run_before_any_push() {
+    let mut run = prepare_sim_run(&request(SimFaults::default())).unwrap();
+    let truth = *run.rig.calibration();
+    // Turned and scaled about pixel (100, 100), which still maps where it should.
+    let turned = |offset_m: [f64; 2]| {
+        CameraCalibration::from_scale_rotation(
+            truth.m_per_px() * 1.2,
+            std::f64::consts::FRAC_PI_2,
+            offset_m,
+        )
+    };
+    let (want, got) = (
+        truth.pixel_to_stage_m(100.0, 100.0),
+        turned([0.0, 0.0]).pixel_to_stage_m(100.0, 100.0),
+    );
+    let wrong = turned([want[0] - got[0], want[1] - got[1]]);
+    let dir = tempfile::tempdir().unwrap();
+    let journal_path = dir.path().join("journal.jsonl");
+    let journal = JournalWriter::create(&journal_path).unwrap();
+    let inputs = inputs_for(
+        &run.scene,
+        run.sites.clone(),
+        &run.rig,
+        run.layout.field_m,
+        false,
+    );
+    let mut watched = Watched {
+        rig: &mut run.rig,
+        sites: Vec::new(),
+        disturbed: Vec::new(),
+        calibration: Some(wrong),
+    };
+    let end = Assembly::start(&mut watched, inputs, journal, run.spec)
+        .unwrap()
+        .run()
+        .unwrap();
+    let RunEnd::Stopped(why) = &end else {
+        panic!("ran to {end:?}");
+    };
+    assert!(why.contains("calibration does not fit"), "{why}");
+    let events: Vec<RunEvent> = read_journal::<RunEvent>(&journal_path)
+        .unwrap()
+        .entries
+        .into_iter()
+        .map(|e| e.event)
+        .collect();
+    assert_eq!(
+        count(&events, |e| matches!(e, RunEvent::Decision { .. })),
+        0
+    );
 }

@@ -161,6 +161,13 @@ impl ExecError {
     }
 }
 
+/// Farthest the first frame's apex may lie from where the stage has it
+/// before the run stops for the calibration. The calibration maps the apex
+/// onto the stage's position (RMS 0.2 px on the simulated rig); drift of a
+/// few nm/s since it was made adds a few um an hour; a map of another
+/// camera or a turned one puts the apex tens of um off.
+pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
+
 /// How a run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RunEnd {
@@ -454,6 +461,9 @@ impl<'a> Assembly<'a> {
         // frame, the next frame shows the particles it hid: one never seen
         // would be an obstacle no plan knows of.
         self.observe(&[], None)?;
+        if let Some(why) = self.calibration_doubt() {
+            return self.stop(RunEnd::Stopped(why));
+        }
         if self.probe_axis().is_some() {
             self.park_at_start()?;
         }
@@ -595,6 +605,28 @@ impl<'a> Assembly<'a> {
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
         Ok(())
+    }
+
+    /// Why the last frame says the calibration is not this rig's: the apex
+    /// seen more than [`CALIBRATION_DOUBT_M`] from where the stage has it
+    /// (another camera's map, 0.30 um/px turned 90 deg, put the apex 17 um
+    /// off; the run pushed three times, lost contact three times and stopped
+    /// on "no collision-free order", naming no calibration).
+    fn calibration_doubt(&self) -> Option<String> {
+        let sighting = self.last_sighting.as_ref()?;
+        let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
+        let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
+        let off = (tip[0] - sent[0]).hypot(tip[1] - sent[1]);
+        (off > CALIBRATION_DOUBT_M).then(|| {
+            format!(
+                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, or the camera, lens or probe moved since it was made); make it again (nanopush rig calibrate) before pushing",
+                tip[0] * 1e6,
+                tip[1] * 1e6,
+                off * 1e6,
+                sent[0] * 1e6,
+                sent[1] * 1e6
+            )
+        })
     }
 
     /// Takes the frame's apex against where the stage was sent into the drift
