@@ -288,3 +288,21 @@ fn a_stage_log_in_the_wrong_unit_is_refused_naming_the_unit() {
         assert!(!dir.path().join("calibration.toml").exists());
     }
 }
+
+/// A fit that cannot be checked is not written (it had been, with exit 0,
+/// "RMS residual 0.000 px"): the grid's first 4 frames fit an affine map
+/// with nothing over to check it. (A map few frames agree on is refused by
+/// the same verdict: `calib::fit_quality` tests.)
+#[test]
+fn a_calibration_few_frames_agree_on_is_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    write_recording(dir.path(), &truth(), 1.0);
+    let csv = std::fs::read_to_string(dir.path().join("stage.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    let first_four = lines[..5].join("\n") + "\n";
+    std::fs::write(dir.path().join("stage.csv"), first_four).unwrap();
+    let out = calibrate(dir.path(), &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("at least 6"), "{err}");
+    assert!(!dir.path().join("calibration.toml").exists());
+}

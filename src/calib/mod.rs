@@ -3,4 +3,5 @@
 pub mod calibration_run;
 pub mod camera_fit;
 pub mod camera_map;
+pub mod fit_quality;
 pub mod lens;

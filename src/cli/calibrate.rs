@@ -183,13 +183,25 @@ pub fn fit_recording(
     }
     let c = &fit.calibration;
     println!(
-        "scale {:.5} um/px, rotation {:.3} deg, inliers {}/{}, RMS residual {:.3} px",
+        "scale {:.5} um/px, rotation {:.3} deg{}, inliers {}/{}, RMS residual {:.3} px",
         c.m_per_px() * 1e6,
         c.linear[(1, 0)].atan2(c.linear[(0, 0)]).to_degrees(),
+        if c.linear.determinant() < 0.0 {
+            " (mirrored: the image's y runs against the stage's)"
+        } else {
+            ""
+        },
         fit.inliers,
         pixels.len(),
         fit.rms_px
     );
+    let verdict = crate::calib::fit_quality::judge(&fit, &pixels, frame_px);
+    if let Some(why) = verdict.refusal {
+        anyhow::bail!("the calibration is not written: {why}");
+    }
+    for warning in &verdict.warnings {
+        eprintln!("warning: {warning}");
+    }
     match (&c.lens, &fit.lens_skipped) {
         (Some(lens), _) => println!(
             "lens k1 {:+.5}: moves the frame's corners up to {:.2} px; an affine map alone left {:.3} px RMS",
