@@ -770,6 +770,35 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     assert!(!out.status.success(), "{}", failed(out.status, &out));
     std::thread::sleep(Duration::from_millis(100));
     assert!(!b.moving(), "the stage was left moving");
+    // A controller gone wrong stops the run as a run stops too: it had
+    // left no report, no end in the journal and no word of --resume.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("go on with it: nanopush assemble --rig"),
+        "{stderr}"
+    );
+    let stopped = b.dir.path().join("garbage");
+    assert!(stopped.join("report.json").exists(), "no report");
+    let journal = std::fs::read_to_string(stopped.join("journal.jsonl")).unwrap();
+    let last = journal.lines().last().unwrap();
+    assert!(last.contains("\"kind\":\"stopped\""), "{last}");
+
+    // Real hardware whose first move nobody confirms (no terminal): refused
+    // before servo on, the run stopped with the reason, and nothing moved.
+    let text = std::fs::read_to_string(&b.rig_path).unwrap();
+    let real = text.replace("real_hardware = false", "real_hardware = true");
+    assert_ne!(real, text, "the replacement did not apply");
+    std::fs::write(&b.rig_path, real).unwrap();
+    let before = b.positions_um();
+    let out = finish(b.assemble("unconfirmed", &[]), Duration::from_secs(60));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{}", failed(out.status, &out));
+    assert!(
+        stderr.contains("not confirmed: nothing was moved"),
+        "{stderr}"
+    );
+    assert_eq!(b.positions_um(), before);
+    std::fs::write(&b.rig_path, text).unwrap();
 }
 
 #[test]

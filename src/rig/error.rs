@@ -32,6 +32,11 @@ pub enum RigError {
     /// journalled and can be resumed (it had been a "stage fault", retried).
     #[error("interrupted by the user (Ctrl-C); the stage was halted")]
     Interrupted,
+    /// The operator answered the first-move question on real hardware with
+    /// anything but `yes`: nothing was sent that moves or powers an axis,
+    /// and nothing more will be (it had been a "stage fault", retried).
+    #[error("the first move on real hardware was not confirmed: nothing was moved")]
+    NotConfirmed,
     /// The camera or another input could not be read.
     #[error("{0}")]
     Io(String),

@@ -268,6 +268,7 @@ impl GcsLineStage {
                 timeout_ms: timeout.as_millis() as u64,
             },
             GcsError::Interrupted => RigError::Interrupted,
+            GcsError::Safety(SafetyViolation::NotConfirmed) => RigError::NotConfirmed,
             other => RigError::StageFault(other.to_string()),
         }
     }

@@ -442,12 +442,19 @@ impl<'a> Assembly<'a> {
         tracks.min_by(|a, b| track_to_site_m(a, s).total_cmp(&track_to_site_m(b, s)))
     }
 
-    /// Runs the loop until every site is filled or it has to stop.
+    /// Runs the loop until every site is filled or it has to stop. A rig or
+    /// camera failure (Ctrl-C, a dropped link, no frame) stops the run as a
+    /// run stops: journalled with its reason, so that the caller writes the
+    /// report and says how to resume (a dropped link had left neither, and
+    /// a journal without its end). Only a journal that cannot be written
+    /// is an error here.
     pub fn run(&mut self) -> Result<RunEnd, ExecError> {
         match self.cycles() {
+            Err(ExecError::Journal(e)) => Err(ExecError::Journal(e)),
             Err(e) if e.is_interrupt() => {
                 self.stop(RunEnd::Stopped(RigError::Interrupted.to_string()))
             }
+            Err(e) => self.stop(RunEnd::Stopped(e.to_string())),
             ended => ended,
         }
     }
