@@ -104,6 +104,48 @@ fn substrate_tilt_changes_the_force_angle() {
     assert!((r.force_angle_rad - base.force_angle_rad - 5f64.to_radians()).abs() < 1e-12);
 }
 
+/// A tilt turns the force and the tip's contact normal alike (both are
+/// taken from the substrate's normal): the critical forces are those of the
+/// untilted criteria at psi + tilt and phi + tilt. With the tilt on psi
+/// alone, -30 deg at phi 45 had given F_r* 96.2 uN and "stuck" where the
+/// particle rolls at 6.3 uN.
+#[test]
+fn substrate_tilt_turns_the_force_and_the_contact_normal_alike() {
+    use nanopush::model::critical_force::{AreaFidelity, CriticalSetup};
+    use nanopush::model::friction::criteria::PushGeometry;
+    for tilt_deg in [-30.0f64, 30.0] {
+        let mut s = paper();
+        s.substrate_tilt_rad = tilt_deg.to_radians();
+        let r = run(&s);
+        let base = run(&paper());
+        let (substrate, tip) = s.interfaces(None);
+        let expected = CriticalSetup {
+            substrate,
+            tip,
+            friction: s.friction,
+            geometry: PushGeometry {
+                psi_rad: base.force_angle_rad + tilt_deg.to_radians(),
+                phi_rad: s.push.contact_angle_rad + tilt_deg.to_radians(),
+                particle_radius_m: s.particle_radius_m,
+                offset_m: 0.0,
+            },
+            extra_substrate_load_n: 0.0,
+            fidelity: AreaFidelity::LoadDependent,
+            relative_tolerance: 1e-10,
+        }
+        .critical_forces()
+        .unwrap();
+        let (got, want) = (r.critical.rolling.or_inf(), expected.rolling.or_inf());
+        assert!(
+            (got - want).abs() <= 1e-6 * want.abs(),
+            "tilt {tilt_deg}: F_r* {got} vs {want}"
+        );
+    }
+    let mut s = paper();
+    s.substrate_tilt_rad = (-30f64).to_radians();
+    assert_eq!(run(&s).outcome, Outcome::Rolling);
+}
+
 #[test]
 fn an_off_axis_push_spins_the_particle() {
     let mut s = paper();

@@ -16,7 +16,7 @@
 //! | charge build-up | `environment.charge_adhesion_gain > 0` | W_tip(t) = W (1 + g (1 - exp(-t_session/tau))); phenomenological, from the reported ~30 min sticking; no effect while the tip contact is capped at R_t |
 //! | capillarity | RH > 40 % | saturated meniscus F = 4 pi R gamma cos(theta_c) added to the substrate load (Israelachvili); ignores meniscus kinetics and the RH dependence above threshold |
 //! | piezo drift | `environment.drift_nm_s != 0` | constant drift added to stage travel; creep folded into it |
-//! | substrate tilt | `substrate.tilt_deg != 0` | rotates the force angle seen by the substrate by the tilt; gravity neglected (1e-11 N for 5 um PS) |
+//! | substrate tilt | `substrate.tilt_deg != 0` | rotates the force angle and the tip's contact normal, as the substrate sees them, by the tilt (the tip's friction cone is unchanged; until 2026-11-29 the force alone, which put 0.93 of friction on a tip of 0.23); gravity neglected (1e-11 N for 5 um PS) |
 
 use super::contact::Interface;
 use super::scene::Scene;
