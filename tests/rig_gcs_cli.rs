@@ -208,6 +208,33 @@ fn a_rig_file_naming_one_axis_twice_is_refused_by_probe_and_assemble() {
     }
 }
 
+/// A stage without z cannot lift the tip: `assemble` refuses it (every
+/// travel would drag the tip across the sample; it had run, parking with
+/// the tip down), and `rig calibrate` only with the tip lifted by hand (it
+/// had swept the grid at the tip's height and moved particles 6 um).
+#[test]
+fn a_stage_without_z_is_refused_where_the_tip_would_sweep_the_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = std::path::Path::new("calib/rig-gcs-sim.toml");
+    let run = assemble_dry_run(rig, &dir.path().join("out"));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success() && stderr.contains("no z axis"), "{stderr}");
+    assert!(!String::from_utf8_lossy(&run.stdout).contains("MOV "));
+    let run = nanopush()
+        .args(["rig", "calibrate", "--rig"])
+        .arg(rig)
+        .arg("--out")
+        .arg(dir.path().join("c.toml"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.contains("--tip-lifted-by-hand"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("c.toml").exists());
+}
+
 #[test]
 fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
     let dir = tempfile::tempdir().unwrap();

@@ -218,3 +218,67 @@ fn interrupt_halts_and_refuses_further_moves() {
     assert!(sent.contains(&"HLT\n".to_string()), "{sent:?}");
     assert!(motion_commands(&log).is_empty());
 }
+
+/// The loop speaks heights above the substrate; the rig file says where the
+/// substrate is on the controller's z and which way lifts. On a stage whose
+/// larger z brings the tip down (surface at z 14 um), a lift to 12 um is a
+/// move to z 2, not 12 (the controller's z had been taken as the height:
+/// "lift to the top of travel" drove such a tip into the sample).
+#[test]
+fn heights_go_through_the_rig_files_z_convention() {
+    use nanopush::rig::hardware::GcsNanoStage;
+    use nanopush::rig::stage::NanoStage;
+    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml")
+        .unwrap()
+        .replace(
+            "real_hardware = false",
+            "real_hardware = false\nz_surface_um = 14.0\nz_lifts = \"decreasing\"",
+        );
+    let rig = RigFile::from_toml(&text, Path::new("rig.toml")).unwrap();
+    let (ctrl, log) = gcs::connect(&rig, true).unwrap();
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let stage = GcsStage::new(
+        ctrl,
+        rig.stage_settings(),
+        FirstMoveConfirmation::NotNeeded,
+        Arc::clone(&interrupt),
+    )
+    .unwrap();
+    let mut nano = GcsNanoStage::new(stage, interrupt, rig.z_convention()).unwrap();
+    // Soft z 0..15 um is heights -1..14 um.
+    let z = nano.range()[2];
+    assert!(
+        (z.min_m + 1e-6).abs() < 1e-12 && (z.max_m - 14e-6).abs() < 1e-12,
+        "{z:?}"
+    );
+    let at = nano.position().unwrap();
+    nano.move_to([at[0], at[1], 12e-6], 10e-6).unwrap();
+    let moves = motion_commands(&log.unwrap());
+    assert!(moves.last().unwrap().ends_with(" 3 2\n"), "{moves:?}");
+    assert!((nano.position().unwrap()[2] - 12e-6).abs() < 1e-9);
+}
+
+/// A real nanostage with z names its convention, and only a stage with z does.
+#[test]
+fn a_real_nanostage_with_z_must_say_where_the_substrate_is() {
+    let xyz = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml").unwrap();
+    let real = xyz.replace("real_hardware = false", "real_hardware = true");
+    let err = RigFile::from_toml(&real, Path::new("rig.toml")).unwrap_err();
+    let said = format!("{err:?}");
+    assert!(
+        said.contains("z_surface_um") && said.contains("z_lifts"),
+        "{said}"
+    );
+    let stated = real.replace(
+        "real_hardware = true",
+        "real_hardware = true\nz_surface_um = 0.0\nz_lifts = \"increasing\"",
+    );
+    assert!(RigFile::from_toml(&stated, Path::new("rig.toml")).is_ok());
+    let xy = std::fs::read_to_string("calib/rig-gcs-sim.toml")
+        .unwrap()
+        .replace(
+            "real_hardware = false",
+            "real_hardware = false\nz_lifts = \"increasing\"",
+        );
+    assert!(RigFile::from_toml(&xy, Path::new("rig.toml")).is_err());
+}

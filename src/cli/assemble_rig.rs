@@ -45,7 +45,7 @@ use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::PatternRequest;
 use crate::plan::placement::PlacementGoal;
 use crate::rig::Rig;
-use crate::rig::gcs::SentLog;
+use crate::rig::gcs::{RigFile, SentLog};
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
 use crate::rig::stage::{CoarseStage, NanoStage};
 use crate::vision::frame_input::save_png;
@@ -99,6 +99,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     if args.layout.is_some() {
         bail!("--layout is for the simulated rig: with --rig the camera shows the layout");
+    }
+    let rig_file = RigFile::load(rig_path)?;
+    if rig_file.stage.axes.len() < 3 {
+        bail!(
+            "{}: the stage has no z axis (stage.axes {:?}): the loop lifts the tip between pushes, and without z every travel would drag it across the sample; name the z axis in stage.axes",
+            rig_path.display(),
+            rig_file.stage.axes
+        );
     }
     let start = match &args.resume {
         Some(journal) => resume_start(journal, hw.dry_run)?,

@@ -42,12 +42,18 @@ pub struct Args {
     /// lies on the stage, micrometres.
     #[arg(long, default_value_t = 5.0)]
     pub step_um: f64,
-    /// Height of the tip during the run, micrometres [default: the top of
-    /// the stage's z travel, clear of the particles]. Nearer the pushing
-    /// height maps the apex as the loop sees it then, but the tip must
-    /// clear every particle in view.
-    #[arg(long)]
+    /// Height of the tip above the substrate during the run, micrometres
+    /// (the rig file's z_surface_um and z_lifts turn it into the stage's
+    /// z) [default: the top of the stage's z travel, clear of the
+    /// particles]. Nearer the pushing height maps the apex as the loop sees
+    /// it then, but the tip must clear every particle in view.
+    #[arg(long, allow_negative_numbers = true)]
     pub z_um: Option<f64>,
+    /// On a stage without z (axes x, y): the tip has been lifted clear of
+    /// the sample by hand. Without it such a rig is refused, since the run
+    /// would sweep the tip across the sample at whatever height it is.
+    #[arg(long)]
+    pub tip_lifted_by_hand: bool,
     #[command(flatten)]
     pub fit: FitArgs,
     /// Move real hardware without asking first (the rig file's
@@ -73,6 +79,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Refused before anything moves: a good calibration or recording is
     // not lost to a re-run.
     check_output(&out, &[], args.force)?;
+    if rig.stage.axes.len() < 3 && !args.tip_lifted_by_hand {
+        anyhow::bail!(
+            "{}: the stage has no z axis (stage.axes {:?}), so the tip cannot be lifted and the grid would sweep it across the sample (particles moved 6 um on a simulated run): lift it clear by hand, then pass --tip-lifted-by-hand",
+            args.rig.display(),
+            rig.stage.axes
+        );
+    }
     let csv = recording.join("stage.csv");
     if csv.exists() && !args.force {
         bail!(

@@ -19,6 +19,7 @@ use super::camera_clock::WallClock;
 use super::camera_error::CameraError;
 use super::camera_open::{BoxedCamera, open_camera};
 use super::error::RigError;
+use super::gcs::rig_file::ZConvention;
 use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog};
 use super::gcs_coarse_stage::GcsCoarseStage;
 use super::gcs_line_stage::{GcsLineStage, snap_into_range};
@@ -31,7 +32,9 @@ use std::sync::atomic::AtomicBool;
 /// A GCS stage as the executor's nanostage.
 pub struct GcsNanoStage {
     line: GcsLineStage,
+    /// x, y as the controller's; z as the height above the substrate.
     range: [AxisRange; 3],
+    z: ZConvention,
 }
 
 impl GcsNanoStage {
@@ -39,7 +42,11 @@ impl GcsNanoStage {
     /// rig file's soft limits narrowed to the controller's travel (`TMN?`/`TMX?`).
     /// `interrupt` is the stage's Ctrl-C flag: while it is up, moves are
     /// refused before anything (not even `VEL`) is sent.
-    pub fn new(stage: GcsStage, interrupt: Arc<AtomicBool>) -> Result<Self, GcsError> {
+    pub fn new(
+        stage: GcsStage,
+        interrupt: Arc<AtomicBool>,
+        z: ZConvention,
+    ) -> Result<Self, GcsError> {
         let n = stage.settings().axes.len();
         if !(2..=3).contains(&n) {
             return Err(GcsError::InvalidArgument(format!(
@@ -52,7 +59,14 @@ impl GcsNanoStage {
             max_m: 0.0,
         }; 3];
         range[..n].copy_from_slice(line.range());
-        Ok(Self { line, range })
+        if n == 3 {
+            let (a, b) = (z.height(range[2].min_m), z.height(range[2].max_m));
+            range[2] = AxisRange {
+                min_m: a.min(b),
+                max_m: a.max(b),
+            };
+        }
+        Ok(Self { line, range, z })
     }
 
     /// The GCS stage underneath (for queries the trait does not cover).
@@ -72,7 +86,7 @@ impl NanoStage for GcsNanoStage {
 
     fn position(&mut self) -> Result<StageXyz, RigError> {
         let p = self.line.position_m()?;
-        Ok([p[0], p[1], p.get(2).copied().unwrap_or(0.0)])
+        Ok([p[0], p[1], p.get(2).map_or(0.0, |&z| self.z.height(z))])
     }
 
     /// Targets within a picometre outside the range are snapped onto it
@@ -81,7 +95,8 @@ impl NanoStage for GcsNanoStage {
         let target: StageXyz = std::array::from_fn(|i| snap_into_range(target[i], &self.range[i]));
         check_in_range(target, &self.range)?;
         let n = self.axes();
-        self.line.move_to_m(&target[..n], speed_m_per_s)
+        let stage = [target[0], target[1], self.z.stage_z(target[2])];
+        self.line.move_to_m(&stage[..n], speed_m_per_s)
     }
 
     fn halt(&mut self) -> Result<(), RigError> {
@@ -241,7 +256,7 @@ impl RigDevices {
             opts.waive_confirmation,
             Arc::clone(&interrupt),
         )?;
-        let stage = GcsNanoStage::new(stage, Arc::clone(&interrupt))?;
+        let stage = GcsNanoStage::new(stage, Arc::clone(&interrupt), rig.z_convention())?;
         let (coarse, coarse_sent_log) = match (opts.coarse, &rig.coarse) {
             (Some(given), _) => (Some(given), None),
             (None, Some(section)) => {

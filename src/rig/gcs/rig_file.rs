@@ -81,6 +81,46 @@ pub struct StageSection {
     pub unit_um: f64,
     /// True for real hardware: the first move then needs confirmation.
     pub real_hardware: bool,
+    /// The controller's z reading, micrometres, where the tip's apex
+    /// touches the substrate: the loop's heights are taken from it. A
+    /// nanostage with z on real hardware must give it (and `z_lifts`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_surface_um: Option<f64>,
+    /// Which way of the controller's z lifts the tip off the sample.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_lifts: Option<ZLifts>,
+}
+
+/// Which way of a controller's z axis lifts the tip off the sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ZLifts {
+    /// A larger z reading is a higher tip.
+    Increasing,
+    /// A larger z reading is a lower tip (the stage extends toward the sample).
+    Decreasing,
+}
+
+/// How the loop's height above the substrate maps to the controller's z:
+/// z = surface + sign * height.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZConvention {
+    /// The controller's z where the apex touches the substrate, metres.
+    pub surface_m: f64,
+    /// +1 when z increasing lifts, -1 when it lowers.
+    pub sign: f64,
+}
+
+impl ZConvention {
+    /// The controller's z for a height above the substrate.
+    pub fn stage_z(&self, height_m: f64) -> f64 {
+        self.surface_m + self.sign * height_m
+    }
+
+    /// The height above the substrate of a controller z.
+    pub fn height(&self, stage_z_m: f64) -> f64 {
+        self.sign * (stage_z_m - self.surface_m)
+    }
 }
 
 fn default_baud() -> u32 {
@@ -195,10 +235,44 @@ impl RigFile {
             ));
         }
         validate_controller(&self.stage, &self.safety, "stage", "safety")?;
+        self.validate_z()?;
         if let Some(coarse) = &self.coarse {
             coarse.validate()?;
         }
         self.camera.validate()
+    }
+
+    /// A z convention only with a z axis; on real hardware, never guessed:
+    /// taking the controller's z as the height above the substrate (as
+    /// before 2026-11-29, and still for simulators without the keys) drives
+    /// the tip into the sample on a stage whose z extends toward it.
+    fn validate_z(&self) -> Result<(), String> {
+        let has_z = self.stage.axes.len() == 3;
+        let given = (self.stage.z_surface_um, self.stage.z_lifts);
+        match given {
+            (Some(_), _) | (_, Some(_)) if !has_z => Err(
+                "stage.z_surface_um and stage.z_lifts are for a stage with a z axis (axes x, y, z)"
+                    .into(),
+            ),
+            (Some(z), _) if !z.is_finite() => Err(format!("stage.z_surface_um must be a number, got {z}")),
+            (None, _) | (_, None) if has_z && self.stage.real_hardware => Err(
+                "a nanostage with z on real hardware needs stage.z_surface_um (the controller's z, um, where the tip touches the substrate) and stage.z_lifts (\"increasing\" or \"decreasing\": which way of z lifts the tip); a wrong guess drives the tip into the sample"
+                    .into(),
+            ),
+            _ => Ok(()),
+        }
+    }
+
+    /// The nanostage's z convention: as the rig file gives it, else the
+    /// controller's z taken as the height (simulators).
+    pub fn z_convention(&self) -> ZConvention {
+        ZConvention {
+            surface_m: self.stage.z_surface_um.unwrap_or(0.0) * 1e-6,
+            sign: match self.stage.z_lifts {
+                Some(ZLifts::Decreasing) => -1.0,
+                _ => 1.0,
+            },
+        }
     }
 
     /// The safety limits in SI units.
