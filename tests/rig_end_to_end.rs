@@ -786,7 +786,10 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     // Real hardware whose first move nobody confirms (no terminal): refused
     // before servo on, the run stopped with the reason, and nothing moved.
     let text = std::fs::read_to_string(&b.rig_path).unwrap();
-    let real = text.replace("real_hardware = false", "real_hardware = true");
+    let real = text.replace(
+        "real_hardware = false",
+        "real_hardware = true\nz_surface_um = 0.0\nz_lifts = \"increasing\"",
+    );
     assert_ne!(real, text, "the replacement did not apply");
     std::fs::write(&b.rig_path, real).unwrap();
     let before = b.positions_um();

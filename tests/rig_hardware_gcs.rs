@@ -227,7 +227,10 @@ fn dry_run_logs_moves_and_needs_no_controller() {
     let text = std::fs::read_to_string(&b.rig_path)
         .unwrap()
         .replace(&b.sim.tcp_addr().unwrap().to_string(), "192.0.2.1:50000")
-        .replace("real_hardware = false", "real_hardware = true");
+        .replace(
+            "real_hardware = false",
+            "real_hardware = true\nz_surface_um = 0.0\nz_lifts = \"increasing\"",
+        );
     std::fs::write(&b.rig_path, text).unwrap();
     let mut rig = HardwareRig::open(
         &b.rig_path,
