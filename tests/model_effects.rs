@@ -84,6 +84,37 @@ fn charge_build_up_raises_tip_adhesion_and_delays_onset() {
     assert!(r.onset_s.unwrap() > base.onset_s.unwrap());
 }
 
+/// With the paper's 20 nm tip its contact is capped at R_t: charge build-up
+/// changes no force, and the push says so (it had been listed as acting and
+/// cost a critical-force solve per sample, 197 us a push for nothing).
+#[test]
+fn charge_build_up_that_changes_nothing_says_so() {
+    let base = run(&paper());
+    let mut s = paper();
+    s.environment.charge_adhesion_gain = 5.0;
+    s.environment.session_time_s = 1800.0;
+    let r = run(&s);
+    assert!((r.onset_s.unwrap() - base.onset_s.unwrap()).abs() < 1e-9);
+    let (a, b) = (r.critical.rolling.or_inf(), base.critical.rolling.or_inf());
+    assert!((a - b).abs() <= 1e-12 * b, "{a} vs {b}");
+    assert!(
+        r.notes
+            .iter()
+            .any(|n| n.contains("changes no critical force") && n.contains("capped")),
+        "{:?}",
+        r.notes
+    );
+    // Where it acts (a blunt tip), no such note.
+    let mut blunt = s.clone();
+    blunt.tip_radius_m = 500e-9;
+    assert!(
+        !run(&blunt)
+            .notes
+            .iter()
+            .any(|n| n.contains("changes no critical force"))
+    );
+}
+
 #[test]
 fn forward_drift_brings_onset_earlier() {
     let base = run(&paper());

@@ -44,6 +44,9 @@ pub struct PushSummary {
     pub ride_over_margin: Option<f64>,
     /// End of the push (duration or terminal event) (s).
     pub end_s: f64,
+    /// Pushing force at the end (uN); absent from summaries before 2026-11-29.
+    #[serde(default)]
+    pub force_at_end_uN: Option<f64>,
     /// Simulated effects and why.
     pub active_effects: Vec<ActiveEffect>,
     /// Approximations taken.
@@ -80,6 +83,7 @@ impl PushSummary {
             force_ramp_n_per_m: r.force_per_travel_n_per_m,
             ride_over_margin: r.ride_over_margin,
             end_s: r.end_s,
+            force_at_end_uN: Some(r.force_at_end_n * 1e6),
             active_effects: r.active_effects.clone(),
             notes: r.notes.clone(),
         }
@@ -89,8 +93,19 @@ impl PushSummary {
     pub fn to_text(&self) -> String {
         let opt =
             |v: Option<f64>, unit: &str| v.map_or("none".to_string(), |v| format!("{v:.3} {unit}"));
+        // A mode with no critical force can never start ("none" read as
+        // "not computed").
+        let critical = |v: Option<f64>| {
+            v.map_or("locked (cannot start)".to_string(), |v| {
+                format!("{v:.3} uN")
+            })
+        };
+        let ended = match self.force_at_end_uN {
+            Some(f) => format!("{:.3} s, force {f:.3} uN", self.end_s),
+            None => format!("{:.3} s", self.end_s),
+        };
         let mut s = format!(
-            "scene {}: contact angle {:.1} deg, {:.3} um/s for {:.1} s\n  outcome: {} (mode {})\n  onset: {}, force at onset: {}\n  displacement: {:.3} um\n  critical rolling: {}, critical sliding: {}\n  force angle {:.1} deg, ramp {:.4} N/m\n  effects:\n",
+            "scene {}: contact angle {:.1} deg, {:.3} um/s for {:.1} s\n  outcome: {} (mode {})\n  onset: {}, force at onset: {}\n  ended: {ended}\n  displacement: {:.3} um\n  critical rolling: {}, critical sliding: {}\n  force angle {:.1} deg, ramp {:.4} N/m\n  effects:\n",
             self.scene,
             self.angle_deg,
             self.speed_um_s,
@@ -100,8 +115,8 @@ impl PushSummary {
             opt(self.onset_s, "s"),
             opt(self.force_at_onset_uN, "uN"),
             self.displacement_um,
-            opt(self.critical_rolling_uN, "uN"),
-            opt(self.critical_sliding_uN, "uN"),
+            critical(self.critical_rolling_uN),
+            critical(self.critical_sliding_uN),
             self.force_angle_deg,
             self.force_ramp_n_per_m,
         );
