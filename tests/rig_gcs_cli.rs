@@ -218,7 +218,10 @@ fn a_stage_without_z_is_refused_where_the_tip_would_sweep_the_sample() {
     let rig = std::path::Path::new("calib/rig-gcs-sim.toml");
     let run = assemble_dry_run(rig, &dir.path().join("out"));
     let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(!run.status.success() && stderr.contains("no z axis"), "{stderr}");
+    assert!(
+        !run.status.success() && stderr.contains("no z axis"),
+        "{stderr}"
+    );
     assert!(!String::from_utf8_lossy(&run.stdout).contains("MOV "));
     let run = nanopush()
         .args(["rig", "calibrate", "--rig"])

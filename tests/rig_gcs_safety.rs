@@ -281,4 +281,12 @@ fn a_real_nanostage_with_z_must_say_where_the_substrate_is() {
             "real_hardware = false\nz_lifts = \"increasing\"",
         );
     assert!(RigFile::from_toml(&xy, Path::new("rig.toml")).is_err());
+    // A calibration given as the rig file is named as one.
+    let calibration = std::fs::read_to_string("calib/camera-stage-sim.toml").unwrap();
+    let err = RigFile::from_toml(&calibration, Path::new("c.toml")).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("nanopush.calibration/1 file, not a rig file"),
+        "{err}"
+    );
 }

@@ -123,14 +123,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     });
     // Whatever happened, the stage is left still.
     let _ = devices.halt();
-    ran.with_context(|| {
-        format!(
-            "calibration run on {} ({} frames saved in {})",
-            args.rig.display(),
-            rows.len(),
-            recording.display()
-        )
-    })?;
+    if let Err(e) = ran {
+        // The stage goes back to where it started only when the run ends by
+        // itself: after Ctrl-C or a fault it stays where it stopped, and
+        // the frames already saved are worth a fit (neither had been said).
+        let at = match devices.position() {
+            Ok(p) => format!(
+                "the stage stopped at ({:.2}, {:.2}) um, the tip {:.2} um above the substrate; it was not put back",
+                p[0] * 1e6,
+                p[1] * 1e6,
+                p[2] * 1e6
+            ),
+            Err(_) => "where the stage stopped could not be read".to_string(),
+        };
+        return Err(e).with_context(|| {
+            format!(
+                "calibration run on {} stopped: {at}; {} frames saved in {} (fit them with `nanopush calibrate --recording {} --out FILE`, or run again with --force)",
+                args.rig.display(),
+                rows.len(),
+                recording.display(),
+                recording.display()
+            )
+        });
+    }
     let new = fit_recording(&recording, &out, Channel::Luminance, &args.fit, args.force)?;
     println!("recording: {} ({} frames)", recording.display(), rows.len());
     if let Some(old) = previous {

@@ -197,6 +197,20 @@ pub enum RigFileError {
 impl RigFile {
     /// Parses and validates rig TOML; `path` is only used in messages.
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, RigFileError> {
+        // A file of another kind is named by its schema (a calibration given
+        // as --rig had said "unknown field `inliers`").
+        let schema = toml::from_str::<toml::Table>(text)
+            .ok()
+            .and_then(|t| t.get("schema")?.as_str().map(str::to_owned))
+            .filter(|s| s != RIG_SCHEMA && s.starts_with("nanopush."));
+        if let Some(schema) = schema {
+            return Err(RigFileError::Invalid {
+                path: path.to_path_buf(),
+                reason: format!(
+                    "this is a {schema} file, not a rig file ({RIG_SCHEMA}: stage, safety, camera, calibration; see calib/rig-*.toml)"
+                ),
+            });
+        }
         let rig: RigFile = toml::from_str(text).map_err(|e| RigFileError::Parse {
             path: path.to_path_buf(),
             source: Box::new(e),
