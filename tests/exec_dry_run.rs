@@ -819,6 +819,10 @@ fn particles_beyond_the_field_are_obstacles_of_the_plans_not_refused() {
         cal.replace("-20.0]", "-80.0]"),
     )
     .unwrap();
+    // The shifted map puts the apex 60 um from the stage log, where the
+    // loop stops for the calibration (tested on its own): the probe is not
+    // looked for here.
+    set_line(&rec, "recording.toml", "detect_tip", "detect_tip = false");
     let out = dir.path().join("out");
     let o = dry_run(&rec, &out, &[]);
     let r = ok_report(&o, &out);
@@ -978,4 +982,40 @@ fn a_recording_made_from_another_folder_keeps_its_scene() {
         "{err}"
     );
     assert!(!dir.path().join("rec2").exists());
+}
+
+/// A recording replayed through a calibration that is not its camera's
+/// (shifted 6.7 um at the apex): the loop would stop on its first look, and
+/// the dry-run says so on every frame instead of commanding pushes (it had
+/// commanded them through a mirrored calibration, exit 0).
+#[test]
+fn a_calibration_that_misplaces_the_apex_is_where_the_loop_would_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);
+    let out = dir.path().join("out");
+    let report = ok_report(&dry_run(&rec, &out, &[]), &out);
+    assert!(
+        report
+            .frames
+            .iter()
+            .any(|f| matches!(f.command, DryCommand::Push { .. })),
+        "the recording's own calibration commands pushes"
+    );
+    set_line(
+        &rec,
+        "calibration.toml",
+        "pixel_to_stage_um",
+        "pixel_to_stage_um = [[0.25, 0.0, -23.0], [0.0, -0.25, 126.0]]",
+    );
+    let out = dir.path().join("out2");
+    let report = ok_report(&dry_run(&rec, &out, &[]), &out);
+    for f in &report.frames {
+        match &f.command {
+            DryCommand::Refused { reason } => {
+                assert!(reason.contains("calibration does not fit"), "{reason}")
+            }
+            other => panic!("frame {}: {other:?}", f.frame),
+        }
+    }
 }

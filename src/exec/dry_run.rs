@@ -4,8 +4,8 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    AssemblySettings, FrameSink, FrameView, PlannedPush, PushIntent, decide_push, layout_measured,
-    planning_particles,
+    AssemblySettings, FrameSink, FrameView, PlannedPush, PushIntent, calibration_doubt,
+    decide_push, layout_measured, planning_particles, track_to_site_m,
 };
 use super::camera_look::warn_of_pieces;
 use super::dry_run_plan::kept_plan;
@@ -156,6 +156,12 @@ pub fn dry_run(
     let mut frames = Vec::new();
     let mut commanded: Option<Moved> = None;
     let mut in_hand: Option<Plan> = None;
+    // The loop's first look checks the calibration against the stage (the
+    // dry-run had commanded pushes through a mirrored one, exit 0): once a
+    // frame shows the apex where the stage log was not, every later frame
+    // says the loop stopped there.
+    let mut calibration_checked = false;
+    let mut loop_stopped: Option<String> = None;
     for (i, recorded) in recording.frames()?.enumerate() {
         let recorded = recorded?;
         let mut camera = Replay(Some(TimedFrame {
@@ -213,16 +219,32 @@ pub fn dry_run(
                 r_um: t.last.radius_m * 1e6,
             })
             .collect();
+        // Over every track, as the loop judges: a particle on its site but
+        // hidden under the probe in this frame is still there (counted over
+        // the particles seen, its site was empty, and the dry-run commanded
+        // a push the run never made).
         let filled = sites
             .iter()
             .filter(|s| {
-                tracks.iter().any(|t| {
-                    (t.x_um * 1e-6 - s.centre_m.x).hypot(t.y_um * 1e-6 - s.centre_m.y)
-                        <= loop_settings.placed_tolerance_m
-                })
+                tracker
+                    .tracks()
+                    .iter()
+                    .any(|t| track_to_site_m(t, s) <= loop_settings.placed_tolerance_m)
             })
             .count();
-        let (command, plan) = if filled == sites.len() {
+        if !calibration_checked && sighting.tip_m.is_some() && sighting.stage_m.is_some() {
+            calibration_checked = true;
+            loop_stopped = calibration_doubt(&sighting)
+                .map(|why| format!("the loop stops on its first look: {why}"));
+        }
+        let (command, plan) = if let Some(reason) = &loop_stopped {
+            (
+                DryCommand::Refused {
+                    reason: reason.clone(),
+                },
+                Vec::new(),
+            )
+        } else if filled == sites.len() {
             (DryCommand::Done, Vec::new())
         } else {
             next_command(

@@ -168,6 +168,25 @@ impl ExecError {
 /// camera or a turned one puts the apex tens of um off.
 pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
 
+/// Why `sighting` says the calibration is not this rig's (see
+/// [`CALIBRATION_DOUBT_M`]): the loop stops on it at its first frame, and
+/// the dry-run says the loop would.
+pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
+    let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
+    let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
+    let off = (tip[0] - sent[0]).hypot(tip[1] - sent[1]);
+    (off > CALIBRATION_DOUBT_M).then(|| {
+            format!(
+                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, or the camera, lens or probe moved since it was made); make it again (nanopush rig calibrate) before pushing",
+                tip[0] * 1e6,
+                tip[1] * 1e6,
+                off * 1e6,
+                sent[0] * 1e6,
+                sent[1] * 1e6
+            )
+        })
+}
+
 /// How a run ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum RunEnd {
@@ -250,7 +269,9 @@ pub struct PlannedPush {
 }
 
 /// Distance from a tracked particle's centre to a site's, metres.
-fn track_to_site_m(t: &Track, s: &Site) -> f64 {
+/// How far a track's last place is from a site: what "filled" is judged
+/// by, in the loop and in the dry-run alike.
+pub fn track_to_site_m(t: &Track, s: &Site) -> f64 {
     (t.last.x_m - s.centre_m.x).hypot(t.last.y_m - s.centre_m.y)
 }
 
@@ -620,20 +641,7 @@ impl<'a> Assembly<'a> {
     /// off; the run pushed three times, lost contact three times and stopped
     /// on "no collision-free order", naming no calibration).
     fn calibration_doubt(&self) -> Option<String> {
-        let sighting = self.last_sighting.as_ref()?;
-        let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
-        let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
-        let off = (tip[0] - sent[0]).hypot(tip[1] - sent[1]);
-        (off > CALIBRATION_DOUBT_M).then(|| {
-            format!(
-                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, or the camera, lens or probe moved since it was made); make it again (nanopush rig calibrate) before pushing",
-                tip[0] * 1e6,
-                tip[1] * 1e6,
-                off * 1e6,
-                sent[0] * 1e6,
-                sent[1] * 1e6
-            )
-        })
+        calibration_doubt(self.last_sighting.as_ref()?)
     }
 
     /// Takes the frame's apex against where the stage was sent into the drift
