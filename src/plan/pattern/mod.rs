@@ -93,7 +93,7 @@ pub enum PatternError {
         um_text(*.aw_um, 1),
         um_text(*.ah_um, 1),
         if *.h_um <= *.aw_um && *.w_um <= *.ah_um {
-            "; turned a quarter turn it would (rotation 90 deg)"
+            "; turned a quarter turn from this orientation it would (add 90 deg to the rotation)"
         } else {
             ""
         }
@@ -242,10 +242,9 @@ mod tests {
             aw_um: 120.0,
             ah_um: 100.0,
         };
-        assert!(
-            tall.to_string()
-                .ends_with("; turned a quarter turn it would (rotation 90 deg)")
-        );
+        assert!(tall.to_string().ends_with(
+            "; turned a quarter turn from this orientation it would (add 90 deg to the rotation)"
+        ));
         let long = PatternError::DoesNotFit {
             w_um: 451.0,
             h_um: 52.0,
