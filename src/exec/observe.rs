@@ -19,7 +19,7 @@ use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
 
 /// What to check when the particles found are not the scene's size.
-pub const SIZE_CHECK: &str = "is the scene's particle radius right, and the calibration's um/px?";
+pub const SIZE_CHECK: &str = "is the particle radius right (plan's --radius-um, or the scene's), and the calibration's um/px?";
 
 /// Fewest detections left out for their size that make a warning (when
 /// they also outnumber those taken): one or two are debris.

@@ -280,10 +280,11 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
             let path = dir.join(rel);
             let log = read_stage_log(&path)?;
             if let Some(n) = exact_frames.filter(|&n| n != log.len()) {
-                return Err(RecordingError::Mismatch {
-                    path,
-                    message: entries_for_frames(log.len(), &n.to_string()),
-                });
+                let mut message = entries_for_frames(log.len(), &n.to_string());
+                if let Some(gap) = numbering_gap(stream.files()) {
+                    message = format!("{message}: {gap}");
+                }
+                return Err(RecordingError::Mismatch { path, message });
             }
             Some(log)
         }
@@ -480,9 +481,75 @@ impl FrameSink for RecordingWriter {
     }
 }
 
+/// Where the numbers in a folder's frame names break their run (a frame
+/// deleted or copied in), so that a count that does not match the stage
+/// log names the file ("9 stage-log entries for 8 frames" had named none).
+fn numbering_gap(files: &[std::path::PathBuf]) -> Option<String> {
+    let number = |p: &std::path::PathBuf| -> Option<u64> {
+        let stem = p.file_stem()?.to_str()?;
+        let digits: String = stem
+            .chars()
+            .rev()
+            .take_while(char::is_ascii_digit)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        digits.parse().ok()
+    };
+    let name = |p: &std::path::PathBuf| {
+        p.file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    };
+    files.windows(2).find_map(|pair| {
+        let (a, b) = (number(&pair[0])?, number(&pair[1])?);
+        (b != a + 1).then(|| {
+            if b > a + 1 {
+                format!(
+                    "the frames' numbers jump from {} to {} (a frame missing?)",
+                    name(&pair[0]),
+                    name(&pair[1])
+                )
+            } else {
+                format!(
+                    "{} follows {} (a frame added or renamed?)",
+                    name(&pair[1]),
+                    name(&pair[0])
+                )
+            }
+        })
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_break_in_the_frames_numbers_is_named() {
+        let files = |names: &[&str]| -> Vec<std::path::PathBuf> {
+            names
+                .iter()
+                .map(|n| std::path::PathBuf::from(format!("frames/{n}")))
+                .collect()
+        };
+        let gap = numbering_gap(&files(&["frame_00003.png", "frame_00005.png"])).unwrap();
+        assert!(
+            gap.contains("jump from frame_00003.png to frame_00005.png"),
+            "{gap}"
+        );
+        let copied = numbering_gap(&files(&["f_1.png", "f_2.png", "f_2 copy.png", "f_3.png"]));
+        assert!(
+            copied.is_none(),
+            "a name without a trailing number says nothing: {copied:?}"
+        );
+        let again = numbering_gap(&files(&["f_1.png", "f_2.png", "f_2.tif"])).unwrap();
+        assert!(again.contains("f_2.tif follows f_2.png"), "{again}");
+        assert_eq!(
+            numbering_gap(&files(&["a_7.png", "a_8.png", "a_9.png"])),
+            None
+        );
+    }
 
     fn spec() -> RecordingSpec {
         RecordingSpec {
