@@ -1019,3 +1019,20 @@ fn a_calibration_that_misplaces_the_apex_is_where_the_loop_would_stop() {
         }
     }
 }
+
+/// A stage log an editor left a blank last line in, given as the
+/// recording.toml file itself: both read (the first had been refused as
+/// "EOF while parsing a value", the second looked for
+/// "recording.toml/recording.toml").
+#[test]
+fn a_blank_stage_log_line_and_the_recording_file_itself_are_taken() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);
+    let log = rec.join("stage.jsonl");
+    let text = std::fs::read_to_string(&log).unwrap();
+    std::fs::write(&log, format!("{text}\n")).unwrap();
+    let out = dir.path().join("out");
+    let report = ok_report(&dry_run(&rec.join("recording.toml"), &out, &[]), &out);
+    assert_eq!(report.frames.len(), 4);
+}

@@ -36,7 +36,9 @@ pub struct Args {
     /// Microscope frame to detect particles in (needs --calib).
     #[arg(long, requires = "calib")]
     pub frame: Option<PathBuf>,
-    /// Pixel-to-stage calibration (TOML) for --frame.
+    /// Pixel-to-stage calibration (TOML) for --frame: made on the rig by
+    /// `nanopush rig calibrate`, or from frames of known tip moves by
+    /// `nanopush calibrate --recording DIR` (format: docs/vision.md).
     #[arg(long)]
     pub calib: Option<PathBuf>,
     /// Particle radius in um, for --frame: the detector's size hint, and

@@ -175,7 +175,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let (sites, layout) = block_instance(n, args.seed);
         let parts: Vec<_> = layout.particles.iter().map(|p| p.centre_m).collect();
         if let Some(dir) = &args.dump_dir {
-            std::fs::create_dir_all(dir)?;
+            std::fs::create_dir_all(dir)
+                .map_err(|e| anyhow::anyhow!("creating --dump-dir {}: {e}", dir.display()))?;
             let path = dir.join(format!("block_n{n}.json"));
             std::fs::write(&path, instance_json(&sites, &parts))
                 .map_err(|e| anyhow::anyhow!("writing {}: {e}", path.display()))?;

@@ -193,6 +193,14 @@ impl Recording {
 
 /// Reads a recording folder and checks that its parts fit together.
 pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
+    // The recording.toml itself names its folder (it had been looked for
+    // inside itself: ".../recording.toml/recording.toml: not found").
+    let dir = match dir.file_name() {
+        Some(name) if name == RECORDING_FILE && dir.is_file() => {
+            dir.parent().unwrap_or(Path::new("."))
+        }
+        _ => dir,
+    };
     let spec_path = dir.join(RECORDING_FILE);
     if !spec_path.is_file() {
         return Err(RecordingError::Missing { path: spec_path });
@@ -329,6 +337,11 @@ pub fn read_stage_log(path: &Path) -> Result<Vec<StageLogEntry>, RecordingError>
                     format!("expected a header with schema {STAGE_LOG_SCHEMA}"),
                 ));
             }
+            continue;
+        }
+        // A blank line (an editor's trailing one) is no entry; it had been
+        // refused as "EOF while parsing a value".
+        if line.trim().is_empty() {
             continue;
         }
         let e: StageLogEntry =
