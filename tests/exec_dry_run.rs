@@ -1036,3 +1036,28 @@ fn a_blank_stage_log_line_and_the_recording_file_itself_are_taken() {
     let report = ok_report(&dry_run(&rec.join("recording.toml"), &out, &[]), &out);
     assert_eq!(report.frames.len(), 4);
 }
+
+/// Where the recording shows that the push commanded on the frame before
+/// was not made, the frame says so (the dry-run then plans from what it
+/// shows, and its commands may part from the run's; that had gone
+/// unsaid). The fixture's frame 2 is taken with the probe parked: frame
+/// 1's 17.8 um push of particle 16 is not made there.
+#[test]
+fn a_frame_says_when_the_last_command_was_not_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let rec = root().join("fixtures/recordings/sim-L-seed6");
+    let report = ok_report(&dry_run(&rec, &out, &[]), &out);
+    let flags: Vec<bool> = report
+        .frames
+        .iter()
+        .map(|f| f.last_command_not_made)
+        .collect();
+    assert_eq!(flags[..3], [false, false, true], "{flags:?}");
+    let printed = String::from_utf8_lossy(&dry_run_for_people(&rec, &dir.path().join("p")).stdout)
+        .into_owned();
+    assert!(
+        printed.contains("does not show the last command made"),
+        "{printed}"
+    );
+}

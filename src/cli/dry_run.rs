@@ -179,8 +179,13 @@ fn print_frame(f: &DryRunFrame, sites: usize) {
         "" => String::new(),
         name => format!(" ({name})"),
     };
+    let not_made = if f.last_command_not_made {
+        "  (the recording does not show the last command made: planned from what it shows)"
+    } else {
+        ""
+    };
     println!(
-        "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}",
+        "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}{not_made}",
         f.frame,
         f.t_s,
         f.particles.len(),

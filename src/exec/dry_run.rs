@@ -8,7 +8,7 @@ use super::assemble::{
     decide_push, layout_measured, planning_particles, track_to_site_m,
 };
 use super::camera_look::warn_of_pieces;
-use super::dry_run_plan::kept_plan;
+use super::dry_run_plan::{kept_plan, not_made};
 use super::events::SeenParticle;
 use super::observe::{ObserveError, Perception};
 use super::particle_sizes::ParticleSizes;
@@ -88,6 +88,13 @@ pub struct DryRunFrame {
     /// (absent otherwise, and in files written before this field).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clipped: Option<Exposure>,
+    /// True when this frame shows that the recorded run did not make the
+    /// push the frame before commanded (frame 0's, which the loop never
+    /// makes: it parks the probe first; or a run that chose another
+    /// order): from here the dry-run plans from what the recording shows,
+    /// and its commands may differ from the run's (absent when false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub last_command_not_made: bool,
 }
 
 /// The whole dry-run (`dry-run.json`).
@@ -187,6 +194,7 @@ pub fn dry_run(
         tracker.update(&sighting.particles, commanded.as_slice(), &|x, y| {
             sighting.shows(x, y)
         });
+        let last_command_not_made = commanded.is_some_and(|m| not_made(m, &tracker));
         if sites.is_none() {
             warn_of_pieces(
                 "first frame",
@@ -277,6 +285,7 @@ pub fn dry_run(
             command,
             repaired_lines: sighting.repaired_lines,
             clipped: sighting.exposure.clipped(),
+            last_command_not_made,
         };
         commanded = match outcome.command {
             DryCommand::Push {

@@ -29,18 +29,16 @@ pub(super) fn kept_plan(
     let plan = match commanded {
         None => plan,
         Some(m) => {
-            let seen = tracker
-                .track(m.id)
-                .filter(|t| t.missed_frames == 0)
-                .map(|t| [t.last.x_m, t.last.y_m]);
-            let distance = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
-            let long = distance(m.from, m.to) > tolerances.placed_m;
-            if long && seen.is_some_and(|at| distance(at, m.from) <= tolerances.placed_m) {
+            if not_made(m, tracker) {
                 // The recorded run did not make this push (the frame 0
                 // plan, made before the loop's first, or another order):
                 // plan from what it did.
                 return None;
             }
+            let seen = tracker
+                .track(m.id)
+                .filter(|t| t.missed_frames == 0)
+                .map(|t| [t.last.x_m, t.last.y_m]);
             match seen.map(|at| check_push(m.from, m.to, at, &tolerances)) {
                 Some(check) if check.completes_step() => without_first_push(&plan),
                 Some(check) => {
@@ -55,4 +53,19 @@ pub(super) fn kept_plan(
     };
     let rebased = rebase_plan(&plan, layout, settings.keep_plan_shift_m, repushed).ok()?;
     verify_plan(&rebased, layout, config).ok.then_some(rebased)
+}
+
+/// True when the frame `tracker` has just seen shows the particle of the
+/// push `m` still where the push started, though the push was longer than
+/// the placement tolerance: the recorded run did not make it (the loop
+/// parks the probe before its first push, so frame 0's command is never
+/// made; or it chose another order).
+pub(super) fn not_made(m: Moved, tracker: &Tracker) -> bool {
+    let placed_m = AssemblySettings::default().check_tolerances().placed_m;
+    let distance = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+    let seen = tracker
+        .track(m.id)
+        .filter(|t| t.missed_frames == 0)
+        .map(|t| [t.last.x_m, t.last.y_m]);
+    distance(m.from, m.to) > placed_m && seen.is_some_and(|at| distance(at, m.from) <= placed_m)
 }
