@@ -91,3 +91,15 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
         "{said}"
     );
 }
+
+/// `plan` without particles names both ways to give them (it named only
+/// --layout, and a user with a microscope frame never heard of --frame).
+#[test]
+fn plan_without_particles_names_layout_and_frame() {
+    let out = nanopush().args(["plan", "--text", "CMU"]).output().unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && said.contains("--layout") && said.contains("--frame"),
+        "{said}"
+    );
+}

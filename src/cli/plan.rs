@@ -25,13 +25,16 @@ mod nanopush_plan_api {
 /// Arguments of `nanopush plan`.
 #[derive(clap::Args, Debug)]
 #[command(group(clap::ArgGroup::new("what").args(["text", "pattern"]).required(true)))]
+// Where the particles come from: either is named when neither is given
+// (only --layout was).
+#[command(group(clap::ArgGroup::new("particles").args(["layout", "frame"]).required(true)))]
 pub struct Args {
     /// What to assemble and where.
     #[command(flatten)]
     pub target: PatternArgs,
     /// Particle layout (nanopush.layout/1 JSON); its particles marked
     /// immovable are obstacles, never pushed.
-    #[arg(long, conflicts_with = "frame", required_unless_present = "frame")]
+    #[arg(long)]
     pub layout: Option<PathBuf>,
     /// Microscope frame to detect particles in (needs --calib).
     #[arg(long, requires = "calib")]

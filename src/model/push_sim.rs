@@ -346,7 +346,7 @@ impl<'a> Prepared<'a> {
         }
         let over_s = self.ride_arc_m / (self.path.tip_slip_per_travel * self.travel(1.0));
         Some(format!(
-            "contact angle held: the tip slides {:.2} um along the sphere by {t:.3} s, past the top ({:.2} um away, reached at {over_s:.3} s); with push.hold_contact_angle = false the push ends there, tip slipped over",
+            "contact angle held (the source's linearisation; docs/model.md, known deviations): the tip slides {:.2} um along the sphere by {t:.3} s, past the top ({:.2} um away, reached at {over_s:.3} s); with push.hold_contact_angle = false the push ends there, tip slipped over",
             slip_m * 1e6,
             self.ride_arc_m * 1e6
         ))
