@@ -10,7 +10,8 @@ use std::path::PathBuf;
 /// What to assemble and where.
 #[derive(clap::Args, Debug, Clone)]
 pub struct PatternArgs {
-    /// Text to write with the built-in 3x5 font (A-Z, 0-9, space), e.g. CMU.
+    /// Text to write with the built-in 3x5 font (A-Z, 0-9, space; lower case
+    /// is written upper case), e.g. CMU.
     #[arg(long, conflicts_with = "pattern")]
     pub text: Option<String>,
     /// Pattern file: site list (.toml/.json, um), SVG drawing (.svg: its
