@@ -281,6 +281,16 @@ fn a_real_nanostage_with_z_must_say_where_the_substrate_is() {
             "real_hardware = false\nz_lifts = \"increasing\"",
         );
     assert!(RigFile::from_toml(&xy, Path::new("rig.toml")).is_err());
+    // Nor a coarse stage (it has no z).
+    let coarse = std::fs::read_to_string("calib/rig-gcs-sim-coarse-folder.toml").unwrap();
+    let at = coarse.rfind("real_hardware = false").unwrap();
+    let mut with_z = coarse.clone();
+    with_z.insert_str(at, "z_lifts = \"increasing\"\n");
+    let err = RigFile::from_toml(&with_z, Path::new("rig.toml")).unwrap_err();
+    assert!(
+        format!("{err:?}").contains("coarse.stage has no z"),
+        "{err:?}"
+    );
     // A calibration given as the rig file is named as one.
     let calibration = std::fs::read_to_string("calib/camera-stage-sim.toml").unwrap();
     let err = RigFile::from_toml(&calibration, Path::new("c.toml")).unwrap_err();

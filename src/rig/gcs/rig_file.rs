@@ -313,6 +313,9 @@ impl CoarseSection {
                 self.stage.axes.len()
             ));
         }
+        if self.stage.z_surface_um.is_some() || self.stage.z_lifts.is_some() {
+            return Err("coarse.stage has no z: z_surface_um and z_lifts belong in [stage]".into());
+        }
         if let Some(bad) = self.sign.iter().find(|s| s.abs() != 1) {
             return Err(format!("coarse.sign entries must be 1 or -1, got {bad}"));
         }
