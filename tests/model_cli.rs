@@ -228,6 +228,18 @@ fn bad_flags_exit_non_zero() {
         .output()
         .unwrap();
     assert!(!out.status.success());
+    // A negative value is said to be one (it had been "unexpected argument '-1'").
+    for flag in ["--speed-um-s", "--duration-s", "--radius-um"] {
+        let out = nanopush()
+            .args(["simulate", "--scene", "calib/paper-ps-ito.toml", flag, "-1"])
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && said.contains("must be positive") && said.contains(flag),
+            "{said}"
+        );
+    }
 }
 
 #[test]

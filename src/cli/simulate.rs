@@ -18,13 +18,13 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true)]
     pub angle_deg: Option<f64>,
     /// Stage speed [um/s], overriding push.speed_um_s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub speed_um_s: Option<f64>,
     /// Push duration (s), overriding push.duration_s.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub duration_s: Option<f64>,
     /// Particle radius (um), overriding particle.radius_um.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub radius_um: Option<f64>,
     /// Write plots (SVG + PNG) and the time series (CSV) here.
     #[arg(long)]

@@ -84,8 +84,19 @@ fn fx(name: &str, reason: String) -> ActiveEffect {
 }
 
 /// An interface's contact model and why: its Tabor parameter, or the scene's pin.
+/// A pin the Tabor parameter disagrees with is said (the nanoparticle
+/// scene pins JKR at a Tabor parameter of 1.87, Maugis-Dugdale's range).
 fn regime(interface: &Interface, pinned: bool) -> String {
-    let pin = if pinned { ", pinned by scene" } else { "" };
+    let by_tabor =
+        super::contact::tabor::regime_for(interface.tabor, interface.work_of_adhesion_j_m2);
+    let pin = match (pinned, by_tabor == interface.model) {
+        (false, _) => String::new(),
+        (true, true) => ", pinned by scene".to_string(),
+        (true, false) => format!(
+            ", pinned by scene; the Tabor parameter alone would choose {}",
+            by_tabor.name()
+        ),
+    };
     format!(
         "{} (Tabor parameter {:.2}{pin})",
         interface.model.name(),

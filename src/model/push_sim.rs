@@ -24,7 +24,9 @@ use super::scene::Scene;
 use serde::Serialize;
 
 /// Twist beyond which the linear tip springs no longer hold and the tip is
-/// taken to have lost the particle (the source's theta -> 90 deg, spec case 2).
+/// taken to have lost the particle: 60 deg, well before the source's
+/// theta -> 90 deg (spec case 2), where the literal kinematics break
+/// (`kinematics::literal_twist`); the springs are linearised about 0.
 pub const MAX_TIP_TWIST_RAD: f64 = std::f64::consts::FRAC_PI_3;
 
 /// The commanded push.
