@@ -144,7 +144,17 @@ struct Outcome {
 }
 
 fn watched_run(faults: SimFaults) -> Outcome {
+    watched_run_told(faults, |_| None)
+}
+
+/// [`watched_run`], the loop told the calibration `told` makes of the
+/// camera's own (`None`: the camera's own).
+fn watched_run_told(
+    faults: SimFaults,
+    told: impl FnOnce(&CameraCalibration) -> Option<CameraCalibration>,
+) -> Outcome {
     let mut run = prepare_sim_run(&request(faults)).unwrap();
+    let calibration = told(run.rig.calibration());
     let dir = tempfile::tempdir().unwrap();
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();
@@ -164,7 +174,7 @@ fn watched_run(faults: SimFaults) -> Outcome {
         rig: &mut run.rig,
         sites: sites.clone(),
         disturbed: Vec::new(),
-        calibration: None,
+        calibration,
     };
     let end = {
         let mut assembly = Assembly::start(&mut watched, inputs, journal, run.spec).unwrap();
@@ -508,53 +518,27 @@ fn an_unreadable_journal_is_refused_and_left_as_it_was() {
 /// order").
 #[test]
 fn a_calibration_of_another_camera_stops_the_run_before_any_push() {
-    let mut run = prepare_sim_run(&request(SimFaults::default())).unwrap();
-    let truth = *run.rig.calibration();
-    // Turned and scaled about pixel (100, 100), which still maps where it should.
-    let turned = |offset_m: [f64; 2]| {
-        CameraCalibration::from_scale_rotation(
-            truth.m_per_px() * 1.2,
-            std::f64::consts::FRAC_PI_2,
-            offset_m,
-        )
-    };
-    let (want, got) = (
-        truth.pixel_to_stage_m(100.0, 100.0),
-        turned([0.0, 0.0]).pixel_to_stage_m(100.0, 100.0),
-    );
-    let wrong = turned([want[0] - got[0], want[1] - got[1]]);
-    let dir = tempfile::tempdir().unwrap();
-    let journal_path = dir.path().join("journal.jsonl");
-    let journal = JournalWriter::create(&journal_path).unwrap();
-    let inputs = inputs_for(
-        &run.scene,
-        run.sites.clone(),
-        &run.rig,
-        run.layout.field_m,
-        false,
-    );
-    let mut watched = Watched {
-        rig: &mut run.rig,
-        sites: Vec::new(),
-        disturbed: Vec::new(),
-        calibration: Some(wrong),
-    };
-    let end = Assembly::start(&mut watched, inputs, journal, run.spec)
-        .unwrap()
-        .run()
-        .unwrap();
-    let RunEnd::Stopped(why) = &end else {
-        panic!("ran to {end:?}");
+    let o = watched_run_told(SimFaults::default(), |truth| {
+        // Turned and scaled about pixel (100, 100), which still maps where it should.
+        let turned = |offset_m: [f64; 2]| {
+            CameraCalibration::from_scale_rotation(
+                truth.m_per_px() * 1.2,
+                std::f64::consts::FRAC_PI_2,
+                offset_m,
+            )
+        };
+        let (want, got) = (
+            truth.pixel_to_stage_m(100.0, 100.0),
+            turned([0.0, 0.0]).pixel_to_stage_m(100.0, 100.0),
+        );
+        Some(turned([want[0] - got[0], want[1] - got[1]]))
+    });
+    let RunEnd::Stopped(why) = &o.end else {
+        panic!("ran to {:?}", o.end);
     };
     assert!(why.contains("calibration does not fit"), "{why}");
-    let events: Vec<RunEvent> = read_journal::<RunEvent>(&journal_path)
-        .unwrap()
-        .entries
-        .into_iter()
-        .map(|e| e.event)
-        .collect();
     assert_eq!(
-        count(&events, |e| matches!(e, RunEvent::Decision { .. })),
+        count(&o.events, |e| matches!(e, RunEvent::Decision { .. })),
         0
     );
 }
