@@ -101,7 +101,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         bail!("--layout is for the simulated rig: with --rig the camera shows the layout");
     }
     let rig_file = RigFile::load(rig_path)?;
-    if rig_file.stage.axes.len() < 3 {
+    if !rig_file.stage.has_z() {
         bail!(
             "{}: the stage has no z axis (stage.axes {:?}): the loop lifts the tip between pushes, and without z every travel would drag it across the sample; name the z axis in stage.axes",
             rig_path.display(),
@@ -126,8 +126,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         RigStart::Resume { point, .. } => point.last_t_s,
         RigStart::New { .. } => 0.0,
     };
-    let mut rig = HardwareRig::open(
-        rig_path,
+    let mut rig = HardwareRig::from_rig_file(
+        rig_file,
         HardwareRigOptions {
             dry_run: hw.dry_run,
             waive_confirmation: hw.yes_move_hardware,

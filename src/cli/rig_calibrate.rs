@@ -79,7 +79,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Refused before anything moves: a good calibration or recording is
     // not lost to a re-run.
     check_output(&out, &[], args.force)?;
-    if rig.stage.axes.len() < 3 && !args.tip_lifted_by_hand {
+    if !rig.stage.has_z() && !args.tip_lifted_by_hand {
         anyhow::bail!(
             "{}: the stage has no z axis (stage.axes {:?}), so the tip cannot be lifted and the grid would sweep it across the sample (particles moved 6 um on a simulated run): lift it clear by hand, then pass --tip-lifted-by-hand",
             args.rig.display(),

@@ -145,21 +145,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.join("study-assemble.json"),
         args.out.join("study-assemble.md"),
     );
-    let mut rows = Vec::new();
+    let mut summary = summarise(&args.text, Vec::new());
     for seed in args.first_seed..=last_seed {
         let row = run_one(&exe, &args, seed)?;
         if interrupt.load(std::sync::atomic::Ordering::SeqCst) {
             break;
         }
         print_row(&row);
+        let mut rows = std::mem::take(&mut summary.rows);
         rows.push(row);
-        let summary = summarise(&args.text, rows.clone());
+        summary = summarise(&args.text, rows);
         std::fs::write(&json, serde_json::to_string_pretty(&summary)?)
             .with_context(|| format!("writing {}", json.display()))?;
         std::fs::write(&md, to_markdown(&summary, &args))
             .with_context(|| format!("writing {}", md.display()))?;
     }
-    let summary = summarise(&args.text, rows);
     print!("{}", acceptance_text(&summary));
     if !summary.rows.is_empty() {
         println!("table: {}  data: {}", md.display(), json.display());

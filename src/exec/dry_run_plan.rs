@@ -35,11 +35,7 @@ pub(super) fn kept_plan(
                 // plan from what it did.
                 return None;
             }
-            let seen = tracker
-                .track(m.id)
-                .filter(|t| t.missed_frames == 0)
-                .map(|t| [t.last.x_m, t.last.y_m]);
-            match seen.map(|at| check_push(m.from, m.to, at, &tolerances)) {
+            match seen_now(m.id, tracker).map(|at| check_push(m.from, m.to, at, &tolerances)) {
                 Some(check) if check.completes_step() => without_first_push(&plan),
                 Some(check) => {
                     if check.lost_contact() {
@@ -63,9 +59,14 @@ pub(super) fn kept_plan(
 pub(super) fn not_made(m: Moved, tracker: &Tracker) -> bool {
     let placed_m = AssemblySettings::default().check_tolerances().placed_m;
     let distance = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
-    let seen = tracker
-        .track(m.id)
+    distance(m.from, m.to) > placed_m
+        && seen_now(m.id, tracker).is_some_and(|at| distance(at, m.from) <= placed_m)
+}
+
+/// Where the frame just seen shows track `id`, if it shows it.
+fn seen_now(id: usize, tracker: &Tracker) -> Option<[f64; 2]> {
+    tracker
+        .track(id)
         .filter(|t| t.missed_frames == 0)
-        .map(|t| [t.last.x_m, t.last.y_m]);
-    distance(m.from, m.to) > placed_m && seen.is_some_and(|at| distance(at, m.from) <= placed_m)
+        .map(|t| [t.last.x_m, t.last.y_m])
 }

@@ -213,7 +213,12 @@ impl HardwareRig {
     /// Opens everything a rig file names: the calibration, then its devices
     /// ([`RigDevices::open`]).
     pub fn open(rig_file: &Path, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
-        let rig = RigFile::load(rig_file)?;
+        Self::from_rig_file(RigFile::load(rig_file)?, opts)
+    }
+
+    /// [`HardwareRig::open`] of a rig file already read (and checked by
+    /// the caller before anything is connected).
+    pub fn from_rig_file(rig: RigFile, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
         let calibration = load_rig_calibration(&rig)?;
         Ok(Self {
             devices: RigDevices::open(rig, opts)?,

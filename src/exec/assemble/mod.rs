@@ -170,7 +170,10 @@ pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
 
 /// Why `sighting` says the calibration is not this rig's (see
 /// [`CALIBRATION_DOUBT_M`]): the loop stops on it at its first frame, and
-/// the dry-run says the loop would.
+/// the dry-run says the loop would. (Another camera's map, 0.30 um/px
+/// turned 90 deg, put the apex 17 um off; the run pushed three times, lost
+/// contact three times and stopped on "no collision-free order", naming no
+/// calibration.)
 pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
     let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
     let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
@@ -489,7 +492,7 @@ impl<'a> Assembly<'a> {
         // frame, the next frame shows the particles it hid: one never seen
         // would be an obstacle no plan knows of.
         self.observe(&[], None)?;
-        if let Some(why) = self.calibration_doubt() {
+        if let Some(why) = self.last_sighting.as_ref().and_then(calibration_doubt) {
             return self.stop(RunEnd::Stopped(why));
         }
         if self.probe_axis().is_some() {
@@ -633,15 +636,6 @@ impl<'a> Assembly<'a> {
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
         Ok(())
-    }
-
-    /// Why the last frame says the calibration is not this rig's: the apex
-    /// seen more than [`CALIBRATION_DOUBT_M`] from where the stage has it
-    /// (another camera's map, 0.30 um/px turned 90 deg, put the apex 17 um
-    /// off; the run pushed three times, lost contact three times and stopped
-    /// on "no collision-free order", naming no calibration).
-    fn calibration_doubt(&self) -> Option<String> {
-        calibration_doubt(self.last_sighting.as_ref()?)
     }
 
     /// Takes the frame's apex against where the stage was sent into the drift

@@ -261,7 +261,7 @@ impl RigFile {
     /// before 2026-11-29, and still for simulators without the keys) drives
     /// the tip into the sample on a stage whose z extends toward it.
     fn validate_z(&self) -> Result<(), String> {
-        let has_z = self.stage.axes.len() == 3;
+        let has_z = self.stage.has_z();
         let given = (self.stage.z_surface_um, self.stage.z_lifts);
         match given {
             (Some(_), _) | (_, Some(_)) if !has_z => Err(
@@ -334,6 +334,12 @@ impl CoarseSection {
 }
 
 impl StageSection {
+    /// True when the stage drives z (axes x, y, z): only then can the tip
+    /// be lifted off the sample.
+    pub fn has_z(&self) -> bool {
+        self.axes.len() == 3
+    }
+
     /// Reply timeout per command.
     pub fn reply_timeout(&self) -> Duration {
         Duration::from_millis(self.timeout_ms)
