@@ -1054,8 +1054,7 @@ fn a_frame_says_when_the_last_command_was_not_made() {
         .map(|f| f.last_command_not_made)
         .collect();
     assert_eq!(flags[..3], [false, false, true], "{flags:?}");
-    let printed = String::from_utf8_lossy(&dry_run_for_people(&rec, &dir.path().join("p")).stdout)
-        .into_owned();
+    let (printed, _) = printed_dry_run(&rec, &dir.path().join("p"));
     assert!(
         printed.contains("does not show the last command made"),
         "{printed}"
