@@ -178,10 +178,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     print!("{md}");
     if let Some([md_path, json_path]) = outputs {
-        if let Some(folder) = md_path.parent().filter(|p| !p.as_os_str().is_empty()) {
-            std::fs::create_dir_all(folder)
-                .with_context(|| format!("creating {}", folder.display()))?;
-        }
         std::fs::write(&md_path, &md).with_context(|| format!("writing {}", md_path.display()))?;
         let json = serde_json::json!({"schema": "nanopush.study-vision/1", "rows": rows});
         std::fs::write(&json_path, serde_json::to_string_pretty(&json)?)
@@ -198,7 +194,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// FILE.md and FILE.json for `--out FILE`: a given `.md` or `.json` is
 /// dropped, any other dot kept (`run.2026.11.29` had written
 /// `run.2026.11.md`); refused, before the study's minutes of work, when
-/// FILE is a folder or either file exists without `force`.
+/// FILE is a folder or either file exists without `force`; their folder
+/// made.
 fn study_outputs(out: &std::path::Path, force: bool) -> anyhow::Result<[PathBuf; 2]> {
     let text = out.to_string_lossy();
     anyhow::ensure!(
@@ -215,11 +212,9 @@ fn study_outputs(out: &std::path::Path, force: bool) -> anyhow::Result<[PathBuf;
         PathBuf::from(name)
     };
     let paths = [with(".md"), with(".json")];
-    if !force && let Some(held) = paths.iter().find(|p| p.exists()) {
-        anyhow::bail!(
-            "{} exists: pass --force to replace it, or --out another file",
-            held.display()
-        );
+    for path in &paths {
+        // Makes the folder, as every command does before it works.
+        super::calibrate::check_output(path, &[], force)?;
     }
     Ok(paths)
 }
