@@ -27,6 +27,33 @@ fn unknown_command_exits_non_zero() {
     assert!(!out.status.success());
 }
 
+/// A negative number is a value of the flag before it everywhere: a
+/// negative seed is refused as a seed, not as an argument nanopush does
+/// not know, and a negative radius reaches the layout's own check.
+#[test]
+fn a_negative_number_is_read_as_the_flags_value() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out_file = dir.path().join("layout.json");
+    let synth = |extra: [&str; 2]| {
+        nanopush()
+            .args(["synth", "layout", "--n", "5", "--field-um", "50x50"])
+            .args(extra)
+            .arg("--out")
+            .arg(&out_file)
+            .output()
+            .expect("run nanopush")
+    };
+    let seed = synth(["--seed", "-1"]);
+    let err = String::from_utf8_lossy(&seed.stderr);
+    assert!(!seed.status.success());
+    assert!(err.contains("invalid value '-1' for '--seed"), "{err}");
+    let radius = synth(["--radius-um", "-2"]);
+    let err = String::from_utf8_lossy(&radius.stderr);
+    assert!(!radius.status.success());
+    assert!(err.contains("radius_um is -2"), "{err}");
+    assert!(!out_file.exists(), "a refused layout was written");
+}
+
 /// Output piped into a reader that has gone (`| head`) ends the process
 /// quietly, as for any Unix tool, not with a panic and a backtrace.
 #[test]

@@ -1,7 +1,7 @@
 //! Command-line interface: argument parsing and dispatch. Each subcommand lives
 //! in its own file with its `Args` and `run`; the library does the work.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod assemble;
@@ -98,7 +98,7 @@ enum RigCommand {
 /// Parses the command line, runs the command and maps errors to a non-zero exit.
 pub fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
-    let cli = Cli::parse();
+    let cli = parse_command_line();
     show_warnings();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
@@ -107,6 +107,20 @@ pub fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// The command line, where a negative number is a value everywhere: `--seed
+/// -1` is then refused as a seed ("invalid value '-1' for '--seed'"), not
+/// as an unknown argument, and a flag that takes negative values needs no
+/// mark of its own.
+fn parse_command_line() -> Cli {
+    fn negative_numbers_are_values(command: clap::Command) -> clap::Command {
+        command
+            .allow_negative_numbers(true)
+            .mut_subcommands(negative_numbers_are_values)
+    }
+    let matches = negative_numbers_are_values(Cli::command()).get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
 }
 
 /// `nanopush detect frame.png | head` ends the way `ls | head` does, not

@@ -21,10 +21,10 @@ pub struct PatternArgs {
     pub pattern: Option<PathBuf>,
     /// Site pitch in um for text, bitmaps and drawings (default: particle
     /// diameter + 0.5 um; a site list's positions are its own).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub pitch_um: Option<f64>,
     /// Pattern rotation about its centre, degrees counter-clockwise.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0)]
     pub rotation_deg: f64,
     /// Pattern centre "X,Y" in um from the field's lower-left corner; with
     /// --rig, in the calibration's stage um, as `rig probe --camera` prints

@@ -47,7 +47,7 @@ pub struct Args {
     /// Particle radius in um, for --frame: the detector's size hint, and
     /// the batch's nominal size (each particle found is planned with its
     /// measured one) [default: 5].
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub radius_um: Option<f64>,
     /// With --frame, a colour frame: luminance, red, green or blue
     /// [default: luminance].
@@ -60,7 +60,7 @@ pub struct Args {
     #[arg(long)]
     pub save_layout: Option<PathBuf>,
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0)]
     pub contact_angle_deg: f64,
     /// Tip disc radius in um.
     #[arg(long, default_value_t = 1.0)]

@@ -47,7 +47,7 @@ pub struct Args {
     /// z) [default: the top of the stage's z travel, clear of the
     /// particles]. Nearer the pushing height maps the apex as the loop sees
     /// it then, but the tip must clear every particle in view.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub z_um: Option<f64>,
     /// On a stage without z (axes x, y): the tip has been lifted clear of
     /// the sample by hand. Without it such a rig is refused, since the run

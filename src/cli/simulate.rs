@@ -15,16 +15,16 @@ pub struct Args {
     #[arg(long)]
     pub scene: PathBuf,
     /// Contact angle (deg), overriding push.angle_deg.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub angle_deg: Option<f64>,
     /// Stage speed [um/s], overriding push.speed_um_s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub speed_um_s: Option<f64>,
     /// Push duration (s), overriding push.duration_s.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub duration_s: Option<f64>,
     /// Particle radius (um), overriding particle.radius_um.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long)]
     pub radius_um: Option<f64>,
     /// Write plots (SVG + PNG) and the time series (CSV) here.
     #[arg(long)]

@@ -63,7 +63,7 @@ pub struct Args {
     #[arg(long, requires = "tip_x_px")]
     pub tip_y_px: Option<f64>,
     /// Tip axis angle (body to apex), degrees, image axes (y down).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0)]
     pub tip_angle_deg: f64,
 }
 

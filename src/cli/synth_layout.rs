@@ -14,10 +14,10 @@ pub struct Args {
     #[arg(long, default_value = "120x100", value_parser = parse_wh, allow_hyphen_values = true)]
     pub field_um: (f64, f64),
     /// Particle radius in um.
-    #[arg(long, default_value_t = 5.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 5.0)]
     pub radius_um: f64,
     /// Minimum gap between particles in um.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1.0)]
     pub min_gap_um: f64,
     /// Radii with 5 % spread.
     #[arg(long)]
