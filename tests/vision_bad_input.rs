@@ -137,6 +137,28 @@ fn detect_refuses_settings_by_the_flags_the_user_gave() {
         !out.status.success() && err.contains("separation 0 px"),
         "{err}"
     );
+    // The hint is named by its flag, and Crocker-Grier's rule in full (1 px,
+    // odd, had been refused as not odd).
+    for args in [
+        &["--diameter-px", "0"][..],
+        &["--locator", "crocker-grier", "--diameter-px", "1"],
+    ] {
+        let out = detect(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(
+            err.contains("--diameter-px") && err.contains("at least"),
+            "{err}"
+        );
+    }
+    // An overlay name no image format goes with is refused before the
+    // detection (it failed only after it, with nothing printed), and nothing
+    // is written.
+    let overlay = dir.path().join("overlay");
+    let out = detect(&["--overlay", overlay.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--overlay"), "{err}");
+    assert!(out.stdout.is_empty() && !overlay.exists());
 }
 
 /// A file that is not a video gets our one-line error, not a page of

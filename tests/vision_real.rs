@@ -395,6 +395,54 @@ fn detect_cli_crocker_grier_mode_reproduces_the_t76_call() {
     assert!(String::from_utf8_lossy(&refused.stderr).contains("odd"));
 }
 
+/// The JSON tells a script what the text marks: a particle the frame's
+/// edge cuts, and one placed but not fitted (a hint of 3 px on bright-field
+/// rings 17 px across finds dim spots whose fits fail: kept at their
+/// centroids with the hint's radius and a nominal sigma, which had read as
+/// measurements). Every particle at the right hint is fitted.
+#[test]
+fn detect_json_says_which_particles_are_cut_or_not_fitted() {
+    use nanopush::vision::detections_file::DetectionsFile;
+    let doc = |frame: &str, args: &[&str]| {
+        let out = detect_cli(&fixture(frame), args);
+        assert!(out.status.success());
+        DetectionsFile::from_json(&String::from_utf8(out.stdout).unwrap()).unwrap()
+    };
+    let right = doc("brightfield/bf_0000.png", &[]);
+    assert_eq!(right.particles.len(), 5);
+    assert!(right.particles.iter().all(|p| p.fitted && !p.edge_clipped));
+    let small = doc("brightfield/bf_0000.png", &["--diameter-px", "3"]);
+    let unfitted: Vec<_> = small.particles.iter().filter(|p| !p.fitted).collect();
+    assert!(!unfitted.is_empty(), "{} particles", small.particles.len());
+    assert!(
+        unfitted.iter().all(|p| p.r_px == 1.5 && p.sigma_px == 0.5),
+        "{unfitted:?}"
+    );
+    assert!(
+        small
+            .particles
+            .iter()
+            .filter(|p| p.fitted)
+            .all(|p| p.r_px != 1.5 || p.sigma_px != 0.5)
+    );
+    // T76's spots at 7 px: those within a radius and a pixel of an edge are cut.
+    let t76 = doc("trackpy_tests/T76S3F00001.png", &["--diameter-px", "7"]);
+    let (w, h) = (640.0, 424.0);
+    let near_edge = |p: &&nanopush::vision::detections_file::ParticleRecord| {
+        let edge = p.r_px.max(3.5) + 1.0;
+        p.x_px < edge || p.y_px < edge || p.x_px > w - 1.0 - edge || p.y_px > h - 1.0 - edge
+    };
+    let cut = t76.particles.iter().filter(|p| p.edge_clipped).count();
+    assert!(cut > 0);
+    assert_eq!(cut, t76.particles.iter().filter(near_edge).count());
+    assert!(
+        t76.particles
+            .iter()
+            .filter(|p| p.edge_clipped)
+            .all(|p| near_edge(&p))
+    );
+}
+
 /// `nanopush detect --centre ring-edge` on a brightfield frame: the five
 /// particles within 0.5 px of the independent ring fit in the JSON it writes;
 /// with --locator crocker-grier (no ring fit) the flag is refused.

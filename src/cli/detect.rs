@@ -124,8 +124,8 @@ fn crocker_grier_analysis(
 ) -> anyhow::Result<FrameAnalysis> {
     if !(diameter_px.fract() == 0.0 && diameter_px >= 3.0 && diameter_px % 2.0 == 1.0) {
         anyhow::bail!(
-            "--locator crocker-grier needs --diameter-px as an odd whole number of pixels \
-             (got {diameter_px}); when in doubt, round up"
+            "--locator crocker-grier needs --diameter-px as an odd whole number of pixels, \
+             at least 3 (got {diameter_px}); when in doubt, round up"
         );
     }
     let params = LocateParams {
@@ -170,6 +170,14 @@ fn diameter_from_radius(radius_um: f64, m_per_px: f64) -> anyhow::Result<f64> {
 /// Detects and prints (text or JSON), optionally drawing an overlay.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(overlay) = &args.overlay {
+        // Checked first: an unknown extension had failed to save only after
+        // the whole detection, with nothing printed.
+        if !image::ImageFormat::from_path(overlay).is_ok_and(|f| f.writing_enabled()) {
+            anyhow::bail!(
+                "--overlay {}: name a .png (or .tif, .bmp, .jpg) file to draw into",
+                overlay.display()
+            );
+        }
         let inputs = given([
             Some(("FRAME", args.frame.as_path())),
             flagged("--calib", &args.calib),
@@ -189,6 +197,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => None,
     };
     let diameter_px = match (args.diameter_px, args.radius_um, &calib) {
+        (Some(d), _, _) if !(d.is_finite() && d >= 2.0) => {
+            anyhow::bail!("--diameter-px {d}: a particle's diameter hint must be at least 2 px")
+        }
         (Some(d), _, _) => d,
         (None, Some(r), Some(c)) => diameter_from_radius(r, c.m_per_px())?,
         _ => {
@@ -271,21 +282,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             (Some(x), Some(y)) => format!("  at ({x:.3}, {y:.3}) um"),
             _ => String::new(),
         };
-        for (p, d) in doc.particles.iter().zip(particles) {
+        for p in &doc.particles {
             println!(
-                "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}{}",
+                "  x {:9.3} px  y {:9.3} px  r {:6.2} px  sigma {:.3} px  quality {:7.1}{}{}{}",
                 p.x_px,
                 p.y_px,
                 p.r_px,
                 p.sigma_px,
                 p.quality,
                 on_stage(p.x_um, p.y_um),
-                if d.edge_clipped {
+                if p.edge_clipped {
                     "  (edge-clipped)"
                 } else {
                     ""
-                }
+                },
+                if p.fitted { "" } else { "  (not fitted)" }
             );
+        }
+        // Said, since a failed spot fit's hint radius and nominal sigma
+        // read as measurements.
+        if doc.particles.iter().any(|p| !p.fitted) {
+            let why = if places_only {
+                format!("the {locator_name} locator only places particles")
+            } else {
+                "a dim spot whose fit failed, kept at its centroid".to_owned()
+            };
+            println!("not fitted: {why}; r is the size hint and sigma a nominal value");
         }
         match &doc.tip {
             Some(t) => println!(

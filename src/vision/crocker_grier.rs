@@ -195,6 +195,7 @@ impl From<Feature> for Detection {
             sigma_px: f.sigma_px,
             quality: f.mass,
             edge_clipped: false,
+            fitted: true,
         }
     }
 }

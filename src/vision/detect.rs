@@ -146,6 +146,11 @@ pub struct Detection {
     pub quality: f64,
     /// True when the particle is cut by the frame edge.
     pub edge_clipped: bool,
+    /// True when `r_px` and `sigma_px` were measured (a fit, or trackpy's
+    /// moments); false when `r_px` is the size hint and `sigma_px` a nominal
+    /// value: the pixel-peak, centroid and radial-symmetry locators, and a
+    /// dim spot whose fit failed, kept at its centroid as trackpy keeps it.
+    pub fitted: bool,
 }
 
 /// The model a size hint implies when none is chosen.
@@ -620,16 +625,16 @@ fn detect_at_noise(
             continue;
         }
         let rs = || radial_symmetry_centre(frame, coarse.0, coarse.1, r_int + 2).unwrap_or(coarse);
-        let (x, y, r, sigma, quality) = match settings.locator {
-            Locator::PixelPeak => (coarse.0, coarse.1, radius, 0.5, c.snr),
+        let (x, y, r, sigma, quality, fitted) = match settings.locator {
+            Locator::PixelPeak => (coarse.0, coarse.1, radius, 0.5, c.snr, false),
             Locator::Centroid => {
                 debug_assert!(!binned, "the centroid reads the full-frame band-pass");
                 let (x, y) = centroid(&bp, w, h, c, r_int);
-                (x, y, radius, 0.5, c.snr)
+                (x, y, radius, 0.5, c.snr, false)
             }
             Locator::RadialSymmetry => {
                 let (x, y) = rs();
-                (x, y, radius, 0.25, c.snr)
+                (x, y, radius, 0.25, c.snr, false)
             }
             Locator::ProfileFit if model == ProfileModel::Spot => {
                 // Spots (a few pixels across) are accepted on their mass
@@ -644,9 +649,9 @@ fn detect_at_noise(
                 }
                 match fit_particle(frame, xc, yc, radius, model) {
                     Ok(f) if polarity_ok(f.centre_contrast, settings.polarity) => {
-                        (f.x_px, f.y_px, f.r_px, f.sigma_px, snr)
+                        (f.x_px, f.y_px, f.r_px, f.sigma_px, snr, true)
                     }
-                    _ => (xc, yc, radius, 0.5, snr),
+                    _ => (xc, yc, radius, 0.5, snr, false),
                 }
             }
             Locator::ProfileFit => {
@@ -670,7 +675,7 @@ fn detect_at_noise(
                         if f.snr >= settings.min_snr
                             && polarity_ok(f.centre_contrast, settings.polarity) =>
                     {
-                        (f.x_px, f.y_px, f.r_px, f.sigma_px, f.snr)
+                        (f.x_px, f.y_px, f.r_px, f.sigma_px, f.snr, true)
                     }
                     _ => continue,
                 }
@@ -697,6 +702,7 @@ fn detect_at_noise(
             sigma_px: sigma,
             quality,
             edge_clipped,
+            fitted,
         };
         // Two candidates that converged on one particle: keep the better.
         if let Some(prev) = out
@@ -805,6 +811,7 @@ mod tests {
             sigma_px: 0.1,
             quality,
             edge_clipped: false,
+            fitted: true,
         }
     }
 

@@ -18,10 +18,23 @@ pub struct ParticleRecord {
     pub r_px: f64,
     pub sigma_px: f64,
     pub quality: f64,
+    /// Cut by the frame's edge (absent in files written before it was
+    /// recorded: read as not cut).
+    #[serde(default)]
+    pub edge_clipped: bool,
+    /// `r_px` and `sigma_px` measured, not the size hint and a nominal value
+    /// ([`crate::vision::detect::Detection::fitted`]; absent in files written
+    /// before it was recorded: read as measured).
+    #[serde(default = "measured")]
+    pub fitted: bool,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x_um: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub y_um: Option<f64>,
+}
+
+fn measured() -> bool {
+    true
 }
 
 /// The tip as written.
@@ -74,6 +87,8 @@ impl DetectionsFile {
                     r_px: d.r_px,
                     sigma_px: d.sigma_px,
                     quality: d.quality,
+                    edge_clipped: d.edge_clipped,
+                    fitted: d.fitted,
                     x_um,
                     y_um,
                 }
@@ -126,6 +141,7 @@ mod tests {
             sigma_px: 0.03,
             quality: 40.0,
             edge_clipped: false,
+            fitted: true,
         };
         let cal = CameraCalibration::from_scale_rotation(0.5e-6, 0.0, [0.0, 0.0]);
         let line = LineDefect {
@@ -145,6 +161,22 @@ mod tests {
         };
         let f = DetectionsFile::new(&analysis, Some(&cal));
         assert_eq!(f.particles[0].x_um, Some(5.25));
+        // A script reading the file can tell a cut or unfitted particle.
+        let cut_unfitted = FrameAnalysis {
+            particles: vec![Detection {
+                edge_clipped: true,
+                fitted: false,
+                ..d
+            }],
+            ..analysis.clone()
+        };
+        let text = serde_json::to_string(&DetectionsFile::new(&cut_unfitted, None)).unwrap();
+        assert!(
+            text.contains("\"edge_clipped\":true,\"fitted\":false"),
+            "{text}"
+        );
+        let back = DetectionsFile::from_json(&text).unwrap();
+        assert!(back.particles[0].edge_clipped && !back.particles[0].fitted);
         // The tip on the stage too, and back from the file.
         let tipped = FrameAnalysis {
             tip: Some(crate::vision::tip::TipDetection {
@@ -177,6 +209,12 @@ mod tests {
         )
         .unwrap();
         assert!(old.repaired_lines.is_empty());
+        let old_particle = DetectionsFile::from_json(
+            "{\"schema\":\"nanopush.detections/1\",\"particles\":[{\"x_px\":1.0,\"y_px\":2.0,\
+             \"r_px\":8.0,\"sigma_px\":0.1,\"quality\":9.0}],\"tip\":null}",
+        )
+        .unwrap();
+        assert!(!old_particle.particles[0].edge_clipped && old_particle.particles[0].fitted);
         assert_eq!(old.exposure, Exposure::default());
         assert!(
             DetectionsFile::from_json("{\"schema\":\"x\",\"particles\":[],\"tip\":null}").is_err()

@@ -50,6 +50,7 @@ mod tests {
             sigma_px,
             quality: 10.0,
             edge_clipped: false,
+            fitted: true,
         }
     }
 

@@ -814,6 +814,7 @@ mod tests {
             sigma_px,
             quality: 30.0,
             edge_clipped: false,
+            fitted: true,
         };
         let a = asymmetric_sphere(30.0, 30.0, -1.0, 1.0);
         let s = asymmetric_sphere(90.0, 90.0, 0.0, 1.0);
