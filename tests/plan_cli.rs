@@ -42,6 +42,56 @@ fn write_layout(
     path.display().to_string()
 }
 
+/// Another tool's plan with only the fields the plan format names (no
+/// geometry, no summary) is replayed with `nanopush plan`'s geometry, and
+/// says so; a collaborator's plan is checked against one's own probe and
+/// stage by flags, which the report names (it trusted the file's numbers
+/// and never showed them); a flag of no size is refused by name.
+#[test]
+fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = write_layout(dir.path(), "l.json", &[(20.0, 20.0, 5.0)], (100.0, 100.0));
+    let plan = dir.path().join("other-tool.json");
+    std::fs::write(
+        &plan,
+        r#"{"schema": "nanopush.plan/1", "sites": [{"id": 0, "x_um": 20, "y_um": 50}],
+            "assignment": [{"particle": 0, "site": 0}],
+            "steps": [{"kind": "push", "particle": 0, "from_um": [20, 20], "to_um": [20, 50],
+                       "approach_um": [20, 14], "contact_angle_deg": 0}]}"#,
+    )
+    .unwrap();
+    let plan = plan.to_str().unwrap();
+    let (ok, text) = nanopush(&["verify-plan", plan, "--layout", &layout]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("tip radius 1 um (default: the plan gives none)"),
+        "{text}"
+    );
+    let (ok, text) = nanopush(&[
+        "verify-plan",
+        plan,
+        "--layout",
+        &layout,
+        "--nanostage-range-um",
+        "20",
+        "--json",
+    ]);
+    assert!(!ok, "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(text.split("\nerror:").next().unwrap()).unwrap();
+    assert_eq!(report["geometry"]["nanostage_range_um"], 20.0);
+    assert_eq!(report["unreachable"], serde_json::json!([0]));
+    let (ok, text) = nanopush(&[
+        "verify-plan",
+        plan,
+        "--layout",
+        &layout,
+        "--tip-radius-um",
+        "0",
+    ]);
+    assert!(!ok && text.contains("tip_radius_um is 0"), "{text}");
+}
+
 /// Three particles at the bottom of an empty 200 x 200 um field.
 fn easy_layout(dir: &Path) -> String {
     write_layout(

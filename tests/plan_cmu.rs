@@ -199,6 +199,7 @@ fn a_dense_core_plans_with_the_tip_landing_nearer() {
     assert!(verify_plan(&plan, &layout, &config).ok);
     let (read, geometry) =
         plan_file::from_json(&plan_file::to_json(&plan, &config), "mem").unwrap();
+    let geometry = geometry.expect("nanopush writes its geometry");
     assert!((geometry.standoff_um - 0.5).abs() < 1e-12);
     assert_eq!(read.standoff_m, plan.standoff_m);
     let report = verify_plan_with(&read, &layout, &[], &geometry, config.on_site_tolerance_m);

@@ -1,6 +1,7 @@
 //! `nanopush verify-plan`: independent geometric replay of a plan file.
 
 use crate::plan::layout::MarkedLayout;
+use crate::plan::plan_file::PlanGeometry;
 use crate::plan::{plan_file, verify};
 use std::path::PathBuf;
 
@@ -16,9 +17,50 @@ pub struct Args {
     /// Allowed final position error in um.
     #[arg(long, default_value_t = 0.25)]
     pub tolerance_um: f64,
+    /// Replay with this tip radius (um) instead of the plan's: a
+    /// collaborator's plan checked against your own probe.
+    #[arg(long)]
+    pub tip_radius_um: Option<f64>,
+    /// Replay with the tip landing this far (um) behind the contact point
+    /// instead of the plan's standoff.
+    #[arg(long)]
+    pub standoff_um: Option<f64>,
+    /// Replay with this nanostage range (um) instead of the plan's.
+    #[arg(long)]
+    pub nanostage_range_um: Option<f64>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The geometry to replay with, and where each value came from: a flag,
+/// the plan, or `nanopush plan`'s default when the plan gives none.
+fn replayed_geometry(
+    args: &Args,
+    in_plan: Option<PlanGeometry>,
+) -> anyhow::Result<(PlanGeometry, [&'static str; 3])> {
+    let base = in_plan.unwrap_or_default();
+    let from_plan = if in_plan.is_some() {
+        "the plan's"
+    } else {
+        "default: the plan gives none"
+    };
+    let pick = |flag: Option<f64>, planned: f64| match flag {
+        Some(v) => (v, "given"),
+        None => (planned, from_plan),
+    };
+    let (tip, tip_from) = pick(args.tip_radius_um, base.tip_radius_um);
+    let (standoff, standoff_from) = pick(args.standoff_um, base.standoff_um);
+    let (range, range_from) = pick(args.nanostage_range_um, base.nanostage_range_um);
+    let geometry = PlanGeometry {
+        tip_radius_um: tip,
+        standoff_um: standoff,
+        nanostage_range_um: range,
+    };
+    geometry
+        .check()
+        .map_err(|e| anyhow::anyhow!("geometry to replay with: {e}"))?;
+    Ok((geometry, [tip_from, standoff_from, range_from]))
 }
 
 /// Replays the plan; exits non-zero when anything is wrong.
@@ -30,7 +72,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     let marked = MarkedLayout::read(&args.layout)?;
-    let (plan, geometry) = plan_file::read(&args.plan)?;
+    let (plan, in_plan) = plan_file::read(&args.plan)?;
+    let (geometry, sources) = replayed_geometry(&args, in_plan)?;
     let rep = verify::verify_plan_with(
         &plan,
         &marked.layout,
@@ -41,6 +84,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rep)?);
     } else {
+        let g = &geometry;
+        println!(
+            "geometry          tip radius {} um ({}), standoff {} um ({}), nanostage range {} um ({})",
+            g.tip_radius_um,
+            sources[0],
+            g.standoff_um,
+            sources[1],
+            g.nanostage_range_um,
+            sources[2]
+        );
         println!("pushes replayed   {}", rep.pushes);
         println!("collisions        {}", rep.collisions.len());
         for c in rep.collisions.iter().take(20) {

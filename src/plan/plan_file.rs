@@ -88,25 +88,91 @@ pub struct PlanGeometry {
     pub nanostage_range_um: f64,
 }
 
+/// What `nanopush plan` plans with by default: a plan file of another tool
+/// may leave its geometry out (the plan fields do not name it).
+impl Default for PlanGeometry {
+    fn default() -> Self {
+        let c = PlanConfig::default();
+        PlanGeometry {
+            tip_radius_um: c.tip_radius_m * 1e6,
+            standoff_um: c.standoff_m * 1e6,
+            nanostage_range_um: c.nanostage_range_m * 1e6,
+        }
+    }
+}
+
+impl PlanGeometry {
+    /// The values by their file names, for checks and messages.
+    pub fn named(&self) -> [(&'static str, f64); 3] {
+        [
+            ("tip_radius_um", self.tip_radius_um),
+            ("standoff_um", self.standoff_um),
+            ("nanostage_range_um", self.nanostage_range_um),
+        ]
+    }
+
+    /// Refuses a tip of no size (it touches nothing), a stage of no range
+    /// (it reaches nothing) and a metre or more of either (`plan` refuses
+    /// them too); the tip may land at its contact point. Names the value.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, v) in self.named() {
+            let sign = if name == "standoff_um" {
+                Sign::NonNegative
+            } else {
+                Sign::Positive
+            };
+            if !v.is_finite() {
+                return Err(format!("{name} is {v} (must be finite)"));
+            }
+            if !sign.holds(v) {
+                return Err(format!("{name} is {v} (must be {})", sign.bound()));
+            }
+            if !super::coordinate_in_range(v) {
+                return Err(format!(
+                    "{name} is {v} (a metre or more: no probe or stage is)"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The planner's figures: written for the reader, not replayed, so
+/// another tool may leave out any of them (or write null for a figure it
+/// has not got: serde_json writes a non-finite number so).
 #[derive(Debug, Serialize, Deserialize, Default)]
+#[serde(default)]
 struct SummaryJ {
     pushes: usize,
     buffer_pushes: usize,
+    #[serde(deserialize_with = "nan_if_null")]
     push_distance_um: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     tip_travel_um: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     lb_push_um: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     lb_tip_um: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     push_ratio: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     total_ratio: f64,
     coarse_moves: usize,
+    #[serde(deserialize_with = "nan_if_null")]
     predicted_time_s: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     planning_time_s: f64,
+}
+
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 #[derive(Debug, Serialize, Deserialize)]
 struct PlanJ {
     schema: String,
-    geometry: PlanGeometry,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    geometry: Option<PlanGeometry>,
     sites: Vec<SiteJ>,
     assignment: Vec<PairJ>,
     steps: Vec<StepJ>,
@@ -177,7 +243,7 @@ pub fn geometry_of(plan: &Plan, config: &PlanConfig) -> PlanGeometry {
 pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
     let file = PlanJ {
         schema: PLAN_SCHEMA.into(),
-        geometry: geometry_of(plan, config),
+        geometry: Some(geometry_of(plan, config)),
         sites: plan
             .sites
             .iter()
@@ -226,12 +292,13 @@ pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
     serde_json::to_string_pretty(&file).expect("plan serialises")
 }
 
-/// Parses `nanopush.plan/1` JSON; returns the plan and its geometry.
-pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanFileError> {
+/// Parses `nanopush.plan/1` JSON; returns the plan and its geometry, `None`
+/// when the file gives none (the replay then takes [`PlanGeometry::default`]).
+pub fn from_json(text: &str, origin: &str) -> Result<(Plan, Option<PlanGeometry>), PlanFileError> {
     let text = crate::byte_order_mark::without_bom(text);
     let f: PlanJ = serde_json::from_str(text).map_err(|source| {
         // Another file's schema first: a layout given as the plan had been
-        // "missing field `geometry`".
+        // "missing field `sites`".
         match super::file_schema::other_schema(text, PLAN_SCHEMA) {
             Some(s) => PlanFileError::Schema(s),
             None => PlanFileError::Parse {
@@ -243,28 +310,8 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
     if f.schema != PLAN_SCHEMA {
         return Err(PlanFileError::Schema(f.schema));
     }
-    let g = f.geometry;
-    // A tip of no size touches nothing, a stage of no range reaches
-    // nothing (`plan` refuses both); the tip may land at its contact point.
-    for (name, v, sign) in [
-        ("tip_radius_um", g.tip_radius_um, Sign::Positive),
-        ("standoff_um", g.standoff_um, Sign::NonNegative),
-        ("nanostage_range_um", g.nanostage_range_um, Sign::Positive),
-    ] {
-        if !v.is_finite() {
-            return Err(PlanFileError::NotFinite(name.into()));
-        }
-        if !sign.holds(v) {
-            return Err(PlanFileError::OutOfRange(format!(
-                "{name} is {v} (must be {})",
-                sign.bound()
-            )));
-        }
-        if !super::coordinate_in_range(v) {
-            return Err(PlanFileError::OutOfRange(format!(
-                "{name} is {v} (a metre or more: no probe or stage is)"
-            )));
-        }
+    if let Some(g) = &f.geometry {
+        g.check().map_err(PlanFileError::OutOfRange)?;
     }
     let mut sites = Vec::new();
     for s in &f.sites {
@@ -325,9 +372,9 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, PlanGeometry), PlanF
             assignment,
             steps,
             summary,
-            standoff_m: g.standoff_um * 1e-6,
+            standoff_m: f.geometry.unwrap_or_default().standoff_um * 1e-6,
         },
-        g,
+        f.geometry,
     ))
 }
 
@@ -369,8 +416,8 @@ fn assignment_of(sites: &[SiteJ], pairs: &[PairJ]) -> Result<Vec<(u32, u32)>, Pl
     Ok(pairs.iter().map(|a| (a.particle, a.site)).collect())
 }
 
-/// Reads a plan file.
-pub fn read(path: &Path) -> Result<(Plan, PlanGeometry), PlanFileError> {
+/// Reads a plan file (its geometry as [`from_json`]).
+pub fn read(path: &Path) -> Result<(Plan, Option<PlanGeometry>), PlanFileError> {
     let text = std::fs::read_to_string(path).map_err(|source| PlanFileError::Io {
         path: path.display().to_string(),
         source,
@@ -551,6 +598,34 @@ mod tests {
             ),
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A plan with only the fields the plan format names (schema, sites,
+    /// assignment, steps), as another tool writes it, reads: it had been
+    /// refused for a missing `geometry`, which the replay then takes from
+    /// `nanopush plan`'s defaults. The summary is the planner's figures,
+    /// not replayed: any part of it, and a null figure, reads.
+    #[test]
+    fn a_plan_with_only_the_named_fields_reads() {
+        let (doc, step) = one_push_document();
+        let bare = serde_json::json!({
+            "schema": PLAN_SCHEMA,
+            "sites": doc["sites"],
+            "assignment": doc["assignment"],
+            "steps": [doc["steps"][step]],
+        });
+        let (plan, geometry) = from_json(&bare.to_string(), "bare").unwrap();
+        assert_eq!(geometry, None);
+        assert_eq!(plan.steps.len(), 1);
+        assert_eq!(plan.standoff_m, PlanConfig::default().standoff_m);
+        let mut partial = bare.clone();
+        partial["summary"] = serde_json::json!({"pushes": 1, "predicted_time_s": null});
+        let (plan, _) = from_json(&partial.to_string(), "partial").unwrap();
+        assert_eq!(plan.summary.pushes, 1);
+        assert!(plan.summary.predicted_time_s.is_nan());
+        // Written by nanopush, the geometry is there and reads back.
+        let (_, written) = from_json(&doc.to_string(), "written").unwrap();
+        assert_eq!(written, Some(PlanGeometry::default()));
     }
 
     /// A document of another schema is refused with the schema it has.

@@ -42,6 +42,8 @@ pub struct Collision {
 pub struct VerifyReport {
     /// Schema tag.
     pub schema: &'static str,
+    /// The tip, standoff and stage range replayed with.
+    pub geometry: PlanGeometry,
     /// Push steps replayed.
     pub pushes: usize,
     /// Collisions.
@@ -52,7 +54,10 @@ pub struct VerifyReport {
     /// particle's back on the push line (a tip landing beside the particle,
     /// or in front of it, pushes nothing or the wrong way).
     pub bad_approaches: Vec<usize>,
-    /// Push steps whose tip path leaves the current nanostage window.
+    /// Push steps whose tip path leaves the current nanostage window: the
+    /// window of the last coarse move, or before any, the one window all
+    /// the pushes so far share (a plan with its coarse moves left out had
+    /// replayed as ok with pushes 280 um apart).
     pub unreachable: Vec<usize>,
     /// Push steps that leave their particle's centre farther beyond the
     /// field than a layout may hold one, two radii (another tool's plan had
@@ -101,9 +106,9 @@ impl VerifyReport {
                 self.bad_approaches.len()
             ));
         }
-        if !self.unreachable.is_empty() {
+        if let Some(first) = self.unreachable.first() {
             parts.push(format!(
-                "{} pushes leave the nanostage window",
+                "{} pushes leave the nanostage window, no coarse move bringing them into it (first: step {first})",
                 self.unreachable.len()
             ));
         }
@@ -140,6 +145,39 @@ fn seg_dist(p: Vector2<f64>, a: Vector2<f64>, b: Vector2<f64>) -> f64 {
     (p - (a + ab * t)).norm()
 }
 
+/// Where the nanostage can reach: around the last coarse move's centre, or
+/// before any, wherever the user put the stage, which need only hold the
+/// pushes so far (the box they span).
+enum Window {
+    Unplaced(Option<(Vector2<f64>, Vector2<f64>)>),
+    Centred(Vector2<f64>),
+}
+
+impl Window {
+    /// True when a window of `range` holds `points` (and, unplaced, the
+    /// pushes before: then it grows to take them).
+    fn reaches(&mut self, points: &[Vector2<f64>], range: f64) -> bool {
+        let slack = range + 1e-12;
+        match self {
+            Window::Centred(c) => points
+                .iter()
+                .all(|p| 2.0 * (p.x - c.x).abs() <= slack && 2.0 * (p.y - c.y).abs() <= slack),
+            Window::Unplaced(span) => {
+                let (mut lo, mut hi) = span.unwrap_or((points[0], points[0]));
+                for p in points {
+                    lo = lo.inf(p);
+                    hi = hi.sup(p);
+                }
+                let fits = hi.x - lo.x <= slack && hi.y - lo.y <= slack;
+                if fits {
+                    *span = Some((lo, hi));
+                }
+                fits
+            }
+        }
+    }
+}
+
 /// Replays `plan` on `layout`, whose particles in `immovable` must not be
 /// pushed; `final_tolerance_m` is the allowed final error.
 pub fn verify_plan_with(
@@ -156,12 +194,13 @@ pub fn verify_plan_with(
     let index = layout.index_by_id();
     let mut rep = VerifyReport {
         schema: "nanopush.verify/1",
+        geometry: *geometry,
         ..Default::default()
     };
-    let mut window: Option<Vector2<f64>> = None;
+    let mut window = Window::Unplaced(None);
     for (k, step) in plan.steps.iter().enumerate() {
         match *step {
-            Step::CoarseMove { centre_m } => window = Some(centre_m),
+            Step::CoarseMove { centre_m } => window = Window::Centred(centre_m),
             Step::TipTravel { .. } => {}
             Step::Push {
                 particle,
@@ -196,15 +235,7 @@ pub fn verify_plan_with(
                 }
                 let land = approach_m - dir * standoff;
                 let tip_end = approach_m + (to_m - from_m);
-                if let Some(c) = window {
-                    let half = range / 2.0 + 1e-12;
-                    if [land, tip_end]
-                        .iter()
-                        .any(|p| (p.x - c.x).abs() > half || (p.y - c.y).abs() > half)
-                    {
-                        rep.unreachable.push(k);
-                    }
-                } else if len > range {
+                if !window.reaches(&[land, tip_end], range) {
                     rep.unreachable.push(k);
                 }
                 if !may_lie_in_field(layout.field_m, to_m, r) {
@@ -323,6 +354,47 @@ mod tests {
             ..config
         };
         assert!(verify_plan(&plan, &layout, &other).ok);
+    }
+
+    /// Pushes no one nanostage window holds need the planner's coarse
+    /// moves: a plan with them verifies, the same plan without them is
+    /// reported by step (it had replayed as ok with pushes 280 um apart),
+    /// and so is it with a window too small for its one push.
+    #[test]
+    fn pushes_beyond_one_window_without_a_coarse_move_are_unreachable() {
+        let layout = Layout {
+            field_m: [300e-6, 300e-6],
+            ..Layout::of_test_centres_um(&[(20.0, 20.0), (280.0, 280.0)])
+        };
+        let sites = [(0, 20.0, 40.0), (1, 280.0, 260.0)].map(|(id, x, y)| Site {
+            id,
+            centre_m: Vector2::new(x, y) * 1e-6,
+        });
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&layout, &sites, &config).unwrap();
+        assert!(plan.summary.coarse_moves > 0);
+        assert!(verify_plan(&plan, &layout, &config).ok);
+        let mut bare = plan.clone();
+        bare.steps.retain(|s| !matches!(s, Step::CoarseMove { .. }));
+        let report = verify_plan(&bare, &layout, &config);
+        let second_push = (bare.steps.iter().enumerate())
+            .filter(|(_, s)| matches!(s, Step::Push { .. }))
+            .map(|(k, _)| k)
+            .nth(1)
+            .unwrap();
+        assert_eq!(report.unreachable, [second_push]);
+        assert!(
+            report.summary().contains("no coarse move"),
+            "{}",
+            report.summary()
+        );
+        // In a 10 um window, not even one 20 um push (with its approach).
+        let narrow = PlanGeometry {
+            nanostage_range_um: 10.0,
+            ..super::super::plan_file::geometry_of(&plan, &config)
+        };
+        let report = verify_plan_with(&bare, &layout, &[], &narrow, 1e-9);
+        assert_eq!(report.unreachable.len(), 2);
     }
 
     /// A push whose approach point is not at the particle's back (beside
