@@ -96,22 +96,29 @@ mod tests {
     use super::*;
     use crate::exec::tracker::{Observation, Tracker};
 
-    /// Tracks of particles of `radii_um`, each seen twice 30 um from the rest.
-    fn tracks(radii_um: &[f64]) -> Vec<Track> {
+    /// Tracks of particles `seen`, each seen twice.
+    fn tracks_of(seen: &[Observation]) -> Vec<Track> {
         let mut tracker = Tracker::new(1e-6);
-        let seen: Vec<Observation> = radii_um
-            .iter()
-            .enumerate()
+        for _ in 0..2 {
+            tracker.update(seen, &[], &|_, _| true);
+        }
+        tracker.tracks().to_vec()
+    }
+
+    /// Particles of `radii_um` on a line, 30 um apart.
+    fn spaced(radii_um: &[f64]) -> Vec<Observation> {
+        (radii_um.iter().enumerate())
             .map(|(i, r)| Observation {
                 x_m: 30e-6 * i as f64,
                 y_m: 0.0,
                 radius_m: r * 1e-6,
             })
-            .collect();
-        for _ in 0..2 {
-            tracker.update(&seen, &[], &|_, _| true);
-        }
-        tracker.tracks().to_vec()
+            .collect()
+    }
+
+    /// Tracks of particles of `radii_um`, each seen twice 30 um from the rest.
+    fn tracks(radii_um: &[f64]) -> Vec<Track> {
+        tracks_of(&spaced(radii_um))
     }
 
     #[test]
@@ -139,16 +146,7 @@ mod tests {
     /// median (it had taken the median: 5.28 um planned as 5.01 um).
     #[test]
     fn a_spread_batch_particle_beside_another_keeps_most_of_its_size() {
-        let mut tracker = Tracker::new(1e-6);
-        let mut seen: Vec<Observation> = [4.5, 4.8, 5.0, 5.2, 5.4, 4.9, 5.1]
-            .iter()
-            .enumerate()
-            .map(|(i, r)| Observation {
-                x_m: 30e-6 * i as f64,
-                y_m: 0.0,
-                radius_m: r * 1e-6,
-            })
-            .collect();
+        let mut seen = spaced(&[4.5, 4.8, 5.0, 5.2, 5.4, 4.9, 5.1]);
         let (wide, beside) = (5.5e-6, 5.0e-6);
         for (x, r) in [(300e-6, wide), (300e-6 + wide + beside + 0.5e-6, beside)] {
             seen.push(Observation {
@@ -157,11 +155,8 @@ mod tests {
                 radius_m: r,
             });
         }
-        for _ in 0..2 {
-            tracker.update(&seen, &[], &|_, _| true);
-        }
-        let tracks = tracker.tracks();
-        let sizes = ParticleSizes::of(tracks, 6e-6);
+        let tracks = tracks_of(&seen);
+        let sizes = ParticleSizes::of(&tracks, 6e-6);
         let pair: Vec<&Track> = tracks.iter().filter(|t| t.last.x_m >= 300e-6).collect();
         assert!(pair.iter().all(|t| t.own_radius_m().is_none()));
         let planned = sizes.radius_m(pair[0]);
