@@ -137,6 +137,20 @@ fn files_read_back_and_agree() {
         .count();
     assert_eq!(report.pushes, decisions);
     assert_eq!(report.filled, report.sites);
+    // What was asked, enough to make the run again.
+    let asked = report
+        .asked
+        .as_ref()
+        .expect("the report says what was asked");
+    assert_eq!((&asked.pattern, asked.seed), (&spec.pattern, spec.seed));
+    assert!(
+        asked
+            .command
+            .as_ref()
+            .is_some_and(|c| c.contains("nanopush assemble --out")),
+        "{asked:?}"
+    );
+    assert_eq!(report.placed_tolerance_nm, Some(200.0));
     // The animation has one picture per analysed frame.
     let observations = entries
         .iter()
@@ -193,6 +207,11 @@ fn report_md_links_only_to_files_that_exist() {
         assert!(out.join(l).is_file(), "report.md links to missing {l}");
     }
     assert!(md.contains("| 6 |"), "a row per site");
+    assert!(
+        md.contains("Asked: pattern") && md.contains("Command: `nanopush"),
+        "{md}"
+    );
+    assert!(md.contains("(a particle within 200 nm)"), "{md}");
 }
 
 #[test]
@@ -370,7 +389,8 @@ fn an_out_holding_a_run_is_refused_before_the_recording_is_made() {
     let o = assemble_recorded(out, &rec);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{err}");
-    assert!(err.contains("journal.jsonl exists"), "{err}");
+    // A finished run: --resume, which would be refused, is not offered.
+    assert!(err.contains("holds a finished run"), "{err}");
     assert!(!rec.exists(), "{err}");
     let file = dir.path().join("a-file");
     std::fs::write(&file, "notes").unwrap();

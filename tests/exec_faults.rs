@@ -354,6 +354,21 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
         "{report}"
     );
     assert!(out.join("run.mp4").is_file());
+    // The stopped run's report says how to go on, and what it was asked.
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains(&format!(
+            "To go on with it: `nanopush assemble --resume {}`",
+            journal.display()
+        )),
+        "{md}"
+    );
+    assert!(
+        report["asked"]["command"]
+            .as_str()
+            .is_some_and(|c| c.contains("nanopush assemble --out")),
+        "{report}"
+    );
     let resumed = binary()
         .args(["assemble", "--json", "--resume", journal.to_str().unwrap()])
         .output()
@@ -473,6 +488,22 @@ fn kill_and_resume(kill_after: usize) {
     }
     let report: serde_json::Value = serde_json::from_slice(&resumed.stdout).unwrap();
     assert_eq!(report["filled"], report["sites"]);
+    // The report covers the whole run and says it was resumed; a push
+    // decided and cut off before the tip went down is not counted twice.
+    assert_eq!(report["resumes"], 1);
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("Resumed 1 time after a stop"), "{md}");
+    let decisions = (all.entries.iter())
+        .filter(|e| matches!(e.event, RunEvent::Decision { .. }))
+        .count() as u64;
+    let checked = (all.entries.iter())
+        .filter(|e| matches!(&e.event, RunEvent::Check { result, .. } if !result.starts_with("refused")))
+        .count() as u64;
+    let made = report["pushes"].as_u64().unwrap();
+    let not_made = report["pushes_not_made"].as_u64().unwrap();
+    assert_eq!(made + not_made, decisions, "{report}");
+    // At most the push the kill cut off after the tip went down is made unchecked.
+    assert!(made == checked || made == checked + 1, "{report}");
 }
 
 /// Killed at six points of the run (during a push, before a check, after

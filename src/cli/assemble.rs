@@ -8,12 +8,13 @@
 use super::pattern_args::PatternArgs;
 use crate::calib::camera_map::CameraCalibration;
 use crate::exec::animation::AnimationWriter;
-use crate::exec::artifacts::{ReportFiles, journal_pushes, write_force_plots, write_report_md};
+use crate::exec::artifacts::{ReportFiles, write_force_plots, write_report_md};
 use crate::exec::assemble::{
     Assembly, AssemblySettings, FanOut, FrameSink, FrameView, PushRecord, RunEnd,
 };
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
+use crate::exec::journal_pushes::journal_pushes;
 use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
 use crate::exec::report::{AssemblyReport, RunFacts};
@@ -202,6 +203,17 @@ pub(super) fn check_out_free(out: &Path) -> anyhow::Result<PathBuf> {
         bail!("--out {} is a file: give a folder", out.display());
     }
     let journal = out.join(JOURNAL);
+    // A finished run cannot be resumed: --resume was offered, then refused.
+    let finished = || {
+        read_journal::<RunEvent>(&journal)
+            .is_ok_and(|c| c.entries.last().is_some_and(|e| e.event == RunEvent::Done))
+    };
+    if journal.exists() && finished() {
+        bail!(
+            "{} holds a finished run (its report is report.md there): give another --out",
+            out.display()
+        );
+    }
     if journal.exists() {
         bail!(
             "{} exists: use --resume {0} or another --out",
@@ -385,7 +397,13 @@ fn finish(
         .filter_map(|e| e.ok().and_then(|e| name(&e.path())))
         .filter(|n| n.starts_with("run") && n.ends_with(".mp4"))
         .collect();
-    animations.sort();
+    // In run order: the first part's, then each resume's (run-resume-10
+    // after run-resume-9).
+    animations.sort_by(|a, b| {
+        (a != "run.mp4")
+            .cmp(&(b != "run.mp4"))
+            .then_with(|| crate::natural_order::natural_cmp(Path::new(a), Path::new(b)))
+    });
     let files = ReportFiles {
         final_frame: run.last.as_ref().map(|_| "final.png".to_owned()),
         animations,
@@ -485,6 +503,12 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
         r.rms_error_nm, r.max_error_nm, r.error_source
     );
     println!("  pushes           {} ({} re-pushes)", r.pushes, r.repushes);
+    if r.pushes_not_made > 0 {
+        println!(
+            "  not made         {} (decided, then cut off by a stop or a stage fault before the tip went down, or refused)",
+            r.pushes_not_made
+        );
+    }
     match r.lost_contacts_missed {
         Some(m) => println!(
             "  lost contacts    {} detected, {} missed",

@@ -333,6 +333,7 @@ fn assemble(
                 .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
         drift_off: args.no_drift_follow,
+        command: Some(crate::exec::events::this_command()),
     };
     let inputs = AssemblyInputs {
         scene: scene.clone(),

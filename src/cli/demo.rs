@@ -71,17 +71,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.text, args.seed
     );
     // A run that stops short is still a demo of the loop: its report says
-    // why. One that never started (a bad --text) has no report to show.
+    // why, and where it is is said before the failing exit (a script
+    // running the demo had read a stop as success). One that never started
+    // (a bad --text) has no report to show.
     let report = assemble_dir.join("report.md");
-    if let Err(e) = assemble::run(command.args) {
-        if !report.is_file() {
-            return Err(e.context("the assembly did not start"));
-        }
-        println!("the assembly stopped short: {e:#}");
+    let assembled = assemble::run(command.args);
+    if assembled.is_err() && !report.is_file() {
+        return assembled.context("the assembly did not start");
     }
     println!("paper-scene push: {}", push_dir.display());
     println!("assembly report:  {}", report.display());
-    Ok(())
+    assembled.context("the assembly stopped short (its report says why)")
 }
 
 /// The paper scene's push: summary, plots, CSV and JSON.

@@ -97,10 +97,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("pushes replayed   {}", rep.pushes);
         println!("collisions        {}", rep.collisions.len());
         for c in rep.collisions.iter().take(20) {
-            println!(
-                "  step {}: particle {} ({}) hits particle {} by {:.3} um",
-                c.step, c.particle, c.by, c.other, c.depth_um
-            );
+            println!("  step {}: {}", c.step, c.describe());
         }
         println!("bad starts        {:?}", rep.bad_starts);
         println!("bad approaches    {:?}", rep.bad_approaches);

@@ -8,87 +8,34 @@
 //! its measured curve here instead.
 
 use super::assemble::{AssemblySettings, scene_for_push};
-use super::events::RunEvent;
-use super::journal::Entry;
+use super::journal_pushes::JournalPush;
 use super::report::AssemblyReport;
 use crate::model::push_sim::{SolverSettings, simulate_push_series};
 use crate::model::{PushParams, Scene};
 use crate::render::plot::{LineChart, Series};
+use crate::wording::counted;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 /// Pushes drawn per force chart (one colour each).
 pub const PUSHES_PER_CHART: usize = 6;
 
-/// One push as the journal has it, for plots and tables.
-#[derive(Debug, Clone, PartialEq)]
-pub struct JournalPush {
-    /// Rig time of the decision, seconds.
-    pub t_s: f64,
-    /// Track id.
-    pub particle: usize,
-    /// Contact angle, degrees.
-    pub contact_angle_deg: f64,
-    /// Push duration after first touch, seconds.
-    pub duration_s: f64,
-    /// Push distance, micrometres.
-    pub distance_um: f64,
-    /// True for a re-push after a lost contact.
-    pub repush: bool,
-    /// The check that followed, if any ("placed", "fell-short", ...).
-    pub result: Option<String>,
-}
-
-/// The pushes of a journal, each with the check that followed it.
-pub fn journal_pushes(entries: &[Entry<RunEvent>]) -> Vec<JournalPush> {
-    let mut out: Vec<JournalPush> = Vec::new();
-    for e in entries {
-        match &e.event {
-            RunEvent::Decision {
-                particle,
-                from_um,
-                to_um,
-                contact_angle_deg,
-                duration_s,
-                repush,
-                ..
-            } => out.push(JournalPush {
-                t_s: e.t_s,
-                particle: *particle,
-                contact_angle_deg: *contact_angle_deg,
-                duration_s: *duration_s,
-                distance_um: (to_um[0] - from_um[0]).hypot(to_um[1] - from_um[1]),
-                repush: *repush,
-                result: None,
-            }),
-            RunEvent::Check {
-                particle, result, ..
-            } => {
-                if let Some(last) = out
-                    .last_mut()
-                    .filter(|p| p.particle == *particle && p.result.is_none())
-                {
-                    last.result = Some(result.clone());
-                }
-            }
-            _ => {}
-        }
-    }
-    out
-}
-
 /// Writes `pushes-force-<k>.svg` and `.png` charts (force against time since
-/// first touch, [`PUSHES_PER_CHART`] pushes each); returns the files written.
+/// first touch, [`PUSHES_PER_CHART`] pushes each) of the pushes made, each
+/// numbered as in the report's table; returns the files written.
 pub fn write_force_plots(
     pushes: &[JournalPush],
     scene: &Scene,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, String> {
+    let made: Vec<(usize, &JournalPush)> = (pushes.iter().enumerate())
+        .filter(|(_, p)| p.made())
+        .map(|(i, p)| (i + 1, p))
+        .collect();
     let mut files = Vec::new();
-    for (k, chunk) in pushes.chunks(PUSHES_PER_CHART).enumerate() {
-        let first = k * PUSHES_PER_CHART;
+    for (k, chunk) in made.chunks(PUSHES_PER_CHART).enumerate() {
         let mut series = Vec::new();
-        for (i, p) in chunk.iter().enumerate() {
+        for &(number, p) in chunk {
             let s = scene_for_push(scene, scene.particle_radius_m, p.t_s);
             let params = PushParams {
                 contact_angle_rad: p.contact_angle_deg.to_radians(),
@@ -96,11 +43,10 @@ pub fn write_force_plots(
                 duration_s: p.duration_s,
             };
             let (_, rows) = simulate_push_series(&s, &params, &SolverSettings::default(), 121)
-                .map_err(|e| format!("push {}: {e}", first + i + 1))?;
+                .map_err(|e| format!("push {number}: {e}"))?;
             series.push(Series {
                 name: format!(
-                    "push {} (particle {}, {:.0} deg{})",
-                    first + i + 1,
+                    "push {number} (particle {}, {:.0} deg{})",
                     p.particle,
                     p.contact_angle_deg,
                     if p.repush { ", re-push" } else { "" }
@@ -108,12 +54,9 @@ pub fn write_force_plots(
                 points: rows.iter().map(|r| (r.t_s, r.force_n * 1e6)).collect(),
             });
         }
+        let (first, last) = (chunk[0].0, chunk[chunk.len() - 1].0);
         let chart = LineChart {
-            title: format!(
-                "Pushing force, pushes {}-{} (model)",
-                first + 1,
-                first + chunk.len()
-            ),
+            title: format!("Pushing force, pushes {first}-{last} (model)"),
             x_label: "time since first touch [s]".into(),
             y_label: "force [uN]".into(),
             series,
@@ -143,6 +86,41 @@ pub struct ReportFiles {
     pub report_json: String,
 }
 
+/// What the run was asked, the command that made it and, for a stopped
+/// run, the one that goes on with it (`journal`), as the report's opening.
+fn write_asked(md: &mut String, report: &AssemblyReport, journal: &Path) {
+    if let Some(a) = &report.asked {
+        let _ = writeln!(
+            md,
+            "Asked: pattern {}, scene {}, {}seed {}.",
+            a.pattern,
+            a.scene,
+            a.layout
+                .as_ref()
+                .map_or(String::new(), |l| format!("layout {l}, ")),
+            a.seed
+        );
+        if let Some(command) = &a.command {
+            let _ = writeln!(md, "Command: `{command}`.");
+        }
+    }
+    if report.resumes > 0 {
+        let _ = writeln!(
+            md,
+            "Resumed {} after a stop; the figures cover the whole run unless they say otherwise.",
+            counted(report.resumes, "time")
+        );
+    }
+    if report.outcome != "done" {
+        let _ = writeln!(
+            md,
+            "To go on with it: `nanopush assemble --resume {}`.",
+            journal.display()
+        );
+    }
+    md.push('\n');
+}
+
 /// Writes `report.md`.
 pub fn write_report_md(
     path: &Path,
@@ -154,31 +132,67 @@ pub fn write_report_md(
     let mut md = String::new();
     let _ = writeln!(md, "# Assembly report\n");
     let _ = writeln!(md, "Outcome: **{}**\n", report.outcome);
+    write_asked(&mut md, report, &path.with_file_name(&files.journal));
     let _ = writeln!(md, "| figure | value |\n|---|---|");
+    let since_resume = if report.resumes > 0 {
+        " (since the last resume)"
+    } else {
+        ""
+    };
+    let tolerance_nm = report
+        .placed_tolerance_nm
+        .unwrap_or(AssemblySettings::default().placed_tolerance_m * 1e9);
     let mut rows = vec![
         (
             "sites filled",
-            format!("{}/{}", report.filled, report.sites),
+            format!(
+                "{}/{} (a particle within {tolerance_nm:.0} nm)",
+                report.filled, report.sites
+            ),
         ),
         (
             "placement error",
             format!(
-                "rms {:.0} nm, max {:.0} nm ({})",
-                report.rms_error_nm, report.max_error_nm, report.error_source
+                "rms {:.0} nm, max {:.0} nm ({}){}",
+                report.rms_error_nm,
+                report.max_error_nm,
+                report.error_source,
+                if report.filled < report.sites {
+                    "; an unfilled site counts its nearest particle's distance"
+                } else {
+                    ""
+                }
             ),
         ),
         (
             "pushes",
-            format!("{} ({} re-pushes)", report.pushes, report.repushes),
+            format!(
+                "{} ({} re-pushes){}",
+                report.pushes,
+                report.repushes,
+                if report.pushes_not_made > 0 {
+                    format!(
+                        "; {} more decided but not made (cut off by a stop or a stage fault before the tip went down, or refused)",
+                        report.pushes_not_made
+                    )
+                } else {
+                    String::new()
+                }
+            ),
         ),
         (
             "lost contacts",
             format!(
-                "{} detected, {} missed",
+                "{} detected, {} missed{}",
                 report.lost_contacts_detected,
                 report
                     .lost_contacts_missed
-                    .map_or("unknown".to_owned(), |m| m.to_string())
+                    .map_or("unknown".to_owned(), |m| m.to_string()),
+                if report.lost_contacts_missed.is_some() {
+                    since_resume
+                } else {
+                    ""
+                }
             ),
         ),
         ("time", report.time_summary()),
@@ -215,8 +229,6 @@ pub fn write_report_md(
         md,
         "| site | x [um] | y [um] | error [nm] | filled |\n|---|---|---|---|---|"
     );
-    // The tolerance the report's `filled` counts with (both rigs run the default).
-    let tolerance_nm = AssemblySettings::default().placed_tolerance_m * 1e9;
     for (i, (s, e)) in sites_um.iter().zip(&report.site_errors_nm).enumerate() {
         let ok = if *e <= tolerance_nm {
             "yes"
@@ -230,26 +242,32 @@ pub fn write_report_md(
     let _ = writeln!(md, "\n## Pushes\n");
     let _ = writeln!(
         md,
-        "| # | t [s] | particle | distance [um] | angle [deg] | duration [s] | re-push | result |\n|---|---|---|---|---|---|---|---|"
+        "A push is one straight stroke: a particle whose route bends round others is pushed once a leg. \
+         \"to\" is the site the push ends on (none: a leg, or a push out of the way).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| # | t [s] | particle | to | distance [um] | contact angle [deg] | duration [s] | re-push | result |\n|---|---|---|---|---|---|---|---|---|"
     );
     for (i, p) in pushes.iter().enumerate() {
         let _ = writeln!(
             md,
-            "| {} | {:.1} | {} | {:.2} | {:.1} | {:.2} | {} | {} |",
+            "| {} | {:.1} | {} | {} | {:.2} | {:.1} | {:.2} | {} | {} |",
             i + 1,
             p.t_s,
             p.particle,
+            p.to_site.map_or("-".to_owned(), |s| format!("site {s}")),
             p.distance_um,
             p.contact_angle_deg,
             p.duration_s,
             if p.repush { "yes" } else { "" },
-            p.result.as_deref().unwrap_or("-")
+            p.outcome()
         );
     }
     let _ = writeln!(md, "\n## Effects\n");
     let _ = writeln!(
         md,
-        "| effect | why | simulated contacts that evaluated it |\n|---|---|---|"
+        "| effect | why | simulated contacts that evaluated it{since_resume} |\n|---|---|---|"
     );
     for e in &report.active_effects {
         let work = report.effect_work.as_ref().map_or("-".to_owned(), |w| {
@@ -274,55 +292,4 @@ pub fn write_report_md(
         files.report_json
     );
     std::fs::write(path, md)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn e(seq: u64, t_s: f64, event: RunEvent) -> Entry<RunEvent> {
-        Entry { seq, t_s, event }
-    }
-
-    fn decision(particle: usize, repush: bool) -> RunEvent {
-        RunEvent::Decision {
-            particle,
-            from_um: [0.0, 0.0],
-            to_um: [3.0, 4.0],
-            contact_angle_deg: 45.0,
-            duration_s: 8.0,
-            onset_s: 1.0,
-            critical_force_un: 2.0,
-            ride_over_margin: None,
-            mode: "rolling".into(),
-            repush,
-            radius_um: None,
-        }
-    }
-
-    fn check(particle: usize, result: &str) -> RunEvent {
-        RunEvent::Check {
-            particle,
-            result: result.into(),
-            error_nm: 10.0,
-            lost_contact: result != "placed",
-        }
-    }
-
-    #[test]
-    fn pushes_are_paired_with_the_check_that_followed() {
-        let entries = vec![
-            e(0, 1.0, decision(4, false)),
-            e(1, 9.0, check(4, "fell-short")),
-            e(2, 10.0, decision(4, true)),
-            e(3, 19.0, check(4, "placed")),
-            e(4, 20.0, decision(7, false)),
-        ];
-        let p = journal_pushes(&entries);
-        assert_eq!(p.len(), 3);
-        assert_eq!(p[0].result.as_deref(), Some("fell-short"));
-        assert!(p[1].repush && p[1].result.as_deref() == Some("placed"));
-        assert_eq!(p[2].result, None);
-        assert!((p[0].distance_um - 5.0).abs() < 1e-12);
-    }
 }

@@ -31,6 +31,30 @@ pub struct RunSpec {
     /// does (and in journals from before 2026-11-29).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub drift_off: bool,
+    /// The command line that started the run and the nanopush version, so
+    /// that a report says how to make the run again (`nanopush 0.1.0:
+    /// nanopush assemble --text CMU --seed 7`); absent in journals from
+    /// before 2026-11-29.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub command: Option<String>,
+}
+
+/// This process's command line as a shell would take it back, after the
+/// nanopush version: "nanopush 0.1.0: nanopush assemble --text CMU --seed 7"
+/// ([`RunSpec::command`]).
+pub fn this_command() -> String {
+    let quoted = |a: String| {
+        let plain = |c: char| c.is_ascii_alphanumeric() || "-_./,=:+@%".contains(c);
+        if !a.is_empty() && a.chars().all(plain) {
+            a
+        } else {
+            format!("'{}'", a.replace('\'', r"'\''"))
+        }
+    };
+    let args: Vec<String> = std::iter::once("nanopush".to_owned())
+        .chain(std::env::args().skip(1).map(quoted))
+        .collect();
+    format!("nanopush {}: {}", env!("CARGO_PKG_VERSION"), args.join(" "))
 }
 
 /// A hardware run's frame on its rig: the planner's field, and with a
@@ -220,6 +244,7 @@ mod tests {
             radius_um: 5.0,
             rig: None,
             drift_off: true,
+            command: Some(this_command()),
         };
         let text = serde_json::to_string(&spec).unwrap();
         assert!(text.contains(r#""drift_off":true"#), "{text}");

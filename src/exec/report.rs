@@ -9,8 +9,9 @@
 
 use super::assemble::{AssemblySettings, RunEnd};
 use super::drift::DriftEstimate;
-use super::events::RunEvent;
+use super::events::{RunEvent, RunSpec};
 use super::journal::Entry;
+use super::journal_pushes::journal_pushes;
 use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
@@ -43,10 +44,15 @@ pub struct AssemblyReport {
     pub error_source: String,
     /// Placement error of every site, nanometres.
     pub site_errors_nm: Vec<f64>,
-    /// Pushes made.
+    /// Pushes made (and checked; see [`super::journal_pushes`]).
     pub pushes: usize,
-    /// Pushes that repeated one whose contact was lost.
+    /// Pushes made that repeated one whose contact was lost.
     pub repushes: usize,
+    /// Pushes decided but not made: cut short by a stop or a stage fault
+    /// (a resumed run decides them again), or refused by the model; 0 in
+    /// reports written before this field.
+    #[serde(default)]
+    pub pushes_not_made: usize,
     /// Lost contacts the camera showed.
     pub lost_contacts_detected: usize,
     /// Lost contacts the simulated rig caused that the executor did not see
@@ -84,6 +90,46 @@ pub struct AssemblyReport {
     /// written before this field).
     #[serde(default)]
     pub left_short: Vec<LeftShortSite>,
+    /// A site counts as filled with a particle this close, nanometres
+    /// (absent in reports written before this field).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub placed_tolerance_nm: Option<f64>,
+    /// What the run was asked (its journal's start entry): enough to make
+    /// it again. Absent in reports written before this field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub asked: Option<RunAsked>,
+    /// How many times the run was resumed after a stop. The effects' work
+    /// and the lost contacts missed are counted by the simulated rig of the
+    /// last process only; every other figure covers the whole run.
+    #[serde(default)]
+    pub resumes: usize,
+}
+
+/// What a run was asked, for its report.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunAsked {
+    /// Text of the pattern, or the pattern file.
+    pub pattern: String,
+    /// Scene file.
+    pub scene: String,
+    /// Layout file of the simulated rig, if one was given.
+    pub layout: Option<String>,
+    /// Seed of the simulated rig.
+    pub seed: u64,
+    /// "nanopush VERSION: COMMAND LINE", when the journal has it.
+    pub command: Option<String>,
+}
+
+impl From<&RunSpec> for RunAsked {
+    fn from(s: &RunSpec) -> Self {
+        RunAsked {
+            pattern: s.pattern.clone(),
+            scene: s.scene.clone(),
+            layout: s.layout.clone(),
+            seed: s.seed,
+            command: s.command.clone(),
+        }
+    }
 }
 
 /// A site filled by a particle the loop gave up on near it.
@@ -157,9 +203,16 @@ pub struct RunFacts<'a> {
 
 impl AssemblyReport {
     /// "346 s (lower bound 238 s, ratio 1.45)"; no ratio when no plan gave a
-    /// lower bound (the run stopped before its first push).
+    /// lower bound (the run stopped before its first push), nor for a run
+    /// that stopped (its bound is the whole pattern's: a ratio of 0.14 read
+    /// as a fast run).
     pub fn time_summary(&self) -> String {
-        if self.lower_bound_s > 0.0 {
+        if self.outcome != "done" && self.lower_bound_s > 0.0 {
+            format!(
+                "{:.0} s before the stop (the whole pattern's lower bound {:.0} s)",
+                self.time_s, self.lower_bound_s
+            )
+        } else if self.lower_bound_s > 0.0 {
             format!(
                 "{:.0} s (lower bound {:.0} s, ratio {:.2})",
                 self.time_s,
@@ -219,8 +272,12 @@ impl AssemblyReport {
     pub fn drift_summary(&self) -> Option<String> {
         self.drift.map(|d| {
             format!(
-                "offset ({:.2}, {:.2}) um, rate ({:.2}, {:.2}) nm/s, from {} frames",
-                d.offset_um[0], d.offset_um[1], d.rate_nm_s[0], d.rate_nm_s[1], d.sightings
+                "offset ({:.2}, {:.2}) um, rate ({:.2}, {:.2}) nm/s, from {}",
+                d.offset_um[0],
+                d.offset_um[1],
+                d.rate_nm_s[0],
+                d.rate_nm_s[1],
+                crate::wording::counted(d.sightings, "frame")
             )
         })
     }
@@ -278,6 +335,7 @@ impl AssemblyReport {
             site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
             pushes: counts.pushes,
             repushes: counts.repushes,
+            pushes_not_made: counts.pushes_not_made,
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
             time_s: facts.time_s,
@@ -294,6 +352,9 @@ impl AssemblyReport {
             clipped_frames: counts.clipped_frames,
             drift: counts.drift,
             left_short: counts.left_short,
+            placed_tolerance_nm: Some(settings.placed_tolerance_m * 1e9),
+            asked: counts.spec.as_ref().map(RunAsked::from),
+            resumes: counts.resumes,
         }
     }
 }
@@ -301,10 +362,16 @@ impl AssemblyReport {
 /// Counts read off a journal.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct JournalCounts {
-    /// Decision entries.
+    /// The start entry's spec.
+    pub spec: Option<RunSpec>,
+    /// Resume entries.
+    pub resumes: usize,
+    /// Pushes made ([`super::journal_pushes::JournalPush::made`]).
     pub pushes: usize,
-    /// Decision entries marked as repushes.
+    /// Pushes made that were repushes.
     pub repushes: usize,
+    /// Decisions whose push was not made.
+    pub pushes_not_made: usize,
     /// Check entries that found a lost contact.
     pub lost_contacts_detected: usize,
     /// Push distance and tip travel lower bounds of the first plan, micrometres.
@@ -335,14 +402,21 @@ pub fn count_journal(
     tolerance_um: f64,
 ) -> JournalCounts {
     let mut c = JournalCounts::default();
+    for p in journal_pushes(entries) {
+        if p.made() {
+            c.pushes += 1;
+            c.repushes += usize::from(p.repush);
+        } else {
+            c.pushes_not_made += 1;
+        }
+    }
     for e in entries {
         c.last_t_s = c.last_t_s.max(e.t_s);
         match &e.event {
-            RunEvent::Decision {
-                repush, onset_s, ..
-            } => {
-                c.pushes += 1;
-                c.repushes += usize::from(*repush);
+            RunEvent::Start(spec) => {
+                c.spec.get_or_insert_with(|| spec.clone());
+            }
+            RunEvent::Decision { onset_s, .. } => {
                 c.first_onset_s.get_or_insert(*onset_s);
             }
             RunEvent::Check {
@@ -399,7 +473,10 @@ pub fn count_journal(
             }
             RunEvent::Done => c.outcome = Some("done".to_owned()),
             RunEvent::Stopped { reason } => c.outcome = Some(format!("stopped: {reason}")),
-            RunEvent::Resume => c.outcome = None,
+            RunEvent::Resume => {
+                c.outcome = None;
+                c.resumes += 1;
+            }
             _ => {}
         }
     }
@@ -524,7 +601,9 @@ mod tests {
             ),
         ];
         let c = count_journal(&entries, &[[10.0, 0.0], [50.0, 0.0]], 0.1);
-        assert_eq!((c.pushes, c.repushes, c.lost_contacts_detected), (2, 1, 1));
+        // The re-push was decided, and the run stopped before the tip moved.
+        assert_eq!((c.pushes, c.repushes, c.lost_contacts_detected), (1, 0, 1));
+        assert_eq!(c.pushes_not_made, 1);
         assert_eq!(c.sites_to_fill, Some(1));
         assert_eq!(c.outcome.as_deref(), Some("stopped: test"));
         // (10 um + 1 x 9 um onset travel) at 1 um/s + 5 um at 10 um/s.
@@ -716,6 +795,7 @@ mod tests {
             site_errors_nm: vec![0.0],
             pushes: 1,
             repushes: 0,
+            pushes_not_made: 0,
             lost_contacts_detected: 0,
             lost_contacts_missed: Some(0),
             time_s: 30.0,
@@ -726,13 +806,23 @@ mod tests {
             clipped_frames: ClippedFrames::default(),
             drift: None,
             left_short: Vec::new(),
+            placed_tolerance_nm: Some(200.0),
+            asked: None,
+            resumes: 0,
         }
     }
 
+    /// No ratio without a lower bound, nor for a stopped run (the bound is
+    /// the whole pattern's: 0.14 had read as a fast run).
     #[test]
     fn time_summary_gives_no_ratio_without_a_lower_bound() {
         let mut r = small_report();
         assert_eq!(r.time_summary(), "30 s (lower bound 20 s, ratio 1.50)");
+        r.outcome = "stopped: interrupted".into();
+        assert_eq!(
+            r.time_summary(),
+            "30 s before the stop (the whole pattern's lower bound 20 s)"
+        );
         r.lower_bound_s = 0.0;
         assert!(!r.time_summary().contains("ratio"), "{}", r.time_summary());
     }

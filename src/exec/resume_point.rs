@@ -77,11 +77,7 @@ impl ResumePoint {
             RunEvent::Move { target_um, .. } => Some([target_um[0] * 1e-6, target_um[1] * 1e-6]),
             _ => None,
         });
-        let resumes = contents
-            .entries
-            .iter()
-            .filter(|e| e.event == RunEvent::Resume)
-            .count();
+        let resumes = counts.resumes;
         let last_t_s = contents.entries.iter().map(|e| e.t_s).fold(0.0, f64::max);
         Ok(Self {
             journal,

@@ -121,10 +121,19 @@ pub struct FillOrder {
     pub route: Vec<Vec<Vector2<f64>>>,
 }
 
+/// "1 site is" or "3 sites are".
+fn sites_are(n: &usize) -> String {
+    match n {
+        1 => "1 site is".to_owned(),
+        _ => format!("{n} sites are"),
+    }
+}
+
 /// Why no fill order exists.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
-    "{walled} sites are walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites, or their particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)"
+    "{} walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites, or their particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)",
+    sites_are(.walled)
 )]
 pub struct Walled {
     /// Moves left without a rank.

@@ -37,6 +37,21 @@ pub struct Collision {
     pub depth_um: f64,
 }
 
+impl Collision {
+    /// "the tip pushing particle 3 hits particle 7 by 0.43 um" (or "particle
+    /// 3, pushed, hits ...": "particle 3 particle hits" had read as a typo).
+    pub fn describe(&self) -> String {
+        let who = match self.by {
+            "tip" => format!("the tip pushing particle {}", self.particle),
+            _ => format!("particle {}, pushed,", self.particle),
+        };
+        format!(
+            "{who} hits particle {} by {:.3} um",
+            self.other, self.depth_um
+        )
+    }
+}
+
 /// What the replay found.
 #[derive(Debug, Clone, Serialize, PartialEq, Default)]
 pub struct VerifyReport {
@@ -85,13 +100,10 @@ impl VerifyReport {
         let mut parts = Vec::new();
         if let Some(c) = self.collisions.first() {
             parts.push(format!(
-                "{} collisions (first: step {}, particle {} {} hits particle {} by {:.2} um)",
-                self.collisions.len(),
+                "{} (first: step {}, {})",
+                crate::wording::counted(self.collisions.len(), "collision"),
                 c.step,
-                c.particle,
-                c.by,
-                c.other,
-                c.depth_um
+                c.describe()
             ));
         }
         if let Some(first) = self.bad_starts.first() {
