@@ -443,6 +443,34 @@ fn detect_json_says_which_particles_are_cut_or_not_fitted() {
     );
 }
 
+/// `detect` says when its size hint does not fit the frame's particles
+/// (it printed "0 particles", or 51 pieces of 5 rings, without a word):
+/// bright-field rings 17 px across, at the right hint nothing is said.
+#[test]
+fn detect_says_when_its_size_hint_does_not_fit() {
+    let frame = fixture("brightfield/bf_0000.png");
+    let warned = |hint: &str| {
+        let out = detect_cli(&frame, &["--diameter-px", hint]);
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let right = warned("17");
+    assert!(!right.contains("warning"), "{right}");
+    let twice = warned("34");
+    assert!(
+        twice.contains("no whole particle found at the size hint of 34 px across")
+            && twice.contains("finds 5"),
+        "{twice}"
+    );
+    let fifth = warned("3");
+    assert!(
+        fifth.contains("each may be found several times over"),
+        "{fifth}"
+    );
+    let wide = warned("30");
+    assert!(wide.contains("the particles found measure 16."), "{wide}");
+}
+
 /// `nanopush detect --centre ring-edge` on a brightfield frame: the five
 /// particles within 0.5 px of the independent ring fit in the JSON it writes;
 /// with --locator crocker-grier (no ring fit) the flag is refused.

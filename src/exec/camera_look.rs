@@ -7,20 +7,20 @@
 
 use std::fmt;
 
-use super::observe::{
-    ObserveError, Perception, RADIUS_TOLERANCE, SIZE_CHECK, Sighting, grab_frame,
-};
+use super::observe::{ObserveError, Perception, SIZE_CHECK, Sighting, grab_frame};
 use crate::calib::camera_map::CameraCalibration;
 use crate::calib::lens::RadialLens;
-use crate::median::upper_median;
 use crate::rig::camera::Camera;
 use crate::rig::camera_source::CameraSource;
 use crate::vision::analyse::{camera_notes, prepare_frame};
-use crate::vision::detect::{DetectSettings, detect_particles, model_for};
+use crate::vision::detect::{DetectSettings, model_for};
 use crate::vision::exposure::Exposure;
 use crate::vision::frame::Frame;
 use crate::vision::line_defects::LineDefect;
 use crate::vision::profile_fit::ProfileModel;
+use crate::vision::size_check::{
+    LARGER_SIZE_FACTORS, OTHER_SIZE_FACTORS, PIECES_PER_PARTICLE, found_at_other_hint,
+};
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 /// Grabs tried before the look gives up: a camera's own timeout applies
@@ -43,22 +43,6 @@ pub struct CameraLook {
     /// The objective's distortion the calibration corrects, if it has one.
     pub lens: Option<RadialLens>,
 }
-
-/// Particles found with another size hint than the scene's.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct OtherSize {
-    /// The hint's radius, metres.
-    hint_radius_m: f64,
-    /// Whole particles within the size tolerance of it.
-    count: usize,
-    /// Their median radius, metres.
-    median_radius_m: f64,
-}
-
-/// Size hints tried, as multiples of the scene's radius, when nothing is
-/// found near it: the detector's band-pass is tuned to its hint, so a
-/// scene or calibration off by 2x finds nothing at all.
-const OTHER_SIZE_FACTORS: [f64; 4] = [0.5, 0.7, 1.4, 2.0];
 
 /// Grabs a frame from `camera` and sees it with the loop's own perception
 /// for particles of `radius_m`.
@@ -119,53 +103,6 @@ pub fn look_uncalibrated(
     })
 }
 
-/// The size hint of [`OTHER_SIZE_FACTORS`] that finds most whole particles
-/// of its own size in the sighting's frame (the probe not left out), if any.
-/// Only hints the ring model fits: the spot model does not measure a size
-/// (its radius is the hint), and at half a 10 px hint it takes the rings
-/// of the true particles for 83 spots.
-fn found_at_other_size(
-    sighting: &Sighting,
-    detect: &DetectSettings,
-    m_per_px: f64,
-    factors: &[f64],
-) -> Option<OtherSize> {
-    let frame = prepare_frame(&sighting.frame).frame;
-    factors
-        .iter()
-        .filter_map(|factor| {
-            let settings = DetectSettings {
-                diameter_px: detect.diameter_px * factor,
-                ..detect.clone()
-            };
-            if model_for(&settings) != ProfileModel::Ring {
-                return None;
-            }
-            let hint_r_px = settings.diameter_px / 2.0;
-            let mut radii: Vec<f64> = detect_particles(&frame, &settings)
-                .ok()?
-                .iter()
-                .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
-                .map(|d| d.r_px * m_per_px)
-                .collect();
-            Some(OtherSize {
-                hint_radius_m: hint_r_px * m_per_px,
-                count: radii.len(),
-                median_radius_m: upper_median(&mut radii)?,
-            })
-        })
-        .max_by_key(|found| found.count)
-}
-
-/// Larger hints tried when the hint is one the spot model fits, which
-/// takes any blob of about its size for a particle: 1 um for particles of
-/// 5 um found each real frame's 5 particles as 49 pieces of their rings.
-const LARGER_SIZE_FACTORS: [f64; 3] = [2.0, 4.0, 8.0];
-
-/// Fewest particles found at the hint for each one a larger hint finds
-/// whole that make the hint doubtful: each particle found several times.
-const PIECES_PER_PARTICLE: usize = 3;
-
 /// What to doubt when the particles a sighting found are not the scene's
 /// size: whole detections of another size, or none at all (and then which
 /// other hint than `detect`'s finds particles, 0.5 to 2 times it), or, at
@@ -173,6 +110,8 @@ const PIECES_PER_PARTICLE: usize = 3;
 /// `PIECES_PER_PARTICLE` (3) times fewer (the hint's particles are pieces of
 /// them); `None` when particles of the size were found.
 pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Option<String> {
+    let frame = || prepare_frame(&s.frame).frame;
+    let um_per_px = m_per_px * 1e6;
     if let Some(radius_m) = s.off_size_median_radius_m() {
         return Some(format!(
             "{} found whole at another size (median radius {:.2} um) and left out: {SIZE_CHECK}",
@@ -185,25 +124,25 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
             return None;
         }
         let found = s.particles.len();
-        return found_at_other_size(s, detect, m_per_px, &LARGER_SIZE_FACTORS)
+        return found_at_other_hint(&frame(), detect, &LARGER_SIZE_FACTORS)
             .filter(|o| o.count > 0 && found >= PIECES_PER_PARTICLE * o.count)
             .map(|o| {
                 format!(
                     "{found} particles found near the size hint, but a hint of radius {:.2} um finds {} whole \
                      (median radius {:.2} um): each may be found several times over; {SIZE_CHECK}",
-                    o.hint_radius_m * 1e6,
+                    o.hint_r_px * um_per_px,
                     o.count,
-                    o.median_radius_m * 1e6
+                    o.median_r_px * um_per_px
                 )
             });
     }
     Some(
-        match found_at_other_size(s, detect, m_per_px, &OTHER_SIZE_FACTORS) {
+        match found_at_other_hint(&frame(), detect, &OTHER_SIZE_FACTORS) {
             Some(o) => format!(
                 "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
-                o.hint_radius_m * 1e6,
+                o.hint_r_px * um_per_px,
                 o.count,
-                o.median_radius_m * 1e6
+                o.median_r_px * um_per_px
             ),
             None => {
                 format!(

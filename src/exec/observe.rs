@@ -15,8 +15,7 @@ use crate::vision::line_defects::LineDefect;
 use crate::vision::log_on_change::changed;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
-/// Relative radius error beyond which a detection is not taken for a particle.
-pub(crate) const RADIUS_TOLERANCE: f64 = 0.3;
+pub(crate) use crate::vision::size_check::RADIUS_TOLERANCE;
 
 /// What to check when the particles found are not the scene's size.
 pub const SIZE_CHECK: &str = "is the particle radius right (plan's --radius-um, or the scene's), and the calibration's um/px?";

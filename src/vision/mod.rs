@@ -28,6 +28,7 @@ pub mod profile_fit;
 pub mod radial_symmetry;
 pub mod ring_edge;
 pub mod roi;
+pub mod size_check;
 pub mod tiff_fallback;
 pub mod tip;
 pub mod wide_samples;
