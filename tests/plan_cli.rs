@@ -92,6 +92,44 @@ fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
     assert!(!ok && text.contains("tip_radius_um is 0"), "{text}");
 }
 
+/// What is wrong inside a layout or a plan file is said with the file's
+/// name ("layout: particles 0 and 1 overlap" had named none), once.
+#[test]
+fn errors_in_a_files_content_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad_layout = write_layout(
+        dir.path(),
+        "touching.json",
+        &[(20.0, 20.0, 5.0), (29.9, 20.0, 5.0)],
+        (100.0, 100.0),
+    );
+    let (ok, text) = nanopush(&["plan", "--text", "I", "--layout", &bad_layout]);
+    assert!(!ok);
+    assert!(
+        text.contains(&format!(
+            "layout file {bad_layout}: particles 0 and 1 overlap by 0.100 um"
+        )),
+        "{text}"
+    );
+    let good_layout = write_layout(dir.path(), "one.json", &[(20.0, 20.0, 5.0)], (100.0, 100.0));
+    let plan = dir.path().join("steep.json");
+    std::fs::write(
+        &plan,
+        r#"{"schema": "nanopush.plan/1", "sites": [], "assignment": [],
+            "steps": [{"kind": "push", "particle": 0, "from_um": [20, 20], "to_um": [20, 50],
+                       "approach_um": [20, 14], "contact_angle_deg": 90}]}"#,
+    )
+    .unwrap();
+    let plan = plan.to_str().unwrap();
+    let (ok, text) = nanopush(&["verify-plan", plan, "--layout", &good_layout]);
+    assert!(!ok);
+    assert!(
+        text.contains(&format!("plan file {plan}: step 0 contact_angle_deg is 90")),
+        "{text}"
+    );
+    assert_eq!(text.matches(plan).count(), 1, "{text}");
+}
+
 /// Three particles at the bottom of an empty 200 x 200 um field.
 fn easy_layout(dir: &Path) -> String {
     write_layout(
@@ -131,6 +169,11 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         (
             on_easy("I", &["--speed-um-s", "0"]),
             "--speed-um-s is 0 (must be finite and > 0)",
+        ),
+        // An infinite predicted time had been written to the plan as null.
+        (
+            on_easy("I", &["--speed-um-s", "1e-310"]),
+            "must be at least 0.001 um/s",
         ),
         (
             on_easy("I", &["--tip-radius-um", "1e9"]),

@@ -78,6 +78,15 @@ pub enum LayoutError {
         /// The value found, as JSON text.
         found: String,
     },
+    /// What is wrong with a file's layout, named by the file (a message
+    /// like "layout: particles 1 and 3 overlap" had not said which file).
+    #[error("layout file {path}: {}", .inner.to_string().trim_start_matches("layout: "))]
+    InFile {
+        /// Path of the file.
+        path: String,
+        /// What is wrong.
+        inner: Box<LayoutError>,
+    },
     /// The schema field names another kind or version.
     #[error("layout schema is {found:?}, expected {LAYOUT_SCHEMA:?}")]
     Schema {
@@ -540,7 +549,16 @@ impl MarkedLayout {
             path: path.display().to_string(),
             source,
         })?;
-        Self::from_json(&text, &path.display().to_string())
+        let origin = path.display().to_string();
+        Self::from_json(&text, &origin).map_err(|e| match e {
+            LayoutError::Io { .. }
+            | LayoutError::Parse { .. }
+            | LayoutError::ImmovableNotBoolean { .. } => e,
+            inner => LayoutError::InFile {
+                path: origin,
+                inner: Box::new(inner),
+            },
+        })
     }
 
     /// Writes the layout file with its immovable marks.

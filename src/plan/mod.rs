@@ -319,6 +319,9 @@ pub enum PlanError {
     },
 }
 
+/// The slowest stage speed a plan takes, 1 nm/s.
+pub const MIN_STAGE_SPEED_M_PER_S: f64 = 1e-9;
+
 impl PlanConfig {
     /// Checks every value is finite and in range.
     pub fn validate(&self) -> Result<(), PlanError> {
@@ -338,6 +341,20 @@ impl PlanConfig {
                     "{name} is {} (must be finite and {})",
                     v * 1e6,
                     if positive { "> 0" } else { ">= 0" }
+                )));
+            }
+        }
+        // A speed of 1e-310 um/s predicted an infinite time, written to
+        // the plan file as null (which no reader took back).
+        for (name, v) in [
+            ("push_speed_um_s", self.push_speed_m_per_s),
+            ("travel_speed_um_s", self.travel_speed_m_per_s),
+        ] {
+            if v < MIN_STAGE_SPEED_M_PER_S {
+                return Err(PlanError::Config(format!(
+                    "{name} is {} (must be at least {} um/s: no stage moves slower)",
+                    v * 1e6,
+                    MIN_STAGE_SPEED_M_PER_S * 1e6
                 )));
             }
         }

@@ -30,6 +30,14 @@ pub enum PlanFileError {
         /// Cause.
         source: serde_json::Error,
     },
+    /// What is wrong with a file's plan, named by the file.
+    #[error("plan file {path}: {}", .inner.to_string().trim_start_matches("plan file: "))]
+    InFile {
+        /// Path of the file.
+        path: String,
+        /// What is wrong.
+        inner: Box<PlanFileError>,
+    },
     /// Wrong schema tag.
     #[error("plan schema is {0:?}, expected \"nanopush.plan/1\"")]
     Schema(String),
@@ -422,7 +430,14 @@ pub fn read(path: &Path) -> Result<(Plan, Option<PlanGeometry>), PlanFileError> 
         path: path.display().to_string(),
         source,
     })?;
-    from_json(&text, &path.display().to_string())
+    let origin = path.display().to_string();
+    from_json(&text, &origin).map_err(|e| match e {
+        PlanFileError::Io { .. } | PlanFileError::Parse { .. } => e,
+        inner => PlanFileError::InFile {
+            path: origin,
+            inner: Box::new(inner),
+        },
+    })
 }
 
 #[cfg(test)]
