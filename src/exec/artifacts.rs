@@ -47,7 +47,7 @@ pub fn write_force_plots(
             series.push(Series {
                 name: format!(
                     "push {number} (particle {}, {:.0} deg{})",
-                    p.particle,
+                    p.particle_label(),
                     p.contact_angle_deg,
                     if p.repush { ", re-push" } else { "" }
                 ),
@@ -243,7 +243,12 @@ pub fn write_report_md(
     let _ = writeln!(
         md,
         "A push is one straight stroke: a particle whose route bends round others is pushed once a leg. \
-         \"to\" is the site the push ends on (none: a leg, or a push out of the way).\n"
+         \"to\" is the site the push ends on (none: a leg, or a push out of the way).{}\n",
+        if report.resumes > 0 {
+            " Track ids start again at each resume: r1:18 is track 18 after the first."
+        } else {
+            ""
+        }
     );
     let _ = writeln!(
         md,
@@ -255,7 +260,7 @@ pub fn write_report_md(
             "| {} | {:.1} | {} | {} | {:.2} | {:.1} | {:.2} | {} | {} |",
             i + 1,
             p.t_s,
-            p.particle,
+            p.particle_label(),
             p.to_site.map_or("-".to_owned(), |s| format!("site {s}")),
             p.distance_um,
             p.contact_angle_deg,

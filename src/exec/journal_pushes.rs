@@ -38,6 +38,9 @@ pub struct JournalPush {
     /// The tip went down on the particle: a move after the decision slower
     /// than the first (the travel to it).
     pub stroked: bool,
+    /// Which part of the run: 0 before any resume, k after the k-th (track
+    /// ids start again at each resume).
+    pub part: usize,
 }
 
 impl JournalPush {
@@ -46,6 +49,15 @@ impl JournalPush {
         match self.result.as_deref() {
             Some(r) => !r.starts_with("refused"),
             None => self.stroked,
+        }
+    }
+
+    /// The particle as the report names it: its track id, after a resume
+    /// with the part ("r1:18"), since track ids start again there.
+    pub fn particle_label(&self) -> String {
+        match self.part {
+            0 => self.particle.to_string(),
+            k => format!("r{k}:{}", self.particle),
         }
     }
 
@@ -66,9 +78,11 @@ pub fn journal_pushes(entries: &[Entry<RunEvent>]) -> Vec<JournalPush> {
     let mut out: Vec<JournalPush> = Vec::new();
     // The speed of the first move after the last decision.
     let mut travel_um_s: Option<f64> = None;
+    let mut part = 0;
     for e in entries {
         match &e.event {
             RunEvent::Start(spec) => sites_um = &spec.sites_um,
+            RunEvent::Resume => part += 1,
             RunEvent::Move { speed_um_s, .. } => {
                 let travel = *travel_um_s.get_or_insert(*speed_um_s);
                 if let Some(last) = out.last_mut().filter(|p| p.result.is_none()) {
@@ -97,6 +111,7 @@ pub fn journal_pushes(entries: &[Entry<RunEvent>]) -> Vec<JournalPush> {
                         .iter()
                         .position(|s| (s[0] - to_um[0]).hypot(s[1] - to_um[1]) <= ON_SITE_UM),
                     stroked: false,
+                    part,
                 });
             }
             RunEvent::Check {
@@ -198,5 +213,10 @@ mod tests {
         assert_eq!(made, [true, true, false, false, true]);
         assert_eq!(p[3].outcome(), "not made: the run stopped");
         assert_eq!(p[4].outcome(), "not checked: the run stopped");
+        assert_eq!(p[4].particle_label(), "9");
+        // After the resume, the part names the track.
+        let mut resumed = entries.clone();
+        resumed.push(e(14, 31.0, decision(9, false)));
+        assert_eq!(journal_pushes(&resumed)[5].particle_label(), "r1:9");
     }
 }
