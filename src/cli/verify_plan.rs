@@ -100,11 +100,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!("  step {}: {}", c.step, c.describe());
         }
         println!("bad starts        {:?}", rep.bad_starts);
+        if !rep.unknown_particles.is_empty() {
+            println!("unknown particles {:?}", rep.unknown_particles);
+        }
         println!("bad approaches    {:?}", rep.bad_approaches);
         println!("unreachable       {:?}", rep.unreachable);
         println!("left the field    {:?}", rep.left_field);
         println!("moved immovable   {:?}", rep.moved_immovable);
         println!("unfilled sites    {:?}", rep.unfilled_sites);
+        for (site, particle) in &rep.held_by_others {
+            println!(
+                "  site {site} has particle {particle} on it, which the assignment pairs otherwise"
+            );
+        }
         println!("max final error   {:.4} um", rep.max_final_error_um);
         println!("result            {}", if rep.ok { "ok" } else { "FAILED" });
     }

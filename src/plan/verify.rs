@@ -16,10 +16,15 @@ use std::collections::HashMap;
 
 /// Overlap tolerated before a contact counts as a collision (rounding in files).
 pub const COLLISION_TOLERANCE_M: f64 = 1e-9;
-/// A push must start within this distance of where the particle is.
-pub const START_TOLERANCE_M: f64 = 1e-9;
+/// A push must start within this distance of where the particle is: a
+/// file's positions rounded to 0.01 um (1 nm had made 30 pushes of a plan
+/// so rounded "start away").
+pub const START_TOLERANCE_M: f64 = 1e-8;
 /// A push's approach point must lie within this distance of where the tip
-/// touches the particle's back on the push line (another tool's rounding).
+/// touches the particle's back on the push line (another tool's rounding),
+/// plus what rounding its ends by [`START_TOLERANCE_M`] turns the push line
+/// by at that distance: a 0.1 um push rounded to 1 nm had moved its
+/// approach point 33 nm.
 pub const APPROACH_TOLERANCE_M: f64 = 1e-8;
 
 /// One collision found by the replay.
@@ -63,8 +68,11 @@ pub struct VerifyReport {
     pub pushes: usize,
     /// Collisions.
     pub collisions: Vec<Collision>,
-    /// Steps that push an unknown particle or start away from it.
+    /// Push steps that start away from their particle.
     pub bad_starts: Vec<usize>,
+    /// Particles a push or the assignment names that the layout does not
+    /// have (their pushes are not replayed; their sites stay unfilled).
+    pub unknown_particles: Vec<u32>,
     /// Push steps whose approach point is not where the tip touches the
     /// particle's back on the push line (a tip landing beside the particle,
     /// or in front of it, pushes nothing or the wrong way).
@@ -85,6 +93,10 @@ pub struct VerifyReport {
     pub moved_immovable: Vec<usize>,
     /// Sites with no particle on them at the end (within tolerance).
     pub unfilled_sites: Vec<u32>,
+    /// Unfilled sites another particle than the one assigned lies on at the
+    /// end, as (site, particle): the assignment pairs them otherwise (a plan
+    /// with swapped labels had read only as two sites left unfilled).
+    pub held_by_others: Vec<(u32, u32)>,
     /// Largest distance between an assigned particle and its site at the end, um.
     pub max_final_error_um: f64,
     /// True when nothing above is wrong.
@@ -108,8 +120,14 @@ impl VerifyReport {
         }
         if let Some(first) = self.bad_starts.first() {
             parts.push(format!(
-                "{} pushes start away from their particle, or push one the layout does not have (first: step {first})",
+                "{} pushes start away from their particle (first: step {first})",
                 self.bad_starts.len()
+            ));
+        }
+        if !self.unknown_particles.is_empty() {
+            parts.push(format!(
+                "the plan names particles {:?} the layout does not have",
+                self.unknown_particles
             ));
         }
         if let Some(first) = self.bad_approaches.first() {
@@ -137,7 +155,21 @@ impl VerifyReport {
             ));
         }
         if !self.unfilled_sites.is_empty() {
-            parts.push(format!("sites {:?} left unfilled", self.unfilled_sites));
+            let held: Vec<String> = (self.held_by_others.iter())
+                .map(|(site, particle)| format!("site {site} has particle {particle} on it"))
+                .collect();
+            parts.push(format!(
+                "sites {:?} left unfilled{}",
+                self.unfilled_sites,
+                if held.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " ({}, which the assignment pairs otherwise)",
+                        held.join(", ")
+                    )
+                }
+            ));
         }
         parts.join("; ")
     }
@@ -223,7 +255,7 @@ pub fn verify_plan_with(
             } => {
                 rep.pushes += 1;
                 let Some(&i) = index.get(&particle) else {
-                    rep.bad_starts.push(k);
+                    rep.unknown_particles.push(particle);
                     continue;
                 };
                 if (pos[i] - from_m).norm() > START_TOLERANCE_M {
@@ -242,7 +274,8 @@ pub fn verify_plan_with(
                 // The tip touches the particle's back: its disc and the
                 // particle's, centres R + r_tip apart, behind on the push line.
                 let touching = from_m - dir * (r + tip_r);
-                if (approach_m - touching).norm() > APPROACH_TOLERANCE_M {
+                let turned = (r + tip_r) * 2.0 * START_TOLERANCE_M / len.max(START_TOLERANCE_M);
+                if (approach_m - touching).norm() > APPROACH_TOLERANCE_M + turned {
                     rep.bad_approaches.push(k);
                 }
                 let land = approach_m - dir * standoff;
@@ -279,6 +312,9 @@ pub fn verify_plan_with(
     let sites: HashMap<u32, Vector2<f64>> = plan.sites.iter().map(|s| (s.id, s.centre_m)).collect();
     let mut filled = std::collections::HashSet::new();
     for &(p, s) in &plan.assignment {
+        if !index.contains_key(&p) {
+            rep.unknown_particles.push(p);
+        }
         if let (Some(&i), Some(&c)) = (index.get(&p), sites.get(&s)) {
             let e = (pos[i] - c).norm();
             rep.max_final_error_um = rep.max_final_error_um.max(e * 1e6);
@@ -293,8 +329,21 @@ pub fn verify_plan_with(
         .map(|s| s.id)
         .filter(|id| !filled.contains(id))
         .collect();
+    rep.unknown_particles.sort_unstable();
+    rep.unknown_particles.dedup();
+    let assigned: HashMap<u32, u32> = plan.assignment.iter().map(|&(p, s)| (s, p)).collect();
+    for &site in &rep.unfilled_sites {
+        let c = sites[&site];
+        let on_it = (layout.particles.iter().zip(&pos)).find(|(p, q)| {
+            (*q - c).norm() <= final_tolerance_m && assigned.get(&site) != Some(&p.id)
+        });
+        if let Some((p, _)) = on_it {
+            rep.held_by_others.push((site, p.id));
+        }
+    }
     rep.ok = rep.collisions.is_empty()
         && rep.bad_starts.is_empty()
+        && rep.unknown_particles.is_empty()
         && rep.bad_approaches.is_empty()
         && rep.unreachable.is_empty()
         && rep.left_field.is_empty()
@@ -475,7 +524,58 @@ mod tests {
             *particle = 999;
         }
         let report = verify_plan(&nobody, &layout, &config);
-        assert_eq!(report.bad_starts, [k]);
-        assert!(report.summary().contains("the layout does not have"));
+        assert_eq!(report.unknown_particles, [999]);
+        assert!(report.bad_starts.is_empty());
+        assert!(
+            report
+                .summary()
+                .contains("the plan names particles [999] the layout does not have"),
+            "{}",
+            report.summary()
+        );
+    }
+
+    /// A plan whose particles end on each other's sites (its assignment's
+    /// labels swapped) says which particle lies on each unfilled site; one
+    /// rounded to 0.01 um (another tool's file) still verifies.
+    #[test]
+    fn swapped_labels_and_rounded_numbers_are_told_apart() {
+        let layout = Layout::of_test_centres_um(&[(30.123456, 50.004321), (30.0, 150.0)]);
+        let sites = [(0, 60.0, 50.0), (1, 60.0, 150.0)].map(|(id, x, y)| Site {
+            id,
+            centre_m: Vector2::new(x, y) * 1e-6,
+        });
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&layout, &sites, &config).unwrap();
+        assert!(verify_plan(&plan, &layout, &config).ok);
+        let mut swapped = plan.clone();
+        for pair in &mut swapped.assignment {
+            pair.1 = 1 - pair.1;
+        }
+        let report = verify_plan(&swapped, &layout, &config);
+        assert_eq!(report.unfilled_sites, [0, 1]);
+        assert_eq!(report.held_by_others, [(0, 0), (1, 1)]);
+        assert!(
+            report.summary().contains("site 0 has particle 0 on it"),
+            "{}",
+            report.summary()
+        );
+        let mut rounded = plan.clone();
+        let round = |v: &mut Vector2<f64>| *v = v.map(|c| (c * 1e8).round() / 1e8);
+        for step in &mut rounded.steps {
+            if let Step::Push {
+                from_m,
+                to_m,
+                approach_m,
+                ..
+            } = step
+            {
+                round(from_m);
+                round(to_m);
+                round(approach_m);
+            }
+        }
+        let report = verify_plan(&rounded, &layout, &config);
+        assert!(report.ok, "{report:?}");
     }
 }
