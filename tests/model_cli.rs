@@ -305,6 +305,30 @@ fn bad_study_and_demo_requests_fail_before_writing_anything() {
     assert!(!Path::new(out).exists(), "a refused request wrote {out}");
 }
 
+/// A demo whose assembly stops short (a scene whose dense start walls a
+/// site in) says where its report is, then exits non-zero: a script had
+/// read the stop as success.
+#[test]
+fn a_demo_that_stops_short_fails_after_saying_where_its_report_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = nanopush()
+        .args(["demo", "--scene", "calib/hard-nanoparticle-sliding.toml"])
+        .args(["--seed", "4", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{said}");
+    assert!(err.contains("the assembly stopped short"), "{err}");
+    let report = dir.path().join("assemble").join("report.md");
+    assert!(report.is_file());
+    assert!(
+        said.contains(&format!("report: {}", report.display())),
+        "{said}"
+    );
+}
+
 #[test]
 fn demo_writes_the_paper_scene_plots_and_runs_the_assembly() {
     let dir = tempfile::tempdir().unwrap();
@@ -328,5 +352,8 @@ fn demo_writes_the_paper_scene_plots_and_runs_the_assembly() {
     let assembly = dir.path().join("assemble");
     assert!(assembly.join("report.json").exists());
     assert!(assembly.join("journal.jsonl").exists());
-    assert!(String::from_utf8_lossy(&out.stdout).contains("assembly report:"));
+    // Where the report is, said once.
+    let said = String::from_utf8_lossy(&out.stdout);
+    let report = format!("report: {}", assembly.join("report.md").display());
+    assert_eq!(said.matches(&report).count(), 1, "{said}");
 }

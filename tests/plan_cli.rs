@@ -80,6 +80,11 @@ fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
     let report: serde_json::Value =
         serde_json::from_str(text.split("\nerror:").next().unwrap()).unwrap();
     assert_eq!(report["geometry"]["nanostage_range_um"], 20.0);
+    assert_eq!(report["geometry_from"]["nanostage_range_um"], "given");
+    assert_eq!(
+        report["geometry_from"]["tip_radius_um"],
+        "default: the plan gives none"
+    );
     assert_eq!(report["unreachable"], serde_json::json!([0]));
     let (ok, text) = nanopush(&[
         "verify-plan",

@@ -491,9 +491,11 @@ fn detect_cli_ring_edge_centres_on_brightfield() {
         let refused = run(&["--locator", locator]);
         assert!(!refused.status.success(), "{locator}");
         let said = String::from_utf8_lossy(&refused.stderr);
-        // Named as typed (it read `PixelPeak`).
+        // Named as typed (it read `PixelPeak`), and only the flag given
+        // (it had named --polarity too).
         assert!(
-            said.contains("need a fitted particle")
+            said.contains("--centre ring-edge needs a fitted particle")
+                && !said.contains("--polarity")
                 && said.contains(&format!("--locator {locator} ")),
             "{locator}: {said}"
         );

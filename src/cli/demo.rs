@@ -79,8 +79,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if assembled.is_err() && !report.is_file() {
         return assembled.context("the assembly did not start");
     }
+    // The assembly's own summary ends with its report's path.
     println!("paper-scene push: {}", push_dir.display());
-    println!("assembly report:  {}", report.display());
     assembled.context("the assembly stopped short (its report says why)")
 }
 

@@ -222,10 +222,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .locator
         .to_possible_value()
         .map_or_else(String::new, |v| v.get_name().to_owned());
-    if places_only && (args.polarity.is_some() || matches!(args.centre, CentreArg::RingEdge)) {
+    // Named as given: "--polarity and --centre ring-edge" had answered
+    // --centre ring-edge alone.
+    let needs_fit: Vec<&str> = [
+        ("--polarity", args.polarity.is_some()),
+        (
+            "--centre ring-edge",
+            matches!(args.centre, CentreArg::RingEdge),
+        ),
+    ]
+    .iter()
+    .filter(|(_, given)| *given)
+    .map(|(flag, _)| *flag)
+    .collect();
+    if places_only && !needs_fit.is_empty() {
         anyhow::bail!(
-            "--polarity and --centre ring-edge need a fitted particle: --locator {locator_name} only \
-             places candidates (use --locator profile-fit)"
+            "{} {} a fitted particle: --locator {locator_name} only places candidates (use --locator profile-fit)",
+            needs_fit.join(" and "),
+            if needs_fit.len() == 1 {
+                "needs"
+            } else {
+                "need"
+            }
         );
     }
     // Taken and ignored by the other locators before.

@@ -26,9 +26,9 @@ pub struct PatternArgs {
     /// Pattern rotation about its centre, degrees counter-clockwise.
     #[arg(long, default_value_t = 0.0)]
     pub rotation_deg: f64,
-    /// Pattern centre "X,Y" in um from the field's lower-left corner; with
-    /// --rig, in the calibration's stage um, as `rig probe --camera` prints
-    /// the view (default: chosen by planning full plans at the best candidate
+    /// Pattern centre "X,Y" in um from the field's lower-left corner; on a
+    /// hardware rig (`assemble --rig`), in the calibration's stage um, as
+    /// `rig probe --camera` prints the view (default: chosen by planning full plans at the best candidate
     /// centres: `plan` keeps the least pushing, `assemble` the shortest
     /// run; when the best are refused, the first of up to 24 others that
     /// plans).

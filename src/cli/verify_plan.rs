@@ -82,7 +82,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.tolerance_um * 1e-6,
     );
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rep)?);
+        let mut doc = serde_json::to_value(&rep)?;
+        let names = geometry.named().map(|(name, _)| name);
+        doc["geometry_from"] = names
+            .iter()
+            .zip(sources)
+            .map(|(n, s)| (n.to_string(), serde_json::Value::from(s)))
+            .collect();
+        println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         let g = &geometry;
         println!(

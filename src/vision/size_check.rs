@@ -105,7 +105,12 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
                     2.0 * o.median_r_px
                 ),
                 _ => format!(
-                    "no whole particle found at the size hint of {hint_d} px across, nor at half or twice it: is --diameter-px the particles' size in this frame?"
+                    "no whole particle found at the size hint of {hint_d} px across, nor at half or twice it: is --diameter-px the particles' size in this frame?{}",
+                    if detect.polarity.is_some() {
+                        " Or are their centres of the other contrast than --polarity says?"
+                    } else {
+                        ""
+                    }
                 ),
             },
         );
