@@ -95,6 +95,22 @@ fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
         "0",
     ]);
     assert!(!ok && text.contains("tip_radius_um is 0"), "{text}");
+    // A narrower tip than the plan's touches a little later: ok; a wider
+    // one would land on the particle (every override had failed the plan).
+    let tip = |r: &str| {
+        nanopush(&[
+            "verify-plan",
+            plan,
+            "--layout",
+            &layout,
+            "--tip-radius-um",
+            r,
+        ])
+    };
+    let (ok, text) = tip("0.8");
+    assert!(ok, "{text}");
+    let (ok, text) = tip("1.2");
+    assert!(!ok && text.contains("approach"), "{text}");
 }
 
 /// What is wrong inside a layout or a plan file is said with the file's

@@ -469,6 +469,19 @@ fn detect_says_when_its_size_hint_does_not_fit() {
     );
     let wide = warned("30");
     assert!(wide.contains("the particles found measure 16."), "{wide}");
+    let half = warned("8");
+    assert!(
+        half.contains("7 of the 7 whole particles found could not be fitted"),
+        "{half}"
+    );
+    // Spots 5-7 px across at 5 px: a few larger "rings" are no evidence of
+    // pieces (3 at 10 px had been offered as the fix).
+    let spots = detect_cli(
+        &fixture("bulk_water/bulk_water_000.png"),
+        &["--channel", "green", "--diameter-px", "5"],
+    );
+    let said = String::from_utf8_lossy(&spots.stderr);
+    assert!(!said.contains("warning"), "{said}");
 }
 
 /// `nanopush detect --centre ring-edge` on a brightfield frame: the five

@@ -502,7 +502,11 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
         "  placement error  rms {:.0} nm, max {:.0} nm ({})",
         r.rms_error_nm, r.max_error_nm, r.error_source
     );
-    println!("  pushes           {} ({} re-pushes)", r.pushes, r.repushes);
+    println!(
+        "  pushes           {} ({})",
+        r.pushes,
+        crate::wording::counted(r.repushes, "re-push")
+    );
     if r.pushes_not_made > 0 {
         println!(
             "  not made         {} (decided, then cut off by a stop or a stage fault before the tip went down, or refused)",

@@ -573,8 +573,10 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path, dry_run: bool) {
             r.rms_error_nm, r.max_error_nm
         );
         println!(
-            "  pushes           {} ({} re-pushes, {} lost contacts)",
-            r.pushes, r.repushes, r.lost_contacts_detected
+            "  pushes           {} ({}, {})",
+            r.pushes,
+            crate::wording::counted(r.repushes, "re-push"),
+            crate::wording::counted(r.lost_contacts_detected, "lost contact")
         );
     }
     println!("  wall time        {:.1} s", r.time_s);

@@ -45,7 +45,8 @@ pub struct Args {
     #[arg(long, default_value = "luminance")]
     pub channel: Channel,
     /// Sub-pixel locator. `profile-fit` is the detector (each candidate
-    /// fitted, and kept only when the fit is a particle); `crocker-grier`
+    /// fitted, a ring kept only when the fit is a particle, a spot of enough
+    /// mass kept at its centroid when its fit fails: "not fitted"); `crocker-grier`
     /// gives trackpy-comparable results (trackpy's `locate`: --diameter-px
     /// is its odd `diameter`, --polarity dark its `invert`; quality is its
     /// `mass`, r_px its radius of gyration). `pixel-peak`, `centroid` and
@@ -333,7 +334,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let why = if places_only {
                 format!("the {locator_name} locator only places particles")
             } else {
-                "a dim spot whose fit failed, kept at its centroid".to_owned()
+                "a spot whose fit failed, kept at its centroid".to_owned()
             };
             println!("not fitted: {why}; r is the size hint and sigma a nominal value");
         }

@@ -167,9 +167,9 @@ pub fn write_report_md(
         (
             "pushes",
             format!(
-                "{} ({} re-pushes){}",
+                "{} ({}){}",
                 report.pushes,
-                report.repushes,
+                counted(report.repushes, "re-push"),
                 if report.pushes_not_made > 0 {
                     format!(
                         "; {} more decided but not made (cut off by a stop or a stage fault before the tip went down, or refused)",
@@ -197,7 +197,11 @@ pub fn write_report_md(
         ),
         ("time", report.time_summary()),
     ];
-    rows.extend(report.notes());
+    // The drift estimate is the last process's (it starts again at a resume).
+    rows.extend(report.notes().into_iter().map(|(what, note)| match what {
+        "tip drift" => (what, format!("{note}{since_resume}")),
+        _ => (what, note),
+    }));
     for (k, v) in rows {
         let _ = writeln!(md, "| {k} | {v} |");
     }

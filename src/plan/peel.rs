@@ -132,7 +132,7 @@ fn sites_are(n: &usize) -> String {
 /// Why no fill order exists.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error(
-    "{} walled in: no route of at most two waypoints reaches them past the fixed particles and the other sites, or their particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)",
+    "{} walled in: no route of at most two waypoints reaches a site so walled past the fixed particles and the other sites, or the particles cover each other's sites (first: site at ({x_um:.2}, {y_um:.2}) um)",
     sites_are(.walled)
 )]
 pub struct Walled {

@@ -151,7 +151,9 @@ impl PlanGeometry {
 #[derive(Debug, Serialize, Deserialize, Default)]
 #[serde(default)]
 struct SummaryJ {
+    #[serde(deserialize_with = "zero_if_null")]
     pushes: usize,
+    #[serde(deserialize_with = "zero_if_null")]
     buffer_pushes: usize,
     #[serde(deserialize_with = "nan_if_null")]
     push_distance_um: f64,
@@ -165,6 +167,7 @@ struct SummaryJ {
     push_ratio: f64,
     #[serde(deserialize_with = "nan_if_null")]
     total_ratio: f64,
+    #[serde(deserialize_with = "zero_if_null")]
     coarse_moves: usize,
     #[serde(deserialize_with = "nan_if_null")]
     predicted_time_s: f64,
@@ -176,6 +179,10 @@ fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> 
     Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
+fn zero_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<usize, D::Error> {
+    Ok(Option::<usize>::deserialize(d)?.unwrap_or(0))
+}
+
 #[derive(Debug, Serialize, Deserialize)]
 struct PlanJ {
     schema: String,
@@ -184,8 +191,13 @@ struct PlanJ {
     sites: Vec<SiteJ>,
     assignment: Vec<PairJ>,
     steps: Vec<StepJ>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "default_if_null")]
     summary: SummaryJ,
+}
+
+/// `"summary": null` reads as no summary, as a missing one does.
+fn default_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SummaryJ, D::Error> {
+    Ok(Option::<SummaryJ>::deserialize(d)?.unwrap_or_default())
 }
 
 fn um(v: Vector2<f64>) -> [f64; 2] {
@@ -638,6 +650,14 @@ mod tests {
         let (plan, _) = from_json(&partial.to_string(), "partial").unwrap();
         assert_eq!(plan.summary.pushes, 1);
         assert!(plan.summary.predicted_time_s.is_nan());
+        for summary in [
+            serde_json::json!({"pushes": null, "coarse_moves": null}),
+            serde_json::Value::Null,
+        ] {
+            partial["summary"] = summary;
+            let (plan, _) = from_json(&partial.to_string(), "null").unwrap();
+            assert_eq!(plan.summary.pushes, 0);
+        }
         // Written by nanopush, the geometry is there and reads back.
         let (_, written) = from_json(&doc.to_string(), "written").unwrap();
         assert_eq!(written, Some(PlanGeometry::default()));

@@ -74,8 +74,9 @@ pub struct VerifyReport {
     /// have (their pushes are not replayed; their sites stay unfilled).
     pub unknown_particles: Vec<u32>,
     /// Push steps whose approach point is not where the tip touches the
-    /// particle's back on the push line (a tip landing beside the particle,
-    /// or in front of it, pushes nothing or the wrong way).
+    /// particle's back on the push line, or up to the standoff behind (a
+    /// tip landing beside the particle, or in front of it, pushes nothing
+    /// or the wrong way; one wider than the plan's lands on it).
     pub bad_approaches: Vec<usize>,
     /// Push steps whose tip path leaves the current nanostage window: the
     /// window of the last coarse move, or before any, the one window all
@@ -272,10 +273,18 @@ pub fn verify_plan_with(
                     Vector2::new(1.0, 0.0)
                 };
                 // The tip touches the particle's back: its disc and the
-                // particle's, centres R + r_tip apart, behind on the push line.
-                let touching = from_m - dir * (r + tip_r);
+                // particle's, centres R + r_tip apart, behind on the push
+                // line. It may end its approach up to the standoff farther
+                // back (a plan for a wider tip, replayed with a narrower
+                // one: it touches a little later), never nearer (a wider
+                // tip would land on the particle).
+                let back = from_m - approach_m;
+                let along = back.dot(&dir);
+                let beside = (back - dir * along).norm();
                 let turned = (r + tip_r) * 2.0 * START_TOLERANCE_M / len.max(START_TOLERANCE_M);
-                if (approach_m - touching).norm() > APPROACH_TOLERANCE_M + turned {
+                let slack = APPROACH_TOLERANCE_M + turned;
+                let touch = r + tip_r;
+                if beside > slack || along < touch - slack || along > touch + standoff + slack {
                     rep.bad_approaches.push(k);
                 }
                 let land = approach_m - dir * standoff;

@@ -37,7 +37,7 @@ pub const FEWEST_WHOLE: usize = 3;
 pub const PIECES_PER_PARTICLE: usize = 3;
 
 /// Whole particles a hint finds of its own size.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FoundAtHint {
     /// The hint's radius, pixels.
     pub hint_r_px: f64,
@@ -45,6 +45,38 @@ pub struct FoundAtHint {
     pub count: usize,
     /// Their median radius, pixels.
     pub median_r_px: f64,
+    /// Each one's centre and radius, pixels.
+    pub rings: Vec<[f64; 3]>,
+}
+
+/// Of `found`, how many lie on one of `rings` (within 1.2 radii of its
+/// centre): pieces of it.
+fn on_rings(found: &[Detection], rings: &[[f64; 3]]) -> usize {
+    found
+        .iter()
+        .filter(|d| {
+            rings
+                .iter()
+                .any(|[x, y, r]| (d.x_px - x).hypot(d.y_px - y) <= 1.2 * r)
+        })
+        .count()
+}
+
+/// The hints of `factors` (times `detect`'s) that [`found_at_other_hint`]
+/// tries, diameters in pixels: "0.5 to 2 times it" was said where half of
+/// it had not been tried.
+fn ring_hints_px(detect: &DetectSettings, factors: &[f64]) -> Vec<f64> {
+    factors
+        .iter()
+        .map(|f| detect.diameter_px * f)
+        .filter(|&d| {
+            let settings = DetectSettings {
+                diameter_px: d,
+                ..detect.clone()
+            };
+            model_for(&settings) == ProfileModel::Ring
+        })
+        .collect()
 }
 
 /// The hint of `factors` (times `detect`'s) that finds most whole particles
@@ -69,25 +101,30 @@ pub fn found_at_other_hint(
             }
             let hint_r_px = settings.diameter_px / 2.0;
             let found = detect_particles(frame, &settings).ok()?;
-            let mut radii = whole_radii_px(&found, hint_r_px);
+            let rings: Vec<[f64; 3]> = whole_of_size(&found, hint_r_px)
+                .map(|d| [d.x_px, d.y_px, d.r_px])
+                .collect();
+            let mut radii: Vec<f64> = rings.iter().map(|r| r[2]).collect();
             Some(FoundAtHint {
                 hint_r_px,
-                count: radii.len(),
+                count: rings.len(),
                 median_r_px: upper_median(&mut radii)?,
+                rings,
             })
         })
         .max_by_key(|found| found.count)
 }
 
-/// The radii of the whole detections (not cut by the frame's edge) within
+/// The whole detections (not cut by the frame's edge) within
 /// [`RADIUS_TOLERANCE`] of `hint_r_px`.
-fn whole_radii_px(found: &[Detection], hint_r_px: f64) -> Vec<f64> {
+fn whole_of_size(found: &[Detection], hint_r_px: f64) -> impl Iterator<Item = &Detection> {
     found
         .iter()
-        .filter(|d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
-        .map(|d| d.r_px)
-        .collect()
+        .filter(move |d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
 }
+
+/// Fewest found, most of them not fitted, that make the hint doubtful.
+const FEWEST_FOR_UNFITTED: usize = 5;
 
 /// What is wrong with `detect`'s hint for `found`, the particles it found
 /// in `frame` (prepared), in pixels: "None" when they are of its size.
@@ -96,45 +133,69 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
     let hint_d = detect.diameter_px;
     let whole: Vec<&Detection> = found.iter().filter(|d| !d.edge_clipped).collect();
     if whole.is_empty() {
+        let tried = ring_hints_px(detect, &OTHER_SIZE_FACTORS);
+        let tried_text = tried
+            .iter()
+            .map(|d| format!("{d:.1}"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let contrast = if detect.polarity.is_some() {
+            " Or are their centres of the other contrast than --polarity says?"
+        } else {
+            ""
+        };
         return Some(
             match found_at_other_hint(frame, detect, &OTHER_SIZE_FACTORS) {
-                Some(o) if o.count > 0 => format!(
-                    "no whole particle found at the size hint of {hint_d} px across; a hint of {:.1} px finds {} (median diameter {:.1} px): give --diameter-px",
+                Some(o) if o.count >= FEWEST_WHOLE => format!(
+                    "no whole particle found at the size hint of {hint_d} px across; a hint of {:.1} px finds {} (median diameter {:.1} px): is --diameter-px their size?",
                     2.0 * o.hint_r_px,
                     o.count,
                     2.0 * o.median_r_px
                 ),
+                _ if tried.is_empty() => format!(
+                    "no whole particle found at the size hint of {hint_d} px across: is --diameter-px their size in this frame?{contrast}"
+                ),
                 _ => format!(
-                    "no whole particle found at the size hint of {hint_d} px across, nor at half or twice it: is --diameter-px the particles' size in this frame?{}",
-                    if detect.polarity.is_some() {
-                        " Or are their centres of the other contrast than --polarity says?"
-                    } else {
-                        ""
-                    }
+                    "no whole particle found at the size hint of {hint_d} px across, nor at {tried_text} px: is --diameter-px their size in this frame?{contrast}"
                 ),
             },
         );
     }
+    if model_for(detect) == ProfileModel::Spot
+        && let Some(o) = found_at_other_hint(frame, detect, &PIECE_CHECK_FACTORS)
+    {
+        // Pieces: most of what was found lies on a few larger rings (bulk
+        // water's 649 spots at 5 px had been doubted for 3 "rings" at 10).
+        let pieces = on_rings(found, &o.rings);
+        if o.count >= FEWEST_WHOLE
+            && pieces >= PIECES_PER_PARTICLE * o.count
+            && 2 * pieces >= found.len()
+        {
+            return Some(format!(
+                "{} particles found at the size hint of {hint_d} px across, {pieces} of them on the {} whole ones a hint of {:.1} px finds (median diameter {:.1} px): each may be found several times over; is --diameter-px their size?",
+                found.len(),
+                o.count,
+                2.0 * o.hint_r_px,
+                2.0 * o.median_r_px
+            ));
+        }
+    }
+    let unfitted = whole.iter().filter(|d| !d.fitted).count();
+    if whole.len() >= FEWEST_FOR_UNFITTED && 10 * unfitted >= 9 * whole.len() {
+        return Some(format!(
+            "{unfitted} of the {} whole particles found could not be fitted at the size hint of {hint_d} px across (each kept at its centroid): is --diameter-px their size?",
+            whole.len()
+        ));
+    }
     if model_for(detect) == ProfileModel::Spot {
-        return found_at_other_hint(frame, detect, &PIECE_CHECK_FACTORS)
-            .filter(|o| o.count >= FEWEST_WHOLE && found.len() >= PIECES_PER_PARTICLE * o.count)
-            .map(|o| {
-                format!(
-                    "{} particles found at the size hint of {hint_d} px across, but a hint of {:.1} px finds {} whole (median diameter {:.1} px): each may be found several times over; give --diameter-px",
-                    found.len(),
-                    2.0 * o.hint_r_px,
-                    o.count,
-                    2.0 * o.median_r_px
-                )
-            });
+        return None;
     }
     let mut radii: Vec<f64> = whole.iter().filter(|d| d.fitted).map(|d| d.r_px).collect();
     let measured = radii.len();
     let median_r = upper_median(&mut radii)?;
     ((median_r / (hint_d / 2.0) - 1.0).abs() > RADIUS_TOLERANCE).then(|| {
         format!(
-            "the particles found measure {:.1} px across (median of {measured}), the size hint {hint_d} px: a hint near their size finds and measures them better; give --diameter-px",
-            2.0 * median_r
-        )
+            "the particles found measure {:.1} px across (median of {measured}), the size hint {hint_d} px: a hint near their size finds and measures them better"
+        , 2.0 * median_r)
     })
 }
