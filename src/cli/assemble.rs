@@ -283,6 +283,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
         .parent()
         .unwrap_or(Path::new("."))
         .to_path_buf();
+    spec.warn_if_scene_changed();
     let scene = load_scene(Path::new(&spec.scene))?;
     let layout = layout_for(
         spec.layout.as_deref().map(Path::new),

@@ -208,6 +208,7 @@ fn resume_start(journal: &Path, dry_run: bool) -> anyhow::Result<RigStart> {
             journal.display()
         );
     }
+    point.spec.warn_if_scene_changed();
     let scene = Scene::load(Path::new(&point.spec.scene))
         .with_context(|| format!("scene {} of the run", point.spec.scene))?;
     Ok(RigStart::Resume {
@@ -334,6 +335,7 @@ fn assemble(
         }),
         drift_off: args.no_drift_follow,
         command: Some(crate::exec::events::this_command()),
+        scene_crc32: crate::exec::events::scene_file_crc(&args.scene.display().to_string()),
     };
     let inputs = AssemblyInputs {
         scene: scene.clone(),

@@ -37,6 +37,42 @@ pub struct RunSpec {
     /// before 2026-11-29.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub command: Option<String>,
+    /// CRC-32 of the scene file when the run started ([`scene_file_crc`]),
+    /// so that a resume notices a scene edited since; absent for the
+    /// built-in copy of a scene, and in journals from before 2026-11-29.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scene_crc32: Option<u32>,
+}
+
+/// CRC-32 of the file at `scene`, None when there is none to read (a
+/// built-in scene).
+pub fn scene_file_crc(scene: &str) -> Option<u32> {
+    std::fs::read(scene)
+        .ok()
+        .map(|bytes| crc32fast::hash(&bytes))
+}
+
+impl RunSpec {
+    /// True when the scene file's CRC is not the one the run started with
+    /// (false without either: a built-in scene, an older journal).
+    pub fn scene_changed(&self) -> bool {
+        matches!(
+            (self.scene_crc32, scene_file_crc(&self.scene)),
+            (Some(then), Some(now)) if then != now
+        )
+    }
+
+    /// Says (stderr) when the run's scene file is not the one it started
+    /// with: the physics of the part before the stop was the old file's,
+    /// and a resume had carried on with the new one without a word.
+    pub fn warn_if_scene_changed(&self) {
+        if self.scene_changed() {
+            eprintln!(
+                "warning: scene {} has changed since the run started: the rest of the run uses it as it is now",
+                self.scene
+            );
+        }
+    }
 }
 
 /// This process's command line as a shell would take it back, after the
@@ -245,6 +281,7 @@ mod tests {
             rig: None,
             drift_off: true,
             command: Some(this_command()),
+            scene_crc32: None,
         };
         let text = serde_json::to_string(&spec).unwrap();
         assert!(text.contains(r#""drift_off":true"#), "{text}");
@@ -256,5 +293,35 @@ mod tests {
         let older = serde_json::to_string(&followed).unwrap();
         assert!(!older.contains("drift_off"), "{older}");
         assert_eq!(serde_json::from_str::<RunSpec>(&older).unwrap(), followed);
+    }
+
+    /// A scene file edited between a stop and the resume is noticed; the
+    /// same file, or a journal without the CRC, is not.
+    #[test]
+    fn a_scene_edited_since_the_start_is_noticed() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(&scene, "name = \"a\"\n").unwrap();
+        let path = scene.display().to_string();
+        let spec = RunSpec {
+            pattern: "I".into(),
+            scene: path.clone(),
+            layout: None,
+            seed: 1,
+            sites_um: Vec::new(),
+            radius_um: 5.0,
+            rig: None,
+            drift_off: false,
+            command: None,
+            scene_crc32: scene_file_crc(&path),
+        };
+        assert!(!spec.scene_changed());
+        std::fs::write(&scene, "name = \"b\"\n").unwrap();
+        assert!(spec.scene_changed());
+        let older = RunSpec {
+            scene_crc32: None,
+            ..spec
+        };
+        assert!(!older.scene_changed());
     }
 }

@@ -183,6 +183,7 @@ mod tests {
             rig: None,
             drift_off: false,
             command: None,
+            scene_crc32: None,
         };
         let entries = vec![
             e(0, 0.0, RunEvent::Start(spec)),

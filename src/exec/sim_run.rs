@@ -132,6 +132,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         rig: None,
         drift_off: req.drift_off,
         command: Some(super::events::this_command()),
+        scene_crc32: super::events::scene_file_crc(&as_resumable(&req.scene)),
     };
     let mut rig = build_sim_rig(&scene, &layout, req.seed)?;
     for &n in &req.faults.drop_frames {
