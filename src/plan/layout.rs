@@ -16,6 +16,14 @@ pub const LAYOUT_SCHEMA: &str = "nanopush.layout/1";
 /// Micrometres per metre, the lab unit of every file the planner reads or writes.
 pub const UM_PER_M: f64 = 1e6;
 
+/// Metres as the micrometres a file holds: rounded to 1e-9 um (a
+/// femtometre, below any measurement), so that a 120 um field is written
+/// 120, not 119.99999999999999 (a script comparing `field_um == [120,
+/// 100]` had failed), and reads back within half a femtometre.
+pub fn um_in_file(m: f64) -> f64 {
+    (m * UM_PER_M * 1e9).round() / 1e9
+}
+
 /// One particle: an identifier the rest of the pipeline keeps, a centre and a radius (SI).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Particle {
@@ -572,15 +580,15 @@ impl MarkedLayout {
 fn file_text(layout: &Layout, immovable: &[u32]) -> String {
     let file = LayoutFile {
         schema: LAYOUT_SCHEMA.to_string(),
-        field_um: [layout.field_m[0] * UM_PER_M, layout.field_m[1] * UM_PER_M],
+        field_um: layout.field_m.map(um_in_file),
         particles: layout
             .particles
             .iter()
             .map(|p| ParticleFile {
                 id: p.id,
-                x_um: p.centre_m.x * UM_PER_M,
-                y_um: p.centre_m.y * UM_PER_M,
-                radius_um: p.radius_m * UM_PER_M,
+                x_um: um_in_file(p.centre_m.x),
+                y_um: um_in_file(p.centre_m.y),
+                radius_um: um_in_file(p.radius_m),
                 immovable: immovable.contains(&p.id).then_some(true.into()),
             })
             .collect(),
@@ -655,6 +663,19 @@ mod tests {
             assert!((a.centre_m - b.centre_m).norm() < 1e-15);
             assert!((a.radius_m - b.radius_m).abs() < 1e-15);
         }
+        // Whole micrometres are written whole, whatever float noise the
+        // metres carry.
+        let noisy = Layout {
+            field_m: [120.0 * 1e-6, 100.0 * 1e-6],
+            ..layout
+        };
+        assert!(
+            noisy
+                .to_json()
+                .contains("\"field_um\": [\n    120.0,\n    100.0\n  ]"),
+            "{}",
+            noisy.to_json()
+        );
     }
 
     /// The immovable mark survives a file round trip, is written only on

@@ -1,5 +1,6 @@
 //! The `nanopush.plan/1` JSON file (micrometres, degrees), written and read back.
 
+use super::layout::um_in_file;
 use super::pattern::Site;
 use super::value_sign::Sign;
 use super::{Plan, PlanConfig, PlanSummary, Step};
@@ -201,7 +202,7 @@ fn default_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SummaryJ, D
 }
 
 fn um(v: Vector2<f64>) -> [f64; 2] {
-    [v.x * 1e6, v.y * 1e6]
+    [um_in_file(v.x), um_in_file(v.y)]
 }
 fn m(v: [f64; 2], what: &str) -> Result<Vector2<f64>, PlanFileError> {
     if !v[0].is_finite() || !v[1].is_finite() {
@@ -269,8 +270,8 @@ pub fn to_json(plan: &Plan, config: &PlanConfig) -> String {
             .iter()
             .map(|s| SiteJ {
                 id: s.id,
-                x_um: s.centre_m.x * 1e6,
-                y_um: s.centre_m.y * 1e6,
+                x_um: um_in_file(s.centre_m.x),
+                y_um: um_in_file(s.centre_m.y),
             })
             .collect(),
         assignment: plan
