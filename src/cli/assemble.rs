@@ -116,7 +116,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print_summary(&report, &out);
         print_recording(&args);
     }
-    if report.outcome != "done" {
+    if !report.finished() {
         bail!(
             "assembly did not finish: {}; go on with it: nanopush assemble --resume {}",
             report.outcome,

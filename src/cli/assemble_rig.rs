@@ -334,9 +334,10 @@ fn assemble(
                 .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
         drift_off: args.no_drift_follow,
-        command: Some(crate::exec::events::this_command()),
-        scene_crc32: crate::exec::events::scene_file_crc(&args.scene.display().to_string()),
-    };
+        command: None,
+        scene_crc32: None,
+    }
+    .stamped();
     let inputs = AssemblyInputs {
         scene: scene.clone(),
         sites,

@@ -111,7 +111,7 @@ fn write_asked(md: &mut String, report: &AssemblyReport, journal: &Path) {
             counted(report.resumes, "time")
         );
     }
-    if report.outcome != "done" {
+    if !report.finished() {
         let _ = writeln!(
             md,
             "To go on with it: `nanopush assemble --resume {}`.",

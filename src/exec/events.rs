@@ -53,6 +53,17 @@ pub fn scene_file_crc(scene: &str) -> Option<u32> {
 }
 
 impl RunSpec {
+    /// The spec with this process's provenance: its command line
+    /// ("nanopush VERSION: COMMAND LINE") and its scene file's CRC
+    /// ([`scene_file_crc`]), as a new run's start entry keeps them.
+    pub fn stamped(self) -> Self {
+        RunSpec {
+            command: Some(this_command()),
+            scene_crc32: scene_file_crc(&self.scene),
+            ..self
+        }
+    }
+
     /// True when the scene file's CRC is not the one the run started with
     /// (false without either: a built-in scene, an older journal).
     pub fn scene_changed(&self) -> bool {
@@ -78,7 +89,7 @@ impl RunSpec {
 /// This process's command line as a shell would take it back, after the
 /// nanopush version: "nanopush 0.1.0: nanopush assemble --text CMU --seed 7"
 /// ([`RunSpec::command`]).
-pub fn this_command() -> String {
+fn this_command() -> String {
     let quoted = |a: String| {
         let plain = |c: char| c.is_ascii_alphanumeric() || "-_./,=:+@%".contains(c);
         if !a.is_empty() && a.chars().all(plain) {

@@ -202,12 +202,18 @@ pub struct RunFacts<'a> {
 }
 
 impl AssemblyReport {
+    /// True when the run ended done (every site filled or left short), not
+    /// stopped.
+    pub fn finished(&self) -> bool {
+        self.outcome == "done"
+    }
+
     /// "346 s (lower bound 238 s, ratio 1.45)"; no ratio when no plan gave a
     /// lower bound (the run stopped before its first push), nor for a run
     /// that stopped (its bound is the whole pattern's: a ratio of 0.14 read
     /// as a fast run).
     pub fn time_summary(&self) -> String {
-        if self.outcome != "done" && self.lower_bound_s > 0.0 {
+        if !self.finished() && self.lower_bound_s > 0.0 {
             format!(
                 "{:.0} s before the stop (the whole pattern's lower bound {:.0} s)",
                 self.time_s, self.lower_bound_s

@@ -131,9 +131,10 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         radius_um: scene.particle_radius_m * 1e6,
         rig: None,
         drift_off: req.drift_off,
-        command: Some(super::events::this_command()),
-        scene_crc32: super::events::scene_file_crc(&as_resumable(&req.scene)),
-    };
+        command: None,
+        scene_crc32: None,
+    }
+    .stamped();
     let mut rig = build_sim_rig(&scene, &layout, req.seed)?;
     for &n in &req.faults.drop_frames {
         rig.drop_frame(n);
