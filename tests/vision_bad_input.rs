@@ -266,6 +266,24 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
         );
         assert!(err.contains(needle), "--radius-px {r}: {err}");
     }
+    // A flag of the other source is refused by name, not ignored: with
+    // --layout the frame is the field at --um-per-px (a 300 px wide frame
+    // asked for had come out 200 px wide without a word).
+    let some_layout = layout("some.json", &p(0, "50", "50", "5"));
+    for (source, flags, named) in [
+        ("--layout", &["--width-px", "300"][..], "--width-px"),
+        ("--layout", &["--height-px", "300"][..], "--height-px"),
+        ("--layout", &["--radius-px", "4"][..], "--radius-px"),
+        ("--n", &["--um-per-px", "0.25"][..], "--um-per-px"),
+    ] {
+        let value = if source == "--n" { "3" } else { &some_layout };
+        let args = [&["synth", "frame", source, value, "--out", &out][..], flags].concat();
+        let err = refused(dir.path(), &args);
+        assert!(
+            err.contains(named) && err.contains("cannot be used with"),
+            "{source} with {flags:?}: {err}"
+        );
+    }
     // Flags named as the user gave them, not as internal render settings.
     for (flags, needle) in [
         (

@@ -32,17 +32,18 @@ pub struct Args {
     /// Ground-truth JSON ("nanopush.truth/1").
     #[arg(long)]
     pub truth: Option<PathBuf>,
-    /// Pixel size for --layout, micrometres per pixel.
-    #[arg(long, default_value_t = 0.5)]
+    /// Pixel size for --layout, micrometres per pixel (the frame is the
+    /// layout's field at this scale).
+    #[arg(long, default_value_t = 0.5, conflicts_with = "n")]
     pub um_per_px: f64,
-    /// Frame width for --n, pixels.
-    #[arg(long, default_value_t = 1024)]
+    /// Frame width for --n, pixels (with --layout: the field at --um-per-px).
+    #[arg(long, default_value_t = 1024, conflicts_with = "layout")]
     pub width_px: usize,
-    /// Frame height for --n, pixels.
-    #[arg(long, default_value_t = 1024)]
+    /// Frame height for --n, pixels (with --layout: the field at --um-per-px).
+    #[arg(long, default_value_t = 1024, conflicts_with = "layout")]
     pub height_px: usize,
-    /// Particle radius for --n, pixels.
-    #[arg(long, default_value_t = 8.0)]
+    /// Particle radius for --n, pixels (with --layout: each particle's own).
+    #[arg(long, default_value_t = 8.0, conflicts_with = "layout")]
     pub radius_px: f64,
     /// Ring signal-to-noise ratio.
     #[arg(long, default_value_t = 20.0)]
