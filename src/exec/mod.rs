@@ -19,6 +19,7 @@ mod recording_check;
 pub mod recording_frames;
 pub mod report;
 pub mod resume_point;
+pub mod scale_doubt;
 pub mod sim_run;
 pub mod stroke;
 pub mod tracker;

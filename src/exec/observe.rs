@@ -2,6 +2,7 @@
 //! dropped frames), detect, map pixels through the calibration and the coarse
 //! offset, and match to tracks.
 
+use super::scale_doubt::ScaleDoubt;
 use super::tracker::Observation;
 use crate::calib::camera_map::CameraCalibration;
 use crate::median::upper_median;
@@ -99,6 +100,22 @@ impl Sighting {
                  {SIZE_CHECK} (`nanopush rig probe --camera` shows a frame)",
                 median * 1e6,
                 expected_radius_m * 1e6
+            );
+        }
+    }
+
+    /// Warns (once per 5 % step) when the particles taken measure, at their
+    /// median, more than [`crate::exec::scale_doubt::SCALE_DOUBT_FRACTION`] off the scene's radius:
+    /// the radius or the scale is wrong, and the particles measured beyond
+    /// the loop's tolerance are in no plan ([`ScaleDoubt`]).
+    fn warn_of_scale(&self, expected_radius_m: f64) {
+        let radii: Vec<f64> = self.particles.iter().map(|p| p.radius_m).collect();
+        if let Some(doubt) = ScaleDoubt::of(&radii, expected_radius_m)
+            && changed("measured particle size".into(), doubt.said_as())
+        {
+            tracing::warn!(
+                "camera: {}",
+                doubt.message(expected_radius_m, self.off_size.len(), SIZE_CHECK)
             );
         }
     }
@@ -283,7 +300,9 @@ impl Perception {
             probe: probe.map(|t| (t, *calibration)),
             probe_shadow_px,
         };
-        sighting.warn_of_off_size(expected_r_px * calibration.m_per_px());
+        let expected_radius_m = expected_r_px * calibration.m_per_px();
+        sighting.warn_of_off_size(expected_radius_m);
+        sighting.warn_of_scale(expected_radius_m);
         Ok(sighting)
     }
 }
