@@ -66,6 +66,10 @@ struct Watched<'r> {
     sites: Vec<[f64; 2]>,
     disturbed: Vec<String>,
     calibration: Option<CameraCalibration>,
+    /// The targets moved to so far.
+    moves: Vec<StageXyz>,
+    /// Ctrl-C pressed at the first move this is true of (the moves before, the target).
+    interrupt_at: Option<fn(&[StageXyz], StageXyz) -> bool>,
 }
 
 impl Watched<'_> {
@@ -88,6 +92,11 @@ impl NanoStage for Watched<'_> {
         self.rig.position()
     }
     fn move_to(&mut self, target: StageXyz, speed: f64) -> Result<(), RigError> {
+        if self.interrupt_at.is_some_and(|at| at(&self.moves, target)) {
+            self.interrupt_at = None;
+            return Err(RigError::Interrupted);
+        }
+        self.moves.push(target);
         let before = on_site(&self.truth(), &self.sites);
         let result = self.rig.move_to(target, speed);
         let after = self.truth();
@@ -144,14 +153,16 @@ struct Outcome {
 }
 
 fn watched_run(faults: SimFaults) -> Outcome {
-    watched_run_told(faults, |_| None)
+    watched_run_told(faults, |_| None, None)
 }
 
 /// [`watched_run`], the loop told the calibration `told` makes of the
-/// camera's own (`None`: the camera's own).
+/// camera's own (`None`: the camera's own), Ctrl-C pressed at the first
+/// move `interrupt_at` picks.
 fn watched_run_told(
     faults: SimFaults,
     told: impl FnOnce(&CameraCalibration) -> Option<CameraCalibration>,
+    interrupt_at: Option<fn(&[StageXyz], StageXyz) -> bool>,
 ) -> Outcome {
     let mut run = prepare_sim_run(&request(faults)).unwrap();
     let calibration = told(run.rig.calibration());
@@ -175,6 +186,8 @@ fn watched_run_told(
         sites: sites.clone(),
         disturbed: Vec::new(),
         calibration,
+        moves: Vec::new(),
+        interrupt_at,
     };
     let end = {
         let mut assembly = Assembly::start(&mut watched, inputs, journal, run.spec).unwrap();
@@ -277,6 +290,40 @@ fn a_stage_error_mid_push_halts_lifts_and_the_run_completes() {
     }
 }
 
+/// Ctrl-C mid-push leaves the tip down beside a particle, and the stop
+/// says so, with what to do (a user who moves x or y by hand drags it
+/// across the sample; it had said only "the stage was halted"); Ctrl-C
+/// with the tip lifted says nothing of it.
+#[test]
+fn a_stop_with_the_tip_down_says_so() {
+    // The particles are 10 um tall; the stroke's push runs below them.
+    const DOWN_M: f64 = 10e-6;
+    let mid_push: fn(&[StageXyz], StageXyz) -> bool =
+        |before, to| to[2] < DOWN_M && before.last().is_some_and(|p| p[2] < DOWN_M);
+    let lifted_after_a_push: fn(&[StageXyz], StageXyz) -> bool = |before, to| {
+        let pushed = before.iter().any(|p| p[2] < DOWN_M);
+        pushed && to[2] > DOWN_M && before.last().is_some_and(|p| p[2] > DOWN_M)
+    };
+    let reason = |at| match watched_run_told(SimFaults::default(), |_| None, Some(at)).end {
+        RunEnd::Stopped(reason) => reason,
+        other => panic!("{other:?}"),
+    };
+    let down = reason(mid_push);
+    assert!(
+        down.starts_with("interrupted by the user (Ctrl-C)")
+            && down.contains("the tip may be down on the sample")
+            && down.contains(
+                "below the particles' tops at 10.00 um: lift z before moving x or y by hand"
+            ),
+        "{down}"
+    );
+    let up = reason(lifted_after_a_push);
+    assert!(
+        up.starts_with("interrupted by the user (Ctrl-C)") && !up.contains("tip may be down"),
+        "{up}"
+    );
+}
+
 fn binary() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_nanopush"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
@@ -300,7 +347,7 @@ fn particles(state: &SimState) -> Vec<(usize, f64, f64)> {
         .collect()
 }
 
-/// Ctrl-C (SIGINT) part way: the run stops as a run stops, its journal
+/// Ctrl-C (SIGINT, twice) part way: the run stops as a run stops, its journal
 /// ending "stopped", its report and animation written, the error saying
 /// how to go on; resumed so, it fills every site. It had ended without a
 /// word, leaving neither.
@@ -324,11 +371,15 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
         );
         std::thread::sleep(Duration::from_millis(5));
     }
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
+    // Pressed twice in a panic: the second press had ended the program at
+    // once, with no report (and on a rig before the stage was halted).
+    for _ in 0..2 {
+        let sent = Command::new("kill")
+            .args(["-INT", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+    }
     let o = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{stderr}");
@@ -549,21 +600,25 @@ fn an_unreadable_journal_is_refused_and_left_as_it_was() {
 /// order").
 #[test]
 fn a_calibration_of_another_camera_stops_the_run_before_any_push() {
-    let o = watched_run_told(SimFaults::default(), |truth| {
-        // Turned and scaled about pixel (100, 100), which still maps where it should.
-        let turned = |offset_m: [f64; 2]| {
-            CameraCalibration::from_scale_rotation(
-                truth.m_per_px() * 1.2,
-                std::f64::consts::FRAC_PI_2,
-                offset_m,
-            )
-        };
-        let (want, got) = (
-            truth.pixel_to_stage_m(100.0, 100.0),
-            turned([0.0, 0.0]).pixel_to_stage_m(100.0, 100.0),
-        );
-        Some(turned([want[0] - got[0], want[1] - got[1]]))
-    });
+    let o = watched_run_told(
+        SimFaults::default(),
+        |truth| {
+            // Turned and scaled about pixel (100, 100), which still maps where it should.
+            let turned = |offset_m: [f64; 2]| {
+                CameraCalibration::from_scale_rotation(
+                    truth.m_per_px() * 1.2,
+                    std::f64::consts::FRAC_PI_2,
+                    offset_m,
+                )
+            };
+            let (want, got) = (
+                truth.pixel_to_stage_m(100.0, 100.0),
+                turned([0.0, 0.0]).pixel_to_stage_m(100.0, 100.0),
+            );
+            Some(turned([want[0] - got[0], want[1] - got[1]]))
+        },
+        None,
+    );
     let RunEnd::Stopped(why) = &o.end else {
         panic!("ran to {:?}", o.end);
     };

@@ -687,6 +687,41 @@ fn a_rig_run_builds_the_pattern_where_asked() {
     );
 }
 
+/// The E-727 templates' largest step (10 um) and a top speed below the
+/// loop's 50 um/s travel: the run had stopped before its first lifted
+/// travel ("speed 50 um/s is not in (0, 20]"; at the templates' own 50,
+/// "not in (0, 49.99999999999999]", a rounding, `safety.rs`' units), then
+/// "a move of 54.5 um is longer than the largest allowed step"). Long
+/// moves go in pieces, the travel within the top speed; a scene pushing
+/// faster than it is refused before anything moves.
+#[test]
+fn a_rig_with_the_templates_short_step_and_top_speed_assembles() {
+    let b = bench(50.0);
+    let text = std::fs::read_to_string(&b.rig_path).unwrap();
+    let templated = text
+        .replace("max_step_um = 150.0", "max_step_um = 10.0")
+        .replace("top_speed_um_s = 200.0", "top_speed_um_s = 20.0");
+    assert_ne!(templated, text, "the replacement did not apply");
+    std::fs::write(&b.rig_path, &templated).unwrap();
+    let out = finish(b.assemble("templated", &["--json"]), RUN_LIMIT);
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let report = json(&out);
+    assert_eq!(report["filled"], report["sites"], "{report}");
+    assert_eq!(report["outcome"], "done", "{report}");
+    let slow = templated.replace("top_speed_um_s = 20.0", "top_speed_um_s = 0.5");
+    std::fs::write(&b.rig_path, slow).unwrap();
+    let refused = finish(b.assemble("slow", &[]), RUN_LIMIT);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success()
+            && stderr.contains(
+                "the scene pushes at 1.000 um/s, faster than the rig file's top_speed_um_s 0.500"
+            ),
+        "{stderr}"
+    );
+    assert!(!b.moving());
+}
+
 #[test]
 fn a_dry_run_that_ends_on_a_stage_error_exits_non_zero_and_still_reports() {
     let b = bench(50.0);

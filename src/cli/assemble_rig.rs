@@ -231,6 +231,30 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
     }
 }
 
+/// `settings` with the lifted travel no faster than the rig file's top
+/// speed (the loop's 50 um/s had stopped a run on the E-727 templates'
+/// top speed of 50 and would on any lower one); a scene that pushes
+/// faster than it is refused: its pushes cannot be slowed without
+/// changing what the model predicts of them.
+fn within_top_speed(
+    mut settings: AssemblySettings,
+    rig: &HardwareRig,
+    scene: &Scene,
+) -> anyhow::Result<AssemblySettings> {
+    let top_m_per_s = rig.rig_file().safety.top_speed_um_s * 1e-6;
+    let push_m_per_s = scene.push.speed_m_per_s;
+    if push_m_per_s > top_m_per_s * (1.0 + 1e-12) {
+        bail!(
+            "the scene pushes at {:.3} um/s, faster than the rig file's top_speed_um_s {:.3}: \
+             slow the scene's push (speed_um_s) or allow the stage more",
+            push_m_per_s * 1e6,
+            top_m_per_s * 1e6
+        );
+    }
+    settings.travel_speed_m_per_s = settings.travel_speed_m_per_s.min(top_m_per_s);
+    Ok(settings)
+}
+
 fn assemble(
     args: &Args,
     scene: &Scene,
@@ -240,7 +264,11 @@ fn assemble(
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
-    let mut settings = AssemblySettings::default().with_drift_off(args.no_drift_follow);
+    let mut settings = within_top_speed(
+        AssemblySettings::default().with_drift_off(args.no_drift_follow),
+        rig,
+        scene,
+    )?;
     if args.hardware.dry_run {
         settings.max_pushes = 1;
     }
@@ -394,11 +422,15 @@ fn resume(
             frame.rig_file
         ),
     }
-    let settings = AssemblySettings {
-        field_m: frame.field_um.map(|v| v * 1e-6),
-        ..Default::default()
-    }
-    .with_drift_off(point.spec.drift_off);
+    let settings = within_top_speed(
+        AssemblySettings {
+            field_m: frame.field_um.map(|v| v * 1e-6),
+            ..Default::default()
+        }
+        .with_drift_off(point.spec.drift_off),
+        rig,
+        scene,
+    )?;
     if let Some(view) = frame.first_view_coarse_um {
         // The tip up first: the coarse stage refuses to drag it.
         let (top, here) = (rig.range()[2].max_m, rig.position()?);

@@ -15,7 +15,9 @@ pub enum RigError {
     #[error("a move of {step_um:.3} um is longer than the largest allowed step {max_um:.3} um")]
     StepTooLarge { step_um: f64, max_um: f64 },
     /// A speed the stage cannot do, or not a finite positive number.
-    #[error("speed {speed_um_s} um/s is not in (0, {max_um_s}] um/s")]
+    #[error(
+        "speed {speed_um_s:.3} um/s is not in (0, {max_um_s:.3}] um/s (the rig file's top_speed_um_s)"
+    )]
     BadSpeed { speed_um_s: f64, max_um_s: f64 },
     /// The stage reported a fault during a move; it has been halted.
     #[error("stage fault: {0}")]

@@ -11,6 +11,7 @@
 //! a failure or drop while moving halts).
 
 use super::error::RigError;
+use super::gcs::safety::step_length;
 use super::gcs::{GcsError, GcsStage, SafetyViolation};
 use super::stage::AxisRange;
 use std::sync::Arc;
@@ -33,6 +34,37 @@ pub fn snap_into_range(target: f64, range: &AxisRange) -> f64 {
         target
     }
 }
+
+/// The ends of equal pieces of the line from `from` to `to`, each at most
+/// `max_step_m` long (at most 99 % of it, so that where the stage settles,
+/// a few nanometres off a piece's end, never makes the next one longer),
+/// the last `to` itself; just `to` for a short move or a
+/// malformed one (the stage's own checks then refuse it).
+pub fn pieces(from: &[f64], to: &[f64], max_step_m: f64) -> Vec<Vec<f64>> {
+    let length = step_length(from, to);
+    let n = (length / (max_step_m * PIECE_SHARE)).ceil();
+    if from.len() != to.len() || !(n > 1.0 && n <= MAX_PIECES as f64) {
+        return vec![to.to_vec()];
+    }
+    let n = n as usize;
+    (1..=n)
+        .map(|k| {
+            if k == n {
+                return to.to_vec();
+            }
+            let t = k as f64 / n as f64;
+            from.iter().zip(to).map(|(a, b)| a + (b - a) * t).collect()
+        })
+        .collect()
+}
+
+/// A piece's most length, as a share of the largest step.
+const PIECE_SHARE: f64 = 0.99;
+
+/// Most pieces a move is cut into; a longer one is left whole for the
+/// stage to refuse as too long a step (a largest step of nanometres, a
+/// unit slip, would otherwise send thousands of moves).
+const MAX_PIECES: usize = 1000;
 
 /// The axes of one GCS controller moving in straight lines, in metres.
 pub struct GcsLineStage {
@@ -118,12 +150,7 @@ impl GcsLineStage {
         to: &[f64],
         speed_m_per_s: f64,
     ) -> Result<(), GcsError> {
-        let length: f64 = from
-            .iter()
-            .zip(to)
-            .map(|(a, b)| (b - a).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let length = step_length(from, to);
         if length == 0.0 {
             return Ok(());
         }
@@ -159,7 +186,10 @@ impl GcsLineStage {
 
     /// Moves every axis in a straight line to `target_m` at `speed_m_per_s`
     /// and returns once on target; refused before any byte when outside the
-    /// range, too long a step, too fast, or after Ctrl-C.
+    /// range, too fast, or after Ctrl-C. A move longer than the rig file's
+    /// largest step is made in equal pieces along the same line, each no
+    /// longer and each waited on (as `rig calibrate` moves): the E-727
+    /// templates' 10 um had stopped `assemble` at its first lifted travel.
     /// Targets within [`RANGE_ROUNDING_M`] outside the range are snapped onto it.
     pub fn move_to_m(&mut self, target_m: &[f64], speed_m_per_s: f64) -> Result<(), RigError> {
         let target: Vec<f64> = target_m
@@ -168,8 +198,13 @@ impl GcsLineStage {
             .map(|(t, r)| snap_into_range(*t, r))
             .collect();
         self.check_in_range(&target)?;
-        self.move_checked(&target, speed_m_per_s)
-            .map_err(|e| self.rig_error(e))
+        let from = self.position_m()?;
+        let max_step_m = self.stage.settings().limits.max_step_m;
+        for piece in pieces(&from, &target, max_step_m) {
+            self.move_checked(&piece, speed_m_per_s)
+                .map_err(|e| self.rig_error(e))?;
+        }
+        Ok(())
     }
 
     /// Halts every axis now.
@@ -271,5 +306,35 @@ impl GcsLineStage {
             GcsError::Safety(SafetyViolation::NotConfirmed) => RigError::NotConfirmed,
             other => RigError::StageFault(other.to_string()),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_move_is_cut_into_equal_pieces_along_its_line() {
+        let (from, to) = ([0.0, 0.0, 15e-6], [30e-6, 40e-6, 15e-6]);
+        let cut = pieces(&from, &to, 10e-6);
+        assert_eq!(cut.len(), 6, "50 um in pieces of at most 9.9 um");
+        assert_eq!(cut.last().unwrap(), &to.to_vec());
+        let mut at = from.to_vec();
+        for p in &cut {
+            let step = step_length(&at, p);
+            assert!((step - 50e-6 / 6.0).abs() < 1e-15, "{step}");
+            // On the line: x and y keep their 3:4 ratio, z its height.
+            assert!(
+                (p[0] * 4.0 - p[1] * 3.0).abs() < 1e-18 && p[2] == 15e-6,
+                "{p:?}"
+            );
+            at = p.clone();
+        }
+        assert_eq!(pieces(&from, &to, 60e-6), vec![to.to_vec()], "short enough");
+        assert_eq!(
+            pieces(&from, &to, 1e-9),
+            vec![to.to_vec()],
+            "too many: left whole"
+        );
     }
 }

@@ -3,12 +3,21 @@
 //! returns [`crate::rig::gcs::GcsError::Interrupted`]; the simulated rig
 //! checks it before each frame and move. The run then stops as a run
 //! stops (journalled, reported, resumable). A second Ctrl-C ends the
-//! program at once, for a run that no longer looks at the flag.
+//! program at once, for a run that no longer looks at the flag, but only
+//! [`SECOND_PRESS_GRACE`] after the first: two presses in a panic had
+//! ended it before the stage was sent `HLT`, the push running on with the
+//! tip down, and without a report.
 
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
+use std::time::{Duration, Instant};
 
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// How long after the first Ctrl-C a second one is taken as a wish to end
+/// at once rather than as the same press again: the stop itself (halting
+/// the stage, writing the report) takes well under a second.
+pub const SECOND_PRESS_GRACE: Duration = Duration::from_secs(3);
 
 /// Installs the Ctrl-C handler once per process and returns the shared flag
 /// it raises. Later calls return the same flag.
@@ -18,9 +27,21 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     }
     let flag = Arc::new(AtomicBool::new(false));
     let raised = Arc::clone(&flag);
+    let first_press: OnceLock<Instant> = OnceLock::new();
     ctrlc::set_handler(move || {
-        if raised.swap(true, std::sync::atomic::Ordering::SeqCst) {
+        let first = *first_press.get_or_init(Instant::now);
+        if !raised.swap(true, std::sync::atomic::Ordering::SeqCst) {
+            eprintln!("Ctrl-C: stopping (the stage is halted first)");
+        } else if first.elapsed() >= SECOND_PRESS_GRACE {
+            eprintln!(
+                "Ctrl-C again: ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
+            );
             std::process::exit(130);
+        } else {
+            eprintln!(
+                "Ctrl-C: already stopping; press again after {} s to end at once",
+                SECOND_PRESS_GRACE.as_secs()
+            );
         }
     })?;
     Ok(Arc::clone(FLAG.get_or_init(|| flag)))

@@ -28,6 +28,7 @@ use crate::model::Scene;
 use crate::plan::pattern::Site;
 use crate::plan::rebase::without_first_push;
 use crate::plan::{Plan, PlanConfig};
+use crate::rig::stage::StageXyz;
 use crate::rig::{Rig, RigError};
 use std::collections::HashMap;
 
@@ -315,6 +316,9 @@ pub struct Assembly<'a> {
     repush_next: Option<usize>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
+    /// The nanostage's last two targets (the one before, the latest): a
+    /// stop mid-move leaves the stage between them.
+    stage_targets: [Option<StageXyz>; 2],
     /// The tip's drift as the frames show it; None when not followed.
     drift: Option<DriftFilter>,
     pushes_done: usize,
@@ -411,6 +415,7 @@ impl<'a> Assembly<'a> {
             repush_next: None,
             stage_faults: 0,
             coarse_offset,
+            stage_targets: [None, None],
             pushes_done,
             frames_seen: 0,
             records: Vec::new(),
@@ -476,9 +481,13 @@ impl<'a> Assembly<'a> {
         match self.cycles() {
             Err(ExecError::Journal(e)) => Err(ExecError::Journal(e)),
             Err(e) if e.is_interrupt() => {
-                self.stop(RunEnd::Stopped(RigError::Interrupted.to_string()))
+                let why = format!("{}{}", RigError::Interrupted, self.tip_left_down());
+                self.stop(RunEnd::Stopped(why))
             }
-            Err(e) => self.stop(RunEnd::Stopped(e.to_string())),
+            Err(e) => {
+                let why = format!("{e}{}", self.tip_left_down());
+                self.stop(RunEnd::Stopped(why))
+            }
             ended => ended,
         }
     }
@@ -561,7 +570,8 @@ impl<'a> Assembly<'a> {
                             error: e.to_string(),
                         },
                     )?;
-                    return self.stop(RunEnd::Stopped(format!("rig error: {e}")));
+                    let why = format!("rig error: {e}{}", self.tip_left_down());
+                    return self.stop(RunEnd::Stopped(why));
                 }
                 Err(PushError::Journal(e)) => return Err(e.into()),
                 Err(PushError::Refused(why)) => {
@@ -577,6 +587,32 @@ impl<'a> Assembly<'a> {
                     )?;
                 }
             }
+        }
+    }
+
+    /// What a stop mid-move must say when the tip may be down on the
+    /// sample (empty otherwise): a user who then moves x or y by hand
+    /// drags it across the particles. A halted move leaves the stage
+    /// between its last two targets; below the particles' tops is down.
+    fn tip_left_down(&self) -> String {
+        let tops_m = 2.0 * self.scene.particle_radius_m;
+        let lowest = self
+            .stage_targets
+            .iter()
+            .flatten()
+            .min_by(|a, b| a[2].total_cmp(&b[2]));
+        match (lowest, self.stage_targets[1]) {
+            (Some(low), Some(to)) if low[2] < tops_m => format!(
+                "; the tip may be down on the sample: the stage was on its way to ({:.2}, {:.2}, {:.2}) um \
+                 with z as low as {:.2} um, below the particles' tops at {:.2} um: lift z before moving x or y \
+                 by hand (--resume lifts it first)",
+                to[0] * 1e6,
+                to[1] * 1e6,
+                to[2] * 1e6,
+                low[2] * 1e6,
+                tops_m * 1e6
+            ),
+            _ => String::new(),
         }
     }
 

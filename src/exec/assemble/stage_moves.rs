@@ -166,6 +166,7 @@ impl Assembly<'_> {
                 speed_um_s: speed * 1e6,
             },
         )?;
+        self.stage_targets = [self.stage_targets[1], Some(nano)];
         self.rig.move_to(nano, speed)?;
         Ok(())
     }

@@ -1,6 +1,19 @@
 //! Limits checked on the host before any motion byte leaves it: soft travel
 //! limits, the largest single step, and the top speed, all in SI units.
 
+/// The straight-line length of a move from `from` to `to` over all axes
+/// (what the largest step limits).
+pub fn step_length(from: &[f64], to: &[f64]) -> f64 {
+    from.iter()
+        .zip(to)
+        .map(|(a, b)| (b - a).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Relative rounding of a limit read in micrometres and held in metres.
+const UNIT_ROUNDING: f64 = 1e-12;
+
 /// Per-axis soft travel window, metres, in stage coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SoftLimit {
@@ -125,12 +138,7 @@ impl SafetyLimits {
                 "current position {from_m:?} does not match target {to_m:?}"
             )));
         }
-        let step_m = from_m
-            .iter()
-            .zip(to_m)
-            .map(|(a, b)| (b - a).powi(2))
-            .sum::<f64>()
-            .sqrt();
+        let step_m = step_length(from_m, to_m);
         if step_m > self.max_step_m {
             return Err(SafetyViolation::StepTooLarge {
                 step_m,
@@ -151,11 +159,14 @@ impl SafetyLimits {
         self.check_step(from_m, to_m)
     }
 
-    /// Checks a velocity before it is set.
+    /// Checks a velocity before it is set. The top speed is read in um/s
+    /// and converted, so a speed equal to it in um/s may exceed it by a
+    /// rounding: 50 um/s was refused against a top speed of 50 um/s
+    /// ("not in (0, 49.99999999999999]").
     pub fn check_speed(&self, speed_m_per_s: f64) -> Result<(), SafetyViolation> {
         if speed_m_per_s.is_finite()
             && speed_m_per_s > 0.0
-            && speed_m_per_s <= self.max_speed_m_per_s
+            && speed_m_per_s <= self.max_speed_m_per_s * (1.0 + UNIT_ROUNDING)
         {
             Ok(())
         } else {
@@ -210,6 +221,13 @@ mod tests {
         assert!(l.check_speed(20e-6).is_ok());
         assert!(l.check_speed(21e-6).is_err());
         assert!(l.check_speed(0.0).is_err());
+        // A top speed of 50 um/s held in metres is 4.9999999999999996e-5.
+        let fifty = SafetyLimits {
+            max_speed_m_per_s: 50.0 * 1e-6,
+            ..limits()
+        };
+        assert!(fifty.check_speed(50e-6).is_ok());
+        assert!(fifty.check_speed(50.001e-6).is_err());
     }
 
     #[test]
