@@ -238,6 +238,49 @@ fn a_stage_without_z_is_refused_where_the_tip_would_sweep_the_sample() {
     assert!(!dir.path().join("c.toml").exists());
 }
 
+/// A z convention that leaves the tip no room above the particles is
+/// refused before anything moves: with the substrate at the top of z's
+/// travel (or 10 um below it, or in nm), the tip had travelled sideways at
+/// 0 or 5 um among 10 um particles before a push was refused as out of
+/// range; with it 5 um up, the lift was capped level with their tops and
+/// the run lost contact five times without a word.
+#[test]
+fn a_z_travel_that_cannot_lift_the_tip_clear_is_refused_before_any_move() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
+    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml")
+        .unwrap()
+        .replace(
+            r#""camera-stage-sim.toml""#,
+            &format!("{:?}", calibration.display().to_string()),
+        )
+        .replace(
+            r#""../out/rig-gcs-sim/frames""#,
+            &format!("{:?}", frames.display().to_string()),
+        );
+    for (surface_um, rises_um) in [("15", "0.000"), ("10", "5.000"), ("5", "10.000")] {
+        let rig = dir.path().join(format!("z{surface_um}.toml"));
+        let z =
+            format!("real_hardware = false\nz_surface_um = {surface_um}\nz_lifts = \"increasing\"");
+        let bad = text.replace("real_hardware = false", &z);
+        assert_ne!(bad, text, "the replacement did not apply");
+        std::fs::write(&rig, bad).unwrap();
+        let run = assemble_dry_run(&rig, &dir.path().join(format!("out{surface_um}")));
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success()
+                && stderr.contains(&format!(
+                    "the tip can rise only {rises_um} um above the substrate (stage.z_surface_um {surface_um} um"
+                ))
+                && stderr.contains("travels 12.000 um above it"),
+            "z_surface_um {surface_um}: {stderr}"
+        );
+        assert!(!String::from_utf8_lossy(&run.stdout).contains("MOV "));
+    }
+}
+
 #[test]
 fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
     let dir = tempfile::tempdir().unwrap();

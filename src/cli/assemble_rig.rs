@@ -31,7 +31,9 @@
 use super::assemble::{Args, check_out_free, open_recorder, print_recording, write_sites};
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
-use crate::exec::assemble::{Assembly, AssemblyInputs, AssemblySettings, RunEnd};
+use crate::exec::assemble::{
+    Assembly, AssemblyInputs, AssemblySettings, LIFT_ABOVE_PARTICLES_M, RunEnd,
+};
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
@@ -231,16 +233,40 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
     }
 }
 
-/// `settings` with the lifted travel no faster than the rig file's top
-/// speed (the loop's 50 um/s had stopped a run on the E-727 templates'
-/// top speed of 50 and would on any lower one); a scene that pushes
-/// faster than it is refused: its pushes cannot be slowed without
-/// changing what the model predicts of them.
-fn within_top_speed(
+/// `settings` fitted to the rig: the lifted travel no faster than the rig
+/// file's top speed (the loop's 50 um/s had stopped a run on the E-727
+/// templates' top speed of 50 and would on any lower one). Refused: a
+/// scene that pushes faster than it (its pushes cannot be slowed without
+/// changing what the model predicts of them), and a z travel that cannot
+/// lift the tip clear of the scene's particles (a z_surface_um at the top
+/// of the travel, or 10 um below it, had the tip travel sideways at 0 or
+/// 5 um, among 10 um particles, before a push was refused as out of range).
+fn fitted_to_rig(
     mut settings: AssemblySettings,
-    rig: &HardwareRig,
+    rig: &mut HardwareRig,
     scene: &Scene,
 ) -> anyhow::Result<AssemblySettings> {
+    if rig.rig_file().stage.has_z() {
+        let lift_m = 2.0 * scene.particle_radius_m + LIFT_ABOVE_PARTICLES_M;
+        let highest_m = rig.range()[2].max_m;
+        if highest_m < lift_m {
+            let stage = &rig.rig_file().stage;
+            bail!(
+                "the tip can rise only {:.3} um above the substrate (stage.z_surface_um {}, z_lifts {}, within z's \
+                 soft limits and travel), but travels {:.3} um above it, clear of the scene's {:.2} um particles: \
+                 is z_surface_um the controller's z where the tip touches the substrate, in um?",
+                highest_m * 1e6,
+                stage
+                    .z_surface_um
+                    .map_or("not given".to_owned(), |z| format!("{z} um")),
+                stage
+                    .z_lifts
+                    .map_or("not given".to_owned(), |l| format!("{l:?}").to_lowercase()),
+                lift_m * 1e6,
+                2.0 * scene.particle_radius_m * 1e6
+            );
+        }
+    }
     let top_m_per_s = rig.rig_file().safety.top_speed_um_s * 1e-6;
     let push_m_per_s = scene.push.speed_m_per_s;
     if push_m_per_s > top_m_per_s * (1.0 + 1e-12) {
@@ -264,7 +290,7 @@ fn assemble(
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
-    let mut settings = within_top_speed(
+    let mut settings = fitted_to_rig(
         AssemblySettings::default().with_drift_off(args.no_drift_follow),
         rig,
         scene,
@@ -422,7 +448,7 @@ fn resume(
             frame.rig_file
         ),
     }
-    let settings = within_top_speed(
+    let settings = fitted_to_rig(
         AssemblySettings {
             field_m: frame.field_um.map(|v| v * 1e-6),
             ..Default::default()

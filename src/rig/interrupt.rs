@@ -1,4 +1,6 @@
-//! Ctrl-C handling: the handler only raises a flag. A hardware stage checks
+//! Ctrl-C handling (and SIGTERM and SIGHUP: a `kill`, a closed terminal
+//! or a service stop halts the stage the same way, where it had ended the
+//! program with the stage moving): the handler only raises a flag. A hardware stage checks
 //! it between commands and while waiting for motion, sends `HLT`, and
 //! returns [`crate::rig::gcs::GcsError::Interrupted`]; the simulated rig
 //! checks it before each frame and move. The run then stops as a run
@@ -31,7 +33,7 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     ctrlc::set_handler(move || {
         let first = *first_press.get_or_init(Instant::now);
         if !raised.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            eprintln!("Ctrl-C: stopping (the stage is halted first)");
+            eprintln!("Ctrl-C (or a termination signal): stopping (the stage is halted first)");
         } else if first.elapsed() >= SECOND_PRESS_GRACE {
             eprintln!(
                 "Ctrl-C again: ending now, without waiting for the stop; check the stage by hand (the tip may be down)"

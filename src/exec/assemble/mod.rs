@@ -39,7 +39,7 @@ mod stage_moves;
 
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
-pub use pushing::{decide_push, scene_for_push};
+pub use pushing::{LIFT_ABOVE_PARTICLES_M, decide_push, scene_for_push};
 
 /// Executor settings; the defaults suit 10 um particles on the simulated rig.
 #[derive(Debug, Clone, PartialEq)]
