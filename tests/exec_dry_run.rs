@@ -744,6 +744,86 @@ fn a_particle_radius_the_frames_do_not_measure_is_warned_of() {
     );
 }
 
+/// A recording whose last frame was cut short (a recorder that crashed
+/// mid-write) replays the frames before it and says where it ended, exit
+/// 0, as a video cut short does: the whole dry-run, its output folder
+/// with it, had been thrown away for the last file.
+#[test]
+fn a_frame_cut_short_ends_the_replay_and_keeps_the_frames_before() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = real_brightfield_with_radius(&dir.path().join("rec"), 5.0);
+    let last = rec.join("frames/bf_0049.png");
+    let bytes = std::fs::read(&last).unwrap();
+    std::fs::write(&last, &bytes[..bytes.len() / 2]).unwrap();
+    let out = dir.path().join("out");
+    let o = dry_run(&rec, &out, &[]);
+    let r = ok_report(&o, &out);
+    assert_eq!(r.frames.len(), 2);
+    let why = r.ended_early.as_deref().unwrap_or_default();
+    assert!(
+        why.contains("bf_0049.png") && why.contains("the replay ends there, after 2 frames"),
+        "{why}"
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("dry-run ended early"), "{stderr}");
+    assert!(out.join("dry-run.mp4").is_file());
+}
+
+/// Ctrl-C during a long dry-run keeps what was analysed (dry-run.json and
+/// a playable animation of those frames) and says so, exit non-zero: it
+/// had left a hidden, unplayable .dry-run.mp4 and nothing else.
+#[test]
+fn ctrl_c_ends_a_dry_run_keeping_the_frames_analysed() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = real_brightfield_with_radius(&dir.path().join("rec"), 5.0);
+    let frames = rec.join("frames");
+    let first = std::fs::read(frames.join("bf_0000.png")).unwrap();
+    for k in 1..400 {
+        std::fs::write(frames.join(format!("bf_1{k:04}.png")), &first).unwrap();
+    }
+    let out = dir.path().join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(root())
+        .args([
+            "dry-run",
+            "--recording",
+            rec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Pressed once the first frame is printed.
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(child.stdout.take().unwrap()));
+    assert!(lines.next().unwrap().unwrap().starts_with("frame"));
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let rest: Vec<String> = lines.map(Result::unwrap).collect();
+    let o = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("dry-run interrupted (Ctrl-C) after"),
+        "{stderr}"
+    );
+    let written: DryRunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("dry-run.json")).unwrap()).unwrap();
+    let n = written.frames.len();
+    assert!((1..402).contains(&n), "{n} frames of 402");
+    assert_eq!(
+        rest.iter().filter(|l| l.starts_with("frame")).count() + 1,
+        n,
+        "every frame printed is in the file"
+    );
+    assert!(out.join("dry-run.mp4").is_file());
+    assert!(!out.join(".dry-run.mp4").exists());
+}
+
 /// The fixture's frames as an MJPG video at 25 fps, its stage log left out:
 /// frames are the video's frame rate apart (they had been 1 s, so the
 /// model's advice was asked for a session 25 times older), and a copy of

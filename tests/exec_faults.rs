@@ -153,19 +153,20 @@ struct Outcome {
 }
 
 fn watched_run(faults: SimFaults) -> Outcome {
-    watched_run_told(faults, |_| None, None)
+    watched_run_told(faults, |_, _| None, None)
 }
 
 /// [`watched_run`], the loop told the calibration `told` makes of the
-/// camera's own (`None`: the camera's own), Ctrl-C pressed at the first
+/// camera's own and the stage's start (`None`: the camera's own), Ctrl-C pressed at the first
 /// move `interrupt_at` picks.
 fn watched_run_told(
     faults: SimFaults,
-    told: impl FnOnce(&CameraCalibration) -> Option<CameraCalibration>,
+    told: impl FnOnce(&CameraCalibration, StageXyz) -> Option<CameraCalibration>,
     interrupt_at: Option<fn(&[StageXyz], StageXyz) -> bool>,
 ) -> Outcome {
     let mut run = prepare_sim_run(&request(faults)).unwrap();
-    let calibration = told(run.rig.calibration());
+    let start = run.rig.position().unwrap();
+    let calibration = told(run.rig.calibration(), start);
     let dir = tempfile::tempdir().unwrap();
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();
@@ -304,7 +305,7 @@ fn a_stop_with_the_tip_down_says_so() {
         let pushed = before.iter().any(|p| p[2] < DOWN_M);
         pushed && to[2] > DOWN_M && before.last().is_some_and(|p| p[2] > DOWN_M)
     };
-    let reason = |at| match watched_run_told(SimFaults::default(), |_| None, Some(at)).end {
+    let reason = |at| match watched_run_told(SimFaults::default(), |_, _| None, Some(at)).end {
         RunEnd::Stopped(reason) => reason,
         other => panic!("{other:?}"),
     };
@@ -321,6 +322,41 @@ fn a_stop_with_the_tip_down_says_so() {
     assert!(
         up.starts_with("interrupted by the user (Ctrl-C)") && !up.contains("tip may be down"),
         "{up}"
+    );
+}
+
+/// A calibration with x and y swapped about where the stage starts (a rig
+/// file naming the controller's axes the wrong way round) fits the first
+/// frame, so the start's check passes; the next frame, the tip parked
+/// away, shows the apex far from where the stage has it, and the run
+/// stops there, naming the calibration and the axes, before any push (it
+/// had pushed at mirrored places, taking the difference for drift).
+#[test]
+fn a_calibration_with_x_and_y_swapped_stops_the_run_at_its_first_move() {
+    let o = watched_run_told(
+        SimFaults::default(),
+        |truth, start| {
+            let swap = nalgebra::Matrix2::new(0.0, 1.0, 1.0, 0.0);
+            let c = nalgebra::Vector2::new(start[0], start[1]);
+            // stage' = S (stage - c) + c for every pixel.
+            Some(CameraCalibration::affine(
+                swap * truth.linear,
+                swap * (truth.offset_m - c) + c,
+            ))
+        },
+        None,
+    );
+    let RunEnd::Stopped(why) = &o.end else {
+        panic!("ran to {:?}", o.end);
+    };
+    assert!(
+        why.contains("calibration does not fit") && why.contains("stage axes or unit_um"),
+        "{why}"
+    );
+    assert!(observations(&o.events) >= 2, "stopped on its first frame");
+    assert_eq!(
+        count(&o.events, |e| matches!(e, RunEvent::Decision { .. })),
+        0
     );
 }
 
@@ -602,7 +638,7 @@ fn an_unreadable_journal_is_refused_and_left_as_it_was() {
 fn a_calibration_of_another_camera_stops_the_run_before_any_push() {
     let o = watched_run_told(
         SimFaults::default(),
-        |truth| {
+        |truth, _| {
             // Turned and scaled about pixel (100, 100), which still maps where it should.
             let turned = |offset_m: [f64; 2]| {
                 CameraCalibration::from_scale_rotation(

@@ -297,6 +297,7 @@ fn assemble(
     )?;
     if args.hardware.dry_run {
         settings.max_pushes = 1;
+        settings.check_apex_each_frame = false;
     }
     let perception = perception_for(scene, rig);
     let calibration = *rig.calibration();

@@ -8,9 +8,11 @@ use crate::exec::animation::AnimationWriter;
 use crate::exec::dry_run::{DryRunFrame, dry_run};
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
+use crate::rig::interrupt::ctrlc_flag;
 use crate::vision::analyse::camera_notes;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 
 /// Arguments of `nanopush dry-run`.
 #[derive(clap::Args, Debug)]
@@ -115,12 +117,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             print_frame(f, sites);
         }
     };
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     let report = dry_run(
         &recording,
         scene.as_ref(),
         asked.as_ref(),
         Some(&mut animation),
         &mut print,
+        &interrupt,
     );
     let report = match report {
         Ok(report) => report,
@@ -152,7 +156,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.join("dry-run.mp4").display()
         );
     }
-    Ok(())
+    match &report.ended_early {
+        Some(why) if interrupt.load(Ordering::SeqCst) => {
+            bail!(
+                "dry-run {why}: what was analysed is in {}",
+                report_path.display()
+            )
+        }
+        Some(why) => {
+            tracing::warn!("dry-run ended early: {why}");
+            Ok(())
+        }
+        None => Ok(()),
+    }
 }
 
 /// True when `path` (which need not exist yet) is `folder` or lies within

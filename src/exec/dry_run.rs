@@ -28,6 +28,7 @@ use crate::vision::line_defects::LineDefect;
 use crate::wording::counted;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Schema of `dry-run.json`.
 pub const DRY_RUN_SCHEMA: &str = "nanopush.dry-run/1";
@@ -108,6 +109,11 @@ pub struct DryRunReport {
     pub sites_um: Vec<[f64; 2]>,
     /// Frame by frame.
     pub frames: Vec<DryRunFrame>,
+    /// Why the replay ended before the recording's end, if it did: Ctrl-C,
+    /// or a frame that could not be read (a recorder that crashed mid-write
+    /// leaves its last frame cut short). The frames before are kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ended_early: Option<String>,
 }
 
 /// Why a dry-run could not be made.
@@ -145,12 +151,17 @@ impl Camera for Replay {
 /// push; the pattern `asked` for instead of the recording's target, when
 /// given. `sink` sees every frame (the annotated animation), and
 /// `on_frame` each frame's outcome as it is made, with the number of sites.
+/// Raising `interrupt` (Ctrl-C) ends the replay before the next frame, as
+/// does a frame after the first that cannot be read
+/// ([`DryRunReport::ended_early`]): what was analysed is kept (it had all
+/// been thrown away, a long replay's output with it).
 pub fn dry_run(
     recording: &Recording,
     scene: Option<&Scene>,
     asked: Option<&PatternRequest>,
     mut sink: Option<&mut dyn FrameSink>,
     on_frame: &mut dyn FnMut(&DryRunFrame, usize),
+    interrupt: &AtomicBool,
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
     let calibration = recording.calibration;
@@ -169,8 +180,26 @@ pub fn dry_run(
     // says the loop stopped there.
     let mut calibration_checked = false;
     let mut loop_stopped: Option<String> = None;
+    let mut ended_early = None;
     for (i, recorded) in recording.frames()?.enumerate() {
-        let recorded = recorded?;
+        if interrupt.load(Ordering::SeqCst) {
+            ended_early = Some(format!(
+                "interrupted (Ctrl-C) after {}",
+                counted(i, "frame")
+            ));
+            break;
+        }
+        let recorded = match recorded {
+            Ok(recorded) => recorded,
+            Err(e @ RecordingError::Format { .. }) if i > 0 => {
+                ended_early = Some(format!(
+                    "{e}; the replay ends there, after {}",
+                    counted(i, "frame")
+                ));
+                break;
+            }
+            Err(e) => return Err(e.into()),
+        };
         let mut camera = Replay(Some(TimedFrame {
             t_s: recording.time_s(i),
             frame: recorded.frame,
@@ -308,6 +337,7 @@ pub fn dry_run(
         recording: recording.dir.display().to_string(),
         sites_um: sites_um(&sites.unwrap_or_default()),
         frames,
+        ended_early,
     })
 }
 

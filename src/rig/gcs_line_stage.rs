@@ -186,23 +186,42 @@ impl GcsLineStage {
 
     /// Moves every axis in a straight line to `target_m` at `speed_m_per_s`
     /// and returns once on target; refused before any byte when outside the
-    /// range, too fast, or after Ctrl-C. A move longer than the rig file's
-    /// largest step is made in equal pieces along the same line, each no
-    /// longer and each waited on (as `rig calibrate` moves): the E-727
-    /// templates' 10 um had stopped `assemble` at its first lifted travel.
+    /// range, too long a step, too fast, or after Ctrl-C.
     /// Targets within [`RANGE_ROUNDING_M`] outside the range are snapped onto it.
     pub fn move_to_m(&mut self, target_m: &[f64], speed_m_per_s: f64) -> Result<(), RigError> {
+        let target = self.snapped_in_range(target_m)?;
+        self.move_checked(&target, speed_m_per_s)
+            .map_err(|e| self.rig_error(e))
+    }
+
+    /// `target_m` snapped onto the range within its rounding, or why it is out of it.
+    fn snapped_in_range(&self, target_m: &[f64]) -> Result<Vec<f64>, RigError> {
         let target: Vec<f64> = target_m
             .iter()
             .zip(self.range.iter().chain(std::iter::repeat(&self.range[0])))
             .map(|(t, r)| snap_into_range(*t, r))
             .collect();
         self.check_in_range(&target)?;
+        Ok(target)
+    }
+
+    /// [`Self::move_to_m`], a move longer than the rig file's largest step
+    /// made in equal pieces along the same line, each no longer and each
+    /// waited on (as `rig calibrate` moves): the nanostage's, whose range
+    /// bounds every move (the E-727 templates' 10 um had stopped
+    /// `assemble` at its first lifted travel). Not the coarse stage's: a
+    /// coarse move beyond its largest step is a wild target, refused.
+    pub fn move_to_m_in_pieces(
+        &mut self,
+        target_m: &[f64],
+        speed_m_per_s: f64,
+    ) -> Result<(), RigError> {
+        // The whole move is checked first: no piece goes when its end is out of range.
+        let target = self.snapped_in_range(target_m)?;
         let from = self.position_m()?;
         let max_step_m = self.stage.settings().limits.max_step_m;
         for piece in pieces(&from, &target, max_step_m) {
-            self.move_checked(&piece, speed_m_per_s)
-                .map_err(|e| self.rig_error(e))?;
+            self.move_to_m(&piece, speed_m_per_s)?;
         }
         Ok(())
     }

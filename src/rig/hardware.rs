@@ -96,7 +96,7 @@ impl NanoStage for GcsNanoStage {
         check_in_range(target, &self.range)?;
         let n = self.axes();
         let stage = [target[0], target[1], self.z.stage_z(target[2])];
-        self.line.move_to_m(&stage[..n], speed_m_per_s)
+        self.line.move_to_m_in_pieces(&stage[..n], speed_m_per_s)
     }
 
     fn halt(&mut self) -> Result<(), RigError> {

@@ -33,7 +33,9 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     ctrlc::set_handler(move || {
         let first = *first_press.get_or_init(Instant::now);
         if !raised.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            eprintln!("Ctrl-C (or a termination signal): stopping (the stage is halted first)");
+            eprintln!(
+                "Ctrl-C (or a termination signal): stopping (a moving stage is halted first)"
+            );
         } else if first.elapsed() >= SECOND_PRESS_GRACE {
             eprintln!(
                 "Ctrl-C again: ending now, without waiting for the stop; check the stage by hand (the tip may be down)"

@@ -17,6 +17,7 @@ use super::frame_input::{
     load_frame, mat_to_frame, quietly,
 };
 use super::tiff_fallback;
+use super::tiff_stated_pages;
 
 /// TIFF pages decoded per read: OpenCV walks a stack from its first page on
 /// every read, so one page a read costs the square of the pages.
@@ -241,6 +242,7 @@ fn tiff_stack(path: &Path, channel: Channel) -> Result<Source, FrameInputError> 
             .unwrap_or(0)
     };
     if pages > 0 {
+        warn_if_stack_cut_short(path, pages);
         return Ok(Source::TiffPages {
             pages,
             decoded: VecDeque::new(),
@@ -252,10 +254,20 @@ fn tiff_stack(path: &Path, channel: Channel) -> Result<Source, FrameInputError> 
     })?;
     let frames = tiff_fallback::decode_pages(&bytes, channel, false)
         .map_err(|reason| decode_error(path, format!("cannot read the TIFF stack: {reason}")))?;
+    warn_if_stack_cut_short(path, frames.len());
     Ok(Source::Held {
         count: frames.len(),
         frames: frames.into(),
     })
+}
+
+/// Says so when the stack's own description counts more frames than it
+/// holds ([`tiff_stated_pages::cut_short`]): cut short, it had read as its
+/// first page alone, without a word.
+fn warn_if_stack_cut_short(path: &Path, read: usize) {
+    if let Some(said) = tiff_stated_pages::cut_short(path, read) {
+        tracing::warn!("{said}");
+    }
 }
 
 /// Decodes pages `start..` (up to [`TIFF_PAGES_PER_READ`] of the `pages`) into `decoded`.

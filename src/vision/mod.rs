@@ -30,5 +30,6 @@ pub mod ring_edge;
 pub mod roi;
 pub mod size_check;
 pub mod tiff_fallback;
+pub mod tiff_stated_pages;
 pub mod tip;
 pub mod wide_samples;

@@ -83,6 +83,11 @@ pub struct AssemblySettings {
     /// taken out of every move (`exec::drift`); None: not at all, every
     /// move goes where the calibration alone says.
     pub drift: Option<DriftSettings>,
+    /// Stop when a frame shows the apex where neither the stage nor the
+    /// drift put it ([`apex_doubt`]; default true). False on a hardware dry
+    /// run, where nothing moves: the apex stays put while the stage reports
+    /// its targets, and only the first frame tells of the calibration.
+    pub check_apex_each_frame: bool,
 }
 
 impl AssemblySettings {
@@ -132,6 +137,7 @@ impl Default for AssemblySettings {
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
             drift: Some(DriftSettings::default()),
+            check_apex_each_frame: true,
         }
     }
 }
@@ -148,6 +154,10 @@ pub enum ExecError {
     /// The rig failed in a way that is not a recoverable fault.
     #[error("rig: {0}")]
     Rig(#[from] RigError),
+    /// A frame shows the apex where neither the stage nor its drift put it
+    /// ([`apex_doubt`]): every move would go astray.
+    #[error("{0}")]
+    ApexAstray(String),
 }
 
 impl ExecError {
@@ -176,17 +186,40 @@ pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
 /// contact three times and stopped on "no collision-free order", naming no
 /// calibration.)
 pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
+    apex_doubt(sighting, [0.0, 0.0])
+}
+
+/// [`calibration_doubt`] of any frame of a run, `drift_m` (the tip's drift
+/// the run follows, as estimated so far) taken out: an apex farther than
+/// [`CALIBRATION_DOUBT_M`] from where the stage and the drift put it is no
+/// drift. (A rig file with x and y swapped passed the first frame, the
+/// stage starting where x = y, and the run pushed at mirrored places,
+/// taking 9.4 um of the difference for drift.)
+pub fn apex_doubt(sighting: &Sighting, drift_m: [f64; 2]) -> Option<String> {
     let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
     let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
-    let off = (tip[0] - sent[0]).hypot(tip[1] - sent[1]);
+    let expected = [0, 1].map(|i| sent[i] + drift_m[i]);
+    let off = (tip[0] - expected[0]).hypot(tip[1] - expected[1]);
+    let drift_said = if drift_m == [0.0, 0.0] {
+        String::new()
+    } else {
+        format!(
+            " and its drift so far ({:.2}, {:.2}) um",
+            drift_m[0] * 1e6,
+            drift_m[1] * 1e6
+        )
+    };
     (off > CALIBRATION_DOUBT_M).then(|| {
             format!(
-                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, or the camera, lens or probe moved since it was made); make it again (nanopush rig calibrate) before pushing",
+                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage{drift_said} \
+                 has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, \
+                 the rig file's stage axes or unit_um not the controller's, or the camera, lens or probe moved \
+                 since it was made); make it again (nanopush rig calibrate) before pushing",
                 tip[0] * 1e6,
                 tip[1] * 1e6,
                 off * 1e6,
-                sent[0] * 1e6,
-                sent[1] * 1e6
+                expected[0] * 1e6,
+                expected[1] * 1e6
             )
         })
 }
@@ -501,9 +534,6 @@ impl<'a> Assembly<'a> {
         // frame, the next frame shows the particles it hid: one never seen
         // would be an obstacle no plan knows of.
         self.observe(&[], None)?;
-        if let Some(why) = self.last_sighting.as_ref().and_then(calibration_doubt) {
-            return self.stop(RunEnd::Stopped(why));
-        }
         if self.probe_axis().is_some() {
             self.park_at_start()?;
         }
@@ -641,9 +671,14 @@ impl<'a> Assembly<'a> {
             self.journal
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
         }
+        // Judged before this frame's apex joins the drift estimate.
+        let astray = apex_doubt(&sighting, self.drift_at(sighting.t_s))
+            .filter(|_| self.settings.check_apex_each_frame || self.frames_seen == 0);
         self.tracker
             .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
-        self.follow_drift(&sighting, push);
+        if astray.is_none() {
+            self.follow_drift(&sighting, push);
+        }
         let tracks = self.tracks();
         self.journal.append(
             sighting.t_s,
@@ -671,7 +706,7 @@ impl<'a> Assembly<'a> {
         }
         self.last_sighting = Some(sighting);
         self.frames_seen += 1;
-        Ok(())
+        astray.map_or(Ok(()), |why| Err(ExecError::ApexAstray(why)))
     }
 
     /// Takes the frame's apex against where the stage was sent into the drift
@@ -709,9 +744,14 @@ impl<'a> Assembly<'a> {
 
     /// The drift to take out of a move made now (zero when not followed).
     fn drift_now(&self) -> [f64; 2] {
+        self.drift_at(self.rig.now_s())
+    }
+
+    /// The drift estimated at rig time `t_s` (zero when not followed).
+    fn drift_at(&self, t_s: f64) -> [f64; 2] {
         self.drift
             .as_ref()
-            .map_or([0.0, 0.0], |d| d.correction_at(self.rig.now_s()))
+            .map_or([0.0, 0.0], |d| d.correction_at(t_s))
     }
 
     /// True when the last frame showed this particle (a track outside the
