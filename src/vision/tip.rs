@@ -212,8 +212,9 @@ fn dark_region_lanes(
     best
 }
 
-/// Rough apex, angle, width and taper from the dark region.
-fn initial_guess(region: &[(usize, usize)], w: usize, h: usize) -> (f64, f64, f64, f64, f64) {
+/// Rough apex, angle, width and taper from the dark region, and its length
+/// from where it meets the frame's edge to its far point (the apex).
+fn initial_guess(region: &[(usize, usize)], w: usize, h: usize) -> (f64, f64, f64, f64, f64, f64) {
     let xy = |&(x, y): &(usize, usize)| (x as f64, y as f64);
     let on_border: Vec<(f64, f64)> = region
         .iter()
@@ -278,7 +279,7 @@ fn initial_guess(region: &[(usize, usize)], w: usize, h: usize) -> (f64, f64, f6
         .iter()
         .position(|&n| n >= 0.9 * width)
         .unwrap_or(width as usize) as f64;
-    (far.0, far.1, angle, width, taper.max(2.0))
+    (far.0, far.1, angle, width, taper.max(2.0), len)
 }
 
 fn silhouette_of(p: &SVector<f64, 8>) -> ProbeSilhouette {
@@ -436,13 +437,61 @@ fn edge_band(
     out
 }
 
+/// The largest fitted blur, as a fraction of the apex's length (the taper
+/// length or the dark region's length from where it meets the frame's edge
+/// to its far point, whichever is shorter), of a fit taken for a probe: a
+/// probe's apex is sharper than the blur, while dark dirt cut by the frame's
+/// edge, or a shaded corner, is a soft shape the fit can only match with a
+/// blur of about its own size. Measured (2026-11-30, the frames of
+/// `scripts/tip_false_study.py`, blurred at sigma 0-6 px): true tips 0.017
+/// to 0.15, 0.28 for an apex 20 px inside the frame's edge at sigma 3; the
+/// probe-free frames' false tips 0.45 and more, but for those of shading
+/// (opacity 0.00-0.10, see `MIN_OPACITY`) and one fit that left its dark
+/// region (0.22, see `MAX_APEX_SHIFT_PER_APEX_LENGTH`). An apex 20-30 px
+/// inside the edge at sigma 6 (0.42-0.78) is lost with them: 12-20 px of a
+/// probe under a 6 px blur is not told from a dirt blob.
+const MAX_BLUR_PER_APEX_LENGTH: f64 = 0.35;
+
+/// The least fitted opacity of a probe (the fraction of the light its body
+/// takes away): the renderer's probe fits 0.85, one of half its contrast
+/// 0.43, while the false tips of shading (vignetted corners of frames out
+/// of focus, synthetic and real, at sigma 3-6 px) fitted 0.00-0.10; of the
+/// false tips with a blur under `MAX_BLUR_PER_APEX_LENGTH`, only one
+/// fitted more (0.48), and its apex had left its dark region.
+const MIN_OPACITY: f64 = 0.3;
+
+/// The largest fitted opacity: more than all of the light (past noise)
+/// is no occluder. False tips on dirt, shaded or not, fitted 1.26-1.29.
+const MAX_OPACITY: f64 = 1.05;
+
+/// How far the fit may move the apex from the dark region's far point, as a
+/// fraction of the apex's length (as in `MAX_BLUR_PER_APEX_LENGTH`): the
+/// fit refines the apex of the region it started from. True tips moved
+/// 0.03-0.34 of it (the most at sigma 6 px); a false tip on two touching dirt
+/// blobs, 1.5, its apex 97 px out in the bright background.
+const MAX_APEX_SHIFT_PER_APEX_LENGTH: f64 = 1.0;
+
+/// Whether the fitted silhouette `p` is a probe's, not a soft dark shape's
+/// (dirt cut by the frame's edge, a shaded corner): an apex sharper than
+/// the blur, an occluder's opacity, and the apex where the dark region ends
+/// (`len`: the region's length from its edge base to `far`, its far point).
+/// No score cut does this: a half-contrast probe scores 0.975 and dirt up to
+/// 0.973.
+fn probe_like(p: &SVector<f64, 8>, len: f64, far: (f64, f64)) -> bool {
+    let apex_length = p[4].min(len);
+    let shift = (p[0] - far.0).hypot(p[1] - far.1);
+    p[7].abs() <= MAX_BLUR_PER_APEX_LENGTH * apex_length
+        && (MIN_OPACITY..=MAX_OPACITY).contains(&p[6])
+        && shift <= MAX_APEX_SHIFT_PER_APEX_LENGTH * apex_length
+}
+
 /// Finds the probe tip, or `None` when no probe silhouette is in view.
 pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection> {
     let (w, h) = (frame.width(), frame.height());
     let full = f64::from(frame.max_count());
     let median = background_median(frame);
     let region = dark_region(frame, settings, median)?;
-    let (ax, ay, angle, width, taper) = initial_guess(&region, w, h);
+    let (ax, ay, angle, width, taper, len) = initial_guess(&region, w, h);
     let inside: Vec<f64> = region.iter().map(|&(x, y)| frame.at(x, y) as f64).collect();
     let dark = inside.iter().sum::<f64>() / inside.len() as f64;
     let bg = median as f64;
@@ -515,6 +564,7 @@ pub fn detect_tip(frame: &Frame, settings: &TipSettings) -> Option<TipDetection>
     let in_frame = (0.0..=(w - 1) as f64).contains(&p[0]) && (0.0..=(h - 1) as f64).contains(&p[1]);
     if !(p.iter().all(|v| v.is_finite()) && p[3] > 1.0 && p[4] > 0.0 && in_frame)
         || score < settings.min_score
+        || !probe_like(&p, len, (ax, ay))
     {
         return None;
     }
