@@ -431,7 +431,14 @@ fn bad_recordings_are_refused_clearly_and_nothing_is_lost() {
     // Corrupt description, corrupt frame, stage log that does not match the frames.
     let fixture = root().join("fixtures/recordings/sim-L-seed6");
     type Damage<'a> = &'a dyn Fn(&Path);
-    let cases: [(&str, Damage, &str); 3] = [
+    let cases: [(&str, Damage, &str); 4] = [
+        (
+            // Named as a file of the recording, not answered with what a
+            // recording is.
+            "calibration",
+            &|r| std::fs::remove_file(r.join("calibration.toml")).unwrap(),
+            "calibration.toml: not found (named in the recording's recording.toml)",
+        ),
         (
             "description",
             &|r| std::fs::write(r.join("recording.toml"), "schema = [").unwrap(),

@@ -113,9 +113,7 @@ struct Header {
 #[derive(Debug, thiserror::Error)]
 pub enum RecordingError {
     /// The folder or a file it names does not exist.
-    #[error(
-        "recording {path}: not found (a recording is a folder with {RECORDING_FILE}; see docs/exec.md)"
-    )]
+    #[error("recording {path}: not found ({})", missing_hint(.path))]
     Missing { path: PathBuf },
     /// Reading or writing failed.
     #[error("recording {path}: {source}")]
@@ -130,6 +128,16 @@ pub enum RecordingError {
     /// The parts do not fit together (frame count vs stage log, no target).
     #[error("recording {path}: {message}")]
     Mismatch { path: PathBuf, message: String },
+}
+
+/// What to say of a missing `path`: the description itself, or a file it
+/// names (a missing calibration had been answered with what a recording is).
+fn missing_hint(path: &Path) -> String {
+    if path.file_name().is_some_and(|n| n == RECORDING_FILE) {
+        format!("a recording is a folder with {RECORDING_FILE}; see docs/exec.md")
+    } else {
+        format!("named in the recording's {RECORDING_FILE}")
+    }
 }
 
 /// A recording read back and checked.

@@ -81,7 +81,8 @@ impl<'r> RecordingFrames<'r> {
 
 /// What a stage log of `entries` lines said of `frames` frames.
 pub(super) fn entries_for_frames(entries: usize, frames: &str) -> String {
-    format!("{entries} stage-log entries for {frames} frames")
+    let noun = if frames == "1" { "frame" } else { "frames" };
+    format!("{entries} stage-log entries for {frames} {noun}")
 }
 
 impl Iterator for RecordingFrames<'_> {
