@@ -754,7 +754,8 @@ fn a_particle_radius_the_frames_do_not_measure_is_warned_of() {
 /// A recording whose last frame was cut short (a recorder that crashed
 /// mid-write) replays the frames before it and says where it ended, exit
 /// 0, as a video cut short does: the whole dry-run, its output folder
-/// with it, had been thrown away for the last file.
+/// with it, had been thrown away for the last file. A frame cut short
+/// mid-recording keeps the frames before it too, with a non-zero exit.
 #[test]
 fn a_frame_cut_short_ends_the_replay_and_keeps_the_frames_before() {
     let dir = tempfile::tempdir().unwrap();
@@ -774,6 +775,20 @@ fn a_frame_cut_short_ends_the_replay_and_keeps_the_frames_before() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("dry-run ended early"), "{stderr}");
     assert!(out.join("dry-run.mp4").is_file());
+    // Cut mid-recording, frames after it go unread: kept, but a failure.
+    let middle = rec.join("frames/bf_0025.png");
+    let bytes = std::fs::read(&middle).unwrap();
+    std::fs::write(&middle, &bytes[..bytes.len() / 2]).unwrap();
+    let out = dir.path().join("out-middle");
+    let o = dry_run(&rec, &out, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && stderr.contains("after 1 frame; 1 frame after it not analysed"),
+        "{stderr}"
+    );
+    let written: DryRunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("dry-run.json")).unwrap()).unwrap();
+    assert_eq!((written.frames.len(), written.unread_after), (1, 1));
 }
 
 /// Ctrl-C during a long dry-run keeps what was analysed (dry-run.json and

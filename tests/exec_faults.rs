@@ -291,6 +291,31 @@ fn a_stage_error_mid_push_halts_lifts_and_the_run_completes() {
     }
 }
 
+/// SIGHUP (a closed terminal) with the output's reader gone stops the run
+/// as Ctrl-C does: the handler's own line to the closed pipe had killed
+/// the process (SIGPIPE) mid-run, before the stop was journalled.
+#[test]
+fn a_hang_up_with_the_output_gone_stops_the_run_as_ctrl_c_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let out: PathBuf = dir.path().join("run");
+    let journal = out.join("journal.jsonl");
+    let mut child = spawn_run(&out);
+    drop(child.stderr.take());
+    wait_for_lines(&journal, 30);
+    let sent = Command::new("kill")
+        .args(["-HUP", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    child.wait().unwrap();
+    let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
+    assert!(
+        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason } if reason.contains("interrupted")),
+        "{:?}",
+        entries.last()
+    );
+}
+
 /// Ctrl-C mid-push leaves the tip down beside a particle, and the stop
 /// says so, with what to do (a user who moves x or y by hand drags it
 /// across the sample; it had said only "the stage was halted"); Ctrl-C
@@ -360,6 +385,30 @@ fn a_calibration_with_x_and_y_swapped_stops_the_run_at_its_first_move() {
     );
 }
 
+/// `nanopush assemble` of [`RUN`] into `out`, started: stdout dropped, stderr piped.
+fn spawn_run(out: &Path) -> std::process::Child {
+    binary()
+        .args(["assemble", "--out", out.to_str().unwrap()])
+        .args(RUN)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Waits (at most 120 s) until `journal` holds `n` complete lines: a run
+/// well under way.
+fn wait_for_lines(journal: &Path, n: usize) {
+    let started = Instant::now();
+    while complete_lines(journal).len() < n {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "the journal never reached {n} lines"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
 fn binary() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_nanopush"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
@@ -392,21 +441,8 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let out: PathBuf = dir.path().join("run");
     let journal = out.join("journal.jsonl");
-    let child = binary()
-        .args(["assemble", "--out", out.to_str().unwrap()])
-        .args(RUN)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let started = Instant::now();
-    while complete_lines(&journal).len() < 30 {
-        assert!(
-            started.elapsed() < Duration::from_secs(120),
-            "the journal never reached 30 lines"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    let child = spawn_run(&out);
+    wait_for_lines(&journal, 30);
     // Pressed twice in a panic: the second press had ended the program at
     // once, with no report (and on a rig before the stage was halted).
     for _ in 0..2 {

@@ -157,7 +157,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     match &report.ended_early {
-        Some(why) if interrupt.load(Ordering::SeqCst) => {
+        Some(why) if interrupt.load(Ordering::SeqCst) || report.unread_after > 0 => {
             bail!(
                 "dry-run {why}: what was analysed is in {}",
                 report_path.display()

@@ -114,6 +114,15 @@ pub struct DryRunReport {
     /// leaves its last frame cut short). The frames before are kept.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ended_early: Option<String>,
+    /// Frames after an unreadable one the replay did not reach (0 when it
+    /// was the last): a damaged frame mid-recording is a failed dry-run,
+    /// not a finished one.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unread_after: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Why a dry-run could not be made.
@@ -181,7 +190,10 @@ pub fn dry_run(
     let mut calibration_checked = false;
     let mut loop_stopped: Option<String> = None;
     let mut ended_early = None;
-    for (i, recorded) in recording.frames()?.enumerate() {
+    let mut unread_after = 0;
+    let frames_in = recording.frames()?;
+    let exact_len = frames_in.exact_len();
+    for (i, recorded) in frames_in.enumerate() {
         if interrupt.load(Ordering::SeqCst) {
             ended_early = Some(format!(
                 "interrupted (Ctrl-C) after {}",
@@ -192,8 +204,14 @@ pub fn dry_run(
         let recorded = match recorded {
             Ok(recorded) => recorded,
             Err(e @ RecordingError::Format { .. }) if i > 0 => {
+                unread_after = exact_len.map_or(0, |n| n.saturating_sub(i + 1));
+                let rest = if unread_after > 0 {
+                    format!("; {} after it not analysed", counted(unread_after, "frame"))
+                } else {
+                    String::new()
+                };
                 ended_early = Some(format!(
-                    "{e}; the replay ends there, after {}",
+                    "{e}; the replay ends there, after {}{rest}",
                     counted(i, "frame")
                 ));
                 break;
@@ -338,6 +356,7 @@ pub fn dry_run(
         sites_um: sites_um(&sites.unwrap_or_default()),
         frames,
         ended_early,
+        unread_after,
     })
 }
 

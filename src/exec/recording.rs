@@ -305,6 +305,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
             Some(log)
         }
     };
+    let said_rate = stream.frame_interval_s().is_some();
+    if let Some(note) = frame_times_note(stage_log.is_some(), spec.frame_interval_s, said_rate) {
+        tracing::warn!("recording {}: {note}", spec_path.display());
+    }
     Ok(Recording {
         dir: dir.to_owned(),
         spec,
@@ -313,6 +317,28 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         frame_interval_s,
         stage_log,
     })
+}
+
+/// What to say of where the frames' times come from, when a user would not
+/// guess it (the model's advice depends on the session's time): a default
+/// of 1 s a frame had been taken without a word, and a `frame_interval_s`
+/// beside a stage log ignored.
+fn frame_times_note(
+    has_stage_log: bool,
+    frame_interval_s: Option<f64>,
+    frames_say_rate: bool,
+) -> Option<String> {
+    match (has_stage_log, frame_interval_s, frames_say_rate) {
+        (true, Some(dt), _) => Some(format!(
+            "frame_interval_s = {dt} is not used: the stage log's times are"
+        )),
+        (false, None, false) => Some(
+            "frames are taken 1 s apart (no stage log, no frame_interval_s, no frame rate in the frames): \
+             set frame_interval_s if they were not"
+                .to_owned(),
+        ),
+        _ => None,
+    }
 }
 
 /// Reads a stage log; entries must be numbered 0, 1, 2, ... with times that do not go back.
@@ -545,6 +571,31 @@ fn numbering_gap(files: &[std::path::PathBuf]) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn frame_times_from_a_default_or_beside_a_stage_log_are_said() {
+        let default = frame_times_note(false, None, false).expect("1 s assumed");
+        assert!(
+            default.starts_with("frames are taken 1 s apart"),
+            "{default}"
+        );
+        let ignored = frame_times_note(true, Some(0.5), false).expect("not used");
+        assert!(
+            ignored.starts_with("frame_interval_s = 0.5 is not used"),
+            "{ignored}"
+        );
+        for quiet in [
+            (true, None, false),
+            (false, Some(0.5), false),
+            (false, None, true),
+        ] {
+            assert_eq!(
+                frame_times_note(quiet.0, quiet.1, quiet.2),
+                None,
+                "{quiet:?}"
+            );
+        }
+    }
 
     #[test]
     fn a_break_in_the_frames_numbers_is_named() {

@@ -10,6 +10,7 @@
 //! ended it before the stage was sent `HLT`, the push running on with the
 //! tip down, and without a report.
 
+use std::io::Write;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
@@ -30,22 +31,20 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     let flag = Arc::new(AtomicBool::new(false));
     let raised = Arc::clone(&flag);
     let first_press: OnceLock<Instant> = OnceLock::new();
+    // The handler writes nothing until it ends the program: with SIGPIPE
+    // at its default (cli/mod.rs), a line to a closed pipe (`| tee` of a
+    // closed terminal, on SIGHUP) had killed the run mid-push before it
+    // could halt the stage; the run's own stop says it was interrupted.
     ctrlc::set_handler(move || {
         let first = *first_press.get_or_init(Instant::now);
-        if !raised.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            eprintln!(
-                "Ctrl-C (or a termination signal): stopping (a moving stage is halted first)"
-            );
-        } else if first.elapsed() >= SECOND_PRESS_GRACE {
-            eprintln!(
+        if raised.swap(true, std::sync::atomic::Ordering::SeqCst)
+            && first.elapsed() >= SECOND_PRESS_GRACE
+        {
+            let _ = writeln!(
+                std::io::stderr(),
                 "Ctrl-C again: ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
             );
             std::process::exit(130);
-        } else {
-            eprintln!(
-                "Ctrl-C: already stopping; press again after {} s to end at once",
-                SECOND_PRESS_GRACE.as_secs()
-            );
         }
     })?;
     Ok(Arc::clone(FLAG.get_or_init(|| flag)))
