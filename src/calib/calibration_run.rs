@@ -83,6 +83,22 @@ pub enum CalibrationRunError {
     /// The stage or the camera failed.
     #[error(transparent)]
     Rig(#[from] RigError),
+    /// The stage starts outside its range (the rig file's soft limits
+    /// within the controller's travel), where the run could not put it back.
+    #[error(
+        "the stage starts at {axis} = {at_um:.3} um, outside the rig file's limits {min_um:.3}..{max_um:.3} um: \
+         the calibration ends by putting the stage back where it started; move it inside first (nothing was moved)"
+    )]
+    StartOutOfRange {
+        /// The axis outside.
+        axis: char,
+        /// Where it is, micrometres.
+        at_um: f64,
+        /// Its range, micrometres.
+        min_um: f64,
+        /// Its range, micrometres.
+        max_um: f64,
+    },
     /// The camera gave no frame.
     #[error("no frame from the camera in {0} tries")]
     NoFrame(usize),
@@ -168,6 +184,17 @@ pub fn run_calibration<R: NanoStage + Camera>(
     settings.check()?;
     let start = rig.position()?;
     let range = rig.range();
+    // The run ends by putting the stage back where it started: a start
+    // outside the limits had run the whole grid, then failed to go back
+    // and written no calibration.
+    if let Some(axis) = (0..3).find(|&i| !(range[i].min_m..=range[i].max_m).contains(&start[i])) {
+        return Err(CalibrationRunError::StartOutOfRange {
+            axis: ['x', 'y', 'z'][axis],
+            at_um: start[axis] * 1e6,
+            min_um: range[axis].min_m * 1e6,
+            max_um: range[axis].max_m * 1e6,
+        });
+    }
     let has_z = range[2].max_m > range[2].min_m;
     let travel_z = match settings.travel_z_m {
         Some(z) if !(z >= range[2].min_m && z <= range[2].max_m) => {
@@ -385,6 +412,7 @@ mod tests {
     use crate::rig::sim::model_physics::ModelPhysics;
     use crate::rig::sim::rig::{SimCameraConfig, SimRig};
     use crate::rig::sim::stage::{SimStage, SimStageConfig};
+    use crate::rig::stage::AxisRange;
 
     /// A simulated rig whose camera is turned 7 degrees and mirrored in y
     /// against the stage, 0.4 um a pixel, with a few particles in view.
@@ -419,6 +447,50 @@ mod tests {
         rig.move_to([50e-6, 50e-6, top], 1e-4).unwrap();
         let start = rig.position().unwrap();
         (rig, start)
+    }
+
+    /// A rig whose z range ends below where the stage is (a stage left at
+    /// the top of its travel, soft limits 1 um under it).
+    struct Narrowed(SimRig);
+
+    impl NanoStage for Narrowed {
+        fn range(&self) -> [AxisRange; 3] {
+            let mut r = self.0.range();
+            r[2].max_m -= 1e-6;
+            r
+        }
+        fn position(&mut self) -> Result<StageXyz, RigError> {
+            self.0.position()
+        }
+        fn move_to(&mut self, target: StageXyz, speed_m_per_s: f64) -> Result<(), RigError> {
+            self.0.move_to(target, speed_m_per_s)
+        }
+        fn halt(&mut self) -> Result<(), RigError> {
+            self.0.halt()
+        }
+    }
+
+    impl Camera for Narrowed {
+        fn grab(&mut self) -> Result<Option<crate::rig::camera::TimedFrame>, RigError> {
+            self.0.grab()
+        }
+    }
+
+    #[test]
+    fn a_stage_starting_outside_its_limits_is_refused_before_any_move() {
+        let (rig, start) = rig_at_middle(&truth());
+        let mut rig = Narrowed(rig);
+        let mut shots = 0;
+        let err = run_calibration(&mut rig, &CalibrationRunSettings::default(), &mut |_| {
+            shots += 1;
+            Ok(())
+        })
+        .unwrap_err();
+        assert!(
+            matches!(err, CalibrationRunError::StartOutOfRange { axis: 'z', .. }),
+            "{err}"
+        );
+        assert_eq!((shots, rig.position().unwrap()), (0, start));
     }
 
     fn truth() -> CameraCalibration {
