@@ -267,9 +267,10 @@ fn fitted_to_rig(
             );
         }
     }
-    let top_m_per_s = rig.rig_file().safety.top_speed_um_s * 1e-6;
+    let limits = rig.rig_file().safety_limits();
+    let top_m_per_s = limits.max_speed_m_per_s;
     let push_m_per_s = scene.push.speed_m_per_s;
-    if push_m_per_s > top_m_per_s * (1.0 + 1e-12) {
+    if limits.check_speed(push_m_per_s).is_err() {
         bail!(
             "the scene pushes at {:.3} um/s, faster than the rig file's top_speed_um_s {:.3}: \
              slow the scene's push (speed_um_s) or allow the stage more",
