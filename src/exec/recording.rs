@@ -270,10 +270,7 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         message: e.to_string(),
     };
     let mut stream = FrameStream::open(&frames_path, spec.channel).map_err(frames_error)?;
-    let exact_frames = stream
-        .len_is_exact()
-        .then_some(stream.stated_len())
-        .flatten();
+    let exact_frames = stream.exact_len();
     let frame_interval_s = spec
         .frame_interval_s
         .or_else(|| stream.frame_interval_s())

@@ -31,10 +31,7 @@ impl<'r> RecordingFrames<'r> {
     /// How many frames the recording holds, when its source says exactly
     /// (a folder, a stack; not a video's container).
     pub fn exact_len(&self) -> Option<usize> {
-        self.stream
-            .len_is_exact()
-            .then(|| self.stream.stated_len())
-            .flatten()
+        self.stream.exact_len()
     }
 
     fn mismatch(&self, message: String) -> RecordingError {

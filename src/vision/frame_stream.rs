@@ -119,6 +119,11 @@ impl FrameStream {
         }
     }
 
+    /// [`Self::stated_len`] when it is a count, not a container's estimate.
+    pub fn exact_len(&self) -> Option<usize> {
+        self.len_is_exact().then(|| self.stated_len()).flatten()
+    }
+
     /// True when [`Self::stated_len`] is a count, not a container's estimate.
     pub fn len_is_exact(&self) -> bool {
         !matches!(self.source, Source::Video { .. })
