@@ -12,7 +12,7 @@
 use super::camera_map::CameraCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::error::RigError;
-use crate::rig::stage::{NanoStage, StageXyz};
+use crate::rig::stage::NanoStage;
 use crate::vision::analyse::prepare_frame;
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -215,20 +215,17 @@ pub fn run_calibration<R: NanoStage + Camera>(
         Ok(())
     };
     let outcome = (|| -> Result<(), CalibrationRunError> {
-        move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)?;
+        rig.move_to([start[0], start[1], travel_z], settings.speed_m_per_s)?;
         let (rough, view) = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut keep)?;
         for target in grid_targets(&rough, view, settings, &range) {
-            move_in_steps(
-                rig,
-                [target[0], target[1], travel_z],
-                settings.speed_m_per_s,
-            )?;
+            rig.move_to([target[0], target[1], travel_z], settings.speed_m_per_s)?;
             keep(take_shot(rig, settings)?)?;
         }
         Ok(())
     })();
-    let back = move_in_steps(rig, [start[0], start[1], travel_z], settings.speed_m_per_s)
-        .and_then(|()| move_in_steps(rig, start, settings.speed_m_per_s));
+    let back = rig
+        .move_to([start[0], start[1], travel_z], settings.speed_m_per_s)
+        .and_then(|()| rig.move_to(start, settings.speed_m_per_s));
     outcome?;
     back?;
     Ok(shots)
@@ -314,7 +311,7 @@ fn rough_map<R: NanoStage + Camera>(
         };
         let mut target = [start[0], start[1], z];
         target[axis] += signed;
-        move_in_steps(rig, target, settings.speed_m_per_s)?;
+        rig.move_to(target, settings.speed_m_per_s)?;
         let shot = take_shot(rig, settings)?;
         let apex = shot.apex_px.ok_or(CalibrationRunError::TipLost {
             axis: name,
@@ -380,28 +377,6 @@ fn grid_targets(
     out
 }
 
-/// Moves to `target`, in pieces when the rig refuses the move as one step
-/// longer than its largest ([`RigError::StepTooLarge`]).
-fn move_in_steps<R: NanoStage>(
-    rig: &mut R,
-    target: StageXyz,
-    speed_m_per_s: f64,
-) -> Result<(), RigError> {
-    match rig.move_to(target, speed_m_per_s) {
-        Err(RigError::StepTooLarge { step_um, max_um }) if max_um > 0.0 => {
-            let from = rig.position()?;
-            let pieces = (step_um / (0.9 * max_um)).ceil().max(2.0) as usize;
-            for k in 1..=pieces {
-                let t = k as f64 / pieces as f64;
-                let at: StageXyz = std::array::from_fn(|a| from[a] + t * (target[a] - from[a]));
-                rig.move_to(at, speed_m_per_s)?;
-            }
-            Ok(())
-        }
-        other => other,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -412,7 +387,7 @@ mod tests {
     use crate::rig::sim::model_physics::ModelPhysics;
     use crate::rig::sim::rig::{SimCameraConfig, SimRig};
     use crate::rig::sim::stage::{SimStage, SimStageConfig};
-    use crate::rig::stage::AxisRange;
+    use crate::rig::stage::{AxisRange, StageXyz};
 
     /// A simulated rig whose camera is turned 7 degrees and mirrored in y
     /// against the stage, 0.4 um a pixel, with a few particles in view.
