@@ -136,6 +136,56 @@ fn cmu_plans_never_collide_and_refusals_state_a_reason() {
     }
 }
 
+/// A stage that moves at most 10 um at once (the E-727 templates) gets
+/// pushes of at most what its stroke leaves (about 8.5 um): a longer push
+/// is cut into pieces by the stage and ends short. Cut pushes are
+/// collinear, so the push distance stays what it was.
+#[test]
+fn pushes_are_no_longer_than_the_stage_step_allows() {
+    let longest = 8.5e-6;
+    let capped = PlanConfig {
+        max_push_m: Some(longest),
+        ..PlanConfig::default()
+    };
+    let free = PlanConfig::default();
+    for seed in 0..10 {
+        let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed);
+        let plan = plan_assembly(&layout, &sites, &capped)
+            .unwrap_or_else(|e| panic!("seed {seed}: refused: {e}"));
+        let rep = verify_plan(&plan, &layout, &capped);
+        assert!(rep.ok, "seed {seed}: {}", rep.summary());
+        let pushes: Vec<f64> = plan
+            .steps
+            .iter()
+            .filter_map(|s| s.push_move())
+            .map(|(_, from, to)| (to - from).norm())
+            .collect();
+        let worst = pushes.iter().copied().fold(0.0, f64::max);
+        assert!(
+            worst <= longest * (1.0 + 1e-9),
+            "seed {seed}: a push of {:.3} um",
+            worst * 1e6
+        );
+        let uncapped = plan_assembly(&layout, &sites, &free).unwrap();
+        let (n_free, n_capped) = (
+            uncapped.steps.iter().filter_map(|s| s.push_move()).count(),
+            pushes.len(),
+        );
+        let push_ratio = |p: &nanopush::plan::Plan| p.summary.push_distance_m / p.summary.lb_push_m;
+        eprintln!(
+            "seed {seed}: {n_capped} pushes (uncapped {n_free}), push ratio {:.3} (uncapped {:.3})",
+            push_ratio(&plan),
+            push_ratio(&uncapped)
+        );
+        assert!(n_capped > n_free, "seed {seed}: no push was cut");
+        assert!(
+            push_ratio(&plan) <= 1.05,
+            "seed {seed}: push ratio {:.3}",
+            push_ratio(&plan)
+        );
+    }
+}
+
 /// A dense core plans only with the tip landing nearer (CMU adversarial
 /// seed 0): refused when the standoff may not shrink, the locked particles
 /// named; planned at half the standoff otherwise, and the plan file keeps

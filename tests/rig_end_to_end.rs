@@ -708,18 +708,39 @@ fn a_rig_with_the_templates_short_step_and_top_speed_assembles() {
     let report = json(&out);
     assert_eq!(report["filled"], report["sites"], "{report}");
     assert_eq!(report["outcome"], "done", "{report}");
-    let slow = templated.replace("top_speed_um_s = 20.0", "top_speed_um_s = 0.5");
-    std::fs::write(&b.rig_path, slow).unwrap();
-    let refused = finish(b.assemble("slow", &[]), RUN_LIMIT);
-    let stderr = String::from_utf8_lossy(&refused.stderr);
-    assert!(
-        !refused.status.success()
-            && stderr.contains(
-                "the scene pushes at 1.000 um/s, faster than the rig file's top_speed_um_s 0.500"
-            ),
-        "{stderr}"
+    // Pushes fit one 10 um move: cut into pieces by the stage, they had
+    // stopped mid-push and ended short (L: 10 pushes, 2 re-pushes).
+    eprintln!(
+        "10 um step: {} pushes, {} re-pushes",
+        report["pushes"], report["repushes"]
     );
-    assert!(!b.moving());
+    assert_eq!(report["repushes"], 0, "{report}");
+    assert_eq!(report["lost_contacts_detected"], 0, "{report}");
+    // Refused before anything moves, saying why.
+    let refused_with = |name: &str, rig: String, why: &[&str]| {
+        std::fs::write(&b.rig_path, rig).unwrap();
+        let refused = finish(b.assemble(name, &[]), RUN_LIMIT);
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            !refused.status.success() && why.iter().all(|w| stderr.contains(w)),
+            "{stderr}"
+        );
+        assert!(!b.moving());
+    };
+    refused_with(
+        "slow",
+        templated.replace("top_speed_um_s = 20.0", "top_speed_um_s = 0.5"),
+        &["the scene pushes at 1.000 um/s, faster than the rig file's top_speed_um_s 0.500"],
+    );
+    // A step that holds no useful push, naming the step it needs.
+    refused_with(
+        "tiny",
+        templated.replace("max_step_um = 10.0", "max_step_um = 1.5"),
+        &[
+            "a push must fit one stage move of at most 1.500 um",
+            "raise max_step_um to at least",
+        ],
+    );
 }
 
 #[test]

@@ -38,6 +38,7 @@ use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
+use crate::exec::push_reach::longest_push_m;
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
 use crate::model::Scene;
@@ -241,6 +242,10 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
 /// lift the tip clear of the scene's particles (a z_surface_um at the top
 /// of the travel, or 10 um below it, had the tip travel sideways at 0 or
 /// 5 um, among 10 um particles, before a push was refused as out of range).
+/// Pushes are planned no longer than one nanostage move holds
+/// ([`longest_push_m`]): the E-727 templates' 10 um step had cut pushes
+/// into pieces, the particle sticking at every stop and ending short
+/// (L: 10 pushes and 2 re-pushes where a 150 um step took 8 and none).
 fn fitted_to_rig(
     mut settings: AssemblySettings,
     rig: &mut HardwareRig,
@@ -279,6 +284,10 @@ fn fitted_to_rig(
         );
     }
     settings.travel_speed_m_per_s = settings.travel_speed_m_per_s.min(top_m_per_s);
+    settings.longest_push_m = Some(
+        longest_push_m(limits.max_step_m, scene, settings.stroke_allowance())
+            .map_err(anyhow::Error::msg)?,
+    );
     Ok(settings)
 }
 

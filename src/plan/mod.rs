@@ -71,6 +71,11 @@ pub struct PlanConfig {
     pub travel_speed_m_per_s: f64,
     /// Nanostage XY range (default 100 um); larger work areas get coarse-stage windows.
     pub nanostage_range_m: f64,
+    /// Longest single push (None: as long as the nanostage range allows).
+    /// A stage that moves at most so far at once (a rig file's
+    /// `max_step_um`) cuts a longer stroke into pieces and stops between
+    /// them; the particle sticks again at every stop and ends short.
+    pub max_push_m: Option<f64>,
     /// A particle within this distance of a site counts as already on it (default 0.25 um).
     pub on_site_tolerance_m: f64,
     /// Assignment method (default `Fast`: exact on small instances, the
@@ -104,6 +109,7 @@ impl Default for PlanConfig {
             push_speed_m_per_s: 1e-6,
             travel_speed_m_per_s: 10e-6,
             nanostage_range_m: 100e-6,
+            max_push_m: None,
             on_site_tolerance_m: DEFAULT_ON_SITE_TOLERANCE_M,
             method: AssignmentMethod::Fast,
             tip_start_m: None,
@@ -371,6 +377,19 @@ impl PlanConfig {
             return Err(PlanError::Config(format!(
                 "site_radius_um is {} (must be finite and > 0)",
                 r * 1e6
+            )));
+        }
+        // Shorter pushes would cut a move across the range into more than
+        // a thousand.
+        let shortest_m = self.nanostage_range_m / 1000.0;
+        if let Some(m) = self
+            .max_push_m
+            .filter(|m| !(m.is_finite() && *m >= shortest_m))
+        {
+            return Err(PlanError::Config(format!(
+                "max_push_um is {} (must be at least {} um, a thousandth of the nanostage range)",
+                m * 1e6,
+                shortest_m * 1e6
             )));
         }
         if self.search_effort == 0 {
@@ -1008,6 +1027,22 @@ mod tests {
         for r_um in [50.1, 1e9] {
             let e = with_tip(r_um).validate().unwrap_err().to_string();
             assert!(e.contains("at most half the nanostage range, 50 um"), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_push_limit_under_a_thousandth_of_the_range_is_refused() {
+        let with_limit = |m_um: f64| PlanConfig {
+            max_push_m: Some(m_um * 1e-6),
+            ..PlanConfig::default()
+        };
+        assert!(with_limit(0.101).validate().is_ok());
+        for m_um in [0.099, 0.0, -5.0, f64::NAN] {
+            let e = with_limit(m_um).validate().unwrap_err().to_string();
+            assert!(
+                e.contains("max_push_um is") && e.contains("at least 0.1 um"),
+                "{e}"
+            );
         }
     }
 

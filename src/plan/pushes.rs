@@ -172,10 +172,13 @@ pub fn split_long(
         .collect()
 }
 
-/// Longest single push that fits the nanostage range with its approach.
+/// Longest single push: one that fits the nanostage range with its
+/// approach, and no longer than `config.max_push_m`.
 pub fn max_push_len(radius_m: f64, config: &PlanConfig) -> f64 {
-    (config.nanostage_range_m - 2.0 * (radius_m + config.tip_radius_m + config.standoff_m))
-        .max(config.nanostage_range_m / 4.0)
+    let in_range = (config.nanostage_range_m
+        - 2.0 * (radius_m + config.tip_radius_m + config.standoff_m))
+        .max(config.nanostage_range_m / 4.0);
+    config.max_push_m.map_or(in_range, |m| in_range.min(m))
 }
 
 /// Inserts lifted tip travel before every push (from the previous push's end,

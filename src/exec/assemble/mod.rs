@@ -22,6 +22,7 @@ use super::events::{RunEvent, RunSpec, SeenParticle};
 use super::journal::{JournalError, JournalWriter};
 use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
+use super::push_reach::StrokeAllowance;
 use super::tracker::{Moved, Track, Tracker};
 use crate::calib::camera_map::CameraCalibration;
 use crate::model::Scene;
@@ -88,6 +89,11 @@ pub struct AssemblySettings {
     /// run, where nothing moves: the apex stays put while the stage reports
     /// its targets, and only the first frame tells of the calibration.
     pub check_apex_each_frame: bool,
+    /// Longest push the plans may ask for (None: as the nanostage range
+    /// allows): on a stage whose moves are at most `max_step_um` long, the
+    /// push whose stroke fits one move
+    /// ([`longest_push_m`](super::push_reach::longest_push_m)).
+    pub longest_push_m: Option<f64>,
 }
 
 impl AssemblySettings {
@@ -108,6 +114,15 @@ impl AssemblySettings {
         }
     }
 
+    /// What a push's stroke adds to the particle's travel besides the
+    /// cantilever's lag: the clearance, and the shift of a kept plan.
+    pub fn stroke_allowance(&self) -> StrokeAllowance {
+        StrokeAllowance {
+            clearance_m: self.clearance_m,
+            kept_plan_shift_m: self.keep_plan_shift_m,
+        }
+    }
+
     /// The planner's settings for a run: the scene's pushing speed, the
     /// executor's travel speed and placement tolerance (so the plan that
     /// places the pattern and the loop's plans agree on what is placed and
@@ -117,6 +132,7 @@ impl AssemblySettings {
             push_speed_m_per_s: scene.push.speed_m_per_s,
             travel_speed_m_per_s: self.travel_speed_m_per_s,
             on_site_tolerance_m: self.placed_tolerance_m,
+            max_push_m: self.longest_push_m,
             ..PlanConfig::default()
         }
     }
@@ -138,6 +154,7 @@ impl Default for AssemblySettings {
             keep_plan_shift_m: 0.5e-6,
             drift: Some(DriftSettings::default()),
             check_apex_each_frame: true,
+            longest_push_m: None,
         }
     }
 }
