@@ -75,6 +75,14 @@ pub struct Sighting {
 }
 
 impl Sighting {
+    /// Where the frame shows the apex less where the stage was sent (the
+    /// coarse offset included), metres: the drift, plus the calibration's
+    /// error; None without an apex or a stage position.
+    pub fn apex_offset_m(&self) -> Option<[f64; 2]> {
+        let (tip, stage) = (self.tip_m?, self.stage_m?);
+        Some([0, 1].map(|i| tip[i] - stage[i] - self.coarse_offset_m[i]))
+    }
+
     /// The median radius of the detections left out for their size, metres.
     pub fn off_size_median_radius_m(&self) -> Option<f64> {
         upper_median(&mut self.off_size.iter().map(|o| o.radius_m).collect::<Vec<_>>())

@@ -33,11 +33,13 @@ use crate::rig::stage::StageXyz;
 use crate::rig::{Rig, RigError};
 use std::collections::HashMap;
 
+mod apex_doubt;
 mod left_short;
 mod planning;
 mod pushing;
 mod stage_moves;
 
+pub use apex_doubt::{CALIBRATION_DOUBT_M, apex_doubt, apex_doubt_unfollowed, calibration_doubt};
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
 pub use pushing::{LIFT_ABOVE_PARTICLES_M, decide_push, scene_for_push};
@@ -187,58 +189,6 @@ impl ExecError {
                 | ExecError::Observe(ObserveError::Rig(RigError::Interrupted))
         )
     }
-}
-
-/// Farthest the first frame's apex may lie from where the stage has it
-/// before the run stops for the calibration. The calibration maps the apex
-/// onto the stage's position (RMS 0.2 px on the simulated rig); drift of a
-/// few nm/s since it was made adds a few um an hour; a map of another
-/// camera or a turned one puts the apex tens of um off.
-pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
-
-/// Why `sighting` says the calibration is not this rig's (see
-/// [`CALIBRATION_DOUBT_M`]): the loop stops on it at its first frame, and
-/// the dry-run says the loop would. (Another camera's map, 0.30 um/px
-/// turned 90 deg, put the apex 17 um off; the run pushed three times, lost
-/// contact three times and stopped on "no collision-free order", naming no
-/// calibration.)
-pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
-    apex_doubt(sighting, [0.0, 0.0])
-}
-
-/// [`calibration_doubt`] of any frame of a run, `drift_m` (the tip's drift
-/// the run follows, as estimated so far) taken out: an apex farther than
-/// [`CALIBRATION_DOUBT_M`] from where the stage and the drift put it is no
-/// drift. (A rig file with x and y swapped passed the first frame, the
-/// stage starting where x = y, and the run pushed at mirrored places,
-/// taking 9.4 um of the difference for drift.)
-pub fn apex_doubt(sighting: &Sighting, drift_m: [f64; 2]) -> Option<String> {
-    let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
-    let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
-    let expected = [0, 1].map(|i| sent[i] + drift_m[i]);
-    let off = (tip[0] - expected[0]).hypot(tip[1] - expected[1]);
-    let drift_said = if drift_m == [0.0, 0.0] {
-        String::new()
-    } else {
-        format!(
-            " and its drift so far ({:.2}, {:.2}) um",
-            drift_m[0] * 1e6,
-            drift_m[1] * 1e6
-        )
-    };
-    (off > CALIBRATION_DOUBT_M).then(|| {
-            format!(
-                "the camera sees the probe's apex at ({:.2}, {:.2}) um, {:.1} um from where the stage{drift_said} \
-                 has it ({:.2}, {:.2}) um: the calibration does not fit this camera and stage (another rig's, \
-                 the rig file's stage axes or unit_um not the controller's, or the camera, lens or probe moved \
-                 since it was made); make it again (nanopush rig calibrate) before pushing",
-                tip[0] * 1e6,
-                tip[1] * 1e6,
-                off * 1e6,
-                expected[0] * 1e6,
-                expected[1] * 1e6
-            )
-        })
 }
 
 /// How a run ended.
@@ -689,8 +639,11 @@ impl<'a> Assembly<'a> {
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
         }
         // Judged before this frame's apex joins the drift estimate.
-        let astray = apex_doubt(&sighting, self.drift_at(sighting.t_s))
-            .filter(|_| self.settings.check_apex_each_frame || self.frames_seen == 0);
+        let astray = match self.drift {
+            Some(_) => apex_doubt(&sighting, self.drift_at(sighting.t_s)),
+            None => apex_doubt_unfollowed(&sighting, self.last_sighting.as_ref()),
+        }
+        .filter(|_| self.settings.check_apex_each_frame || self.frames_seen == 0);
         self.tracker
             .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
         if astray.is_none() {
@@ -735,12 +688,9 @@ impl<'a> Assembly<'a> {
     /// particle under the probe is not tracked (the frame drops detections
     /// the probe's outline cuts).
     fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
-        let (Some(drift), Some(_), Some(tip), Some(stage)) = (
-            self.drift.as_mut(),
-            self.first_plan_ids,
-            sighting.tip_m,
-            sighting.stage_m,
-        ) else {
+        let (Some(drift), Some(_), Some(tip)) =
+            (self.drift.as_mut(), self.first_plan_ids, sighting.tip_m)
+        else {
             return;
         };
         let tracked = self
@@ -752,9 +702,8 @@ impl<'a> Assembly<'a> {
         let clear = tracked.chain(pushed).all(|(centre, radius)| {
             (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
         });
-        if clear {
-            let sent = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i]);
-            let update = drift.add(sighting.t_s, [0, 1].map(|i| tip[i] - sent[i]));
+        if let (true, Some(offset)) = (clear, sighting.apex_offset_m()) {
+            let update = drift.add(sighting.t_s, offset);
             tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
         }
     }
