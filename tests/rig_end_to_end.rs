@@ -664,6 +664,36 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
     }
 }
 
+/// A dry run reads no position from the controller: its in-process stage
+/// starts at the centre of the travel wherever the real one is. With the
+/// real stage 20 um off, it had stopped blaming the calibration; it warns
+/// that it cannot check it, and makes its push on paper.
+#[test]
+fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
+    let b = bench(50.0);
+    let start = b.positions_um();
+    let elsewhere = format!("MOV 1 {} 2 {}", start[0] + 20.0, start[1] + 10.0);
+    for line in ["SVO 1 1 2 1 3 1", &elsewhere] {
+        b.server.handle().with(|c, now| c.handle_line(line, now));
+    }
+    let settled = Instant::now();
+    while b.moving() {
+        assert!(settled.elapsed() < Duration::from_secs(20), "never settled");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let before = b.positions_um();
+    assert!((before[0] - start[0] - 20.0).abs() < 0.1, "{before:?}");
+    let out = finish(b.assemble("dry", &["--dry-run"]), RUN_LIMIT);
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("the dry run cannot check the calibration")
+            && stderr.contains("22.4 um from where"),
+        "{stderr}"
+    );
+    assert_eq!(b.positions_um(), before, "the simulator moved");
+}
+
 #[test]
 fn a_rig_run_builds_the_pattern_where_asked() {
     let b = bench(50.0);

@@ -32,7 +32,7 @@ use super::assemble::{Args, check_out_free, open_recorder, print_recording, writ
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{
-    Assembly, AssemblyInputs, AssemblySettings, LIFT_ABOVE_PARTICLES_M, RunEnd,
+    Assembly, AssemblyInputs, AssemblySettings, CALIBRATION_DOUBT_M, LIFT_ABOVE_PARTICLES_M, RunEnd,
 };
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
@@ -234,6 +234,31 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
     }
 }
 
+/// Warns when a dry run's first frame shows the apex farther than
+/// [`CALIBRATION_DOUBT_M`] from its in-process stage: a real run stops
+/// there, but the real stage may simply be elsewhere (a dry run reads no
+/// position from the controller), so the dry run cannot tell (it had
+/// stopped blaming the calibration).
+fn warn_of_unchecked_calibration(first: &Sighting) {
+    let (Some(offset), Some(stage)) = (first.apex_offset_m(), first.stage_m) else {
+        return;
+    };
+    let off = offset[0].hypot(offset[1]);
+    if off > CALIBRATION_DOUBT_M {
+        tracing::warn!(
+            "the dry run cannot check the calibration: its in-process stage starts at ({:.2}, {:.2}, {:.2}) um, \
+             where the real stage may not be (nothing is read from the controller), and the camera sees the \
+             apex {:.1} um from where the calibration puts that position; if the real stage is there, the \
+             calibration does not fit this rig: make it again (nanopush rig calibrate). A real run checks \
+             every frame and stops on it",
+            stage[0] * 1e6,
+            stage[1] * 1e6,
+            stage[2] * 1e6,
+            off * 1e6
+        );
+    }
+}
+
 /// `settings` fitted to the rig: the lifted travel no faster than the rig
 /// file's top speed (the loop's 50 um/s had stopped a run on the E-727
 /// templates' top speed of 50 and would on any lower one). Refused: a
@@ -307,7 +332,7 @@ fn assemble(
     )?;
     if args.hardware.dry_run {
         settings.max_pushes = 1;
-        settings.check_apex_each_frame = false;
+        settings.check_apex = false;
     }
     let perception = perception_for(scene, rig);
     let calibration = *rig.calibration();
@@ -320,6 +345,10 @@ fn assemble(
         .sight(rig, &calibration, offset)
         .map_err(|e| camera_error(&rig.rig_file().camera, e))
         .context("the first frame")?;
+    if args.hardware.dry_run {
+        first.stage_m = rig.position().ok();
+        warn_of_unchecked_calibration(&first);
+    }
     if first.particles.is_empty() {
         let other = size_doubt(&first, &perception.detect, calibration.m_per_px())
             .map_or(String::new(), |d| format!("; {d}"));

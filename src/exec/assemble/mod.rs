@@ -86,11 +86,13 @@ pub struct AssemblySettings {
     /// taken out of every move (`exec::drift`); None: not at all, every
     /// move goes where the calibration alone says.
     pub drift: Option<DriftSettings>,
-    /// Stop when a frame shows the apex where neither the stage nor the
-    /// drift put it ([`apex_doubt`]; default true). False on a hardware dry
-    /// run, where nothing moves: the apex stays put while the stage reports
-    /// its targets, and only the first frame tells of the calibration.
-    pub check_apex_each_frame: bool,
+    /// Stop when a frame, the first included, shows the apex where neither
+    /// the stage nor the drift put it ([`apex_doubt`]; default true). False
+    /// on a hardware dry run: its in-process stage starts at the centre of
+    /// its travel wherever the real one is (nothing is read from the
+    /// controller) and reports its targets while nothing moves, so no frame
+    /// tells of the calibration (the dry run warns of the first instead).
+    pub check_apex: bool,
     /// Longest push the plans may ask for (None: as the nanostage range
     /// allows): on a stage whose moves are at most `max_step_um` long, the
     /// push whose stroke fits one move
@@ -155,7 +157,7 @@ impl Default for AssemblySettings {
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
             drift: Some(DriftSettings::default()),
-            check_apex_each_frame: true,
+            check_apex: true,
             longest_push_m: None,
         }
     }
@@ -643,7 +645,7 @@ impl<'a> Assembly<'a> {
             Some(_) => apex_doubt(&sighting, self.drift_at(sighting.t_s)),
             None => apex_doubt_unfollowed(&sighting, self.last_sighting.as_ref()),
         }
-        .filter(|_| self.settings.check_apex_each_frame || self.frames_seen == 0);
+        .filter(|_| self.settings.check_apex);
         self.tracker
             .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
         if astray.is_none() {
