@@ -201,6 +201,18 @@ fn bad_scenes_exit_non_zero_naming_the_field() {
             "radius_mm",
             Box::new(|s: String| s.replace("radius_um = 5.0", "radius_mm = 5.0")),
         ),
+        (
+            // A unit slip: Pa under a GPa key (simulated a 3.9e16 N/m ramp).
+            "materials.silicon.youngs_modulus_gpa",
+            Box::new(|s: String| {
+                s.replace("youngs_modulus_gpa = 169.0", "youngs_modulus_gpa = 169e9")
+            }),
+        ),
+        (
+            // Metres under a um key.
+            "probe.length_um",
+            Box::new(|s: String| s.replace("length_um = 225.0", "length_um = 225e-6")),
+        ),
     ];
     for (field, edit) in cases {
         let (ok, err) = bad_scene(edit);

@@ -14,6 +14,7 @@ pub mod friction;
 pub mod kinematics;
 pub mod mode_machine;
 pub mod outcome;
+mod plausible;
 pub mod push_plots;
 pub mod push_sim;
 pub mod root;

@@ -4,12 +4,16 @@
 //! Every field is read as optional and checked here, so an error names the
 //! dotted path of the field (`particle.radius_um`) and what is wrong with it;
 //! unknown keys are refused (`deny_unknown_fields`) so typos do not pass
-//! silently. Lab units live only in this file.
+//! silently. A dimensional value orders of magnitude outside its plausible
+//! range (a unit slip: GPa written in Pa) is refused naming the likely slip;
+//! the ranges are one table in `plausible.rs`. Lab units live only in these
+//! two files.
 
 use super::cantilever::Cantilever;
 use super::contact::{ContactModel, Interface, tabor};
 use super::error::ModelError;
 use super::friction::criteria::FrictionParams;
+use super::plausible::plausible;
 use super::push_sim::PushParams;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -241,10 +245,12 @@ fn finite(v: f64, field: &str) -> Result<f64, ModelError> {
     }
 }
 
+/// A required positive value, plausible for its key's unit
+/// ([`plausible`]: a unit slip is refused).
 fn positive(v: Option<f64>, field: &str) -> Result<f64, ModelError> {
     let v = finite(need(v, field)?, field)?;
     if v > 0.0 {
-        Ok(v)
+        plausible(v, field)
     } else {
         Err(ModelError::scene(
             field,
@@ -265,10 +271,12 @@ fn in_range(v: f64, lo: f64, hi: f64, field: &str) -> Result<f64, ModelError> {
     }
 }
 
+/// A value (or `default`) that is not negative, plausible for its key's
+/// unit ([`plausible`]: a unit slip is refused).
 fn non_negative(v: Option<f64>, default: f64, field: &str) -> Result<f64, ModelError> {
     let v = finite(v.unwrap_or(default), field)?;
     if v >= 0.0 {
-        Ok(v)
+        plausible(v, field)
     } else {
         Err(ModelError::scene(
             field,
@@ -549,7 +557,10 @@ impl RawScene {
                 Some(env.charge_time_constant_min.unwrap_or(30.0)),
                 "environment.charge_time_constant_min",
             )? * 60.0,
-            drift_m_per_s: finite(env.drift_nm_s.unwrap_or(0.0), "environment.drift_nm_s")? * 1e-9,
+            drift_m_per_s: plausible(
+                finite(env.drift_nm_s.unwrap_or(0.0), "environment.drift_nm_s")?,
+                "environment.drift_nm_s",
+            )? * 1e-9,
             drift_direction_rad: finite(
                 env.drift_direction_deg.unwrap_or(0.0),
                 "environment.drift_direction_deg",
@@ -711,6 +722,223 @@ mod tests {
             "{err}"
         );
         assert!(Scene::from_toml_str(&poisson("-0.5")).is_ok());
+    }
+
+    /// Unit slips (a value written in another unit than its key's, orders of
+    /// magnitude off) are refused naming the key, the value with its unit,
+    /// the plausible range and the likely slip; before, 169e9 under
+    /// `youngs_modulus_gpa` simulated a cantilever ramp of 3.9e16 N/m.
+    #[test]
+    fn unit_slips_are_refused_naming_the_key_and_the_slip() {
+        let paper = paper_text();
+        // (line in the paper scene, the line with the slip, key, value as
+        // said, slip said)
+        let slips = [
+            (
+                "youngs_modulus_gpa = 169.0",
+                "youngs_modulus_gpa = 169e9",
+                "materials.silicon.youngs_modulus_gpa",
+                "1.69e11 GPa",
+                "Pa",
+            ),
+            (
+                "youngs_modulus_gpa = 3.4 ",
+                "youngs_modulus_gpa = 3400.0 ",
+                "materials.polystyrene.youngs_modulus_gpa",
+                "3400 GPa",
+                "MPa",
+            ),
+            (
+                "length_um = 225.0",
+                "length_um = 225e-6",
+                "probe.length_um",
+                "2.25e-4 um",
+                "m",
+            ),
+            (
+                "width_um = 48.0",
+                "width_um = 48e-6",
+                "probe.width_um",
+                "4.8e-5 um",
+                "m",
+            ),
+            (
+                "thickness_um = 1.0",
+                "thickness_um = 1e-6",
+                "probe.thickness_um",
+                "1e-6 um",
+                "m",
+            ),
+            (
+                "tip_height_um = 12.0",
+                "tip_height_um = 12e-6",
+                "probe.tip_height_um",
+                "1.2e-5 um",
+                "m",
+            ),
+            (
+                "tip_radius_nm = 20.0",
+                "tip_radius_nm = 20e-9",
+                "probe.tip_radius_nm",
+                "2e-8 nm",
+                "m",
+            ),
+            (
+                "radius_um = 5.0 ",
+                "radius_um = 5e-6 ",
+                "particle.radius_um",
+                "5e-6 um",
+                "m",
+            ),
+            (
+                "work_of_adhesion_j_m2 = 0.1",
+                "work_of_adhesion_j_m2 = 100.0",
+                "interfaces.particle_substrate.work_of_adhesion_j_m2",
+                "100 J/m^2",
+                "mJ/m^2",
+            ),
+            (
+                "reduced_modulus_gpa = 4.11",
+                "reduced_modulus_gpa = 4.11e9",
+                "interfaces.particle_substrate.reduced_modulus_gpa",
+                "4.11e9 GPa",
+                "Pa",
+            ),
+            (
+                "contact_model = \"jkr\"",
+                "contact_model = \"jkr\"\nequilibrium_separation_nm = 3e-10",
+                "interfaces.particle_substrate.equilibrium_separation_nm",
+                "3e-10 nm",
+                "m",
+            ),
+            (
+                "shear_strength_mpa = 28.0",
+                "shear_strength_mpa = 28e6",
+                "interfaces.particle_substrate.shear_strength_mpa",
+                "2.8e7 MPa",
+                "Pa",
+            ),
+            (
+                "rolling_friction_nm = 80.0",
+                "rolling_friction_nm = 80e-9",
+                "interfaces.particle_substrate.rolling_friction_nm",
+                "8e-8 nm",
+                "m",
+            ),
+            (
+                "rolling_shear_pa_m = 98.5",
+                "rolling_shear_pa_m = 98500.0e3",
+                "interfaces.particle_substrate.rolling_shear_pa_m",
+                "9.85e7 Pa m",
+                "mN/m",
+            ),
+            (
+                "speed_um_s = 1.0",
+                "speed_um_s = 1e-6",
+                "push.speed_um_s",
+                "1e-6 um/s",
+                "m/s",
+            ),
+            (
+                "duration_s = 30.0",
+                "duration_s = 3e7",
+                "push.duration_s",
+                "3e7 s",
+                "us",
+            ),
+        ];
+        let extra = [
+            (
+                "[environment]\nsession_time_min = 1.2e8",
+                "environment.session_time_min",
+                "1.2e8 min",
+                "ms",
+            ),
+            (
+                "[environment]\ncharge_time_constant_min = 1.8e7",
+                "environment.charge_time_constant_min",
+                "1.8e7 min",
+                "ms",
+            ),
+            (
+                "[environment]\ncharge_adhesion_gain = 300.0",
+                "environment.charge_adhesion_gain",
+                "300",
+                "%",
+            ),
+            (
+                "[environment]\ndrift_nm_s = -2000.0",
+                "environment.drift_nm_s",
+                "-2000 nm/s",
+                "pm/s",
+            ),
+            (
+                "[[neighbours]]\ndistance_um = 12e-6",
+                "neighbours[0].distance_um",
+                "1.2e-5 um",
+                "m",
+            ),
+        ];
+        let texts =
+            slips
+                .iter()
+                .map(|(from, to, key, said, slip)| {
+                    assert!(paper.contains(from), "{from} is not in the paper scene");
+                    (paper.replacen(from, to, 1), *key, *said, *slip)
+                })
+                .chain(extra.iter().map(|(add, key, said, slip)| {
+                    (format!("{paper}\n{add}\n"), *key, *said, *slip)
+                }));
+        for (text, key, said, slip) in texts {
+            match Scene::from_toml_str(&text) {
+                Err(ModelError::Scene { field, problem }) => {
+                    assert_eq!(field, key, "{problem}");
+                    assert!(
+                        problem.starts_with(&format!("{said} is implausible"))
+                            && problem.contains("plausible range is ")
+                            && problem.contains(&format!("looks like {slip}: the key ")),
+                        "{key}: {problem}"
+                    );
+                }
+                other => panic!("{key} = {said} was not refused as a slip: {other:?}"),
+            }
+        }
+    }
+
+    /// Every scene shipped (calib/ and the recorded fixtures) and the
+    /// extremes the tests and the spec's hard cases write still load: a
+    /// nanocluster particle, strong adhesion, no adhesion, a slow push.
+    #[test]
+    fn shipped_scenes_and_hard_cases_still_load() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut loaded = Vec::new();
+        let calib = std::fs::read_dir(root.join("calib")).unwrap();
+        let fixture = root.join("fixtures/recordings/sim-L-seed6/scene.toml");
+        for path in calib.map(|e| e.unwrap().path()).chain([fixture]) {
+            let text = std::fs::read_to_string(&path).unwrap();
+            if text.contains(SCENE_SCHEMA) {
+                Scene::from_toml_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                loaded.push(path);
+            }
+        }
+        assert!(loaded.len() >= 4, "{loaded:?}");
+        let paper = paper_text();
+        for (from, to) in [
+            ("radius_um = 5.0 ", "radius_um = 0.01 "),
+            ("radius_um = 5.0 ", "radius_um = 50.0 "),
+            ("work_of_adhesion_j_m2 = 0.1", "work_of_adhesion_j_m2 = 1.0"),
+            ("work_of_adhesion_j_m2 = 0.1", "work_of_adhesion_j_m2 = 0.0"),
+            ("reduced_modulus_gpa = 4.11", "reduced_modulus_gpa = 500.0"),
+            ("reduced_modulus_gpa = 4.11", "reduced_modulus_gpa = 0.1"),
+            ("speed_um_s = 1.0", "speed_um_s = 0.001"),
+            ("speed_um_s = 1.0", "speed_um_s = 100.0"),
+            ("shear_strength_mpa = 28.0", "shear_strength_mpa = 200.0"),
+            ("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0"),
+        ] {
+            assert!(paper.contains(from), "{from}");
+            let text = paper.replacen(from, to, 1);
+            assert!(Scene::from_toml_str(&text).is_ok(), "{to}");
+        }
     }
 
     /// The drift's direction is read in degrees and refused when not a number.
