@@ -37,16 +37,17 @@ pub fn apex_doubt(sighting: &Sighting, drift_m: [f64; 2]) -> Option<String> {
 }
 
 /// [`apex_doubt`] for a run that does not follow the drift
-/// (`--no-drift-follow`): the apex against where the frame before had it,
+/// (`--no-drift-follow`): the apex against where the last frame that found
+/// it had it (`before`, [`Sighting::apex_offset_m`]),
 /// since a calibration that does not fit jumps with the first move; then
 /// against the stage alone, where an offset past [`CALIBRATION_DOUBT_M`]
 /// grown a little at a time is drift this run does not take out, and is
 /// named so (it had been blamed on the calibration).
-pub fn apex_doubt_unfollowed(sighting: &Sighting, previous: Option<&Sighting>) -> Option<String> {
-    let Some(before) = previous.and_then(Sighting::apex_offset_m) else {
+pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> Option<String> {
+    let Some(before) = before else {
         return calibration_doubt(sighting);
     };
-    let said = format!(" and the apex's offset in the frame before {}", um(before));
+    let said = format!(" with the apex's last offset {}", um(before));
     if let Some(why) = astray(sighting, before, &said) {
         return Some(why);
     }
@@ -123,18 +124,21 @@ mod tests {
     fn an_unfollowed_drift_is_told_from_a_calibration_that_does_not_fit() {
         let before = sighting([45.2, 50.0], [40.0, 50.0]);
         let drifted = sighting([55.4, 50.0], [50.0, 50.0]);
-        let why = apex_doubt_unfollowed(&drifted, Some(&before)).unwrap();
+        let why = apex_doubt_unfollowed(&drifted, before.apex_offset_m()).unwrap();
         assert!(why.contains("has drifted 5.4 um"), "{why}");
         assert!(why.contains("--no-drift-follow"), "{why}");
         assert!(!why.contains("calibration does not fit"), "{why}");
         // Under the doubt: nothing said.
         let near = sighting([54.9, 50.0], [50.0, 50.0]);
-        assert_eq!(apex_doubt_unfollowed(&near, Some(&before)), None);
+        assert_eq!(apex_doubt_unfollowed(&near, before.apex_offset_m()), None);
         let swapped = sighting([40.0, 60.0], [50.0, 50.0]);
         let before = sighting([40.0, 50.0], [40.0, 50.0]);
-        let why = apex_doubt_unfollowed(&swapped, Some(&before)).unwrap();
+        let why = apex_doubt_unfollowed(&swapped, before.apex_offset_m()).unwrap();
         assert!(why.contains("calibration does not fit"), "{why}");
-        assert!(why.contains("the frame before (0.00, 0.00) um"), "{why}");
+        assert!(
+            why.contains("with the apex's last offset (0.00, 0.00) um"),
+            "{why}"
+        );
         let first = sighting([52.0, 57.0], [50.0, 50.0]);
         let why = apex_doubt_unfollowed(&first, None).unwrap();
         assert!(why.contains("calibration does not fit"), "{why}");

@@ -329,6 +329,11 @@ pub struct Assembly<'a> {
     pub records: Vec<PushRecord>,
     /// The last analysed frame.
     pub last_sighting: Option<Sighting>,
+    /// The apex less where the stage was sent, in the first frame and the
+    /// last that found the apex ([`Sighting::apex_offset_m`]): a run that
+    /// does not follow drift checks each frame against the last, and names
+    /// the drift between them when it stops.
+    apex_offsets_m: Option<([f64; 2], [f64; 2])>,
     plan: Vec<PlannedPush>,
     /// The steps of the current plan not yet made.
     plan_in_hand: Option<Plan>,
@@ -422,6 +427,7 @@ impl<'a> Assembly<'a> {
             frames_seen: 0,
             records: Vec::new(),
             last_sighting: None,
+            apex_offsets_m: None,
             plan: Vec::new(),
             plan_in_hand: None,
             first_plan_ids: None,
@@ -623,10 +629,34 @@ impl<'a> Assembly<'a> {
     }
 
     fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
+        let end = match end {
+            RunEnd::Stopped(why) => RunEnd::Stopped(why + &self.unfollowed_drift_note()),
+            other => other,
+        };
         let reason = end.reason().unwrap_or_default();
         self.journal
             .append(self.rig.now_s(), &RunEvent::Stopped { reason })?;
         Ok(end)
+    }
+
+    /// Said at a stop when the run does not follow drift and the apex has
+    /// moved against the stage by more than the placed tolerance since the
+    /// first frame: every push misses by about as much, and the stop (lost
+    /// contacts, a planner refusal at 0.3-0.6 um of drift) had named
+    /// neither the drift nor the flag. Empty otherwise.
+    fn unfollowed_drift_note(&self) -> String {
+        let Some((first, last)) = self.apex_offsets_m.filter(|_| self.drift.is_none()) else {
+            return String::new();
+        };
+        let moved = (last[0] - first[0]).hypot(last[1] - first[1]);
+        if moved <= self.settings.placed_tolerance_m {
+            return String::new();
+        }
+        format!(
+            "; the run does not follow drift (--no-drift-follow), and the apex has moved {:.2} um against \
+             the stage since the first frame: every push misses by about as much",
+            moved * 1e6
+        )
     }
 
     /// Grabs, detects, tracks and journals one frame.
@@ -643,9 +673,13 @@ impl<'a> Assembly<'a> {
         // Judged before this frame's apex joins the drift estimate.
         let astray = match self.drift {
             Some(_) => apex_doubt(&sighting, self.drift_at(sighting.t_s)),
-            None => apex_doubt_unfollowed(&sighting, self.last_sighting.as_ref()),
+            None => apex_doubt_unfollowed(&sighting, self.apex_offsets_m.map(|(_, last)| last)),
         }
         .filter(|_| self.settings.check_apex);
+        if let (None, Some(now)) = (&astray, sighting.apex_offset_m()) {
+            let first = self.apex_offsets_m.map_or(now, |(first, _)| first);
+            self.apex_offsets_m = Some((first, now));
+        }
         self.tracker
             .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
         if astray.is_none() {
