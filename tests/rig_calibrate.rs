@@ -332,3 +332,107 @@ fn a_missing_calibration_is_named_with_how_to_make_it() {
         );
     }
 }
+
+/// The names in `dir`, sorted.
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn a_refused_run_leaves_no_folder_it_made_and_advises_only_what_is_accepted() {
+    let b = bench();
+    let good = std::fs::read_to_string(&b.rig).unwrap();
+    // The simulator's stage starts at x = 50 um: outside 52..98.
+    let off = good.replace(
+        "soft_min_um = [2.0, 2.0, 0.0]",
+        "soft_min_um = [52.0, 2.0, 0.0]",
+    );
+    assert_ne!(off, good, "the replacement did not apply");
+    std::fs::write(&b.rig, &off).unwrap();
+    let rig = b.rig.to_str().unwrap();
+    let made = b.dir.path().join("new");
+    let out = made.join("cal/camera.toml");
+    let mine = b.dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("notes.txt"), "objective 20x").unwrap();
+    let args = [
+        "rig",
+        "calibrate",
+        "--rig",
+        rig,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    for extra in [&[][..], &["--recording", mine.to_str().unwrap()]] {
+        let refused = nanopush(&[&args[..], extra].concat());
+        assert!(!refused.status.success());
+        let message = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            message.contains("outside the rig file's limits"),
+            "{message}"
+        );
+        // No frame: nothing to fit, so no fit is advised.
+        assert!(!message.contains("nanopush calibrate"), "{message}");
+        assert!(message.contains("run the same command again"), "{message}");
+        assert!(!made.exists(), "{message}");
+        assert_eq!(names_in(&mine), ["notes.txt"], "{message}");
+    }
+    // Put right, the same command is accepted.
+    std::fs::write(&b.rig, &good).unwrap();
+    ok(&nanopush(&args));
+    assert!(out.exists());
+}
+
+#[test]
+fn a_run_stopped_early_advises_a_command_that_is_accepted() {
+    let b = bench();
+    let rig = b.rig.to_str().unwrap();
+    let args = ["rig", "calibrate", "--rig", rig];
+    let child = Command::new(env!("CARGO_BIN_EXE_nanopush"))
+        .current_dir(manifest())
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Ctrl-C once the first frame is saved: a few frames, short of a fit.
+    let csv = b.dir.path().join("camera-recording/stage.csv");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < 2 {
+        assert!(
+            started.elapsed() < Duration::from_secs(60),
+            "no frame saved"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGINT,
+    )
+    .unwrap();
+    let stopped = child.wait_with_output().unwrap();
+    assert!(!stopped.status.success());
+    let message = String::from_utf8_lossy(&stopped.stderr);
+    let frames = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    println!("stopped after {frames} frames: {message}");
+    assert!(message.contains("interrupted"), "{message}");
+    // Whatever it advises is accepted.
+    let fit = format!(
+        "`nanopush calibrate --recording {} --out FILE`",
+        csv.parent().unwrap().display()
+    );
+    if message.contains(&fit) {
+        refit(csv.parent().unwrap(), &b.dir.path().join("fit.toml"), &[]);
+    } else {
+        assert!(
+            message.contains("run the same command again with --force"),
+            "{message}"
+        );
+        ok(&nanopush(&[&args[..], &["--force"]].concat()));
+    }
+}

@@ -11,6 +11,13 @@ use super::camera_fit::CalibrationFit;
 /// are what checks it.
 pub const MIN_INLIERS: usize = 6;
 
+/// Whether `frames` tip positions are enough for a map [`judge`] accepts
+/// (at least [`MIN_INLIERS`]): the one rule, for a command that advises a
+/// fit of frames it saved as well as for the fit itself.
+pub fn enough_to_fit(frames: usize) -> bool {
+    frames >= MIN_INLIERS
+}
+
 /// Smallest share of the frames with a tip that must agree on the map; below,
 /// the stage log and the frames do not belong together (order, units, a
 /// wrong file) or the tip was found elsewhere.
@@ -37,7 +44,7 @@ pub struct FitVerdict {
 pub fn judge(fit: &CalibrationFit, pixels: &[[f64; 2]], frame_px: (usize, usize)) -> FitVerdict {
     let mut verdict = FitVerdict::default();
     let n = pixels.len();
-    if fit.inliers < MIN_INLIERS {
+    if !enough_to_fit(fit.inliers) {
         verdict.refusal = Some(format!(
             "only {} frames fit the map (of {n} with a tip): an affine map takes 3 exactly, and at least {MIN_INLIERS} are needed to check it; record more (nanopush rig calibrate --grid 3 or more)",
             fit.inliers

@@ -6,9 +6,11 @@
 //! looks for it, so that `assemble --rig` uses it next.
 
 use super::calibrate::{FitArgs, check_output, fit_recording};
+use super::made_folder::MadeFolder;
 use super::stage_csv::{StageRow, parse_stage_csv, stage_csv};
 use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
 use crate::calib::camera_map::CameraCalibration;
+use crate::calib::fit_quality::{MIN_INLIERS, enough_to_fit};
 use crate::rig::gcs::RigFile;
 use crate::rig::hardware::{HardwareRigOptions, RigDevices};
 use crate::rig::stage::NanoStage;
@@ -70,15 +72,39 @@ const TRAVEL_SPEED_UM_S: f64 = 20.0;
 pub fn run(args: Args) -> anyhow::Result<()> {
     args.fit.check()?;
     let rig = RigFile::load(&args.rig)?;
-    let rig_calibration = rig.calibration.clone();
-    let out = args.out.clone().unwrap_or_else(|| rig_calibration.clone());
+    let out = args.out.clone().unwrap_or_else(|| rig.calibration.clone());
     let recording = args
         .recording
         .clone()
         .unwrap_or_else(|| recording_beside(&out));
+    // The folder `check_output` makes for the calibration, taken back when
+    // the command ends with no frame saved.
+    let out_folder = MadeFolder::create(
+        out.parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new(".")),
+    )?;
+    let mut saved = 0;
+    let measured = measure(&args, rig, &out, &recording, &mut saved);
+    if measured.is_err() && saved == 0 {
+        let _ = out_folder.undo();
+    }
+    measured
+}
+
+/// [`run`] once the paths are known: refusals, the grid, the fit; `saved`
+/// counts the frames it saved.
+fn measure(
+    args: &Args,
+    rig: RigFile,
+    out: &Path,
+    recording: &Path,
+    saved: &mut usize,
+) -> anyhow::Result<()> {
+    let rig_calibration = rig.calibration.clone();
     // Refused before anything moves: a good calibration or recording is
     // not lost to a re-run.
-    check_output(&out, &[], args.force)?;
+    check_output(out, &[], args.force)?;
     if !rig.stage.has_z() && !args.tip_lifted_by_hand {
         anyhow::bail!(
             "{}: the stage has no z axis (stage.axes {:?}), so the tip cannot be lifted and the grid would sweep it across the sample (particles moved 6 um on a simulated run): lift it clear by hand, then pass --tip-lifted-by-hand",
@@ -109,18 +135,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", args.rig.display()))?;
-    std::fs::create_dir_all(&recording)
-        .with_context(|| format!("creating {}", recording.display()))?;
-    let previous = CameraCalibration::load(&out).ok();
+    let previous = CameraCalibration::load(out).ok();
     if args.force {
-        clear_recording(&recording, &out)?;
+        clear_recording(recording, out)?;
     }
+    let folder = MadeFolder::create(recording)?;
     let mut rows: Vec<StageRow> = Vec::new();
+    let mut with_tip = 0;
     let mut view = (0, 0);
     let ran = run_calibration(&mut devices, &settings, &mut |shot| {
         view = (shot.frame.width(), shot.frame.height());
-        save_shot(&recording, shot, &mut rows).map_err(|e| format!("{e:#}"))
+        with_tip += usize::from(shot.apex_px.is_some());
+        save_shot(recording, shot, &mut rows).map_err(|e| format!("{e:#}"))
     });
+    *saved = rows.len();
     // Whatever happened, the stage is left still.
     let _ = devices.halt();
     if let Err(e) = ran {
@@ -136,17 +164,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ),
             Err(_) => "where the stage stopped could not be read".to_string(),
         };
+        let kept = saved_frames(&folder, recording, rows.len(), with_tip);
         return Err(e).with_context(|| {
             format!(
-                "calibration run on {} stopped: {at}; {} frames saved in {} (fit them with `nanopush calibrate --recording {} --out FILE`, or run again with --force)",
-                args.rig.display(),
-                rows.len(),
-                recording.display(),
-                recording.display()
+                "calibration run on {} stopped: {at}; {kept}",
+                args.rig.display()
             )
         });
     }
-    let new = fit_recording(&recording, &out, Channel::Luminance, &args.fit, args.force)?;
+    let new = fit_recording(recording, out, Channel::Luminance, &args.fit, args.force)?;
     println!("recording: {} ({} frames)", recording.display(), rows.len());
     if let Some(old) = previous {
         // A camera or stage that moved since the last calibration shows here.
@@ -157,7 +183,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             moved / new.m_per_px()
         );
     }
-    if std::fs::canonicalize(&out).ok() == std::fs::canonicalize(&rig_calibration).ok() {
+    if std::fs::canonicalize(out).ok() == std::fs::canonicalize(&rig_calibration).ok() {
         println!(
             "the rig file names this calibration: `nanopush rig probe --rig {} --camera` shows the view in stage um",
             args.rig.display()
@@ -166,7 +192,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         // The rig file reads its paths from its own folder: an absolute
         // path works wherever the rig file lies (`out` as given, relative
         // to where this ran, did not).
-        let named = std::path::absolute(&out).unwrap_or_else(|_| out.clone());
+        let named = std::path::absolute(out).unwrap_or_else(|_| out.to_path_buf());
         println!(
             "to use it, name it in {}: calibration = {:?}",
             args.rig.display(),
@@ -174,6 +200,31 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// What a stopped run left and what to do with it. Only a fit the saved
+/// frames can pass is advised (the 5 frames of a stopped run had been
+/// advised to `calibrate`, which refuses under 6); with no frame the
+/// folder the run made goes (empty folders had been left behind), so the
+/// same command is accepted again.
+fn saved_frames(folder: &MadeFolder, recording: &Path, frames: usize, with_tip: usize) -> String {
+    let dir = recording.display();
+    if frames == 0 {
+        let left = match folder.undo() {
+            Ok(true) => "is as it was before".to_string(),
+            Ok(false) => "is left: something else wrote into it".to_string(),
+            Err(e) => format!("is left: {e:#}"),
+        };
+        return format!("no frame was taken, {dir} {left}; run the same command again");
+    }
+    if enough_to_fit(with_tip) {
+        return format!(
+            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out FILE`, or run the same command again with --force)"
+        );
+    }
+    format!(
+        "{frames} frames saved in {dir}, {with_tip} with a tip: too few to fit a map (at least {MIN_INLIERS}); run the same command again with --force"
+    )
 }
 
 /// `calibration.toml` -> `calibration-recording/` beside it.
