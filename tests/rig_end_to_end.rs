@@ -322,6 +322,19 @@ impl Bench {
         report
     }
 
+    /// Makes the bench's rig file say `real_hardware = true` (with the z
+    /// convention that asks for); returns the text it had.
+    fn as_real_hardware(&self) -> String {
+        let text = std::fs::read_to_string(&self.rig_path).unwrap();
+        let real = text.replace(
+            "real_hardware = false",
+            "real_hardware = true\nz_surface_um = 0.0\nz_lifts = \"increasing\"",
+        );
+        assert_ne!(real, text, "the replacement did not apply");
+        std::fs::write(&self.rig_path, real).unwrap();
+        text
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -871,13 +884,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
 
     // Real hardware whose first move nobody confirms (no terminal): refused
     // before servo on, the run stopped with the reason, and nothing moved.
-    let text = std::fs::read_to_string(&b.rig_path).unwrap();
-    let real = text.replace(
-        "real_hardware = false",
-        "real_hardware = true\nz_surface_um = 0.0\nz_lifts = \"increasing\"",
-    );
-    assert_ne!(real, text, "the replacement did not apply");
-    std::fs::write(&b.rig_path, real).unwrap();
+    let text = b.as_real_hardware();
     let before = b.positions_um();
     let out = finish(b.assemble("unconfirmed", &[]), Duration::from_secs(60));
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -888,6 +895,51 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     );
     assert_eq!(b.positions_um(), before);
     std::fs::write(&b.rig_path, text).unwrap();
+}
+
+/// A first move on real hardware that nobody confirms (here standard input
+/// at its end, no terminal: what EOF or Ctrl-C at the question come to)
+/// moves nothing, and leaves `--out` as it was: a journal left there had
+/// blocked the same command ("journal.jsonl exists: use --resume").
+#[test]
+fn an_unconfirmed_first_move_leaves_out_as_it_was() {
+    let b = bench(50.0);
+    b.as_real_hardware();
+    let kept = b.dir.path().join("kept");
+    std::fs::create_dir(&kept).unwrap();
+    std::fs::write(kept.join("notes.txt"), "sample 3").unwrap();
+    let before = b.positions_um();
+    // A folder made by the run and one that was there; each run twice.
+    for out in [b.dir.path().join("new/run"), kept.clone()] {
+        for attempt in 0..2 {
+            let child = nanopush()
+                .args(["assemble", "--rig"])
+                .arg(&b.rig_path)
+                .args(["--text", b.text, "--out"])
+                .arg(&out)
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap();
+            let run = finish(child, Duration::from_secs(60));
+            let stderr = String::from_utf8_lossy(&run.stderr);
+            assert!(!run.status.success(), "{}", failed(run.status, &run));
+            assert!(
+                stderr.contains("not confirmed: nothing was moved")
+                    && stderr.contains("is as it was")
+                    && !stderr.contains("--resume"),
+                "attempt {attempt}: {stderr}"
+            );
+            assert!(!b.dir.path().join("new").exists(), "{stderr}");
+            let names: Vec<String> = std::fs::read_dir(&kept)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(names, ["notes.txt"], "{stderr}");
+        }
+    }
+    assert_eq!(b.positions_um(), before);
 }
 
 #[test]

@@ -29,6 +29,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, check_out_free, open_recorder, print_recording, write_sites};
+use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{
@@ -139,7 +140,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
-    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let folder = MadeFolder::create(&out)?;
+    let new_run = matches!(start, RigStart::New { .. });
     let result = match start {
         RigStart::New {
             scene,
@@ -154,6 +156,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
+    if new_run && rig.declined_before_any_move() {
+        return Err(declined(&folder, &out));
+    }
     if let Some(log) = rig.sent_log() {
         let path = out.join(SENT_BYTES);
         write_sent_log(log, &path)?;
@@ -181,6 +186,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         bail!("interrupted: the stage was halted; {go_on}");
     }
     check_end(&end, hw.dry_run, &go_on)
+}
+
+/// A new run whose first move was not confirmed: nothing moved, so `out`
+/// is put back as it was (its journal had blocked the same command,
+/// "journal.jsonl exists: use --resume", for a run that never began).
+fn declined(folder: &MadeFolder, out: &Path) -> anyhow::Error {
+    anyhow::anyhow!(
+        "{}; {} {}: run the same command again to start",
+        crate::rig::error::RigError::NotConfirmed,
+        out.display(),
+        folder.undo_said()
+    )
 }
 
 /// A new run's scene, pattern and journal, checked before the rig is opened.

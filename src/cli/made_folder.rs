@@ -74,6 +74,16 @@ impl MadeFolder {
         }
         Ok(true)
     }
+
+    /// [`MadeFolder::undo`], said as the end of "FOLDER ...": whether it is
+    /// as it was, or why not.
+    pub fn undo_said(&self) -> String {
+        match self.undo() {
+            Ok(true) => "is as it was before".to_string(),
+            Ok(false) => "is left: something else wrote into it".to_string(),
+            Err(e) => format!("is left: {e:#}"),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -210,11 +210,7 @@ fn measure(
 fn saved_frames(folder: &MadeFolder, recording: &Path, frames: usize, with_tip: usize) -> String {
     let dir = recording.display();
     if frames == 0 {
-        let left = match folder.undo() {
-            Ok(true) => "is as it was before".to_string(),
-            Ok(false) => "is left: something else wrote into it".to_string(),
-            Err(e) => format!("is left: {e:#}"),
-        };
+        let left = folder.undo_said();
         return format!("no frame was taken, {dir} {left}; run the same command again");
     }
     if enough_to_fit(with_tip) {

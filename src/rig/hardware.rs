@@ -173,6 +173,8 @@ pub struct RigDevices {
     interrupt: Arc<AtomicBool>,
     /// Rig time when the stage last came to rest (a move or halt returned).
     settled_at_s: f64,
+    /// True once a move was handed to the coarse stage.
+    coarse_asked: bool,
     stale_frames: usize,
 }
 
@@ -292,6 +294,7 @@ impl RigDevices {
             sent_log,
             interrupt,
             settled_at_s: f64::NEG_INFINITY,
+            coarse_asked: false,
             stale_frames: 0,
         })
     }
@@ -363,6 +366,13 @@ impl RigDevices {
     /// The nanostage (for GCS queries beyond the trait).
     pub fn nanostage(&mut self) -> &mut GcsNanoStage {
         &mut self.stage
+    }
+
+    /// True when the operator declined the nanostage's first move and the
+    /// coarse stage was never asked to move: nothing moved, so a command
+    /// may leave its output as it found it.
+    pub fn declined_before_any_move(&mut self) -> bool {
+        !self.coarse_asked && self.stage.gcs().first_move_refused()
     }
 
     /// The Ctrl-C flag the stage watches.
@@ -464,6 +474,7 @@ impl CoarseStage for RigDevices {
             )));
         }
         let shift = self.coarse_shift_m;
+        self.coarse_asked = true;
         let moved = match &mut self.coarse {
             Some(c) => c.move_coarse([target[0] + shift[0], target[1] + shift[1]]),
             None => Err(RigError::NoCoarseStage),

@@ -1,6 +1,10 @@
 //! The confirmation asked before the first move on real hardware.
 
-use std::io::{BufRead, IsTerminal, Write};
+use std::io::{IsTerminal, Write};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{RecvTimeoutError, channel};
+use std::time::Duration;
 
 /// Who, if anyone, must approve the first move.
 pub enum FirstMoveConfirmation {
@@ -17,19 +21,25 @@ pub enum FirstMoveConfirmation {
 impl FirstMoveConfirmation {
     /// What a command should use: nothing to confirm for a simulator, a dry
     /// run, or when the operator passed the explicit waiver flag; otherwise
-    /// ask on the terminal.
-    pub fn for_rig(real_hardware: bool, dry_run: bool, waived_by_flag: bool) -> Self {
+    /// ask on the terminal, where Ctrl-C (`interrupt` raised) refuses.
+    pub fn for_rig(
+        real_hardware: bool,
+        dry_run: bool,
+        waived_by_flag: bool,
+        interrupt: Arc<AtomicBool>,
+    ) -> Self {
         if !real_hardware || dry_run || waived_by_flag {
             Self::NotNeeded
         } else {
-            Self::Ask(Box::new(ask_on_terminal))
+            Self::Ask(Box::new(move |d| ask_on_terminal(d, &interrupt)))
         }
     }
 }
 
-/// Prints the move and reads `yes` from standard input; anything else, or no
-/// terminal at all (a script, CI), refuses.
-pub fn ask_on_terminal(description: &str) -> bool {
+/// Prints the move and reads `yes` from standard input; anything else, no
+/// terminal at all (a script, CI), the input's end or Ctrl-C (`interrupt`
+/// raised) refuses.
+pub fn ask_on_terminal(description: &str, interrupt: &AtomicBool) -> bool {
     let stdin = std::io::stdin();
     if !stdin.is_terminal() {
         eprintln!(
@@ -44,8 +54,37 @@ refused: no terminal to confirm on (pass the explicit flag to waive)"
 Type `yes` to move the real stage: "
     );
     let _ = std::io::stderr().flush();
-    let mut answer = String::new();
-    stdin.lock().read_line(&mut answer).is_ok() && answer.trim() == "yes"
+    let read = move || {
+        let mut answer = String::new();
+        stdin.read_line(&mut answer).map(|_| answer)
+    };
+    let yes = answer_unless_interrupted(read, interrupt);
+    if interrupt.load(Ordering::SeqCst) {
+        eprintln!("\nCtrl-C at the question: refused");
+    }
+    yes
+}
+
+/// Whether the line `read` gives (on a thread of its own) is `yes`; `false`
+/// as soon as `interrupt` is raised. Ctrl-C at the question had only raised
+/// the flag while the read went on waiting; a second Ctrl-C then ended the
+/// program, leaving the run's journal behind though nothing had moved.
+fn answer_unless_interrupted(
+    read: impl FnOnce() -> std::io::Result<String> + Send + 'static,
+    interrupt: &AtomicBool,
+) -> bool {
+    let (sent, answer) = channel();
+    std::thread::spawn(move || {
+        let _ = sent.send(read().is_ok_and(|a| a.trim() == "yes"));
+    });
+    while !interrupt.load(Ordering::SeqCst) {
+        match answer.recv_timeout(Duration::from_millis(20)) {
+            Ok(yes) => return yes,
+            Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => return false,
+        }
+    }
+    false
 }
 
 #[cfg(test)]
@@ -54,21 +93,51 @@ mod tests {
 
     #[test]
     fn only_real_hardware_without_waiver_asks() {
+        let for_rig = |real, dry, waived| {
+            FirstMoveConfirmation::for_rig(real, dry, waived, Arc::new(AtomicBool::new(false)))
+        };
         assert!(matches!(
-            FirstMoveConfirmation::for_rig(false, false, false),
+            for_rig(false, false, false),
             FirstMoveConfirmation::NotNeeded
         ));
         assert!(matches!(
-            FirstMoveConfirmation::for_rig(true, true, false),
+            for_rig(true, true, false),
             FirstMoveConfirmation::NotNeeded
         ));
         assert!(matches!(
-            FirstMoveConfirmation::for_rig(true, false, true),
+            for_rig(true, false, true),
             FirstMoveConfirmation::NotNeeded
         ));
         assert!(matches!(
-            FirstMoveConfirmation::for_rig(true, false, false),
+            for_rig(true, false, false),
             FirstMoveConfirmation::Ask(_)
         ));
+    }
+
+    #[test]
+    fn ctrl_c_or_the_inputs_end_at_the_question_refuses() {
+        let calm = AtomicBool::new(false);
+        assert!(answer_unless_interrupted(|| Ok("yes\n".into()), &calm));
+        assert!(!answer_unless_interrupted(|| Ok("no\n".into()), &calm));
+        // The input's end (Ctrl-D): an empty read.
+        assert!(!answer_unless_interrupted(|| Ok(String::new()), &calm));
+        // Ctrl-C while nobody answers: refused at once, not after the answer.
+        let pressed = Arc::new(AtomicBool::new(false));
+        let press = Arc::clone(&pressed);
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(50));
+            press.store(true, Ordering::SeqCst);
+        });
+        let started = std::time::Instant::now();
+        let late_yes = || {
+            std::thread::sleep(Duration::from_secs(5));
+            Ok("yes\n".to_string())
+        };
+        assert!(!answer_unless_interrupted(late_yes, &pressed));
+        assert!(
+            started.elapsed() < Duration::from_secs(2),
+            "{:?}",
+            started.elapsed()
+        );
     }
 }

@@ -134,8 +134,12 @@ fn open_section(
     interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<(GcsStage, Option<SentLog>), GcsError> {
     let (controller, log) = connect_section(section, dry_run, dry_run_sim)?;
-    let confirmation =
-        FirstMoveConfirmation::for_rig(section.real_hardware, dry_run, waive_confirmation);
+    let confirmation = FirstMoveConfirmation::for_rig(
+        section.real_hardware,
+        dry_run,
+        waive_confirmation,
+        std::sync::Arc::clone(&interrupt),
+    );
     let stage = GcsStage::new(controller, settings, confirmation, interrupt)?;
     Ok((stage, log))
 }

@@ -175,6 +175,13 @@ impl GcsStage {
         self.guarded(|s| s.controller.move_to(&pairs))
     }
 
+    /// True once the operator declined the first move (no `yes`, the
+    /// input's end, Ctrl-C at the question): nothing that powers or moves
+    /// an axis was sent, nor will be.
+    pub fn first_move_refused(&self) -> bool {
+        matches!(self.confirmation, FirstMoveConfirmation::Refused)
+    }
+
     /// Asks the operator once, on real hardware, before the first command
     /// that powers or moves an axis (servo on, velocities, the move); a
     /// refusal holds for the rest of the process, so a clean-up move after
