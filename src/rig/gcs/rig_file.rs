@@ -422,7 +422,42 @@ fn validate_controller(
     safety
         .limits()
         .validate()
-        .map_err(|e| format!("{safety_name}: {e}"))
+        .map_err(|e| format!("{safety_name}: {e}"))?;
+    check_micrometre_scale(safety, safety_name)
+}
+
+/// Narrowest soft range per axis a rig file may give, micrometres. The
+/// smallest stage nanopush drives travels 15 um (a nanostage's z) and must
+/// hold a particle's height in it; a range under 1 um is a range written in
+/// metres (98e-6 for 98 um), which had been accepted and planned a pattern
+/// into a "reachable area of -1.0 x -1.0 um".
+pub const MIN_SOFT_RANGE_UM: f64 = 1.0;
+
+/// Shortest largest step a rig file may give, micrometres: 10 nm, the
+/// nanostage's own precision; no real stage is limited to moves it cannot
+/// resolve, while a step written in metres (20e-6 for 20 um) falls far below.
+pub const MIN_MAX_STEP_UM: f64 = 0.01;
+
+/// Refuses limits too small for a micrometre field, naming the field and
+/// the likely slip: values in metres where the file wants micrometres.
+fn check_micrometre_scale(safety: &SafetySection, safety_name: &str) -> Result<(), String> {
+    let slip = "values look like metres; the rig file wants micrometres (98.0 for 98 um)";
+    let ranges = safety.soft_min_um.iter().zip(&safety.soft_max_um);
+    if let Some((axis, (lo, hi))) = ranges
+        .enumerate()
+        .find(|(_, (lo, hi))| *hi - *lo < MIN_SOFT_RANGE_UM)
+    {
+        return Err(format!(
+            "{safety_name}.soft_min_um and soft_max_um give axis {axis} a range [{lo}, {hi}] um, under {MIN_SOFT_RANGE_UM} um: {slip}"
+        ));
+    }
+    if safety.max_step_um < MIN_MAX_STEP_UM {
+        return Err(format!(
+            "{safety_name}.max_step_um is {} um, under {MIN_MAX_STEP_UM} um: {slip}",
+            safety.max_step_um
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -499,6 +534,65 @@ mod tests {
     }
 
     const COARSE: &str = include_str!("../../../calib/rig-gcs-sim-coarse-folder.toml");
+
+    /// Limits written in metres are refused naming the field and the slip;
+    /// the smallest plausible ones (just at the thresholds) still load.
+    #[test]
+    fn limits_written_in_metres_are_refused_as_a_unit_slip() {
+        let xyz = include_str!("../../../calib/rig-gcs-sim-xyz.toml");
+        let cases = [
+            (
+                xyz.replace(
+                    "soft_max_um = [98.0, 98.0, 15.0]",
+                    "soft_max_um = [98e-6, 98e-6, 15e-6]",
+                )
+                .replace(
+                    "soft_min_um = [2.0, 2.0, 0.0]",
+                    "soft_min_um = [2e-6, 2e-6, 0.0]",
+                ),
+                "safety.soft_min_um and soft_max_um give axis 0",
+            ),
+            (
+                xyz.replace("max_step_um = 150.0", "max_step_um = 150e-6"),
+                "safety.max_step_um is 0.00015 um",
+            ),
+            (
+                COARSE.replace(
+                    "soft_max_um = [24000.0, 24000.0]",
+                    "soft_max_um = [1000.5, 24000.0]",
+                ),
+                "coarse.safety.soft_min_um and soft_max_um give axis 0 a range [1000, 1000.5] um",
+            ),
+        ];
+        for (text, field) in cases {
+            assert!(
+                text != xyz && text != COARSE,
+                "the replacement did not apply"
+            );
+            let err = RigFile::from_toml(&text, Path::new("metres.toml")).unwrap_err();
+            let msg = err.to_string();
+            assert!(matches!(err, RigFileError::Invalid { .. }), "{msg}");
+            for needle in [
+                "metres.toml",
+                field,
+                "look like metres",
+                "wants micrometres",
+            ] {
+                assert!(msg.contains(needle), "no {needle:?} in: {msg}");
+            }
+        }
+        let smallest = xyz
+            .replace(
+                "soft_max_um = [98.0, 98.0, 15.0]",
+                &format!("soft_max_um = [98.0, 98.0, {MIN_SOFT_RANGE_UM}]"),
+            )
+            .replace(
+                "max_step_um = 150.0",
+                &format!("max_step_um = {MIN_MAX_STEP_UM}"),
+            );
+        assert_ne!(smallest, xyz, "the replacement did not apply");
+        RigFile::from_toml(&smallest, Path::new("small.toml")).unwrap();
+    }
 
     #[test]
     fn a_coarse_section_round_trips_and_is_checked() {
