@@ -336,7 +336,7 @@ fn a_stop_with_the_tip_down_says_so() {
     };
     let down = reason(mid_push);
     assert!(
-        down.starts_with("interrupted by the user (Ctrl-C)")
+        down.starts_with("interrupted (Ctrl-C or a termination signal)")
             && down.contains("the tip may be down on the sample")
             && down.contains(
                 "below the particles' tops at 10.00 um: lift z before moving x or y by hand"
@@ -345,7 +345,8 @@ fn a_stop_with_the_tip_down_says_so() {
     );
     let up = reason(lifted_after_a_push);
     assert!(
-        up.starts_with("interrupted by the user (Ctrl-C)") && !up.contains("tip may be down"),
+        up.starts_with("interrupted (Ctrl-C or a termination signal)")
+            && !up.contains("tip may be down"),
         "{up}"
     );
 }
@@ -396,6 +397,21 @@ fn spawn_run(out: &Path) -> std::process::Child {
         .unwrap()
 }
 
+/// A run into `out`, sent `signal` (`kill`'s flag) `times` once its
+/// journal shows it well under way; what it said when it ended.
+fn signalled_run(out: &Path, signal: &str, times: usize) -> std::process::Output {
+    let child = spawn_run(out);
+    wait_for_lines(&out.join("journal.jsonl"), 30);
+    for _ in 0..times {
+        let sent = Command::new("kill")
+            .args([signal, &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(sent.success());
+    }
+    child.wait_with_output().unwrap()
+}
+
 /// Waits (at most 120 s) until `journal` holds `n` complete lines: a run
 /// well under way.
 fn wait_for_lines(journal: &Path, n: usize) {
@@ -441,18 +457,9 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let out: PathBuf = dir.path().join("run");
     let journal = out.join("journal.jsonl");
-    let child = spawn_run(&out);
-    wait_for_lines(&journal, 30);
     // Pressed twice in a panic: the second press had ended the program at
     // once, with no report (and on a rig before the stage was halted).
-    for _ in 0..2 {
-        let sent = Command::new("kill")
-            .args(["-INT", &child.id().to_string()])
-            .status()
-            .unwrap();
-        assert!(sent.success());
-    }
-    let o = child.wait_with_output().unwrap();
+    let o = signalled_run(&out, "-INT", 2);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{stderr}");
     let go_on = format!(
@@ -460,7 +467,7 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
         journal.display()
     );
     assert!(
-        stderr.contains("interrupted by the user (Ctrl-C)"),
+        stderr.contains("interrupted (Ctrl-C or a termination signal)"),
         "{stderr}"
     );
     assert!(stderr.contains(&go_on), "{stderr}");
@@ -500,6 +507,28 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
     assert!(resumed.status.success(), "resume failed: {stderr}");
     let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
     assert_eq!(entries.last().unwrap().event, RunEvent::Done);
+}
+
+/// SIGTERM (a `kill`, a service stop) stops a run as Ctrl-C does, and the
+/// stop does not blame a Ctrl-C nobody pressed: it had said "interrupted
+/// by the user (Ctrl-C)".
+#[test]
+fn a_run_stopped_by_sigterm_says_what_may_have_stopped_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out: PathBuf = dir.path().join("run");
+    let o = signalled_run(&out, "-TERM", 1);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{stderr}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let outcome = report["outcome"].as_str().unwrap();
+    for told in [stderr.as_ref(), outcome] {
+        assert!(
+            told.contains("interrupted (Ctrl-C or a termination signal)")
+                && !told.contains("by the user"),
+            "{told}"
+        );
+    }
 }
 
 /// Kills `assemble` once its journal has `kill_after` lines, then resumes it.

@@ -840,7 +840,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     let stopped = b.dir.path().join("interrupted");
     let report = std::fs::read_to_string(stopped.join("report.json")).unwrap();
     assert!(
-        report.contains("interrupted by the user (Ctrl-C)"),
+        report.contains("interrupted (Ctrl-C or a termination signal)"),
         "{report}"
     );
     let journal = std::fs::read_to_string(stopped.join("journal.jsonl")).unwrap();

@@ -29,10 +29,11 @@ pub enum RigError {
     /// nothing was moved.
     #[error("this rig has no coarse stage: move the sample by hand, or add one to the rig")]
     NoCoarseStage,
-    /// Ctrl-C was pressed ([`crate::rig::interrupt`]): the stage was halted
-    /// and nothing more is moved. A run stops on it as on any stop: it is
-    /// journalled and can be resumed (it had been a "stage fault", retried).
-    #[error("interrupted by the user (Ctrl-C); the stage was halted")]
+    /// Ctrl-C, SIGTERM or SIGHUP arrived ([`crate::rig::interrupt`]): the
+    /// stage was halted and nothing more is moved. A run stops on it as on
+    /// any stop: it is journalled and can be resumed (it had been a "stage
+    /// fault", retried).
+    #[error("interrupted ({}); the stage was halted", crate::rig::interrupt::CAUSE)]
     Interrupted,
     /// The operator answered the first-move question on real hardware with
     /// anything but `yes`: nothing was sent that moves or powers an axis,

@@ -17,6 +17,12 @@ use std::time::{Duration, Instant};
 
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 
+/// What raised the flag, as messages name it. The ctrlc crate calls one
+/// handler for SIGINT, SIGTERM and SIGHUP alike and does not say which
+/// arrived, so the words are true for all three: "interrupted by the user
+/// (Ctrl-C)" had been written for a `kill` or a closed terminal too.
+pub const CAUSE: &str = "Ctrl-C or a termination signal";
+
 /// How long after the first Ctrl-C a second one is taken as a wish to end
 /// at once rather than as the same press again: the stop itself (halting
 /// the stage, writing the report) takes well under a second.
@@ -42,7 +48,7 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
         {
             let _ = writeln!(
                 std::io::stderr(),
-                "Ctrl-C again: ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
+                "interrupted again ({CAUSE}): ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
             );
             std::process::exit(130);
         }

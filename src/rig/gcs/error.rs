@@ -51,8 +51,12 @@ pub enum GcsError {
     /// An argument given to the driver cannot be put on the wire.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
-    /// Ctrl-C was pressed: the stage was halted and the operation abandoned.
-    #[error("interrupted by the user; the stage was sent HLT")]
+    /// Ctrl-C, SIGTERM or SIGHUP arrived ([`crate::rig::interrupt`]): the
+    /// stage was halted and the operation abandoned.
+    #[error(
+        "interrupted ({}); the stage was sent HLT",
+        crate::rig::interrupt::CAUSE
+    )]
     Interrupted,
 }
 
