@@ -499,10 +499,7 @@ impl FrameSink for Progress {
 fn print_summary(r: &AssemblyReport, out: &Path) {
     println!("assembly {}", r.outcome);
     println!("  sites filled     {}/{}", r.filled, r.sites);
-    println!(
-        "  placement error  rms {:.0} nm, max {:.0} nm ({})",
-        r.rms_error_nm, r.max_error_nm, r.error_source
-    );
+    println!("  placement error  {}", r.placement_error_summary());
     println!(
         "  pushes           {} ({})",
         r.pushes,

@@ -686,10 +686,7 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path, dry_run: bool) {
             r.pushes
         );
     } else {
-        println!(
-            "  placement error  rms {:.0} nm, max {:.0} nm (camera)",
-            r.rms_error_nm, r.max_error_nm
-        );
+        println!("  placement error  {}", r.placement_error_summary());
         println!(
             "  pushes           {} ({}, {})",
             r.pushes,

@@ -150,20 +150,7 @@ pub fn write_report_md(
                 report.filled, report.sites
             ),
         ),
-        (
-            "placement error",
-            format!(
-                "rms {:.0} nm, max {:.0} nm ({}){}",
-                report.rms_error_nm,
-                report.max_error_nm,
-                report.error_source,
-                if report.filled < report.sites {
-                    "; an unfilled site counts its nearest particle's distance"
-                } else {
-                    ""
-                }
-            ),
-        ),
+        ("placement error", report.placement_error_summary()),
         (
             "pushes",
             format!(

@@ -18,6 +18,7 @@ use crate::plan::Site;
 use crate::plan::pattern::sites_um;
 use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineAxis;
+use crate::wording::counted;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -36,14 +37,23 @@ pub struct AssemblyReport {
     pub sites: usize,
     /// Sites with a particle within the placement tolerance.
     pub filled: usize,
-    /// Root-mean-square placement error over the sites, nanometres.
+    /// Root-mean-square placement error over the sites that have a particle
+    /// (see [`placed_errors_m`]), nanometres; 0 when none has.
     pub rms_error_nm: f64,
-    /// Largest placement error, nanometres.
+    /// Largest placement error over the sites that have a particle,
+    /// nanometres; 0 when none has.
     pub max_error_nm: f64,
     /// "ground-truth" (simulated rig) or "camera".
     pub error_source: String,
-    /// Placement error of every site, nanometres.
+    /// Distance from every site to its nearest particle, nanometres: the
+    /// placement error where the site has a particle; for an unfilled site
+    /// that particle may be another site's, so the figures leave it out.
     pub site_errors_nm: Vec<f64>,
+    /// Sites without a particle at the end (neither within the tolerance
+    /// nor left short), which `rms_error_nm` and `max_error_nm` leave out;
+    /// 0 in reports written before this field, whose figures counted them.
+    #[serde(default)]
+    pub unfilled: usize,
     /// Pushes made (and checked; see [`super::journal_pushes`]).
     pub pushes: usize,
     /// Pushes made that repeated one whose contact was lost.
@@ -310,6 +320,28 @@ impl AssemblyReport {
         (c.frames > 0).then(|| format!("{} frames (up to {worst})", c.frames))
     }
 
+    /// "rms 12 nm, max 30 nm (camera)", with "over 19 sites with a
+    /// particle; 1 site unfilled" when some site has none.
+    pub fn placement_error_summary(&self) -> String {
+        let placed = self.sites - self.unfilled;
+        let unfilled = counted(self.unfilled, "site");
+        if placed == 0 {
+            return format!("none: no site has a particle ({unfilled} unfilled)");
+        }
+        let figures = format!(
+            "rms {:.0} nm, max {:.0} nm ({})",
+            self.rms_error_nm, self.max_error_nm, self.error_source
+        );
+        if self.unfilled == 0 {
+            figures
+        } else {
+            format!(
+                "{figures} over {} with a particle; {unfilled} unfilled",
+                counted(placed, "site")
+            )
+        }
+    }
+
     /// The report of a run: counts from its journal, errors and the rest from `facts`.
     pub fn from_run(
         facts: RunFacts<'_>,
@@ -323,7 +355,9 @@ impl AssemblyReport {
             settings.placed_tolerance_m * 1e6,
         );
         let errors_m = facts.site_errors_m;
-        let (rms_error_nm, max_error_nm) = error_figures_nm(errors_m);
+        let tolerance_m = settings.placed_tolerance_m;
+        let placed = placed_errors_m(errors_m, tolerance_m, &counts.left_short);
+        let (rms_error_nm, max_error_nm) = error_figures_nm(&placed);
         AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
             outcome: match facts.end.reason() {
@@ -339,6 +373,7 @@ impl AssemblyReport {
             max_error_nm,
             error_source: facts.error_source.to_owned(),
             site_errors_nm: errors_m.iter().map(|e| e * 1e9).collect(),
+            unfilled: errors_m.len() - placed.len(),
             pushes: counts.pushes,
             repushes: counts.repushes,
             pushes_not_made: counts.pushes_not_made,
@@ -514,6 +549,23 @@ pub fn lower_bound_s(c: &JournalCounts, push_speed_m_per_s: f64, travel_speed_m_
     let moves = c.sites_to_fill.unwrap_or(0) as f64;
     (lb_push_um + moves * onset_travel_um) * 1e-6 / push_speed_m_per_s
         + lb_tip_um * 1e-6 / travel_speed_m_per_s
+}
+
+/// The errors of the sites that have a particle: within `tolerance_m`, or
+/// left short (a particle left near the site on purpose). An unfilled
+/// site's distance is to the nearest particle, often another site's: a
+/// stopped run's figures had counted them, "rms 14 um" for 20 nm placements.
+pub fn placed_errors_m(
+    errors_m: &[f64],
+    tolerance_m: f64,
+    left_short: &[LeftShortSite],
+) -> Vec<f64> {
+    errors_m
+        .iter()
+        .enumerate()
+        .filter(|(i, e)| **e <= tolerance_m || left_short.iter().any(|l| l.site == *i))
+        .map(|(_, e)| *e)
+        .collect()
 }
 
 /// Root mean square and maximum of errors in metres, as nanometres.
@@ -788,6 +840,68 @@ mod tests {
         assert!(small_report().notes().is_empty());
     }
 
+    /// A stopped run's placement error covers the sites with a particle
+    /// (within the tolerance, or left short), the unfilled ones counted
+    /// apart; the report reads back, and one without `unfilled` still reads.
+    #[test]
+    fn a_stopped_runs_placement_error_leaves_unfilled_sites_out() {
+        let scene = Scene::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"),
+        )
+        .unwrap();
+        let settings = AssemblySettings::default();
+        let tol = settings.placed_tolerance_m;
+        let sites = crate::plan::pattern::numbered_sites(
+            (0..4).map(|i| nalgebra::Vector2::new(f64::from(i) * 20e-6, 0.0)),
+        );
+        // Two placed, one left short beyond the tolerance, one unfilled
+        // whose nearest particle is 14 um off.
+        let errors_m = [0.2 * tol, 0.6 * tol, 1.5 * tol, 14e-6];
+        let end = RunEnd::Stopped("interrupted".into());
+        let facts = RunFacts {
+            end: &end,
+            sites: &sites,
+            site_errors_m: &errors_m,
+            error_source: "ground-truth",
+            lost_contacts_missed: None,
+            time_s: 10.0,
+            effect_work: None,
+        };
+        let journal = [entry(
+            0,
+            1.0,
+            RunEvent::LeftShort {
+                site: 2,
+                particle: 7,
+                error_nm: errors_m[2] * 1e9,
+            },
+        )];
+        let r = AssemblyReport::from_run(facts, &journal, &scene, &settings);
+        let placed = &errors_m[..3];
+        let (rms, max) = error_figures_nm(placed);
+        assert_eq!((r.rms_error_nm, r.max_error_nm), (rms, max));
+        assert!(r.max_error_nm < errors_m[3] * 1e9, "{r:?}");
+        assert_eq!((r.filled, r.unfilled, r.sites), (2, 1, 4));
+        assert_eq!(r.site_errors_nm.len(), 4, "every site keeps its distance");
+        assert_eq!(
+            r.placement_error_summary(),
+            format!(
+                "rms {rms:.0} nm, max {max:.0} nm (ground-truth) over 3 sites with a particle; 1 site unfilled"
+            )
+        );
+        let text = serde_json::to_string(&r).unwrap();
+        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        old.as_object_mut().unwrap().remove("unfilled");
+        let old: AssemblyReport = serde_json::from_value(old).unwrap();
+        assert_eq!(old.unfilled, 0);
+        let none = AssemblyReport { unfilled: 4, ..r };
+        assert_eq!(
+            none.placement_error_summary(),
+            "none: no site has a particle (4 sites unfilled)"
+        );
+    }
+
     /// A finished one-site run, 30 s against a 20 s bound.
     fn small_report() -> AssemblyReport {
         AssemblyReport {
@@ -799,6 +913,7 @@ mod tests {
             max_error_nm: 0.0,
             error_source: "ground-truth".into(),
             site_errors_nm: vec![0.0],
+            unfilled: 0,
             pushes: 1,
             repushes: 0,
             pushes_not_made: 0,
