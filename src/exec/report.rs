@@ -48,6 +48,8 @@ pub struct AssemblyReport {
     /// Distance from every site to its nearest particle, nanometres: the
     /// placement error where the site has a particle; for an unfilled site
     /// that particle may be another site's, so the figures leave it out.
+    /// Infinite (`null` in JSON) when no particle is tracked at all.
+    #[serde(deserialize_with = "infinite_if_null")]
     pub site_errors_nm: Vec<f64>,
     /// Sites without a particle at the end (neither within the tolerance
     /// nor left short), which `rms_error_nm` and `max_error_nm` leave out;
@@ -568,6 +570,17 @@ pub fn placed_errors_m(
         .collect()
 }
 
+/// Reads `site_errors_nm` back: JSON writes an infinite distance (no
+/// particle tracked at all) as `null`, which a plain `f64` refuses, so
+/// such a report had not read back.
+fn infinite_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let read = Vec::<Option<f64>>::deserialize(d)?;
+    Ok(read
+        .into_iter()
+        .map(|e| e.unwrap_or(f64::INFINITY))
+        .collect())
+}
+
 /// Root mean square and maximum of errors in metres, as nanometres.
 pub fn error_figures_nm(errors_m: &[f64]) -> (f64, f64) {
     if errors_m.is_empty() {
@@ -900,6 +913,19 @@ mod tests {
             none.placement_error_summary(),
             "none: no site has a particle (4 sites unfilled)"
         );
+    }
+
+    /// With no particle tracked at all every site's distance is infinite,
+    /// written as `null`: the report reads back (it had been refused).
+    #[test]
+    fn a_report_without_any_particle_reads_back() {
+        let r = AssemblyReport {
+            site_errors_nm: vec![f64::INFINITY, 3.0],
+            ..small_report()
+        };
+        let text = serde_json::to_string(&r).unwrap();
+        assert!(text.contains("\"site_errors_nm\":[null,3.0]"), "{text}");
+        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
     }
 
     /// A finished one-site run, 30 s against a 20 s bound.
