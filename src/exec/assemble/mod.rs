@@ -210,7 +210,10 @@ impl RunEnd {
     pub fn reason(&self) -> Option<String> {
         match self {
             RunEnd::Done => None,
-            RunEnd::PushesSpent(n) => Some(format!("{n} pushes made without filling every site")),
+            RunEnd::PushesSpent(n) => Some(format!(
+                "{} made without filling every site",
+                crate::wording::counted(*n, "push")
+            )),
             RunEnd::Stopped(why) => Some(why.clone()),
         }
     }
@@ -857,5 +860,19 @@ impl From<PushError> for ExecError {
             PushError::Journal(j) => ExecError::Journal(j),
             PushError::Refused(s) => ExecError::Rig(RigError::StageFault(s)),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunEnd;
+
+    /// A dry run's one push reads "1 push made", not "1 pushes made".
+    #[test]
+    fn a_run_spent_on_its_pushes_counts_them_in_words() {
+        let said = |n| RunEnd::PushesSpent(n).reason().unwrap();
+        assert_eq!(said(1), "1 push made without filling every site");
+        assert_eq!(said(400), "400 pushes made without filling every site");
+        assert_eq!(RunEnd::Done.reason(), None);
     }
 }
