@@ -33,7 +33,7 @@ use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{
-    Assembly, AssemblyInputs, AssemblySettings, CALIBRATION_DOUBT_M, LIFT_ABOVE_PARTICLES_M, RunEnd,
+    Assembly, AssemblyInputs, AssemblySettings, LIFT_ABOVE_PARTICLES_M, RunEnd, apex_beyond_doubt_m,
 };
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
@@ -252,16 +252,13 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
 }
 
 /// Warns when a dry run's first frame shows the apex farther than
-/// [`CALIBRATION_DOUBT_M`] from its in-process stage: a real run stops
+/// [`CALIBRATION_DOUBT_M`](crate::exec::assemble::CALIBRATION_DOUBT_M)
+/// from its in-process stage ([`apex_beyond_doubt_m`]): a real run stops
 /// there, but the real stage may simply be elsewhere (a dry run reads no
 /// position from the controller), so the dry run cannot tell (it had
 /// stopped blaming the calibration).
 fn warn_of_unchecked_calibration(first: &Sighting) {
-    let (Some(offset), Some(stage)) = (first.apex_offset_m(), first.stage_m) else {
-        return;
-    };
-    let off = offset[0].hypot(offset[1]);
-    if off > CALIBRATION_DOUBT_M {
+    if let (Some(off), Some(stage)) = (apex_beyond_doubt_m(first), first.stage_m) {
         tracing::warn!(
             "the dry run cannot check the calibration: its in-process stage starts at ({:.2}, {:.2}, {:.2}) um, \
              where the real stage may not be (nothing is read from the controller), and the camera sees the \

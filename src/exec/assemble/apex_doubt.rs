@@ -51,17 +51,29 @@ pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> O
     if let Some(why) = astray(sighting, before, &said) {
         return Some(why);
     }
+    let off = apex_beyond_doubt_m(sighting)?;
     let now = sighting.apex_offset_m()?;
-    let off = now[0].hypot(now[1]);
-    (off > CALIBRATION_DOUBT_M).then(|| {
-        format!(
-            "the probe's apex has drifted {:.1} um from where the stage has it (by {}), a little at a time: \
+    Some(format!(
+        "the probe's apex has drifted {:.1} um from where the stage has it (by {}), a little at a time: \
              the run does not follow drift (--no-drift-follow), so every push would miss by as much; \
              go on without --no-drift-follow, or make the calibration again (nanopush rig calibrate)",
-            off * 1e6,
-            um(now)
-        )
-    })
+        off * 1e6,
+        um(now)
+    ))
+}
+
+/// How far the apex lies from where the stage was sent (no drift or offset
+/// taken out), when farther than [`CALIBRATION_DOUBT_M`]: drift this run
+/// does not follow, or a calibration a run cannot check (a dry run's stage
+/// is not the real one).
+pub fn apex_beyond_doubt_m(sighting: &Sighting) -> Option<f64> {
+    apex_off_m(sighting, [0.0, 0.0]).filter(|off| *off > CALIBRATION_DOUBT_M)
+}
+
+/// How far the apex lies from where the stage was sent, `offset_m` added.
+fn apex_off_m(sighting: &Sighting, offset_m: [f64; 2]) -> Option<f64> {
+    let now = sighting.apex_offset_m()?;
+    Some((now[0] - offset_m[0]).hypot(now[1] - offset_m[1]))
 }
 
 /// Says why the apex lies farther than [`CALIBRATION_DOUBT_M`] from where
@@ -70,7 +82,7 @@ pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> O
 fn astray(sighting: &Sighting, offset_m: [f64; 2], offset_said: &str) -> Option<String> {
     let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
     let expected = [0, 1].map(|i| stage[i] + sighting.coarse_offset_m[i] + offset_m[i]);
-    let off = (tip[0] - expected[0]).hypot(tip[1] - expected[1]);
+    let off = apex_off_m(sighting, offset_m)?;
     (off > CALIBRATION_DOUBT_M).then(|| {
         format!(
             "the camera sees the probe's apex at {}, {:.1} um from where the stage{offset_said} \

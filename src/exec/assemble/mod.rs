@@ -39,7 +39,9 @@ mod planning;
 mod pushing;
 mod stage_moves;
 
-pub use apex_doubt::{CALIBRATION_DOUBT_M, apex_doubt, apex_doubt_unfollowed, calibration_doubt};
+pub use apex_doubt::{
+    CALIBRATION_DOUBT_M, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed, calibration_doubt,
+};
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
 pub use pushing::{LIFT_ABOVE_PARTICLES_M, decide_push, scene_for_push};
