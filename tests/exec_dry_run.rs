@@ -830,7 +830,7 @@ fn ctrl_c_ends_a_dry_run_keeping_the_frames_analysed() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "{stderr}");
     assert!(
-        stderr.contains("dry-run interrupted (Ctrl-C) after"),
+        stderr.contains("dry-run interrupted (Ctrl-C or a termination signal) after"),
         "{stderr}"
     );
     let written: DryRunReport =

@@ -252,6 +252,32 @@ fn bad_flags_exit_non_zero() {
             "{said}"
         );
     }
+    // A flag's unit slip is refused as the scene file's would be (a speed
+    // in m/s had simulated a push at 1 pm/s without a word).
+    for (flag, value, slip) in [
+        ("--speed-um-s", "1e-6", "looks like m/s"),
+        ("--duration-s", "2e-5", "plausible range is"),
+        ("--radius-um", "5e-6", "looks like m"),
+    ] {
+        let out = nanopush()
+            .args([
+                "simulate",
+                "--scene",
+                "calib/paper-ps-ito.toml",
+                flag,
+                value,
+            ])
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success()
+                && said.contains(flag)
+                && said.contains("implausible")
+                && said.contains(slip),
+            "{flag} {value}: {said}"
+        );
+    }
 }
 
 #[test]

@@ -1,10 +1,10 @@
 //! `nanopush simulate`: one push of the pushing model, summarised, as JSON,
 //! or with plots and a CSV time series.
 
-use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
 use crate::model::push_sim::{SeriesRow, SolverSettings, simulate_push_series};
 use crate::model::summary::PushSummary;
+use crate::model::{ModelError, Scene, plausible};
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -42,22 +42,31 @@ pub fn scene_with_overrides(args: &Args) -> anyhow::Result<Scene> {
         anyhow::ensure!(v.is_finite() && ok, "--{flag} {v} is invalid");
         Ok(v)
     };
+    // The scene's own range for the key the flag overrides: `--speed-um-s
+    // 1e-6` (m/s written where um/s is wanted) had simulated a push at
+    // 1 pm/s without a word, though the scene file refuses the same value.
+    let in_range = |v: f64, flag: &str, key: &str| -> anyhow::Result<f64> {
+        plausible(v, key).map_err(|e| match e {
+            ModelError::Scene { problem, .. } => anyhow::anyhow!("--{flag}: {problem}"),
+            other => other.into(),
+        })
+    };
     if let Some(a) = args.angle_deg {
         scene.push.contact_angle_rad = check(a, "angle-deg", a > 0.0 && a < 90.0)
             .context("contact angle must be inside 0..90 deg")?
             .to_radians();
     }
     if let Some(v) = args.speed_um_s {
-        scene.push.speed_m_per_s =
-            check(v, "speed-um-s", v > 0.0).context("speed must be positive")? * 1e-6;
+        check(v, "speed-um-s", v > 0.0).context("speed must be positive")?;
+        scene.push.speed_m_per_s = in_range(v, "speed-um-s", "push.speed_um_s")? * 1e-6;
     }
     if let Some(t) = args.duration_s {
-        scene.push.duration_s =
-            check(t, "duration-s", t > 0.0).context("duration must be positive")?;
+        check(t, "duration-s", t > 0.0).context("duration must be positive")?;
+        scene.push.duration_s = in_range(t, "duration-s", "push.duration_s")?;
     }
     if let Some(r) = args.radius_um {
-        scene.particle_radius_m =
-            check(r, "radius-um", r > 0.0).context("radius must be positive")? * 1e-6;
+        check(r, "radius-um", r > 0.0).context("radius must be positive")?;
+        scene.particle_radius_m = in_range(r, "radius-um", "particle.radius_um")? * 1e-6;
     }
     Ok(scene)
 }

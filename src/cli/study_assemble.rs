@@ -166,7 +166,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if interrupt.load(std::sync::atomic::Ordering::SeqCst) {
         bail!(
-            "interrupted (Ctrl-C) after {} of {} runs; the summary holds those",
+            "interrupted ({}) after {} of {} runs; the summary holds those",
+            crate::rig::interrupt::CAUSE,
             summary.rows.len(),
             args.runs
         );

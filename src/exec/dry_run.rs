@@ -196,7 +196,8 @@ pub fn dry_run(
     for (i, recorded) in frames_in.enumerate() {
         if interrupt.load(Ordering::SeqCst) {
             ended_early = Some(format!(
-                "interrupted (Ctrl-C) after {}",
+                "interrupted ({}) after {}",
+                crate::rig::interrupt::CAUSE,
                 counted(i, "frame")
             ));
             break;
@@ -362,18 +363,10 @@ pub fn dry_run(
 
 /// The planner's settings without the tip, as the loop's: its placed
 /// tolerance and travel speed, the scene's push speed (1 um/s without a
-/// scene).
+/// scene). (At the planner's default travel speed, 10 um/s, not the loop's
+/// 50, the tour weighed travel more and chose other orders than the loop's.)
 fn plan_config(scene: Option<&Scene>) -> PlanConfig {
-    // The loop's own tip travel speed: at the planner's default (10 um/s,
-    // not the loop's 50) the tour weighed travel more and chose other
-    // orders than the loop's.
-    let loop_settings = AssemblySettings::default();
-    PlanConfig {
-        on_site_tolerance_m: loop_settings.placed_tolerance_m,
-        push_speed_m_per_s: scene.map_or(1e-6, |s| s.push.speed_m_per_s),
-        travel_speed_m_per_s: loop_settings.travel_speed_m_per_s,
-        ..PlanConfig::default()
-    }
+    AssemblySettings::default().plan_config_pushing_at(scene.map_or(1e-6, |s| s.push.speed_m_per_s))
 }
 
 /// The sites: the pattern `asked` for (the recording's target aside), as

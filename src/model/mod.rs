@@ -26,5 +26,6 @@ pub mod units;
 
 pub use error::ModelError;
 pub use outcome::{Outcome, PushResult};
+pub(crate) use plausible::plausible;
 pub use push_sim::{PushParams, SolverSettings, simulate_push};
 pub use scene::Scene;

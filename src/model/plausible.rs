@@ -250,7 +250,7 @@ impl Plausible {
 /// `v` (finite, its sign already checked) if it is plausible for `field`'s
 /// quantity in its unit, else the refusal naming the key, the value, the
 /// range, why, and the likely slip.
-pub(super) fn plausible(v: f64, field: &str) -> Result<f64, ModelError> {
+pub(crate) fn plausible(v: f64, field: &str) -> Result<f64, ModelError> {
     let Some(p) = row(field) else {
         return Err(ModelError::scene(
             field,

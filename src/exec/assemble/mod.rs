@@ -134,8 +134,14 @@ impl AssemblySettings {
     /// places the pattern and the loop's plans agree on what is placed and
     /// which particles fit the sites), defaults otherwise.
     pub fn plan_config(&self, scene: &Scene) -> PlanConfig {
+        self.plan_config_pushing_at(scene.push.speed_m_per_s)
+    }
+
+    /// [`Self::plan_config`] for a push speed given apart (a dry run may
+    /// have no scene).
+    pub fn plan_config_pushing_at(&self, push_speed_m_per_s: f64) -> PlanConfig {
         PlanConfig {
-            push_speed_m_per_s: scene.push.speed_m_per_s,
+            push_speed_m_per_s,
             travel_speed_m_per_s: self.travel_speed_m_per_s,
             on_site_tolerance_m: self.placed_tolerance_m,
             max_push_m: self.longest_push_m,

@@ -438,6 +438,12 @@ pub const MIN_SOFT_RANGE_UM: f64 = 1.0;
 /// resolve, while a step written in metres (20e-6 for 20 um) falls far below.
 pub const MIN_MAX_STEP_UM: f64 = 0.01;
 
+/// Slowest top speed a rig file may give, micrometres a second: 10 nm/s,
+/// about the drift of a warm probe, so no stage pushes usefully below it,
+/// while a speed written in metres a second (200e-6 for 200 um/s) falls
+/// far below; it had crawled `rig calibrate`'s moves at 0.2 nm/s.
+pub const MIN_TOP_SPEED_UM_S: f64 = 0.01;
+
 /// Refuses limits too small for a micrometre field, naming the field and
 /// the likely slip: values in metres where the file wants micrometres.
 fn check_micrometre_scale(safety: &SafetySection, safety_name: &str) -> Result<(), String> {
@@ -455,6 +461,12 @@ fn check_micrometre_scale(safety: &SafetySection, safety_name: &str) -> Result<(
         return Err(format!(
             "{safety_name}.max_step_um is {} um, under {MIN_MAX_STEP_UM} um: {slip}",
             safety.max_step_um
+        ));
+    }
+    if safety.top_speed_um_s < MIN_TOP_SPEED_UM_S {
+        return Err(format!(
+            "{safety_name}.top_speed_um_s is {} um/s, under {MIN_TOP_SPEED_UM_S} um/s: {slip}",
+            safety.top_speed_um_s
         ));
     }
     Ok(())
@@ -555,6 +567,10 @@ mod tests {
             (
                 xyz.replace("max_step_um = 150.0", "max_step_um = 150e-6"),
                 "safety.max_step_um is 0.00015 um",
+            ),
+            (
+                xyz.replace("top_speed_um_s = 200.0", "top_speed_um_s = 200e-6"),
+                "safety.top_speed_um_s is 0.0002 um/s",
             ),
             (
                 COARSE.replace(
