@@ -42,6 +42,59 @@ fn write_layout(
     path.display().to_string()
 }
 
+/// Another tool's plan, the fields the format names only: particle 0 pushed
+/// from (20, 20) to (20, 50) um.
+fn write_pushing_20_20_to_20_50(dir: &Path) -> String {
+    let plan = dir.join("other-tool.json");
+    std::fs::write(
+        &plan,
+        r#"{"schema": "nanopush.plan/1", "sites": [{"id": 0, "x_um": 20, "y_um": 50}],
+            "assignment": [{"particle": 0, "site": 0}],
+            "steps": [{"kind": "push", "particle": 0, "from_um": [20, 20], "to_um": [20, 50],
+                       "approach_um": [20, 14], "contact_angle_deg": 0}]}"#,
+    )
+    .unwrap();
+    plan.display().to_string()
+}
+
+/// `verify-plan` exits as diff does: 0 for a plan that replays clean, 1 for
+/// one that fails, 2 when it cannot check (a missing plan or layout, a bad
+/// flag): both had been 1, a mistyped path taken for a bad plan.
+#[test]
+fn verify_plan_tells_a_failed_plan_from_one_it_cannot_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = write_layout(dir.path(), "l.json", &[(20.0, 20.0, 5.0)], (100.0, 100.0));
+    let plan = write_pushing_20_20_to_20_50(dir.path());
+    let plan = plan.as_str();
+    let code = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_nanopush"))
+            .arg("verify-plan")
+            .args(extra)
+            .output()
+            .unwrap()
+            .status
+            .code()
+    };
+    let missing = dir.path().join("none.json");
+    let missing = missing.to_str().unwrap();
+    assert_eq!(code(&[plan, "--layout", &layout]), Some(0));
+    let short_range = ["--nanostage-range-um", "20"];
+    assert_eq!(
+        code(&[&[plan, "--layout", &layout], &short_range[..]].concat()),
+        Some(1)
+    );
+    assert_eq!(code(&[missing, "--layout", &layout]), Some(2));
+    assert_eq!(code(&[plan, "--layout", missing]), Some(2));
+    assert_eq!(
+        code(&[plan, "--layout", &layout, "--tolerance-um", "-1"]),
+        Some(2)
+    );
+    assert_eq!(
+        code(&[plan, "--layout", &layout, "--tip-radius-um", "0"]),
+        Some(2)
+    );
+}
+
 /// Another tool's plan with only the fields the plan format names (no
 /// geometry, no summary) is replayed with `nanopush plan`'s geometry, and
 /// says so; a collaborator's plan is checked against one's own probe and
@@ -51,16 +104,8 @@ fn write_layout(
 fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
     let dir = tempfile::tempdir().unwrap();
     let layout = write_layout(dir.path(), "l.json", &[(20.0, 20.0, 5.0)], (100.0, 100.0));
-    let plan = dir.path().join("other-tool.json");
-    std::fs::write(
-        &plan,
-        r#"{"schema": "nanopush.plan/1", "sites": [{"id": 0, "x_um": 20, "y_um": 50}],
-            "assignment": [{"particle": 0, "site": 0}],
-            "steps": [{"kind": "push", "particle": 0, "from_um": [20, 20], "to_um": [20, 50],
-                       "approach_um": [20, 14], "contact_angle_deg": 0}]}"#,
-    )
-    .unwrap();
-    let plan = plan.to_str().unwrap();
+    let plan = write_pushing_20_20_to_20_50(dir.path());
+    let plan = plan.as_str();
     let (ok, text) = nanopush(&["verify-plan", plan, "--layout", &layout]);
     assert!(ok, "{text}");
     assert!(

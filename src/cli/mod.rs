@@ -101,11 +101,16 @@ pub fn main() -> ExitCode {
     end_quietly_on_closed_pipe();
     let cli = parse_command_line();
     show_warnings();
+    let checking = matches!(cli.command, Command::VerifyPlan(_));
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {}", error_message::error_message(&err));
-            ExitCode::FAILURE
+            if checking {
+                ExitCode::from(verify_plan::exit_code(&err))
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

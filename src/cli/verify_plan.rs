@@ -63,7 +63,24 @@ fn replayed_geometry(
     Ok((geometry, [tip_from, standoff_from, range_from]))
 }
 
-/// Replays the plan; exits non-zero when anything is wrong.
+/// A plan that was replayed and failed: the one error `verify-plan` exits
+/// 1 for.
+#[derive(Debug, thiserror::Error)]
+#[error("plan {plan} failed verification: {summary}")]
+pub struct FailedVerification {
+    plan: String,
+    summary: String,
+}
+
+/// `verify-plan`'s exit code for `err`, as diff and cmp do: 1 when the plan
+/// was replayed and failed, 2 when it could not be checked (a file missing
+/// or unreadable, a bad flag). Both had been 1, and a script gating on the
+/// check took a mistyped path for a bad plan.
+pub fn exit_code(err: &anyhow::Error) -> u8 {
+    if err.is::<FailedVerification>() { 1 } else { 2 }
+}
+
+/// Replays the plan; exits non-zero when anything is wrong ([`exit_code`]).
 pub fn run(args: Args) -> anyhow::Result<()> {
     if !args.tolerance_um.is_finite() || args.tolerance_um < 0.0 {
         anyhow::bail!(
@@ -124,11 +141,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("result            {}", if rep.ok { "ok" } else { "FAILED" });
     }
     if !rep.ok {
-        anyhow::bail!(
-            "plan {} failed verification: {}",
-            args.plan.display(),
-            rep.summary()
-        );
+        return Err(FailedVerification {
+            plan: args.plan.display().to_string(),
+            summary: rep.summary(),
+        }
+        .into());
     }
     Ok(())
 }
