@@ -124,6 +124,13 @@ fn files_read_back_and_agree() {
     // sites.json carries the journal's sites.
     let s = sites(out);
     assert_eq!(s.sites.len(), spec.sites_um.len());
+    // Written without float noise (35.00000000000001): at most 9 decimals.
+    let text = std::fs::read_to_string(out.join("sites.json")).unwrap();
+    let longest_decimals = text
+        .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .filter_map(|n| n.split_once('.').map(|(_, d)| d.len()))
+        .max();
+    assert!(longest_decimals <= Some(9), "{text}");
     for (row, want) in s.sites.iter().zip(&spec.sites_um) {
         assert!((row.x_um - want[0]).abs() < 1e-9 && (row.y_um - want[1]).abs() < 1e-9);
     }

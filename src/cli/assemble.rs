@@ -24,6 +24,7 @@ use crate::exec::sim_run::{
 };
 use crate::model::Scene;
 use crate::plan::Site;
+use crate::plan::layout::um_in_file;
 use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
 use crate::rig::interrupt::ctrlc_flag;
@@ -442,12 +443,15 @@ pub(super) fn write_sites(
             s.centre_m.x - coarse_offset_m[0],
             s.centre_m.y - coarse_offset_m[1],
         )?;
+        // Rounded as the planner's files are (`um_in_file`): 35.0 um, not
+        // 35.00000000000001; pixels to a micro-pixel.
+        let px = |v: f64| (v * 1e6).round() / 1e6;
         rows.push(serde_json::json!({
             "id": s.id,
-            "x_um": s.centre_m.x * 1e6,
-            "y_um": s.centre_m.y * 1e6,
-            "x_px": x_px,
-            "y_px": y_px,
+            "x_um": um_in_file(s.centre_m.x),
+            "y_um": um_in_file(s.centre_m.y),
+            "x_px": px(x_px),
+            "y_px": px(y_px),
         }));
     }
     let doc = serde_json::json!({"schema": "nanopush.sites/1", "sites": rows});
