@@ -308,6 +308,31 @@ fn study_writes_a_table_that_reads_back() {
         nanopush::model::study::from_csv(&nanopush::model::study::to_csv(&rows)).unwrap(),
         rows
     );
+    // Run again into the same folder: refused before any work, the table
+    // kept, unless --force (it had been replaced without a word).
+    let table = std::fs::read(dir.path().join("study-model.csv")).unwrap();
+    let again = |force: bool| {
+        let mut cmd = nanopush();
+        cmd.args(["study", "model", "--repeats", "1", "--out"])
+            .arg(dir.path());
+        if force {
+            cmd.arg("--force");
+        }
+        cmd.output().unwrap()
+    };
+    let refused = again(false);
+    let said = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success()
+            && said.contains("study-model.md exists")
+            && said.contains("--force"),
+        "{said}"
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("study-model.csv")).unwrap(),
+        table
+    );
+    assert!(again(true).status.success());
 }
 
 /// Requests that cannot run fail at once, say why, and write nothing.

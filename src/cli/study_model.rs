@@ -2,7 +2,7 @@
 
 use crate::model::Scene;
 use crate::model::scene::built_in_scene_paths;
-use crate::model::study::{run_study, to_markdown, write_outputs};
+use crate::model::study::{output_paths, run_study, to_markdown, write_outputs};
 use anyhow::Context;
 use std::path::PathBuf;
 
@@ -18,10 +18,20 @@ pub struct Args {
     /// Timing repeats per setting (median reported), 1 to 10,000.
     #[arg(long, default_value_t = 51, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     pub repeats: u32,
+    /// Replace a study already in --out.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Runs the study, prints the table, optionally writes it.
 pub fn run(args: Args) -> anyhow::Result<()> {
+    // Before the study's minute of work: a table kept from another machine
+    // or scene set was replaced without a word.
+    if let Some(dir) = &args.out {
+        for path in output_paths(dir) {
+            super::calibrate::check_output(&path, &[], args.force)?;
+        }
+    }
     let paths: Vec<PathBuf> = if args.scenes.is_empty() {
         built_in_scene_paths().map(PathBuf::from).collect()
     } else {
