@@ -401,3 +401,66 @@ fn a_resumed_run_leaves_short_what_its_run_left_short() {
         );
     }
 }
+
+/// A run started with `--no-drift-follow` that stops for the drift it does
+/// not follow says the exact command that goes on following it
+/// (`--resume JOURNAL --drift-follow`), and that command does: the resumed
+/// part estimates the drift. The journal's `drift_off` had been kept by
+/// every resume, and the advice "go on without --no-drift-follow" was a
+/// command `--resume` refuses.
+#[test]
+fn a_run_stopped_for_unfollowed_drift_resumes_following_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = drifting_scene(dir.path(), 2.0, 0.0);
+    let out = dir.path().join("run");
+    let stopped = nanopush()
+        .args([
+            "assemble",
+            "--text",
+            "CMU",
+            "--seed",
+            "4",
+            "--no-drift-follow",
+        ])
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&stopped.stderr);
+    assert!(!stopped.status.success(), "{stderr}");
+    let advised = stderr
+        .lines()
+        .find_map(|l| {
+            l.split_once("to follow it from here: nanopush ")
+                .map(|(_, c)| c)
+        })
+        .unwrap_or_else(|| panic!("no command that follows the drift: {stderr}"));
+    assert!(advised.ends_with(" --drift-follow"), "{advised}");
+    let resumed = nanopush()
+        .args(advised.split_whitespace())
+        .arg("--json")
+        .output()
+        .unwrap();
+    let entries = read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        .unwrap()
+        .entries;
+    let resumed_at = (entries.iter())
+        .rposition(|e| e.event == RunEvent::Resume)
+        .expect("a resume entry");
+    let estimates = (entries[resumed_at..].iter())
+        .filter(|e| matches!(e.event, RunEvent::Observation { drift: Some(_), .. }))
+        .count();
+    eprintln!(
+        "advised: {advised}; {estimates} drift estimates after the resume; {}",
+        String::from_utf8_lossy(&resumed.stdout)
+    );
+    assert!(
+        estimates > 0,
+        "{}",
+        String::from_utf8_lossy(&resumed.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&resumed.stdout).unwrap();
+    assert_eq!(report["outcome"], "done", "{report}");
+}

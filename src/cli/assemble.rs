@@ -5,6 +5,7 @@
 //! resume), force plots of the pushes, and with `--record` a recording that
 //! `nanopush dry-run` replays.
 
+use super::go_on::GoOn;
 use super::pattern_args::PatternArgs;
 use crate::calib::camera_map::CameraCalibration;
 use crate::exec::animation::AnimationWriter;
@@ -85,9 +86,15 @@ pub struct Args {
     /// Do not follow the tip's drift against the sample in the frames:
     /// every move goes where the calibration alone says. For a rig whose
     /// camera sees the tip's apex poorly; a resumed run keeps its run's
-    /// choice, so not with --resume.
+    /// choice (unless --drift-follow), so not with --resume.
     #[arg(long, conflicts_with = "resume")]
     pub no_drift_follow: bool,
+    /// With --resume: follow the tip's drift from here in a run started
+    /// with --no-drift-follow (its journal keeps that choice otherwise), as
+    /// such a run stopped for drift needs. Each resume that should follow
+    /// it takes the flag.
+    #[arg(long, requires = "resume")]
+    pub drift_follow: bool,
     /// Hardware rig: --rig FILE, --dry-run, --yes-move-hardware.
     #[command(flatten)]
     pub hardware: super::assemble_rig::RigArgs,
@@ -118,13 +125,36 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         print_recording(&args);
     }
     if !report.finished() {
+        let journal = args.resume.clone().unwrap_or_else(|| out.join(JOURNAL));
+        let go_on = GoOn {
+            rig: None,
+            journal_drift_off: journal_drift_off(&journal),
+            journal,
+            drift_follow: args.drift_follow,
+        };
         bail!(
-            "assembly did not finish: {}; go on with it: nanopush assemble --resume {}",
+            "assembly did not finish: {}; {}",
             report.outcome,
-            out.join(JOURNAL).display()
+            go_on.after()
         );
     }
     Ok(())
+}
+
+/// Whether the run's journal says it does not follow drift (its run spec's
+/// `drift_off`).
+fn journal_drift_off(journal: &Path) -> bool {
+    read_journal::<RunEvent>(journal).is_ok_and(|c| {
+        matches!(c.entries.first().map(|e| &e.event), Some(RunEvent::Start(spec)) if spec.drift_off)
+    })
+}
+
+impl Args {
+    /// Whether a resumed run does not follow drift: as its journal's run
+    /// spec says (`drift_off`), unless `--drift-follow`.
+    pub(super) fn resumed_drift_off(&self, spec: &RunSpec) -> bool {
+        spec.drift_off && !self.drift_follow
+    }
 }
 
 /// The library request these arguments make.
@@ -297,7 +327,8 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
-    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
+    let drift_off = args.resumed_drift_off(spec);
+    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, drift_off);
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
         ANIMATION_SCALE,

@@ -29,6 +29,7 @@
 //! ground truth on a rig), and its time is wall time.
 
 use super::assemble::{Args, check_out_free, open_recorder, print_recording, write_sites};
+use super::go_on::GoOn;
 use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
@@ -117,11 +118,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => new_start(args)?,
     };
     let (RigStart::New { journal_path, .. } | RigStart::Resume { journal_path, .. }) = &start;
-    let go_on = format!(
-        "go on with it: nanopush assemble --rig {} --resume {}",
-        rig_path.display(),
-        journal_path.display()
-    );
+    let go_on = GoOn {
+        rig: Some(rig_path.clone()),
+        journal: journal_path.clone(),
+        journal_drift_off: match &start {
+            RigStart::New { .. } => args.no_drift_follow,
+            RigStart::Resume { point, .. } => point.spec.drift_off,
+        },
+        drift_follow: args.drift_follow,
+    };
     let out = journal_path
         .parent()
         .unwrap_or(Path::new("."))
@@ -152,7 +157,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             point,
             scene,
             journal_path,
-        } => resume(*point, &scene, &mut rig, &journal_path),
+        } => {
+            let drift_off = args.resumed_drift_off(&point.spec);
+            resume(*point, drift_off, &scene, &mut rig, &journal_path)
+        }
     };
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
@@ -183,9 +191,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .interrupt_flag()
         .load(std::sync::atomic::Ordering::SeqCst)
     {
-        bail!("interrupted: the stage was halted; {go_on}");
+        bail!("interrupted: the stage was halted; {}", go_on.after());
     }
-    check_end(&end, hw.dry_run, &go_on)
+    check_end(&end, hw.dry_run, &go_on.after())
 }
 
 /// A new run whose first move was not confirmed: nothing moved, so `out`
@@ -475,10 +483,12 @@ fn assemble(
 }
 
 /// Goes on with a stopped run: the rig's sample frame put back as the run
-/// had it, its sites, field and scene from the journal; the loop looks
-/// first, so particles already on their sites stay.
+/// had it, its sites, field and scene from the journal, the drift followed
+/// unless `drift_off`; the loop looks first, so particles already on their
+/// sites stay.
 fn resume(
     point: ResumePoint,
+    drift_off: bool,
     scene: &Scene,
     rig: &mut HardwareRig,
     journal_path: &Path,
@@ -507,7 +517,7 @@ fn resume(
             field_m: frame.field_um.map(|v| v * 1e-6),
             ..Default::default()
         }
-        .with_drift_off(point.spec.drift_off),
+        .with_drift_off(drift_off),
         rig,
         scene,
     )?;

@@ -56,7 +56,7 @@ pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> O
     Some(format!(
         "the probe's apex has drifted {:.1} um from where the stage has it (by {}), a little at a time: \
              the run does not follow drift (--no-drift-follow), so every push would miss by as much; \
-             go on without --no-drift-follow, or make the calibration again (nanopush rig calibrate)",
+             go on following it (--resume with --drift-follow), or make the calibration again (nanopush rig calibrate)",
         off * 1e6,
         um(now)
     ))
@@ -139,6 +139,7 @@ mod tests {
         let why = apex_doubt_unfollowed(&drifted, before.apex_offset_m()).unwrap();
         assert!(why.contains("has drifted 5.4 um"), "{why}");
         assert!(why.contains("--no-drift-follow"), "{why}");
+        assert!(why.contains("--resume with --drift-follow"), "{why}");
         assert!(!why.contains("calibration does not fit"), "{why}");
         // Under the doubt: nothing said.
         let near = sighting([54.9, 50.0], [50.0, 50.0]);

@@ -665,7 +665,8 @@ impl<'a> Assembly<'a> {
         }
         format!(
             "; the run does not follow drift (--no-drift-follow), and the apex has moved {:.2} um against \
-             the stage since the first frame: every push misses by about as much",
+             the stage since the first frame: every push misses by about as much (--resume with \
+             --drift-follow follows it)",
             moved * 1e6
         )
     }
