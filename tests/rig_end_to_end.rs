@@ -942,6 +942,33 @@ fn an_unconfirmed_first_move_leaves_out_as_it_was() {
     assert_eq!(b.positions_um(), before);
 }
 
+/// A rig file whose calibration is not the camera's (the camera's view
+/// lies 20 um further along x than it says) stops the run at its first
+/// frame for the calibration, and offers no `--resume`: the sites were
+/// placed through that map, so the way on is a new calibration and a new
+/// run (the `--resume` line had been printed all the same).
+#[test]
+fn a_run_stopped_for_its_calibration_is_not_offered_a_resume() {
+    let named = manifest().join("calib/camera-stage-sim-folder.toml");
+    let said = CameraCalibration::load(&named).unwrap();
+    let camera = CameraCalibration::affine(
+        said.linear,
+        said.offset_m + nalgebra::Vector2::new(20.0 * UM, 0.0),
+    );
+    let b = bench_seeing(50.0, Some(&camera));
+    std::fs::copy(&named, b.dir.path().join("camera.toml")).unwrap();
+    let run = finish(b.assemble("run", &[]), RUN_LIMIT);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{}", failed(run.status, &run));
+    assert!(
+        stderr.contains("the calibration does not fit this camera and stage")
+            && stderr.contains("make the calibration again (nanopush rig calibrate --rig")
+            && stderr.contains("then start a new run in another --out"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("--resume"), "{stderr}");
+}
+
 #[test]
 fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     let seed = COARSE_SEED.to_string();

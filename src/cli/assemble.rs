@@ -132,11 +132,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             journal,
             drift_follow: args.drift_follow,
         };
-        bail!(
-            "assembly did not finish: {}; {}",
-            report.outcome,
-            go_on.after()
-        );
+        let after = go_on.after(&report.outcome);
+        bail!("assembly did not finish: {}; {after}", report.outcome);
     }
     Ok(())
 }

@@ -191,9 +191,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         .interrupt_flag()
         .load(std::sync::atomic::Ordering::SeqCst)
     {
-        bail!("interrupted: the stage was halted; {}", go_on.after());
+        bail!(
+            "interrupted: the stage was halted; {}",
+            go_on.after("interrupted")
+        );
     }
-    check_end(&end, hw.dry_run, &go_on.after())
+    check_end(&end, hw.dry_run, &go_on)
 }
 
 /// A new run whose first move was not confirmed: nothing moved, so `out`
@@ -249,13 +252,17 @@ fn resume_start(journal: &Path, dry_run: bool) -> anyhow::Result<RigStart> {
 /// Fails unless every site was filled, or a dry run spent its one push (it
 /// stops there by design); any other end, a stage error above all, is a
 /// non-zero exit even though the journal and report are written, saying
-/// how to `go_on` (a dry run is not resumed).
-fn check_end(end: &RunEnd, dry_run: bool, go_on: &str) -> anyhow::Result<()> {
+/// how to `go_on` (a dry run is not resumed, nor a run stopped for its
+/// calibration).
+fn check_end(end: &RunEnd, dry_run: bool, go_on: &GoOn) -> anyhow::Result<()> {
     let reason = end.reason().unwrap_or_default();
     match (end, dry_run) {
         (RunEnd::Done, _) | (RunEnd::PushesSpent(_), true) => Ok(()),
         (_, true) => bail!("assembly did not finish: stopped: {reason}"),
-        (_, false) => bail!("assembly did not finish: stopped: {reason}; {go_on}"),
+        (_, false) => bail!(
+            "assembly did not finish: stopped: {reason}; {}",
+            go_on.after(&reason)
+        ),
     }
 }
 
@@ -717,12 +724,18 @@ mod tests {
     #[test]
     fn a_dry_run_fails_on_a_stage_error_and_passes_on_its_one_push() {
         let stage = RunEnd::Stopped("rig error: stage did not answer within 10000 ms".into());
-        let go_on = "go on with it: nanopush assemble --rig R --resume J";
+        let go_on = &GoOn {
+            rig: Some(PathBuf::from("R")),
+            journal: PathBuf::from("J"),
+            journal_drift_off: false,
+            drift_follow: false,
+        };
+        let said = "go on with it: nanopush assemble --rig R --resume J";
         let err = check_end(&stage, true, go_on).unwrap_err().to_string();
         assert!(err.contains("did not answer within 10000 ms"), "{err}");
-        assert!(!err.contains(go_on), "a dry run is not resumed: {err}");
+        assert!(!err.contains(said), "a dry run is not resumed: {err}");
         let err = check_end(&stage, false, go_on).unwrap_err().to_string();
-        assert!(err.ends_with(go_on), "{err}");
+        assert!(err.ends_with(said), "{err}");
         assert!(check_end(&RunEnd::PushesSpent(1), true, go_on).is_ok());
         assert!(check_end(&RunEnd::PushesSpent(40), false, go_on).is_err());
         assert!(check_end(&RunEnd::Done, false, go_on).is_ok());

@@ -2,8 +2,10 @@
 //! `--resume` command, with `--drift-follow` where the run did not follow
 //! the tip's drift (its journal keeps `--no-drift-follow`, and a run that
 //! stopped for drift had been told to go on "without --no-drift-follow",
-//! which `--resume` refuses).
+//! which `--resume` refuses). A run stopped because the calibration does
+//! not fit is offered no resume: its sites were placed through that map.
 
+use crate::exec::assemble::blames_calibration;
 use std::path::PathBuf;
 
 /// How a run in progress would be gone on with.
@@ -19,9 +21,15 @@ pub struct GoOn {
 }
 
 impl GoOn {
-    /// What to do after the run stopped.
-    pub fn after(&self) -> String {
+    /// What to do after the run stopped for `reason`.
+    pub fn after(&self, reason: &str) -> String {
         let rig = self.rig_flag();
+        if blames_calibration(reason) {
+            return format!(
+                "the run's sites were placed through that calibration, so it is not to be resumed: \
+                 make the calibration again (nanopush rig calibrate{rig}), then start a new run in another --out"
+            );
+        }
         let resume = format!("nanopush assemble{rig} --resume {}", self.journal.display());
         match (self.journal_drift_off, self.drift_follow) {
             (true, false) => format!(
@@ -58,7 +66,7 @@ mod tests {
     #[test]
     fn a_run_not_following_drift_is_offered_the_resume_that_follows_it() {
         let plain = "nanopush assemble --rig rig.toml --resume out/journal.jsonl";
-        let said = go_on(true, false).after();
+        let said = go_on(true, false).after("stopped: lost contact");
         assert!(
             said.starts_with(&format!("go on with it: {plain};")),
             "{said}"
@@ -67,10 +75,10 @@ mod tests {
             said.ends_with(&format!("from here: {plain} --drift-follow")),
             "{said}"
         );
-        let said = go_on(true, true).after();
+        let said = go_on(true, true).after("interrupted");
         assert_eq!(said, format!("go on with it: {plain} --drift-follow"));
         assert_eq!(
-            go_on(false, false).after(),
+            go_on(false, false).after("x"),
             format!("go on with it: {plain}")
         );
     }

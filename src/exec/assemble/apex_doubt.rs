@@ -86,7 +86,7 @@ fn astray(sighting: &Sighting, offset_m: [f64; 2], offset_said: &str) -> Option<
     (off > CALIBRATION_DOUBT_M).then(|| {
         format!(
             "the camera sees the probe's apex at {}, {:.1} um from where the stage{offset_said} \
-             has it {}: the calibration does not fit this camera and stage (another rig's, \
+             has it {}: {CALIBRATION_UNFIT} (another rig's, \
              the rig file's stage axes or unit_um not the controller's, or the camera, lens or probe moved \
              since it was made); make it again (nanopush rig calibrate) before pushing",
             um(tip),
@@ -94,6 +94,16 @@ fn astray(sighting: &Sighting, offset_m: [f64; 2], offset_said: &str) -> Option<
             um(expected)
         )
     })
+}
+
+/// What a stop for a calibration that does not fit says ([`astray`]).
+const CALIBRATION_UNFIT: &str = "the calibration does not fit this camera and stage";
+
+/// True when a run's stop `reason` is a calibration that does not fit: its
+/// sites were placed through that map, so the run is not to be resumed
+/// (the `--resume` line had still been offered).
+pub fn blames_calibration(reason: &str) -> bool {
+    reason.contains(CALIBRATION_UNFIT)
 }
 
 /// A point in um as the messages print it.
@@ -141,6 +151,7 @@ mod tests {
         assert!(why.contains("--no-drift-follow"), "{why}");
         assert!(why.contains("--resume with --drift-follow"), "{why}");
         assert!(!why.contains("calibration does not fit"), "{why}");
+        assert!(!blames_calibration(&why), "{why}");
         // Under the doubt: nothing said.
         let near = sighting([54.9, 50.0], [50.0, 50.0]);
         assert_eq!(apex_doubt_unfollowed(&near, before.apex_offset_m()), None);
@@ -155,6 +166,7 @@ mod tests {
         let first = sighting([52.0, 57.0], [50.0, 50.0]);
         let why = apex_doubt_unfollowed(&first, None).unwrap();
         assert!(why.contains("calibration does not fit"), "{why}");
+        assert!(blames_calibration(&why), "{why}");
         assert_eq!(why, calibration_doubt(&first).unwrap());
     }
 

@@ -40,7 +40,8 @@ mod pushing;
 mod stage_moves;
 
 pub use apex_doubt::{
-    CALIBRATION_DOUBT_M, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed, calibration_doubt,
+    CALIBRATION_DOUBT_M, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed,
+    blames_calibration, calibration_doubt,
 };
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
