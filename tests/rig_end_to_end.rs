@@ -675,6 +675,9 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
     for figure in ["placement error  rms", "lost contacts)", "tip drift:"] {
         assert!(!printed.contains(figure), "{figure}: {printed}");
     }
+    // The bench's 150 um step does not bound the pushes: no note of it.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("max_step_um"), "{stderr}");
 }
 
 /// A dry run reads no position from the controller: its in-process stage
@@ -748,6 +751,11 @@ fn a_rig_with_the_templates_short_step_and_top_speed_assembles() {
     std::fs::write(&b.rig_path, &templated).unwrap();
     let out = finish(b.assemble("templated", &["--json"]), RUN_LIMIT);
     assert!(out.status.success(), "{}", failed(out.status, &out));
+    // The step, not the range, bounds the pushes: said once.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let note = "(max_step_um 10.0 um in the rig file): a larger step makes fewer pushes";
+    assert_eq!(stderr.matches(note).count(), 1, "{stderr}");
+    assert!(stderr.contains("note: pushes at most "), "{stderr}");
     let report = json(&out);
     assert_eq!(report["filled"], report["sites"], "{report}");
     assert_eq!(report["outcome"], "done", "{report}");

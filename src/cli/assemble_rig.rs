@@ -40,7 +40,7 @@ use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
-use crate::exec::push_reach::longest_push_m;
+use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
 use crate::model::Scene;
@@ -49,6 +49,7 @@ use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::PatternRequest;
 use crate::plan::placement::PlacementGoal;
+use crate::plan::pushes::max_push_len;
 use crate::rig::Rig;
 use crate::rig::gcs::{RigFile, SentLog};
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
@@ -299,7 +300,9 @@ fn warn_of_unchecked_calibration(first: &Sighting) {
 /// Pushes are planned no longer than one nanostage move holds
 /// ([`longest_push_m`]): the E-727 templates' 10 um step had cut pushes
 /// into pieces, the particle sticking at every stop and ending short
-/// (L: 10 pushes and 2 re-pushes where a 150 um step took 8 and none).
+/// (L: 10 pushes and 2 re-pushes where a 150 um step took 8 and none);
+/// when that is shorter than the planner's own longest push, a note says
+/// so ([`step_cap_note`]).
 fn fitted_to_rig(
     mut settings: AssemblySettings,
     rig: &mut HardwareRig,
@@ -338,10 +341,13 @@ fn fitted_to_rig(
         );
     }
     settings.travel_speed_m_per_s = settings.travel_speed_m_per_s.min(top_m_per_s);
-    settings.longest_push_m = Some(
-        longest_push_m(limits.max_step_m, scene, settings.stroke_allowance())
-            .map_err(anyhow::Error::msg)?,
-    );
+    let longest_m = longest_push_m(limits.max_step_m, scene, settings.stroke_allowance())
+        .map_err(anyhow::Error::msg)?;
+    let uncapped_m = max_push_len(scene.particle_radius_m, &settings.plan_config(scene));
+    if let Some(note) = step_cap_note(longest_m, uncapped_m, limits.max_step_m) {
+        eprintln!("note: {note}");
+    }
+    settings.longest_push_m = Some(longest_m);
     Ok(settings)
 }
 
