@@ -335,6 +335,29 @@ impl Bench {
         text
     }
 
+    /// `assemble --rig` with `args`, standard input at its end: the first
+    /// move on real hardware is not confirmed. Its stderr, after checking
+    /// that it failed saying nothing was moved.
+    fn unconfirmed(&self, args: &[&std::ffi::OsStr]) -> String {
+        let child = nanopush()
+            .args(["assemble", "--rig"])
+            .arg(&self.rig_path)
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let run = finish(child, Duration::from_secs(60));
+        let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+        assert!(!run.status.success(), "{}", failed(run.status, &run));
+        assert!(
+            stderr.contains("not confirmed: nothing was moved"),
+            "{stderr}"
+        );
+        stderr
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -907,8 +930,9 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
 
 /// A first move on real hardware that nobody confirms (here standard input
 /// at its end, no terminal: what EOF or Ctrl-C at the question come to)
-/// moves nothing, and leaves `--out` as it was: a journal left there had
-/// blocked the same command ("journal.jsonl exists: use --resume").
+/// moves nothing, and leaves `--out` and `--record` as they were: a
+/// journal left there had blocked the same command ("journal.jsonl exists:
+/// use --resume"), and a recording left in the `--record` folder did too.
 #[test]
 fn an_unconfirmed_first_move_leaves_out_as_it_was() {
     let b = bench(50.0);
@@ -916,30 +940,26 @@ fn an_unconfirmed_first_move_leaves_out_as_it_was() {
     let kept = b.dir.path().join("kept");
     std::fs::create_dir(&kept).unwrap();
     std::fs::write(kept.join("notes.txt"), "sample 3").unwrap();
+    let record = b.dir.path().join("rec/run");
     let before = b.positions_um();
     // A folder made by the run and one that was there; each run twice.
     for out in [b.dir.path().join("new/run"), kept.clone()] {
         for attempt in 0..2 {
-            let child = nanopush()
-                .args(["assemble", "--rig"])
-                .arg(&b.rig_path)
-                .args(["--text", b.text, "--out"])
-                .arg(&out)
-                .stdin(Stdio::null())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped())
-                .spawn()
-                .unwrap();
-            let run = finish(child, Duration::from_secs(60));
-            let stderr = String::from_utf8_lossy(&run.stderr);
-            assert!(!run.status.success(), "{}", failed(run.status, &run));
+            let text = std::ffi::OsStr::new(b.text);
+            let stderr = b.unconfirmed(&[
+                "--text".as_ref(),
+                text,
+                "--out".as_ref(),
+                out.as_os_str(),
+                "--record".as_ref(),
+                record.as_os_str(),
+            ]);
             assert!(
-                stderr.contains("not confirmed: nothing was moved")
-                    && stderr.contains("is as it was")
-                    && !stderr.contains("--resume"),
+                stderr.contains("is as it was") && !stderr.contains("--resume"),
                 "attempt {attempt}: {stderr}"
             );
             assert!(!b.dir.path().join("new").exists(), "{stderr}");
+            assert!(!b.dir.path().join("rec").exists(), "{stderr}");
             let names: Vec<String> = std::fs::read_dir(&kept)
                 .unwrap()
                 .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -948,6 +968,48 @@ fn an_unconfirmed_first_move_leaves_out_as_it_was() {
         }
     }
     assert_eq!(b.positions_um(), before);
+}
+
+/// Every file directly in `dir`, by name, with its bytes.
+fn files_in(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&p).unwrap())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// A `--resume` whose first move on real hardware nobody confirms moves
+/// nothing and leaves the run's folder as it was, byte for byte: it had
+/// appended `resume` and `stopped` lines to the journal and rewritten the
+/// report.
+#[test]
+fn an_unconfirmed_resume_leaves_the_run_as_it_was() {
+    let b = bench(50.0);
+    let run_dir = b.dir.path().join("run");
+    b.stopped_after_decisions("run", 1);
+    let before = files_in(&run_dir);
+    b.as_real_hardware();
+    let at = b.positions_um();
+    let journal = run_dir.join("journal.jsonl");
+    let stderr = b.unconfirmed(&["--resume".as_ref(), journal.as_os_str()]);
+    assert!(
+        stderr.contains("is as it was before: run the same command again to go on"),
+        "{stderr}"
+    );
+    let names = |files: &[(String, Vec<u8>)]| -> Vec<String> {
+        files.iter().map(|(n, _)| n.clone()).collect()
+    };
+    let after = files_in(&run_dir);
+    assert_eq!(names(&after), names(&before), "{stderr}");
+    assert!(after == before, "a file of the run changed: {stderr}");
+    assert_eq!(b.positions_um(), at);
 }
 
 /// A rig file whose calibration is not the camera's (the camera's view

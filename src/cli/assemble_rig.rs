@@ -114,6 +114,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             rig_file.stage.axes
         );
     }
+    // A resume declined at its first move puts the run's folder back as it
+    // was, journal and report alike: kept before the journal is reopened.
+    let resumed_folder = match &args.resume {
+        Some(journal) => Some(MadeFolder::before_making(&run_folder(journal))?.keeping_contents()?),
+        None => None,
+    };
     let start = match &args.resume {
         Some(journal) => resume_start(journal, hw.dry_run)?,
         None => new_start(args)?,
@@ -128,10 +134,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
         drift_follow: args.drift_follow,
     };
-    let out = journal_path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
+    let out = run_folder(journal_path);
     let clock_from_s = match &start {
         RigStart::Resume { point, .. } => point.last_t_s,
         RigStart::New { .. } => 0.0,
@@ -146,7 +149,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("opening the rig {}", rig_path.display()))?;
-    let folder = MadeFolder::create(&out)?;
+    let folder = match resumed_folder {
+        Some(kept) => kept,
+        None => MadeFolder::create(&out)?,
+    };
+    let record_folder = (args.record.as_deref())
+        .map(MadeFolder::before_making)
+        .transpose()?;
     let new_run = matches!(start, RigStart::New { .. });
     let result = match start {
         RigStart::New {
@@ -165,8 +174,12 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
-    if new_run && rig.declined_before_any_move() {
-        return Err(declined(&folder, &out));
+    if rig.declined_before_any_move() {
+        let mut folders = vec![(&folder, out.as_path())];
+        if let (Some(made), Some(dir)) = (&record_folder, &args.record) {
+            folders.push((made, dir));
+        }
+        return Err(declined(&folders, new_run));
     }
     if let Some(log) = rig.sent_log() {
         let path = out.join(SENT_BYTES);
@@ -200,16 +213,33 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     check_end(&end, hw.dry_run, &go_on)
 }
 
-/// A new run whose first move was not confirmed: nothing moved, so `out`
-/// is put back as it was (its journal had blocked the same command,
-/// "journal.jsonl exists: use --resume", for a run that never began).
-fn declined(folder: &MadeFolder, out: &Path) -> anyhow::Error {
+/// A run whose first move was not confirmed: nothing moved, so each of
+/// its `folders` (`--out` and `--record`, or the resumed run's) is put
+/// back as it was. A new run's journal had blocked the same command
+/// ("journal.jsonl exists: use --resume") for a run that never began, its
+/// `--record` folder ("already holds recording.toml") likewise, and a
+/// declined resume had appended to its journal.
+fn declined(folders: &[(&MadeFolder, &Path)], new_run: bool) -> anyhow::Error {
+    let said: Vec<String> = folders
+        .iter()
+        .map(|(made, dir)| format!("{} {}", dir.display(), made.undo_said()))
+        .collect();
+    let then = if new_run {
+        "start"
+    } else {
+        "go on with the run"
+    };
     anyhow::anyhow!(
-        "{}; {} {}: run the same command again to start",
+        "{}; {}: run the same command again to {then}",
         crate::rig::error::RigError::NotConfirmed,
-        out.display(),
-        folder.undo_said()
+        said.join("; ")
     )
+}
+
+/// The journal's folder, where a run writes ("." for a bare file name).
+fn run_folder(journal: &Path) -> PathBuf {
+    let parent = journal.parent().filter(|p| !p.as_os_str().is_empty());
+    parent.unwrap_or(Path::new(".")).to_path_buf()
 }
 
 /// A new run's scene, pattern and journal, checked before the rig is opened.

@@ -3,7 +3,10 @@
 //! first move on real hardware not confirmed). Why: such runs had left
 //! empty folders behind (`rig calibrate`) and a journal that blocked the
 //! same `--out` from being used again (`assemble --rig`), though nothing
-//! had moved. What was there before stays.
+//! had moved. What was there before stays, and with
+//! [`MadeFolder::keeping_contents`] the files there are put back as they
+//! were (a declined `--resume` had appended to its journal and rewritten
+//! the run's report).
 
 use anyhow::Context;
 use std::collections::HashSet;
@@ -18,27 +21,61 @@ pub struct MadeFolder {
     outermost_made: Option<PathBuf>,
     /// Names in `dir` before the command wrote anything.
     before: HashSet<OsString>,
+    /// The files directly in `dir` and their bytes, when kept
+    /// ([`MadeFolder::keeping_contents`]).
+    contents: Vec<(PathBuf, Vec<u8>)>,
 }
 
 impl MadeFolder {
     /// Makes `dir` and its missing ancestors, noting which were missing and
     /// what `dir` already held.
     pub fn create(dir: &Path) -> anyhow::Result<Self> {
+        let noted = Self::before_making(dir)?;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        Ok(noted)
+    }
+
+    /// Notes what `dir` and its ancestors hold, for a folder that something
+    /// else makes later, if it comes to it (a `--record` folder, made only
+    /// once the first frame is in).
+    pub fn before_making(dir: &Path) -> anyhow::Result<Self> {
         let outermost_made = dir
             .ancestors()
             .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
             .last()
             .map(Path::to_path_buf);
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let before = std::fs::read_dir(dir)
-            .with_context(|| format!("reading {}", dir.display()))?
-            .filter_map(|e| e.ok().map(|e| e.file_name()))
-            .collect();
+        let before = match outermost_made {
+            Some(_) => HashSet::new(),
+            None => std::fs::read_dir(dir)
+                .with_context(|| format!("reading {}", dir.display()))?
+                .filter_map(|e| e.ok().map(|e| e.file_name()))
+                .collect(),
+        };
         Ok(Self {
             dir: dir.to_path_buf(),
             outermost_made,
             before,
+            contents: Vec::new(),
         })
+    }
+
+    /// Also keeps the bytes of every file directly in the folder, which
+    /// [`MadeFolder::undo`] writes back where they changed.
+    pub fn keeping_contents(mut self) -> anyhow::Result<Self> {
+        if !self.dir.is_dir() {
+            return Ok(self);
+        }
+        for entry in std::fs::read_dir(&self.dir)
+            .with_context(|| format!("reading {}", self.dir.display()))?
+        {
+            let path = entry?.path();
+            if path.is_file() {
+                let bytes =
+                    std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+                self.contents.push((path, bytes));
+            }
+        }
+        Ok(self)
     }
 
     /// Removes what appeared in the folder since [`MadeFolder::create`],
@@ -46,6 +83,15 @@ impl MadeFolder {
     /// process wrote into is left). Returns whether the folder is left as
     /// it was found.
     pub fn undo(&self) -> anyhow::Result<bool> {
+        if !self.dir.exists() {
+            return Ok(true);
+        }
+        for (path, bytes) in &self.contents {
+            if std::fs::read(path).ok().as_ref() != Some(bytes) {
+                std::fs::write(path, bytes)
+                    .with_context(|| format!("putting back {}", path.display()))?;
+            }
+        }
         for entry in std::fs::read_dir(&self.dir)
             .with_context(|| format!("reading {}", self.dir.display()))?
         {
@@ -112,5 +158,32 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, vec![OsString::from("notes.txt")]);
+    }
+
+    /// Kept contents are written back; a folder never made is left alone.
+    #[test]
+    fn undo_puts_back_the_files_it_kept() {
+        let root = tempfile::tempdir().unwrap();
+        let run = root.path().join("run");
+        std::fs::create_dir(&run).unwrap();
+        std::fs::write(run.join("journal.jsonl"), "start\n").unwrap();
+        let kept = MadeFolder::create(&run)
+            .unwrap()
+            .keeping_contents()
+            .unwrap();
+        std::fs::write(run.join("journal.jsonl"), "start\nresume\nstopped\n").unwrap();
+        std::fs::write(run.join("report.json"), "{}").unwrap();
+        assert!(kept.undo().unwrap());
+        assert_eq!(
+            std::fs::read_to_string(run.join("journal.jsonl")).unwrap(),
+            "start\n"
+        );
+        assert!(!run.join("report.json").exists());
+        let later = root.path().join("rec/new");
+        let noted = MadeFolder::before_making(&later).unwrap();
+        assert!(noted.undo().unwrap());
+        std::fs::create_dir_all(later.join("frames")).unwrap();
+        assert!(noted.undo().unwrap());
+        assert!(!root.path().join("rec").exists());
     }
 }
