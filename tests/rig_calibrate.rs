@@ -376,6 +376,12 @@ fn a_refused_run_leaves_no_folder_it_made_and_advises_only_what_is_accepted() {
             message.contains("outside the rig file's limits"),
             "{message}"
         );
+        // Refused before any move: said so, not "stopped at ...".
+        assert!(
+            message.contains("nothing moved: the stage is where it was, at (50.00, 50.00) um")
+                && !message.contains("not put back"),
+            "{message}"
+        );
         // No frame: nothing to fit, so no fit is advised.
         assert!(!message.contains("nanopush calibrate"), "{message}");
         assert!(message.contains("run the same command again"), "{message}");
@@ -421,6 +427,11 @@ fn a_run_stopped_early_advises_a_command_that_is_accepted() {
     let frames = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
     println!("stopped after {frames} frames: {message}");
     assert!(message.contains("interrupted"), "{message}");
+    // It moved: where it stopped, and that it stays there.
+    assert!(
+        message.contains("the stage stopped at") && message.contains("it was not put back"),
+        "{message}"
+    );
     // Whatever it advises is accepted.
     let fit = format!(
         "`nanopush calibrate --recording {} --out FILE`",

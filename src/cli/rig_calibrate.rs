@@ -155,14 +155,24 @@ fn measure(
         // The stage goes back to where it started only when the run ends by
         // itself: after Ctrl-C or a fault it stays where it stopped, and
         // the frames already saved are worth a fit (neither had been said).
+        // A run that ends before its first move says nothing moved.
+        let moved = devices.moved_any();
         let at = match devices.position() {
-            Ok(p) => format!(
-                "the stage stopped at ({:.2}, {:.2}) um, the tip {:.2} um above the substrate; it was not put back",
-                p[0] * 1e6,
-                p[1] * 1e6,
-                p[2] * 1e6
-            ),
-            Err(_) => "where the stage stopped could not be read".to_string(),
+            Ok(p) => {
+                let here = format!(
+                    "({:.2}, {:.2}) um, the tip {:.2} um above the substrate",
+                    p[0] * 1e6,
+                    p[1] * 1e6,
+                    p[2] * 1e6
+                );
+                if moved {
+                    format!("the stage stopped at {here}; it was not put back")
+                } else {
+                    format!("nothing moved: the stage is where it was, at {here}")
+                }
+            }
+            Err(_) if moved => "where the stage stopped could not be read".to_string(),
+            Err(_) => "nothing moved".to_string(),
         };
         let kept = saved_frames(&folder, recording, rows.len(), with_tip);
         return Err(e).with_context(|| {

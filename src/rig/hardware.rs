@@ -375,6 +375,14 @@ impl RigDevices {
         !self.coarse_asked && self.stage.gcs().first_move_refused()
     }
 
+    /// True once a move was sent to the nanostage or handed to the coarse
+    /// stage: a command that ends before tells that nothing moved
+    /// (`rig calibrate` had said "the stage stopped at ...; it was not put
+    /// back").
+    pub fn moved_any(&mut self) -> bool {
+        self.coarse_asked || self.stage.gcs().move_sent()
+    }
+
     /// The Ctrl-C flag the stage watches.
     pub fn interrupt_flag(&self) -> &Arc<AtomicBool> {
         &self.interrupt

@@ -33,6 +33,8 @@ pub struct GcsStage {
     confirmation: FirstMoveConfirmation,
     interrupt: Arc<AtomicBool>,
     may_be_moving: bool,
+    /// True once a move was handed to the controller.
+    move_sent: bool,
 }
 
 impl GcsStage {
@@ -78,6 +80,7 @@ impl GcsStage {
             confirmation,
             interrupt,
             may_be_moving: false,
+            move_sent: false,
         })
     }
 
@@ -172,7 +175,14 @@ impl GcsStage {
         let units: Vec<f64> = target_m.iter().map(|&t| self.to_units(t)).collect();
         let pairs: Vec<(&str, f64)> = axes.iter().map(String::as_str).zip(units).collect();
         self.may_be_moving = true;
+        self.move_sent = true;
         self.guarded(|s| s.controller.move_to(&pairs))
+    }
+
+    /// True once a move was sent (accepted or not): before that the stage
+    /// is where it was found.
+    pub fn move_sent(&self) -> bool {
+        self.move_sent
     }
 
     /// True once the operator declined the first move (no `yes`, the
