@@ -3,6 +3,7 @@
 pub mod animation;
 pub mod artifacts;
 pub mod assemble;
+pub mod calibration_fit;
 pub mod camera_look;
 pub mod drift;
 pub mod dry_run;

@@ -4,11 +4,16 @@
 // Each test binary that includes this module uses only part of it.
 #![allow(dead_code)]
 
+use nanopush::calib::camera_map::CameraCalibration;
 use nanopush::exec::assemble::{Assembly, AssemblyInputs, RunEnd};
+use nanopush::exec::calibration_fit::MapSighting;
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::{JournalWriter, read_journal};
 use nanopush::exec::sim_run::{SimRunRequest, inputs_for, prepare_sim_run};
-use nanopush::rig::Rig;
+use nanopush::rig::camera::{Camera, TimedFrame};
+use nanopush::rig::sim::rig::SimRig;
+use nanopush::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
+use nanopush::rig::{Rig, RigError};
 
 /// What a run left.
 pub struct Outcome {
@@ -19,6 +24,8 @@ pub struct Outcome {
     pub events: Vec<RunEvent>,
     /// Rig time at the end.
     pub t_end_s: f64,
+    /// The apex offsets the loop fitted the calibration's map to.
+    pub map_sightings: Vec<MapSighting>,
 }
 
 impl Outcome {
@@ -37,10 +44,67 @@ impl Outcome {
     }
 }
 
+/// The simulated rig, telling the loop a calibration of its own instead
+/// of the camera's (which still renders the frames).
+struct Told<'r> {
+    rig: &'r mut SimRig,
+    calibration: CameraCalibration,
+}
+
+impl NanoStage for Told<'_> {
+    fn range(&self) -> [AxisRange; 3] {
+        self.rig.range()
+    }
+    fn position(&mut self) -> Result<StageXyz, RigError> {
+        self.rig.position()
+    }
+    fn move_to(&mut self, target: StageXyz, speed: f64) -> Result<(), RigError> {
+        self.rig.move_to(target, speed)
+    }
+    fn halt(&mut self) -> Result<(), RigError> {
+        self.rig.halt()
+    }
+}
+
+impl CoarseStage for Told<'_> {
+    fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
+        self.rig.coarse_position()
+    }
+    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
+        self.rig.move_coarse(target)
+    }
+}
+
+impl Camera for Told<'_> {
+    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
+        self.rig.grab()
+    }
+}
+
+impl Rig for Told<'_> {
+    fn now_s(&self) -> f64 {
+        self.rig.now_s()
+    }
+    fn calibration(&self) -> &CameraCalibration {
+        &self.calibration
+    }
+}
+
 /// Runs `request` to its end, the loop's inputs changed by `adjust`.
 pub fn run_sim(request: &SimRunRequest, adjust: impl FnOnce(&mut AssemblyInputs)) -> Outcome {
+    run_sim_told(request, |rig| *rig.calibration(), adjust)
+}
+
+/// [`run_sim`], the loop told the calibration `told` makes of the rig
+/// (its camera's own calibration, its stage's range).
+pub fn run_sim_told(
+    request: &SimRunRequest,
+    told: impl FnOnce(&SimRig) -> CameraCalibration,
+    adjust: impl FnOnce(&mut AssemblyInputs),
+) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     let mut run = prepare_sim_run(request).unwrap();
+    let calibration = told(&run.rig);
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();
     let mut inputs = inputs_for(
@@ -51,10 +115,14 @@ pub fn run_sim(request: &SimRunRequest, adjust: impl FnOnce(&mut AssemblyInputs)
         false,
     );
     adjust(&mut inputs);
-    let end = Assembly::start(&mut run.rig, inputs, journal, run.spec)
-        .unwrap()
-        .run()
-        .unwrap();
+    let mut rig = Told {
+        rig: &mut run.rig,
+        calibration,
+    };
+    let mut assembly = Assembly::start(&mut rig, inputs, journal, run.spec).unwrap();
+    let end = assembly.run().unwrap();
+    let map_sightings = assembly.map_sightings().to_vec();
+    drop(assembly);
     let world = &run.rig.stage.world.particles;
     let site_errors_m = run
         .sites
@@ -77,5 +145,6 @@ pub fn run_sim(request: &SimRunRequest, adjust: impl FnOnce(&mut AssemblyInputs)
         site_errors_m,
         events,
         t_end_s: run.rig.now_s(),
+        map_sightings,
     }
 }

@@ -17,6 +17,7 @@
 //! push), `pushing` (the model's advice and the stroke), `stage_moves`
 //! (parking, windows, moves on the sample) and `left_short`.
 
+use super::calibration_fit::{MapFit, MapFitSettings, MapSighting, fit_map};
 use super::drift::{APEX_CLEAR_OF_PARTICLES_M, DriftFilter, DriftSettings};
 use super::events::{RunEvent, RunSpec, SeenParticle};
 use super::journal::{JournalError, JournalWriter};
@@ -96,6 +97,10 @@ pub struct AssemblySettings {
     /// controller) and reports its targets while nothing moves, so no frame
     /// tells of the calibration (the dry run warns of the first instead).
     pub check_apex: bool,
+    /// When the apex's offsets across the field say the calibration's
+    /// scale or rotation is off (`exec::calibration_fit`), checked with
+    /// `check_apex`.
+    pub map_fit: MapFitSettings,
     /// Longest push the plans may ask for (None: as the nanostage range
     /// allows): on a stage whose moves are at most `max_step_um` long, the
     /// push whose stroke fits one move
@@ -167,6 +172,7 @@ impl Default for AssemblySettings {
             keep_plan_shift_m: 0.5e-6,
             drift: Some(DriftSettings::default()),
             check_apex: true,
+            map_fit: MapFitSettings::default(),
             longest_push_m: None,
         }
     }
@@ -185,7 +191,9 @@ pub enum ExecError {
     #[error("rig: {0}")]
     Rig(#[from] RigError),
     /// A frame shows the apex where neither the stage nor its drift put it
-    /// ([`apex_doubt`]): every move would go astray.
+    /// ([`apex_doubt`]), or the frames show it off by an amount that grows
+    /// with the stage's position (`exec::calibration_fit`): every move
+    /// would go astray.
     #[error("{0}")]
     ApexAstray(String),
 }
@@ -335,6 +343,9 @@ pub struct Assembly<'a> {
     stage_targets: [Option<StageXyz>; 2],
     /// The tip's drift as the frames show it; None when not followed.
     drift: Option<DriftFilter>,
+    /// The frames the drift is (or would be) followed from, for the
+    /// calibration's map.
+    map_sightings: Vec<MapSighting>,
     pushes_done: usize,
     frames_seen: usize,
     /// Every push executed in this process, in order.
@@ -420,6 +431,7 @@ impl<'a> Assembly<'a> {
             rig,
             tracker: Tracker::new(inputs.settings.track_gate_m),
             drift: inputs.settings.drift.map(DriftFilter::new),
+            map_sightings: Vec::new(),
             scene: inputs.scene,
             sites: inputs.sites,
             plan_config: inputs.plan_config,
@@ -698,6 +710,7 @@ impl<'a> Assembly<'a> {
         if astray.is_none() {
             self.follow_drift(&sighting, push);
         }
+        let astray = astray.or_else(|| self.map_doubt());
         let tracks = self.tracks();
         self.journal.append(
             sighting.t_s,
@@ -735,10 +748,14 @@ impl<'a> Assembly<'a> {
     /// particle under the probe keeps its old track). Not before the first
     /// plan: until the loop has looked with the probe parked away, a
     /// particle under the probe is not tracked (the frame drops detections
-    /// the probe's outline cuts).
+    /// the probe's outline cuts). The same frames, the drift followed or
+    /// not, join the calibration's map, those before the first plan too:
+    /// a run on a calibration a few per cent off may stop after its first
+    /// two clear frames, and a pulled apex's 0.3 um is under the change
+    /// that map doubts (`exec::calibration_fit`).
     fn follow_drift(&mut self, sighting: &Sighting, push: Option<&PushIntent>) {
-        let (Some(drift), Some(_), Some(tip)) =
-            (self.drift.as_mut(), self.first_plan_ids, sighting.tip_m)
+        let (Some(tip), Some(offset), Some(stage)) =
+            (sighting.tip_m, sighting.apex_offset_m(), sighting.stage_m)
         else {
             return;
         };
@@ -751,10 +768,36 @@ impl<'a> Assembly<'a> {
         let clear = tracked.chain(pushed).all(|(centre, radius)| {
             (centre[0] - tip[0]).hypot(centre[1] - tip[1]) >= radius + APEX_CLEAR_OF_PARTICLES_M
         });
-        if let (true, Some(offset)) = (clear, sighting.apex_offset_m()) {
+        if !clear {
+            return;
+        }
+        self.map_sightings.push(MapSighting {
+            t_s: sighting.t_s,
+            stage_m: [stage[0], stage[1]],
+            offset_m: offset,
+        });
+        if let (Some(drift), Some(_)) = (self.drift.as_mut(), self.first_plan_ids) {
             let update = drift.add(sighting.t_s, offset);
             tracing::debug!(?update, t_s = sighting.t_s, "tip drift");
         }
+    }
+
+    /// Why the apex's offsets so far say the calibration's scale or
+    /// rotation is off (`exec::calibration_fit`), when they do and the
+    /// apex is checked.
+    fn map_doubt(&self) -> Option<String> {
+        let fit = fit_map(&self.map_sightings, &self.settings.map_fit);
+        tracing::debug!(?fit, "calibration's map");
+        match fit {
+            MapFit::Fitted(g) if self.settings.check_apex => g.doubt(&self.settings.map_fit),
+            _ => None,
+        }
+    }
+
+    /// The frames' apex offsets the calibration's map is fitted to
+    /// (`exec::calibration_fit`), oldest first.
+    pub fn map_sightings(&self) -> &[MapSighting] {
+        &self.map_sightings
     }
 
     /// The drift to take out of a move made now (zero when not followed).
