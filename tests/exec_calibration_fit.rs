@@ -166,7 +166,7 @@ fn a_calibration_a_few_per_cent_off_stops_the_run_naming_it() {
         assert!(!why.contains("planner"), "{why}");
         assert!(why.contains("grows with the stage's position"), "{why}");
         assert!(
-            why.contains("the calibration does not fit; make it again (nanopush rig calibrate)"),
+            why.contains("the calibration does not fit this camera and stage; make it again (nanopush rig calibrate)"),
             "{why}"
         );
         assert!(

@@ -19,6 +19,7 @@
 //! Written by hand: closed-form, two unknowns; no crate fits a similarity
 //! to residual vectors with the degenerate cases (one place) said.
 
+use crate::exec::assemble::CALIBRATION_UNFIT;
 use crate::median::upper_median;
 
 /// A sighting dropped from the refit lies this many times the median
@@ -134,7 +135,7 @@ impl MapGradient {
                 "the probe's apex is off the stage by an amount that grows with the stage's position \
                  ({:.2} um across {:.0} um of travel in {:.0} s, {} sightings clear of particles): \
                  about {:+.1} % in scale and {:+.1} deg turned; drift grows with time, not place: \
-                 the calibration does not fit; make it again (nanopush rig calibrate) before pushing",
+                 {CALIBRATION_UNFIT}; make it again (nanopush rig calibrate) before pushing",
                 self.change_m() * 1e6,
                 self.travel_m * 1e6,
                 self.span_s,
@@ -331,6 +332,9 @@ mod tests {
             why.contains("make it again (nanopush rig calibrate)"),
             "{why}"
         );
+        // A run stopped for it is offered no --resume (its sites were
+        // placed through that map).
+        assert!(crate::exec::assemble::blames_calibration(&why), "{why}");
         // Two sightings, far apart, tell a scale 5 % short.
         let two = sightings(0.95, 0.0, [0.0, 0.0], 30);
         let far = [

@@ -96,8 +96,10 @@ fn astray(sighting: &Sighting, offset_m: [f64; 2], offset_said: &str) -> Option<
     })
 }
 
-/// What a stop for a calibration that does not fit says ([`astray`]).
-const CALIBRATION_UNFIT: &str = "the calibration does not fit this camera and stage";
+/// What every stop for a calibration that does not fit says: the apex
+/// astray here, or its offsets growing with the stage's position
+/// (`exec::calibration_fit`); [`blames_calibration`] looks for it.
+pub const CALIBRATION_UNFIT: &str = "the calibration does not fit this camera and stage";
 
 /// True when a run's stop `reason` is a calibration that does not fit: its
 /// sites were placed through that map, so the run is not to be resumed

@@ -41,7 +41,7 @@ mod pushing;
 mod stage_moves;
 
 pub use apex_doubt::{
-    CALIBRATION_DOUBT_M, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed,
+    CALIBRATION_DOUBT_M, CALIBRATION_UNFIT, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed,
     blames_calibration, calibration_doubt,
 };
 use left_short::LeftShort;
