@@ -115,7 +115,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => start(&args)?,
     };
     let out = match &args.resume {
-        Some(journal) => journal.parent().unwrap_or(Path::new(".")).to_path_buf(),
+        Some(journal) => run_folder(journal),
         None => args.out.clone(),
     };
     if args.json {
@@ -136,6 +136,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         bail!("assembly did not finish: {}; {after}", report.outcome);
     }
     Ok(())
+}
+
+/// The journal's folder, where a run writes ("." for a bare file name,
+/// whose parent is empty).
+pub(super) fn run_folder(journal: &Path) -> PathBuf {
+    let parent = journal.parent().filter(|p| !p.as_os_str().is_empty());
+    parent.unwrap_or(Path::new(".")).to_path_buf()
 }
 
 /// Whether the run's journal says it does not follow drift (its run spec's
@@ -307,10 +314,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
             rig = frame.rig_file
         );
     }
-    let out = journal_path
-        .parent()
-        .unwrap_or(Path::new("."))
-        .to_path_buf();
+    let out = run_folder(journal_path);
     spec.warn_if_scene_changed();
     let scene = load_scene(Path::new(&spec.scene))?;
     let layout = layout_for(

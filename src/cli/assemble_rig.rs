@@ -28,7 +28,9 @@
 //! The report's placement errors are what the camera measured (there is no
 //! ground truth on a rig), and its time is wall time.
 
-use super::assemble::{Args, check_out_free, open_recorder, print_recording, write_sites};
+use super::assemble::{
+    Args, check_out_free, open_recorder, print_recording, run_folder, write_sites,
+};
 use super::go_on::GoOn;
 use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
@@ -234,12 +236,6 @@ fn declined(folders: &[(&MadeFolder, &Path)], new_run: bool) -> anyhow::Error {
         crate::rig::error::RigError::NotConfirmed,
         said.join("; ")
     )
-}
-
-/// The journal's folder, where a run writes ("." for a bare file name).
-fn run_folder(journal: &Path) -> PathBuf {
-    let parent = journal.parent().filter(|p| !p.as_os_str().is_empty());
-    parent.unwrap_or(Path::new(".")).to_path_buf()
 }
 
 /// A new run's scene, pattern and journal, checked before the rig is opened.
@@ -579,7 +575,7 @@ fn resume(
         perception: perception_for(scene, rig),
         settings: settings.clone(),
     };
-    let out = journal_path.parent().unwrap_or(Path::new("."));
+    let out = &run_folder(journal_path);
     let ran = RunResult::of(Assembly::resume(
         rig,
         inputs,

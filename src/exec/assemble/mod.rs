@@ -786,10 +786,13 @@ impl<'a> Assembly<'a> {
     /// rotation is off (`exec::calibration_fit`), when they do and the
     /// apex is checked.
     fn map_doubt(&self) -> Option<String> {
+        if !self.settings.check_apex {
+            return None;
+        }
         let fit = fit_map(&self.map_sightings, &self.settings.map_fit);
         tracing::debug!(?fit, "calibration's map");
         match fit {
-            MapFit::Fitted(g) if self.settings.check_apex => g.doubt(&self.settings.map_fit),
+            MapFit::Fitted(g) => g.doubt(&self.settings.map_fit),
             _ => None,
         }
     }
