@@ -54,7 +54,7 @@ fn run(
         particles: 50,
         ..SimRunRequest::default()
     };
-    let told = |rig: &SimRig| {
+    let told = |rig: &mut SimRig| {
         let (sin, cos) = turn_deg.to_radians().sin_cos();
         let m = Matrix2::new(cos, -sin, sin, cos) * scale;
         let range = rig.range();

@@ -9,20 +9,22 @@
 //! 50 nm during any later stage move.
 
 use nanopush::calib::camera_map::CameraCalibration;
-use nanopush::exec::assemble::{Assembly, RunEnd};
+use nanopush::exec::assemble::RunEnd;
 use nanopush::exec::events::RunEvent;
-use nanopush::exec::journal::{JournalWriter, read_journal};
-use nanopush::exec::sim_run::{SimFaults, SimRunRequest, inputs_for, prepare_sim_run};
+use nanopush::exec::journal::read_journal;
+use nanopush::exec::sim_run::{SimFaults, SimRunRequest};
 use nanopush::plan::pattern_request::PatternRequest;
-use nanopush::rig::camera::{Camera, TimedFrame};
 use nanopush::rig::sim::rig::SimRig;
 use nanopush::rig::sim::state::SimState;
-use nanopush::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
+use nanopush::rig::stage::{NanoStage, StageXyz};
 use nanopush::rig::{Rig, RigError};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
+
+mod sim_loop;
+use sim_loop::run_sim_moved;
 
 /// A layout and pattern the planner completes without faults (7 sites, 20 particles).
 const RUN: [&str; 6] = ["--text", "L", "--seed", "4", "--particles", "20"];
@@ -58,90 +60,14 @@ fn on_site(particles: &[(usize, f64, f64)], sites: &[[f64; 2]]) -> Vec<(usize, f
         .collect()
 }
 
-/// The simulated rig, watched: every move is checked for disturbed placed
-/// particles; `calibration`, when given, is what the loop is told instead
-/// of the camera's own map.
-struct Watched<'r> {
-    rig: &'r mut SimRig,
-    sites: Vec<[f64; 2]>,
-    disturbed: Vec<String>,
-    calibration: Option<CameraCalibration>,
-    /// The targets moved to so far.
-    moves: Vec<StageXyz>,
-    /// Ctrl-C pressed at the first move this is true of (the moves before, the target).
-    interrupt_at: Option<fn(&[StageXyz], StageXyz) -> bool>,
-}
-
-impl Watched<'_> {
-    fn truth(&self) -> Vec<(usize, f64, f64)> {
-        self.rig
-            .stage
-            .world
-            .particles
-            .iter()
-            .map(|p| (p.id, p.x_m, p.y_m))
-            .collect()
-    }
-}
-
-impl NanoStage for Watched<'_> {
-    fn range(&self) -> [AxisRange; 3] {
-        self.rig.range()
-    }
-    fn position(&mut self) -> Result<StageXyz, RigError> {
-        self.rig.position()
-    }
-    fn move_to(&mut self, target: StageXyz, speed: f64) -> Result<(), RigError> {
-        if self.interrupt_at.is_some_and(|at| at(&self.moves, target)) {
-            self.interrupt_at = None;
-            return Err(RigError::Interrupted);
-        }
-        self.moves.push(target);
-        let before = on_site(&self.truth(), &self.sites);
-        let result = self.rig.move_to(target, speed);
-        let after = self.truth();
-        for (id, x, y) in before {
-            let (_, x2, y2) = after.iter().copied().find(|p| p.0 == id).unwrap();
-            let moved = (x2 - x).hypot(y2 - y);
-            if moved > DISTURBED_M {
-                self.disturbed.push(format!(
-                    "particle {id} moved {:.0} nm at t {:.1} s",
-                    moved * 1e9,
-                    self.rig.now_s()
-                ));
-            }
-        }
-        result
-    }
-    fn halt(&mut self) -> Result<(), RigError> {
-        self.rig.halt()
-    }
-}
-
-impl CoarseStage for Watched<'_> {
-    fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
-        self.rig.coarse_position()
-    }
-    fn move_coarse(&mut self, target: [f64; 2]) -> Result<(), RigError> {
-        self.rig.move_coarse(target)
-    }
-}
-
-impl Camera for Watched<'_> {
-    fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
-        self.rig.grab()
-    }
-}
-
-impl Rig for Watched<'_> {
-    fn now_s(&self) -> f64 {
-        self.rig.now_s()
-    }
-    fn calibration(&self) -> &CameraCalibration {
-        self.calibration
-            .as_ref()
-            .unwrap_or_else(|| self.rig.calibration())
-    }
+/// Ground truth: every particle's (id, x, y).
+fn truth(rig: &SimRig) -> Vec<(usize, f64, f64)> {
+    rig.stage
+        .world
+        .particles
+        .iter()
+        .map(|p| (p.id, p.x_m, p.y_m))
+        .collect()
 }
 
 /// What a watched in-process run gives the tests.
@@ -164,55 +90,46 @@ fn watched_run_told(
     told: impl FnOnce(&CameraCalibration, StageXyz) -> Option<CameraCalibration>,
     interrupt_at: Option<fn(&[StageXyz], StageXyz) -> bool>,
 ) -> Outcome {
-    let mut run = prepare_sim_run(&request(faults)).unwrap();
-    let start = run.rig.position().unwrap();
-    let calibration = told(run.rig.calibration(), start);
-    let dir = tempfile::tempdir().unwrap();
-    let journal_path = dir.path().join("journal.jsonl");
-    let journal = JournalWriter::create(&journal_path).unwrap();
-    let sites: Vec<[f64; 2]> = run
-        .sites
-        .iter()
-        .map(|s| [s.centre_m.x, s.centre_m.y])
-        .collect();
-    let inputs = inputs_for(
-        &run.scene,
-        run.sites.clone(),
-        &run.rig,
-        run.layout.field_m,
-        false,
-    );
-    let mut watched = Watched {
-        rig: &mut run.rig,
-        sites: sites.clone(),
-        disturbed: Vec::new(),
-        calibration,
-        moves: Vec::new(),
-        interrupt_at,
+    let mut disturbed = Vec::new();
+    let told = |rig: &mut SimRig| {
+        let start = rig.position().unwrap();
+        told(rig.calibration(), start).unwrap_or(*rig.calibration())
     };
-    let end = {
-        let mut assembly = Assembly::start(&mut watched, inputs, journal, run.spec).unwrap();
-        assembly.run().unwrap()
+    // Every move is checked for placed particles it disturbed.
+    let log = &mut disturbed;
+    let watch = move |sites: &[[f64; 2]]| {
+        let sites = sites.to_vec();
+        let mut interrupt_at = interrupt_at;
+        let mut moves: Vec<StageXyz> = Vec::new();
+        move |rig: &mut SimRig, target: StageXyz, speed: f64| {
+            if interrupt_at.is_some_and(|at| at(&moves, target)) {
+                interrupt_at = None;
+                return Err(RigError::Interrupted);
+            }
+            moves.push(target);
+            let before = on_site(&truth(rig), &sites);
+            let result = rig.move_to(target, speed);
+            let after = truth(rig);
+            for (id, x, y) in before {
+                let (_, x2, y2) = after.iter().copied().find(|p| p.0 == id).unwrap();
+                let moved = (x2 - x).hypot(y2 - y);
+                if moved > DISTURBED_M {
+                    log.push(format!(
+                        "particle {id} moved {:.0} nm at t {:.1} s",
+                        moved * 1e9,
+                        rig.now_s()
+                    ));
+                }
+            }
+            result
+        }
     };
-    let disturbed = watched.disturbed.clone();
-    let truth = watched.truth();
-    let site_errors_m = sites
-        .iter()
-        .map(|s| {
-            truth
-                .iter()
-                .map(|p| (p.1 - s[0]).hypot(p.2 - s[1]))
-                .fold(f64::INFINITY, f64::min)
-        })
-        .collect();
-    // Every entry reads back, numbered without gaps (read_journal checks the sequence).
-    let contents = read_journal::<RunEvent>(&journal_path).unwrap();
-    assert!(!contents.truncated_tail);
+    let run = run_sim_moved(&request(faults), told, |_| {}, watch);
     Outcome {
-        end,
-        events: contents.entries.into_iter().map(|e| e.event).collect(),
+        end: run.end,
+        events: run.events,
         disturbed,
-        site_errors_m,
+        site_errors_m: run.site_errors_m,
     }
 }
 

@@ -45,13 +45,15 @@ impl Outcome {
 }
 
 /// The simulated rig, telling the loop a calibration of its own instead
-/// of the camera's (which still renders the frames).
-struct Told<'r> {
+/// of the camera's (which still renders the frames), each nanostage move
+/// made by `mover` (a test watches or fails moves there).
+struct Told<'r, M> {
     rig: &'r mut SimRig,
     calibration: CameraCalibration,
+    mover: M,
 }
 
-impl NanoStage for Told<'_> {
+impl<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError>> NanoStage for Told<'_, M> {
     fn range(&self) -> [AxisRange; 3] {
         self.rig.range()
     }
@@ -59,14 +61,14 @@ impl NanoStage for Told<'_> {
         self.rig.position()
     }
     fn move_to(&mut self, target: StageXyz, speed: f64) -> Result<(), RigError> {
-        self.rig.move_to(target, speed)
+        (self.mover)(self.rig, target, speed)
     }
     fn halt(&mut self) -> Result<(), RigError> {
         self.rig.halt()
     }
 }
 
-impl CoarseStage for Told<'_> {
+impl<M> CoarseStage for Told<'_, M> {
     fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
         self.rig.coarse_position()
     }
@@ -75,13 +77,13 @@ impl CoarseStage for Told<'_> {
     }
 }
 
-impl Camera for Told<'_> {
+impl<M> Camera for Told<'_, M> {
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
         self.rig.grab()
     }
 }
 
-impl Rig for Told<'_> {
+impl<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError>> Rig for Told<'_, M> {
     fn now_s(&self) -> f64 {
         self.rig.now_s()
     }
@@ -99,12 +101,25 @@ pub fn run_sim(request: &SimRunRequest, adjust: impl FnOnce(&mut AssemblyInputs)
 /// (its camera's own calibration, its stage's range).
 pub fn run_sim_told(
     request: &SimRunRequest,
-    told: impl FnOnce(&SimRig) -> CameraCalibration,
+    told: impl FnOnce(&mut SimRig) -> CameraCalibration,
     adjust: impl FnOnce(&mut AssemblyInputs),
+) -> Outcome {
+    run_sim_moved(request, told, adjust, |_| {
+        |rig: &mut SimRig, target, speed| rig.move_to(target, speed)
+    })
+}
+
+/// [`run_sim_told`], each nanostage move made by the mover that `mover`
+/// makes for the run's sites (x, y in metres).
+pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError>>(
+    request: &SimRunRequest,
+    told: impl FnOnce(&mut SimRig) -> CameraCalibration,
+    adjust: impl FnOnce(&mut AssemblyInputs),
+    mover: impl FnOnce(&[[f64; 2]]) -> M,
 ) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     let mut run = prepare_sim_run(request).unwrap();
-    let calibration = told(&run.rig);
+    let calibration = told(&mut run.rig);
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();
     let mut inputs = inputs_for(
@@ -115,31 +130,35 @@ pub fn run_sim_told(
         false,
     );
     adjust(&mut inputs);
+    let sites: Vec<[f64; 2]> = run
+        .sites
+        .iter()
+        .map(|s| [s.centre_m.x, s.centre_m.y])
+        .collect();
     let mut rig = Told {
         rig: &mut run.rig,
         calibration,
+        mover: mover(&sites),
     };
     let mut assembly = Assembly::start(&mut rig, inputs, journal, run.spec).unwrap();
     let end = assembly.run().unwrap();
     let map_sightings = assembly.map_sightings().to_vec();
     drop(assembly);
+    drop(rig);
     let world = &run.rig.stage.world.particles;
-    let site_errors_m = run
-        .sites
+    let site_errors_m = sites
         .iter()
         .map(|s| {
             world
                 .iter()
-                .map(|p| (p.x_m - s.centre_m.x).hypot(p.y_m - s.centre_m.y))
+                .map(|p| (p.x_m - s[0]).hypot(p.y_m - s[1]))
                 .fold(f64::INFINITY, f64::min)
         })
         .collect();
-    let events = read_journal::<RunEvent>(&journal_path)
-        .unwrap()
-        .entries
-        .into_iter()
-        .map(|e| e.event)
-        .collect();
+    // Every entry reads back, numbered without gaps (read_journal checks the sequence).
+    let contents = read_journal::<RunEvent>(&journal_path).unwrap();
+    assert!(!contents.truncated_tail);
+    let events = contents.entries.into_iter().map(|e| e.event).collect();
     Outcome {
         end,
         site_errors_m,
