@@ -158,6 +158,42 @@ fn verify_plan_says_what_geometry_it_replays_and_takes_ones_own() {
     assert!(!ok && text.contains("approach"), "{text}");
 }
 
+/// Touching particles whose radii another tool measured a little large
+/// (overlapping by 30 nm) plan, the pair pushed apart, and `verify-plan`
+/// on the same file finds the plan clean: both read the pair as touching
+/// (the file had been refused, "particles 0 and 1 overlap by 0.030 um").
+#[test]
+fn touching_particles_measured_a_little_large_plan_and_verify() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut particles = vec![(40.0, 40.0, 5.0), (49.97, 40.0, 5.0)];
+    particles.extend((0..10).map(|k| (8.0 + 12.0 * k as f64, 85.0, 5.0)));
+    let layout = write_layout(dir.path(), "touching.json", &particles, (125.0, 100.0));
+    let plan = dir.path().join("plan.json");
+    let plan = plan.to_str().unwrap();
+    let (ok, text) = nanopush(&[
+        "plan", "--text", "I", "--layout", &layout, "--at", "45,40", "--out", plan,
+    ]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains(
+            "1 pair of particles overlaps by up to 0.030 um (particles 0 and 1): read as touching"
+        ),
+        "{text}"
+    );
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(plan).unwrap()).unwrap();
+    let pushed: std::collections::HashSet<u64> = file["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["kind"] == "push")
+        .map(|s| s["particle"].as_u64().unwrap())
+        .collect();
+    assert!(pushed.contains(&0) || pushed.contains(&1), "{pushed:?}");
+    let (ok, text) = nanopush(&["verify-plan", plan, "--layout", &layout]);
+    assert!(ok && text.contains("collisions        0"), "{text}");
+}
+
 /// What is wrong inside a layout or a plan file is said with the file's
 /// name ("layout: particles 0 and 1 overlap" had named none), once.
 #[test]

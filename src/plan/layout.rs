@@ -4,7 +4,9 @@
 //! library everything is SI metres. Conversion happens once, here.
 
 use super::Site;
+use super::touching::{Overlap, TOUCHING_OVERLAP_FRACTION, settle_overlaps};
 use super::value_sign::Sign;
+use crate::wording::counted;
 use nalgebra::Vector2;
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
@@ -115,7 +117,9 @@ pub enum LayoutError {
     #[error("layout: particle id {0} appears twice")]
     DuplicateId(u32),
     /// Two particles overlap (their discs intersect by more than the tolerance).
-    #[error("layout: particles {a} and {b} overlap by {overlap_um:.3} um")]
+    #[error(
+        "layout: particles {a} and {b} overlap by {overlap_um:.3} um, more than the {allowed_um:.3} um read as touching"
+    )]
     Overlap {
         /// First particle id.
         a: u32,
@@ -123,6 +127,8 @@ pub enum LayoutError {
         b: u32,
         /// Overlap depth in micrometres.
         overlap_um: f64,
+        /// The deepest overlap read as touching for this pair, micrometres.
+        allowed_um: f64,
     },
     /// A particle far outside the field: coordinates in another unit or
     /// from another origin, most often.
@@ -307,6 +313,28 @@ impl Layout {
     /// pushed) allowed anywhere beyond the field: a camera sees past the
     /// nanostage's range, and what it sees there is in the tip's way.
     pub fn validate_holding(&self, held: &[u32]) -> Result<(), LayoutError> {
+        self.check(held, |_, _| OVERLAP_TOLERANCE_M)
+    }
+
+    /// [`Layout::validate_holding`] for measured particles, read from a
+    /// file: two that overlap by at most [`TOUCHING_OVERLAP_FRACTION`] of
+    /// the smaller radius are touching, each radius reduced to its share
+    /// of their distance ([`settle_overlaps`]). Returns those pairs.
+    pub fn validate_touching(&mut self, held: &[u32]) -> Result<Vec<Overlap>, LayoutError> {
+        self.check(held, |p, q| {
+            (TOUCHING_OVERLAP_FRACTION * p.radius_m.min(q.radius_m)).max(OVERLAP_TOLERANCE_M)
+        })?;
+        Ok(settle_overlaps(&mut self.particles))
+    }
+
+    /// Every value finite, radii positive, ids unique, each particle but
+    /// the `held` in the field, and no two overlapping by more than
+    /// `allowed(p, q)` metres.
+    fn check(
+        &self,
+        held: &[u32],
+        allowed: impl Fn(&Particle, &Particle) -> f64,
+    ) -> Result<(), LayoutError> {
         check_finite("field width_um", self.field_m[0] * UM_PER_M, Sign::Positive)?;
         check_finite(
             "field height_um",
@@ -359,11 +387,12 @@ impl Layout {
                 }
                 let q = &self.particles[j];
                 let overlap = p.radius_m + q.radius_m - (p.centre_m - q.centre_m).norm();
-                if overlap > OVERLAP_TOLERANCE_M {
+                if overlap > allowed(p, q) {
                     return Err(LayoutError::Overlap {
                         a: p.id,
                         b: q.id,
                         overlap_um: overlap * UM_PER_M,
+                        allowed_um: allowed(p, q) * UM_PER_M,
                     });
                 }
             }
@@ -535,7 +564,7 @@ impl MarkedLayout {
                 }
             }
         }
-        let layout = Layout {
+        let mut layout = Layout {
             field_m: [file.field_um[0] / UM_PER_M, file.field_um[1] / UM_PER_M],
             particles: file
                 .particles
@@ -547,7 +576,21 @@ impl MarkedLayout {
                 })
                 .collect(),
         };
-        layout.validate_holding(&immovable)?;
+        let touching = layout.validate_touching(&immovable)?;
+        if let Some(deepest) = touching.first() {
+            tracing::warn!(
+                "{origin}: {} of particles {} by up to {:.3} um (particles {} and {}): read as touching particles measured a little large, each radius reduced to its share of their distance",
+                counted(touching.len(), "pair"),
+                if touching.len() == 1 {
+                    "overlaps"
+                } else {
+                    "overlap"
+                },
+                deepest.depth_m * UM_PER_M,
+                deepest.a,
+                deepest.b
+            );
+        }
         Ok(MarkedLayout { layout, immovable })
     }
 
@@ -724,6 +767,37 @@ mod tests {
                 )
             );
             assert!(Layout::from_json(&text, "L.json").is_err());
+        }
+    }
+
+    /// A file's particles that overlap by at most 1 % of a radius (a fit's
+    /// error on touching particles) read as touching, their radii reduced;
+    /// deeper overlaps are refused, saying what is read as touching.
+    #[test]
+    fn a_files_particles_overlapping_by_a_fits_error_read_as_touching() {
+        let text = |overlap_um: f64| {
+            let x = 20.0 + 10.0 - overlap_um;
+            format!(
+                r#"{{"schema": "nanopush.layout/1", "field_um": [100, 100], "particles": [
+                {{"id": 0, "x_um": 20, "y_um": 20, "radius_um": 5}},
+                {{"id": 1, "x_um": {x}, "y_um": 20, "radius_um": 5}},
+                {{"id": 2, "x_um": 60, "y_um": 60, "radius_um": 5}}]}}"#
+            )
+        };
+        let l = Layout::from_json(&text(0.03), "t").unwrap();
+        let r: Vec<f64> = l.particles.iter().map(|p| p.radius_m * 1e6).collect();
+        assert!(
+            (r[0] - 4.985).abs() < 1e-4 && (r[1] - 4.985).abs() < 1e-4,
+            "{r:?}"
+        );
+        assert_eq!(r[2], 5.0);
+        l.validate().unwrap();
+        match Layout::from_json(&text(0.08), "t") {
+            Err(e @ LayoutError::Overlap { a: 0, b: 1, .. }) => assert_eq!(
+                e.to_string(),
+                "layout: particles 0 and 1 overlap by 0.080 um, more than the 0.050 um read as touching"
+            ),
+            other => panic!("{other:?}"),
         }
     }
 

@@ -34,6 +34,7 @@ pub mod refine;
 pub mod route;
 pub mod shortcuts;
 pub mod synth_layout;
+pub mod touching;
 pub mod tour;
 pub mod value_sign;
 pub mod verify;

@@ -8,6 +8,7 @@ use crate::exec::particle_sizes::ParticleSizes;
 use crate::exec::tracker::{Track, Tracker};
 use crate::plan::layout::{Layout, Particle, UM_PER_M, beyond_field_m, may_lie_in_field};
 use crate::plan::rebase::rebase_plan;
+use crate::plan::touching::settle_overlaps;
 use crate::plan::{Plan, Step, plan_assembly, verify_plan};
 use crate::vision::log_on_change::changed;
 use crate::wording::counted;
@@ -236,25 +237,18 @@ pub fn layout_measured(
 
 /// Particles `(id, centre, radius)`, each radius capped at its share of
 /// the distance to every neighbour it would overlap (see
-/// [`planning_particles`]).
+/// [`planning_particles`] and [`settle_overlaps`]).
 pub fn particles_seen(seen: &[(usize, [f64; 2], f64)]) -> Vec<Particle> {
-    seen.iter()
-        .map(|&(id, c, r)| {
-            let capped = seen
-                .iter()
-                .filter(|&&(other, _, _)| other != id)
-                .map(|&(_, u, ru)| {
-                    let d = (c[0] - u[0]).hypot(c[1] - u[1]);
-                    d * r / (r + ru) * (1.0 - 1e-6)
-                })
-                .fold(r, f64::min);
-            Particle {
-                id: id as u32,
-                centre_m: Vector2::new(c[0], c[1]),
-                radius_m: capped,
-            }
+    let mut particles: Vec<Particle> = seen
+        .iter()
+        .map(|&(id, c, r)| Particle {
+            id: id as u32,
+            centre_m: Vector2::new(c[0], c[1]),
+            radius_m: r,
         })
-        .collect()
+        .collect();
+    settle_overlaps(&mut particles);
+    particles
 }
 
 #[cfg(test)]
