@@ -143,6 +143,27 @@ fn files_read_back_and_agree() {
         .filter(|e| matches!(e.event, RunEvent::Decision { .. }))
         .count();
     assert_eq!(report.pushes, decisions);
+    // Its push log: every push decided, those made numbered 1.. as the
+    // force charts and report.md's table number them.
+    assert_eq!(report.push_log.len(), decisions);
+    let numbers: Vec<Option<usize>> = report.push_log.iter().map(|p| p.n).collect();
+    assert_eq!(numbers, (1..=decisions).map(Some).collect::<Vec<_>>());
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for p in &report.push_log {
+        let row = format!(
+            "| {} | {:.1} | {} | ",
+            p.n.unwrap(),
+            p.t_s,
+            p.particle_label()
+        );
+        assert!(md.contains(&row), "report.md has no row {row}");
+    }
+    let to_sites = report
+        .push_log
+        .iter()
+        .filter(|p| p.to_site.is_some())
+        .count();
+    assert!(to_sites > 0, "no push ends on a site");
     assert_eq!(report.filled, report.sites);
     // What was asked, enough to make the run again.
     let asked = report

@@ -15,7 +15,6 @@ use crate::exec::assemble::{
 };
 use crate::exec::events::{RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
-use crate::exec::journal_pushes::journal_pushes;
 use crate::exec::observe::Sighting;
 use crate::exec::recording::{RecordingSpec, RecordingWriter};
 use crate::exec::report::{AssemblyReport, RunFacts};
@@ -422,8 +421,7 @@ fn finish(
         rig.stage.coarse_offset(),
         &out.join("sites.json"),
     )?;
-    let pushes = journal_pushes(&entries);
-    let plots = write_force_plots(&pushes, scene, out)
+    let plots = write_force_plots(&report.push_log, scene, out)
         .map_err(anyhow::Error::msg)
         .context("writing the force plots")?;
     let name = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned());
@@ -453,7 +451,6 @@ fn finish(
     write_report_md(
         &out.join("report.md"),
         &report,
-        &pushes,
         &sites_um(&run.sites),
         &files,
     )

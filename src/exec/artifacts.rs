@@ -8,7 +8,7 @@
 //! its measured curve here instead.
 
 use super::assemble::{AssemblySettings, scene_for_push};
-use super::journal_pushes::JournalPush;
+use super::push_log::PushRecord;
 use super::report::AssemblyReport;
 use crate::model::push_sim::{SolverSettings, simulate_push_series};
 use crate::model::{PushParams, Scene};
@@ -24,14 +24,12 @@ pub const PUSHES_PER_CHART: usize = 6;
 /// first touch, [`PUSHES_PER_CHART`] pushes each) of the pushes made, each
 /// numbered as in the report's table; returns the files written.
 pub fn write_force_plots(
-    pushes: &[JournalPush],
+    pushes: &[PushRecord],
     scene: &Scene,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, String> {
-    let made: Vec<(usize, &JournalPush)> = (pushes.iter().enumerate())
-        .filter(|(_, p)| p.made())
-        .map(|(i, p)| (i + 1, p))
-        .collect();
+    let made: Vec<(usize, &PushRecord)> =
+        pushes.iter().filter_map(|p| p.n.map(|n| (n, p))).collect();
     let mut files = Vec::new();
     for (k, chunk) in made.chunks(PUSHES_PER_CHART).enumerate() {
         let mut series = Vec::new();
@@ -125,7 +123,6 @@ fn write_asked(md: &mut String, report: &AssemblyReport, journal: &Path) {
 pub fn write_report_md(
     path: &Path,
     report: &AssemblyReport,
-    pushes: &[JournalPush],
     sites_um: &[[f64; 2]],
     files: &ReportFiles,
 ) -> std::io::Result<()> {
@@ -234,7 +231,8 @@ pub fn write_report_md(
     let _ = writeln!(
         md,
         "A push is one straight stroke: a particle whose route bends round others is pushed once a leg. \
-         \"to\" is the site the push ends on (none: a leg, or a push out of the way).{}\n",
+         \"to\" is the site the push ends on (none: a leg, or a push out of the way); \
+         \"#\" numbers the pushes made, as the force charts do (\"-\": not made).{}\n",
         if report.resumes > 0 {
             " Track ids start again at each resume: r1:18 is track 18 after the first."
         } else {
@@ -245,11 +243,11 @@ pub fn write_report_md(
         md,
         "| # | t [s] | particle | to | distance [um] | contact angle [deg] | duration [s] | re-push | result |\n|---|---|---|---|---|---|---|---|---|"
     );
-    for (i, p) in pushes.iter().enumerate() {
+    for p in &report.push_log {
         let _ = writeln!(
             md,
             "| {} | {:.1} | {} | {} | {:.2} | {:.1} | {:.2} | {} | {} |",
-            i + 1,
+            p.n.map_or("-".to_owned(), |n| n.to_string()),
             p.t_s,
             p.particle_label(),
             p.to_site.map_or("-".to_owned(), |s| format!("site {s}")),
@@ -257,7 +255,7 @@ pub fn write_report_md(
             p.contact_angle_deg,
             p.duration_s,
             if p.repush { "yes" } else { "" },
-            p.outcome()
+            p.result
         );
     }
     let _ = writeln!(md, "\n## Effects\n");

@@ -1,5 +1,5 @@
 //! The pushes of a journal, each with the check that followed it: for the
-//! report's counts, its table and its force plots.
+//! report's counts and its list of pushes ([`super::push_log`]).
 //!
 //! A `decision` entry is written before the tip moves. A push is made when
 //! its check came (and does not say the model refused it), or, with no
@@ -49,24 +49,6 @@ impl JournalPush {
         match self.result.as_deref() {
             Some(r) => !r.starts_with("refused"),
             None => self.stroked,
-        }
-    }
-
-    /// The particle as the report names it: its track id, after a resume
-    /// with the part ("r1:18"), since track ids start again there.
-    pub fn particle_label(&self) -> String {
-        match self.part {
-            0 => self.particle.to_string(),
-            k => format!("r{k}:{}", self.particle),
-        }
-    }
-
-    /// The table's word on it: the check's result, or why there is none.
-    pub fn outcome(&self) -> &str {
-        match (self.result.as_deref(), self.stroked) {
-            (Some(r), _) => r,
-            (None, true) => "not checked: the run stopped",
-            (None, false) => "not made: the run stopped",
         }
     }
 }
@@ -212,12 +194,12 @@ mod tests {
         // Made: checked and not refused by the model, or, cut off by the
         // stop, stroked (a move slower than the travel to it).
         assert_eq!(made, [true, true, false, false, true]);
-        assert_eq!(p[3].outcome(), "not made: the run stopped");
-        assert_eq!(p[4].outcome(), "not checked: the run stopped");
-        assert_eq!(p[4].particle_label(), "9");
+        assert!(p[3].result.is_none() && !p[3].stroked);
+        assert!(p[4].result.is_none() && p[4].stroked);
+        assert_eq!(p[4].part, 0);
         // After the resume, the part names the track.
         let mut resumed = entries.clone();
         resumed.push(e(14, 31.0, decision(9, false)));
-        assert_eq!(journal_pushes(&resumed)[5].particle_label(), "r1:9");
+        assert_eq!(journal_pushes(&resumed)[5].part, 1);
     }
 }

@@ -15,6 +15,7 @@ pub mod journal_pushes;
 pub mod observe;
 pub mod particle_sizes;
 pub mod push_check;
+pub mod push_log;
 pub mod push_reach;
 pub mod recording;
 mod recording_check;

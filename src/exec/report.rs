@@ -12,6 +12,7 @@ use super::drift::DriftEstimate;
 use super::events::{RunEvent, RunSpec};
 use super::journal::Entry;
 use super::journal_pushes::journal_pushes;
+use super::push_log::{PushRecord, push_log};
 use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
@@ -65,6 +66,10 @@ pub struct AssemblyReport {
     /// reports written before this field.
     #[serde(default)]
     pub pushes_not_made: usize,
+    /// Every push decided, in order, those made numbered (report.md's
+    /// table); empty in reports written before this field.
+    #[serde(default)]
+    pub push_log: Vec<PushRecord>,
     /// Lost contacts the camera showed.
     pub lost_contacts_detected: usize,
     /// Lost contacts the simulated rig caused that the executor did not see
@@ -379,6 +384,7 @@ impl AssemblyReport {
             pushes: counts.pushes,
             repushes: counts.repushes,
             pushes_not_made: counts.pushes_not_made,
+            push_log: push_log(&journal_pushes(entries)),
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
             time_s: facts.time_s,
@@ -943,6 +949,7 @@ mod tests {
             pushes: 1,
             repushes: 0,
             pushes_not_made: 0,
+            push_log: Vec::new(),
             lost_contacts_detected: 0,
             lost_contacts_missed: Some(0),
             time_s: 30.0,
