@@ -159,7 +159,7 @@ fn said(why: &str, unit: &str) -> f64 {
 fn a_calibration_a_few_per_cent_off_stops_the_run_naming_it() {
     for (seed, scale, turn_deg) in [(4, 0.95, 0.0), (1, 0.97, 0.0), (4, 1.0, 2.0)] {
         let o = run(seed, (0.0, 0.0), scale, turn_deg, MapFitSettings::default());
-        let RunEnd::Stopped(why) = &o.end else {
+        let RunEnd::CalibrationUnfit(why) = &o.end else {
             panic!("scale {scale}, turn {turn_deg}: ran to {:?}", o.end);
         };
         eprintln!("scale {scale}, turn {turn_deg} deg, seed {seed}: {why}");

@@ -373,7 +373,7 @@ fn a_resumed_run_leaves_short_what_its_run_left_short() {
     let events: Vec<&RunEvent> = entries.iter().map(|e| &e.event).collect();
     let resumed_at = events
         .iter()
-        .position(|e| **e == RunEvent::Resume)
+        .position(|e| matches!(e, RunEvent::Resume { .. }))
         .expect("a resume entry");
     let (before, after) = events.split_at(resumed_at);
     let sites_of = |events: &[&RunEvent]| -> Vec<usize> {
@@ -405,9 +405,11 @@ fn a_resumed_run_leaves_short_what_its_run_left_short() {
 /// A run started with `--no-drift-follow` that stops for the drift it does
 /// not follow says the exact command that goes on following it
 /// (`--resume JOURNAL --drift-follow`), and that command does: the resumed
-/// part estimates the drift. The journal's `drift_off` had been kept by
-/// every resume, and the advice "go on without --no-drift-follow" was a
-/// command `--resume` refuses.
+/// part estimates the drift, and its resume entry journals the choice, so
+/// that a later resume keeps following it (`resume_point::drift_off`;
+/// a later `--resume` without the flag had gone back to not following).
+/// The journal's `drift_off` had been kept by every resume, and the advice
+/// "go on without --no-drift-follow" was a command `--resume` refuses.
 #[test]
 fn a_run_stopped_for_unfollowed_drift_resumes_following_it() {
     let dir = tempfile::tempdir().unwrap();
@@ -447,8 +449,13 @@ fn a_run_stopped_for_unfollowed_drift_resumes_following_it() {
         .unwrap()
         .entries;
     let resumed_at = (entries.iter())
-        .rposition(|e| e.event == RunEvent::Resume)
+        .rposition(|e| matches!(e.event, RunEvent::Resume { .. }))
         .expect("a resume entry");
+    assert_eq!(
+        entries[resumed_at].event,
+        RunEvent::Resume { drift_follow: true },
+        "the resume's choice is not journalled"
+    );
     let estimates = (entries[resumed_at..].iter())
         .filter(|e| matches!(e.event, RunEvent::Observation { drift: Some(_), .. }))
         .count();

@@ -227,7 +227,7 @@ fn a_hang_up_with_the_output_gone_stops_the_run_as_ctrl_c_does() {
     child.wait().unwrap();
     let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
     assert!(
-        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason } if reason.contains("interrupted")),
+        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason, .. } if reason.contains("interrupted")),
         "{:?}",
         entries.last()
     );
@@ -289,7 +289,7 @@ fn a_calibration_with_x_and_y_swapped_stops_the_run_at_its_first_move() {
         },
         None,
     );
-    let RunEnd::Stopped(why) = &o.end else {
+    let RunEnd::CalibrationUnfit(why) = &o.end else {
         panic!("ran to {:?}", o.end);
     };
     assert!(
@@ -390,7 +390,7 @@ fn a_run_stopped_with_ctrl_c_is_reported_and_resumes() {
     assert!(stderr.contains(&go_on), "{stderr}");
     let entries = read_journal::<RunEvent>(&journal).unwrap().entries;
     assert!(
-        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason } if reason.contains("Ctrl-C")),
+        matches!(&entries.last().unwrap().event, RunEvent::Stopped { reason, .. } if reason.contains("Ctrl-C")),
         "{:?}",
         entries.last()
     );
@@ -520,7 +520,12 @@ fn kill_and_resume(kill_after: usize) {
     assert_eq!(&after[..before.len()], &before[..]);
     let all = read_journal::<RunEvent>(&journal).unwrap();
     assert!(!all.truncated_tail);
-    assert_eq!(all.entries[before.len() - 1].event, RunEvent::Resume);
+    assert_eq!(
+        all.entries[before.len() - 1].event,
+        RunEvent::Resume {
+            drift_follow: false
+        }
+    );
     assert_eq!(all.entries.last().unwrap().event, RunEvent::Done);
     // The resumed part's video is there and playable; the report links it
     // and nothing of the killed part.
@@ -637,7 +642,7 @@ fn a_calibration_of_another_camera_stops_the_run_before_any_push() {
         },
         None,
     );
-    let RunEnd::Stopped(why) = &o.end else {
+    let RunEnd::CalibrationUnfit(why) = &o.end else {
         panic!("ran to {:?}", o.end);
     };
     assert!(why.contains("calibration does not fit"), "{why}");

@@ -988,12 +988,21 @@ fn files_in(dir: &Path) -> Vec<(String, Vec<u8>)> {
 /// A `--resume` whose first move on real hardware nobody confirms moves
 /// nothing and leaves the run's folder as it was, byte for byte: it had
 /// appended `resume` and `stopped` lines to the journal and rewritten the
-/// report.
+/// report. A torn last line of the journal, which the resume cuts off
+/// before appending, is put back too, and a video beside it is left alone
+/// (only what a resume writes is kept, `MadeFolder::keeping`).
 #[test]
 fn an_unconfirmed_resume_leaves_the_run_as_it_was() {
     let b = bench(50.0);
     let run_dir = b.dir.path().join("run");
     b.stopped_after_decisions("run", 1);
+    let mut journal = std::fs::OpenOptions::new()
+        .append(true)
+        .open(run_dir.join("journal.jsonl"))
+        .unwrap();
+    std::io::Write::write_all(&mut journal, br#"{"seq":999,"t_s":1.0,"ev"#).unwrap();
+    drop(journal);
+    std::fs::write(run_dir.join("run.mp4"), vec![7u8; 1 << 20]).unwrap();
     let before = files_in(&run_dir);
     b.as_real_hardware();
     let at = b.positions_um();
@@ -1037,6 +1046,41 @@ fn a_run_stopped_for_its_calibration_is_not_offered_a_resume() {
         "{stderr}"
     );
     assert!(!stderr.contains("--resume"), "{stderr}");
+    // Resumed by hand all the same: refused, naming the stop and what to
+    // do, before anything moved or was written.
+    let run_dir = b.dir.path().join("run");
+    let before = files_in(&run_dir);
+    let at = b.positions_um();
+    let resumed = finish(
+        nanopush()
+            .args(["assemble", "--rig"])
+            .arg(&b.rig_path)
+            .arg("--resume")
+            .arg(run_dir.join("journal.jsonl"))
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+        RUN_LIMIT,
+    );
+    let stderr = String::from_utf8_lossy(&resumed.stderr);
+    assert!(
+        !resumed.status.success(),
+        "{}",
+        failed(resumed.status, &resumed)
+    );
+    assert!(
+        stderr.contains("for its calibration: ")
+            && stderr.contains("the calibration does not fit this camera and stage")
+            && stderr.contains("so it is not to be resumed: make the calibration again (nanopush rig calibrate --rig")
+            && stderr.contains("then start a new run in another --out"),
+        "{stderr}"
+    );
+    assert!(
+        files_in(&run_dir) == before,
+        "the run's folder changed: {stderr}"
+    );
+    assert_eq!(b.positions_um(), at);
 }
 
 #[test]

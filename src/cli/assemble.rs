@@ -90,8 +90,8 @@ pub struct Args {
     pub no_drift_follow: bool,
     /// With --resume: follow the tip's drift from here in a run started
     /// with --no-drift-follow (its journal keeps that choice otherwise), as
-    /// such a run stopped for drift needs. Each resume that should follow
-    /// it takes the flag.
+    /// such a run stopped for drift needs. The journal keeps this choice
+    /// too: later resumes follow the drift without the flag.
     #[arg(long, requires = "resume")]
     pub drift_follow: bool,
     /// Hardware rig: --rig FILE, --dry-run, --yes-move-hardware.
@@ -109,7 +109,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.hardware.rig.is_some() {
         return super::assemble_rig::run(&args);
     }
-    let report = match &args.resume {
+    let (report, end) = match &args.resume {
         Some(journal) => resume(&args, journal)?,
         None => start(&args)?,
     };
@@ -125,13 +125,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     if !report.finished() {
         let journal = args.resume.clone().unwrap_or_else(|| out.join(JOURNAL));
-        let go_on = GoOn {
-            rig: None,
-            journal_drift_off: journal_drift_off(&journal),
-            journal,
-            drift_follow: args.drift_follow,
-        };
-        let after = go_on.after(&report.outcome);
+        let after = GoOn::of_journal(None, journal).after(end.cause());
         bail!("assembly did not finish: {}; {after}", report.outcome);
     }
     Ok(())
@@ -142,22 +136,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 pub(super) fn run_folder(journal: &Path) -> PathBuf {
     let parent = journal.parent().filter(|p| !p.as_os_str().is_empty());
     parent.unwrap_or(Path::new(".")).to_path_buf()
-}
-
-/// Whether the run's journal says it does not follow drift (its run spec's
-/// `drift_off`).
-fn journal_drift_off(journal: &Path) -> bool {
-    read_journal::<RunEvent>(journal).is_ok_and(|c| {
-        matches!(c.entries.first().map(|e| &e.event), Some(RunEvent::Start(spec)) if spec.drift_off)
-    })
-}
-
-impl Args {
-    /// Whether a resumed run does not follow drift: as its journal's run
-    /// spec says (`drift_off`), unless `--drift-follow`.
-    pub(super) fn resumed_drift_off(&self, spec: &RunSpec) -> bool {
-        spec.drift_off && !self.drift_follow
-    }
 }
 
 /// The library request these arguments make.
@@ -185,7 +163,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
     })
 }
 
-fn start(args: &Args) -> anyhow::Result<AssemblyReport> {
+fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     // Everything that can refuse the input does so before the folder is touched.
     let SimRun {
         scene,
@@ -303,7 +281,7 @@ pub(super) fn open_recorder(
         .with_context(|| format!("--record {}", dir.display()))
 }
 
-fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
+fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let point = ResumePoint::read(journal_path)?;
     let spec = &point.spec;
     if let Some(frame) = &spec.rig {
@@ -327,7 +305,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
-    let drift_off = args.resumed_drift_off(spec);
+    let drift_off = point.drift_off_unless(args.drift_follow);
     let inputs = inputs_for(&scene, sites, &rig, layout.field_m, drift_off);
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
@@ -336,15 +314,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<AssemblyReport> {
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
         let mut fan = FanOut(vec![&mut progress, &mut animation]);
-        let mut assembly = Assembly::resume(
-            &mut rig,
-            inputs,
-            point.journal,
-            point.pushes_done,
-            point.last_tip_m,
-            point.left_short_sites,
-        )?
-        .with_sink(&mut fan);
+        let mut assembly = Assembly::resume(&mut rig, inputs, point)?.with_sink(&mut fan);
         let end = assembly.run()?;
         Finished::of(assembly, end)
     };
@@ -372,14 +342,15 @@ impl Finished {
 }
 
 /// Builds the report from the journal and the simulated rig's ground truth,
-/// and writes report.json, final.png and sites.json.
+/// and writes report.json, final.png and sites.json; the report and how
+/// the run ended.
 fn finish(
     run: Finished,
     rig: &SimRig,
     scene: &Scene,
     out: &Path,
     journal_path: &Path,
-) -> anyhow::Result<AssemblyReport> {
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let entries = read_journal::<RunEvent>(journal_path)?.entries;
     let truth = &rig.stage.world.particles;
     let errors_m: Vec<f64> = run
@@ -455,7 +426,7 @@ fn finish(
         &files,
     )
     .context("writing report.md")?;
-    Ok(report)
+    Ok((report, run.end))
 }
 
 /// Writes each target site in um and in the camera's pixels. `coarse_offset_m`

@@ -81,6 +81,11 @@ pub struct RigArgs {
 
 const SENT_BYTES: &str = "sent-bytes.log";
 const COARSE_SENT_BYTES: &str = "coarse-sent-bytes.log";
+/// The files a rig run writes when it ends ([`finish_run`]), over the
+/// stopped run's on a resume.
+const REPORT_JSON: &str = "report.json";
+const FINAL_PNG: &str = "final.png";
+const SITES_JSON: &str = "sites.json";
 
 /// What a run on the rig starts from, checked before the rig is opened.
 enum RigStart {
@@ -119,7 +124,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // A resume declined at its first move puts the run's folder back as it
     // was, journal and report alike: kept before the journal is reopened.
     let resumed_folder = match &args.resume {
-        Some(journal) => Some(MadeFolder::before_making(&run_folder(journal))?.keeping_contents()?),
+        Some(journal) => Some(resumed_folder_kept(journal)?),
         None => None,
     };
     let start = match &args.resume {
@@ -127,16 +132,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         None => new_start(args)?,
     };
     let (RigStart::New { journal_path, .. } | RigStart::Resume { journal_path, .. }) = &start;
-    let go_on = GoOn {
-        rig: Some(rig_path.clone()),
-        journal: journal_path.clone(),
-        journal_drift_off: match &start {
-            RigStart::New { .. } => args.no_drift_follow,
-            RigStart::Resume { point, .. } => point.spec.drift_off,
-        },
-        drift_follow: args.drift_follow,
-    };
-    let out = run_folder(journal_path);
+    let journal = journal_path.clone();
+    let out = run_folder(&journal);
     let clock_from_s = match &start {
         RigStart::Resume { point, .. } => point.last_t_s,
         RigStart::New { .. } => 0.0,
@@ -170,7 +167,7 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             scene,
             journal_path,
         } => {
-            let drift_off = args.resumed_drift_off(&point.spec);
+            let drift_off = point.drift_off_unless(args.drift_follow);
             resume(*point, drift_off, &scene, &mut rig, &journal_path)
         }
     };
@@ -197,6 +194,8 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         );
     }
     let (report, end) = result?;
+    // As the journal now has it: a resume with --drift-follow is kept there.
+    let go_on = GoOn::of_journal(Some(rig_path.clone()), journal);
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -209,10 +208,23 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     {
         bail!(
             "interrupted: the stage was halted; {}",
-            go_on.after("interrupted")
+            go_on.after(end.cause())
         );
     }
     check_end(&end, hw.dry_run, &go_on)
+}
+
+/// The folder of the run whose journal a resume goes on with, keeping what
+/// the resume writes before its first move can be declined, so that a
+/// decline puts it back: the journal (only appended to, once a torn last
+/// line is cut off: `JournalWriter::resume`) and the files [`finish_run`]
+/// rewrites. (Sent-byte logs are a dry run's, which does not resume; files
+/// the resume makes are removed by undo.) Nothing else is read: keeping
+/// every file had read the run's videos on every resume.
+fn resumed_folder_kept(journal: &Path) -> anyhow::Result<MadeFolder> {
+    let appended = journal.file_name().and_then(|n| n.to_str());
+    MadeFolder::before_making(&run_folder(journal))?
+        .keeping(&[REPORT_JSON, FINAL_PNG, SITES_JSON], appended.as_slice())
 }
 
 /// A run whose first move was not confirmed: nothing moved, so each of
@@ -288,7 +300,7 @@ fn check_end(end: &RunEnd, dry_run: bool, go_on: &GoOn) -> anyhow::Result<()> {
         (_, true) => bail!("assembly did not finish: stopped: {reason}"),
         (_, false) => bail!(
             "assembly did not finish: stopped: {reason}; {}",
-            go_on.after(&reason)
+            go_on.after(end.cause())
         ),
     }
 }
@@ -576,14 +588,7 @@ fn resume(
         settings: settings.clone(),
     };
     let out = &run_folder(journal_path);
-    let ran = RunResult::of(Assembly::resume(
-        rig,
-        inputs,
-        point.journal,
-        point.pushes_done,
-        point.last_tip_m,
-        point.left_short_sites,
-    )?);
+    let ran = RunResult::of(Assembly::resume(rig, inputs, point)?);
     finish_run(ran, rig, out, scene, &settings, journal_path)
 }
 
@@ -640,11 +645,11 @@ fn finish_run(
     };
     let report = AssemblyReport::from_run(facts, &entries, scene, settings);
     std::fs::write(
-        out.join("report.json"),
+        out.join(REPORT_JSON),
         serde_json::to_string_pretty(&report)?,
     )?;
     if let Some(last) = &last {
-        save_png(&last.frame, &out.join("final.png"))?;
+        save_png(&last.frame, &out.join(FINAL_PNG))?;
     }
     // Pixels as the camera sees the sites now (the coarse stage may have
     // moved the sample under it).
@@ -653,7 +658,7 @@ fn finish_run(
     } else {
         [0.0, 0.0]
     };
-    write_sites(&sites, rig.calibration(), offset, &out.join("sites.json"))?;
+    write_sites(&sites, rig.calibration(), offset, &out.join(SITES_JSON))?;
     Ok((report, end))
 }
 
@@ -759,8 +764,7 @@ mod tests {
         let go_on = &GoOn {
             rig: Some(PathBuf::from("R")),
             journal: PathBuf::from("J"),
-            journal_drift_off: false,
-            drift_follow: false,
+            drift_off: false,
         };
         let said = "go on with it: nanopush assemble --rig R --resume J";
         let err = check_end(&stage, true, go_on).unwrap_err().to_string();

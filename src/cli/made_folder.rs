@@ -3,14 +3,16 @@
 //! first move on real hardware not confirmed). Why: such runs had left
 //! empty folders behind (`rig calibrate`) and a journal that blocked the
 //! same `--out` from being used again (`assemble --rig`), though nothing
-//! had moved. What was there before stays, and with
-//! [`MadeFolder::keeping_contents`] the files there are put back as they
-//! were (a declined `--resume` had appended to its journal and rewritten
-//! the run's report).
+//! had moved. What was there before stays, and with [`MadeFolder::keeping`]
+//! the files the command writes are put back as they were (a declined
+//! `--resume` had appended to its journal and rewritten the run's report).
+//! Only those are kept: keeping every file had read a run's videos, which
+//! can be hundreds of MB, on every resume.
 
 use anyhow::Context;
 use std::collections::HashSet;
 use std::ffi::OsString;
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// A folder made (or found) for a command's output, with what it held then.
@@ -21,9 +23,23 @@ pub struct MadeFolder {
     outermost_made: Option<PathBuf>,
     /// Names in `dir` before the command wrote anything.
     before: HashSet<OsString>,
-    /// The files directly in `dir` and their bytes, when kept
-    /// ([`MadeFolder::keeping_contents`]).
-    contents: Vec<(PathBuf, Vec<u8>)>,
+    /// Files in `dir` the command may change, as they were
+    /// ([`MadeFolder::keeping`]).
+    kept: Vec<Kept>,
+}
+
+/// A file as it was before the command, enough to put it back.
+enum Kept {
+    /// A file the command rewrites: its bytes.
+    Whole { path: PathBuf, bytes: Vec<u8> },
+    /// A file the command only appends to, after cutting off a last line
+    /// torn by a crash (a journal: `JournalWriter::resume`): its length and
+    /// the bytes after its last newline.
+    Appended {
+        path: PathBuf,
+        len: u64,
+        torn: Vec<u8>,
+    },
 }
 
 impl MadeFolder {
@@ -55,24 +71,30 @@ impl MadeFolder {
             dir: dir.to_path_buf(),
             outermost_made,
             before,
-            contents: Vec::new(),
+            kept: Vec::new(),
         })
     }
 
-    /// Also keeps the bytes of every file directly in the folder, which
-    /// [`MadeFolder::undo`] writes back where they changed.
-    pub fn keeping_contents(mut self) -> anyhow::Result<Self> {
-        if !self.dir.is_dir() {
-            return Ok(self);
-        }
-        for entry in std::fs::read_dir(&self.dir)
-            .with_context(|| format!("reading {}", self.dir.display()))?
-        {
-            let path = entry?.path();
+    /// Also keeps, of the files directly in the folder, those named in
+    /// `rewritten` (their bytes) and in `appended` (their length and torn
+    /// last line, [`Kept::Appended`]), which [`MadeFolder::undo`] puts back
+    /// where they changed. Files the command makes are removed by `undo`
+    /// anyway; the rest are neither read nor touched.
+    pub fn keeping(mut self, rewritten: &[&str], appended: &[&str]) -> anyhow::Result<Self> {
+        for name in rewritten {
+            let path = self.dir.join(name);
             if path.is_file() {
                 let bytes =
                     std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
-                self.contents.push((path, bytes));
+                self.kept.push(Kept::Whole { path, bytes });
+            }
+        }
+        for name in appended {
+            let path = self.dir.join(name);
+            if path.is_file() {
+                let (len, torn) =
+                    torn_tail(&path).with_context(|| format!("reading {}", path.display()))?;
+                self.kept.push(Kept::Appended { path, len, torn });
             }
         }
         Ok(self)
@@ -86,11 +108,8 @@ impl MadeFolder {
         if !self.dir.exists() {
             return Ok(true);
         }
-        for (path, bytes) in &self.contents {
-            if std::fs::read(path).ok().as_ref() != Some(bytes) {
-                std::fs::write(path, bytes)
-                    .with_context(|| format!("putting back {}", path.display()))?;
-            }
+        for kept in &self.kept {
+            kept.put_back()?;
         }
         for entry in std::fs::read_dir(&self.dir)
             .with_context(|| format!("reading {}", self.dir.display()))?
@@ -132,6 +151,73 @@ impl MadeFolder {
     }
 }
 
+impl Kept {
+    /// Writes the file back as it was, where it changed.
+    fn put_back(&self) -> anyhow::Result<()> {
+        match self {
+            Kept::Whole { path, bytes } => {
+                if std::fs::read(path).ok().as_ref() != Some(bytes) {
+                    std::fs::write(path, bytes)
+                        .with_context(|| format!("putting back {}", path.display()))?;
+                }
+                Ok(())
+            }
+            Kept::Appended { path, len, torn } => {
+                let put_back = || -> std::io::Result<()> {
+                    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+                    let lines = len - torn.len() as u64;
+                    if file.metadata()?.len() < lines {
+                        return Err(std::io::Error::other(format!(
+                            "it is shorter than the {lines} bytes it was appended to"
+                        )));
+                    }
+                    file.set_len(lines)?;
+                    file.seek(SeekFrom::Start(lines))?;
+                    file.write_all(torn)
+                };
+                put_back().with_context(|| format!("putting back {}", path.display()))
+            }
+        }
+    }
+
+    /// Bytes held in memory for this file.
+    #[cfg(test)]
+    fn bytes_held(&self) -> usize {
+        match self {
+            Kept::Whole { bytes, .. } => bytes.len(),
+            Kept::Appended { torn, .. } => torn.len(),
+        }
+    }
+}
+
+/// The length of the file at `path` and the bytes after its last newline
+/// (all of it without one), read backwards from its end in 64 KiB pieces:
+/// a journal's torn last line, without reading the journal.
+fn torn_tail(path: &Path) -> std::io::Result<(u64, Vec<u8>)> {
+    const PIECE: u64 = 64 * 1024;
+    let mut file = std::fs::File::open(path)?;
+    let len = file.metadata()?.len();
+    let mut torn = Vec::new();
+    let mut end = len;
+    while end > 0 {
+        let start = end.saturating_sub(PIECE);
+        let mut piece = vec![0; (end - start) as usize];
+        file.seek(SeekFrom::Start(start))?;
+        file.read_exact(&mut piece)?;
+        let newline = piece.iter().rposition(|b| *b == b'\n');
+        if let Some(at) = newline {
+            piece.drain(..=at);
+        }
+        piece.extend_from_slice(&torn);
+        torn = piece;
+        if newline.is_some() {
+            break;
+        }
+        end = start;
+    }
+    Ok((len, torn))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,7 +255,7 @@ mod tests {
         std::fs::write(run.join("journal.jsonl"), "start\n").unwrap();
         let kept = MadeFolder::create(&run)
             .unwrap()
-            .keeping_contents()
+            .keeping(&["report.json"], &["journal.jsonl"])
             .unwrap();
         std::fs::write(run.join("journal.jsonl"), "start\nresume\nstopped\n").unwrap();
         std::fs::write(run.join("report.json"), "{}").unwrap();
@@ -185,5 +271,63 @@ mod tests {
         std::fs::create_dir_all(later.join("frames")).unwrap();
         assert!(noted.undo().unwrap());
         assert!(!root.path().join("rec").exists());
+    }
+
+    /// Only the files named are kept, so a video beside them is never read;
+    /// the journal, appended to after its torn last line was cut off, and
+    /// the report, rewritten, are put back byte for byte, and what the
+    /// command made is removed.
+    #[test]
+    fn only_the_files_a_resume_writes_are_kept_and_put_back() {
+        let root = tempfile::tempdir().unwrap();
+        let run = root.path().join("run");
+        std::fs::create_dir(&run).unwrap();
+        // A torn last line longer than a piece of torn_tail's reading.
+        let torn = format!("{{\"seq\":2,\"note\":\"{}", "x".repeat(70_000));
+        let journal = format!("header\nentry 0\nentry 1\n{torn}");
+        std::fs::write(run.join("journal.jsonl"), &journal).unwrap();
+        std::fs::write(run.join("report.json"), "{\"pushes\":1}").unwrap();
+        let video = vec![7u8; 4 << 20];
+        std::fs::write(run.join("run.mp4"), &video).unwrap();
+        let kept = MadeFolder::before_making(&run)
+            .unwrap()
+            .keeping(&["report.json", "sites.json"], &["journal.jsonl"])
+            .unwrap();
+        let held: usize = kept.kept.iter().map(Kept::bytes_held).sum();
+        assert_eq!(held, "{\"pushes\":1}".len() + torn.len());
+        // What a declined resume does: cut the torn line, append, rewrite.
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(run.join("journal.jsonl"))
+            .unwrap();
+        file.set_len((journal.len() - torn.len()) as u64).unwrap();
+        drop(file);
+        let mut file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(run.join("journal.jsonl"))
+            .unwrap();
+        file.write_all(b"resume\nstopped\n").unwrap();
+        drop(file);
+        std::fs::write(run.join("report.json"), "{}").unwrap();
+        std::fs::write(run.join("sites.json"), "{}").unwrap();
+        std::fs::write(run.join("run-resume-1.mp4"), "new").unwrap();
+        assert!(kept.undo().unwrap());
+        assert_eq!(
+            std::fs::read_to_string(run.join("journal.jsonl")).unwrap(),
+            journal
+        );
+        assert_eq!(
+            std::fs::read_to_string(run.join("report.json")).unwrap(),
+            "{\"pushes\":1}"
+        );
+        assert!(!run.join("sites.json").exists());
+        assert!(!run.join("run-resume-1.mp4").exists());
+        assert_eq!(std::fs::read(run.join("run.mp4")).unwrap(), video);
+        // A journal ending with its newline keeps nothing but its length.
+        std::fs::write(run.join("journal.jsonl"), "header\nentry 0\n").unwrap();
+        assert_eq!(
+            torn_tail(&run.join("journal.jsonl")).unwrap(),
+            (15, Vec::new())
+        );
     }
 }

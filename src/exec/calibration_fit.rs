@@ -332,9 +332,9 @@ mod tests {
             why.contains("make it again (nanopush rig calibrate)"),
             "{why}"
         );
-        // A run stopped for it is offered no --resume (its sites were
-        // placed through that map).
-        assert!(crate::exec::assemble::blames_calibration(&why), "{why}");
+        // Said as every stop for the calibration says it (the stop is
+        // typed where the loop makes it: Assembly::observe).
+        assert!(why.contains(CALIBRATION_UNFIT), "{why}");
         // Two sightings, far apart, tell a scale 5 % short.
         let two = sightings(0.95, 0.0, [0.0, 0.0], 30);
         let far = [

@@ -3,6 +3,7 @@
 //! rebuild its report.
 
 use super::drift::DriftEstimate;
+use super::stop_cause::StopCause;
 use crate::vision::exposure::Exposure;
 use crate::vision::line_defects::LineDefect;
 use serde::{Deserialize, Serialize};
@@ -147,7 +148,15 @@ pub enum RunEvent {
     /// The run started.
     Start(RunSpec),
     /// The run was resumed after a stop; entries before this one came before the stop.
-    Resume,
+    Resume {
+        /// This resume follows the tip's drift in a run that had not
+        /// (`--resume --drift-follow` on a run started with
+        /// `--no-drift-follow`), and so does every later resume
+        /// ([`drift_off`](super::resume_point::drift_off)); absent
+        /// otherwise, and in journals from before 2026-11-30.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        drift_follow: bool,
+    },
     /// A frame was grabbed and analysed.
     Observation {
         /// Frame number.
@@ -271,6 +280,12 @@ pub enum RunEvent {
     Stopped {
         /// Why.
         reason: String,
+        /// What the stop means for going on with the run (a calibration
+        /// that does not fit is not to be resumed); absent in journals from
+        /// before 2026-11-30, whose `reason` tells
+        /// ([`StopCause::journalled`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cause: Option<StopCause>,
     },
 }
 
@@ -304,6 +319,41 @@ mod tests {
         let older = serde_json::to_string(&followed).unwrap();
         assert!(!older.contains("drift_off"), "{older}");
         assert_eq!(serde_json::from_str::<RunSpec>(&older).unwrap(), followed);
+    }
+
+    /// A resume that follows the drift and a stop's cause are journalled
+    /// and read back; the lines older journals hold read as a plain resume
+    /// and a stop without a cause, and a plain resume is written as before.
+    #[test]
+    fn resumes_and_stops_read_back_old_and_new() {
+        let plain = RunEvent::Resume {
+            drift_follow: false,
+        };
+        assert_eq!(
+            serde_json::to_string(&plain).unwrap(),
+            r#"{"kind":"resume"}"#
+        );
+        let old: RunEvent = serde_json::from_str(r#"{"kind":"resume"}"#).unwrap();
+        assert_eq!(old, plain);
+        let followed = RunEvent::Resume { drift_follow: true };
+        let text = serde_json::to_string(&followed).unwrap();
+        assert_eq!(text, r#"{"kind":"resume","drift_follow":true}"#);
+        assert_eq!(serde_json::from_str::<RunEvent>(&text).unwrap(), followed);
+        let old: RunEvent = serde_json::from_str(r#"{"kind":"stopped","reason":"x"}"#).unwrap();
+        assert_eq!(
+            old,
+            RunEvent::Stopped {
+                reason: "x".into(),
+                cause: None
+            }
+        );
+        let stop = RunEvent::Stopped {
+            reason: "x".into(),
+            cause: Some(StopCause::CalibrationUnfit),
+        };
+        let text = serde_json::to_string(&stop).unwrap();
+        assert!(text.contains(r#""cause":"calibration_unfit""#), "{text}");
+        assert_eq!(serde_json::from_str::<RunEvent>(&text).unwrap(), stop);
     }
 
     /// A scene file edited between a stop and the resume is noticed; the

@@ -64,7 +64,7 @@ pub fn journal_pushes(entries: &[Entry<RunEvent>]) -> Vec<JournalPush> {
     for e in entries {
         match &e.event {
             RunEvent::Start(spec) => sites_um = &spec.sites_um,
-            RunEvent::Resume => part += 1,
+            RunEvent::Resume { .. } => part += 1,
             RunEvent::Move { speed_um_s, .. } => {
                 let travel = *travel_um_s.get_or_insert(*speed_um_s);
                 if let Some(last) = out.last_mut().filter(|p| p.result.is_none()) {
@@ -181,7 +181,13 @@ mod tests {
             e(10, 23.0, travel(50.0)),
             e(11, 24.0, travel(50.0)),
             e(12, 25.0, travel(1.0)),
-            e(13, 30.0, RunEvent::Resume),
+            e(
+                13,
+                30.0,
+                RunEvent::Resume {
+                    drift_follow: false,
+                },
+            ),
         ];
         let p = journal_pushes(&entries);
         assert_eq!(p.len(), 5);

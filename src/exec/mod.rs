@@ -24,5 +24,6 @@ pub mod report;
 pub mod resume_point;
 pub mod scale_doubt;
 pub mod sim_run;
+pub mod stop_cause;
 pub mod stroke;
 pub mod tracker;

@@ -521,8 +521,8 @@ pub fn count_journal(
                 });
             }
             RunEvent::Done => c.outcome = Some("done".to_owned()),
-            RunEvent::Stopped { reason } => c.outcome = Some(format!("stopped: {reason}")),
-            RunEvent::Resume => {
+            RunEvent::Stopped { reason, .. } => c.outcome = Some(format!("stopped: {reason}")),
+            RunEvent::Resume { .. } => {
                 c.outcome = None;
                 c.resumes += 1;
             }
@@ -674,6 +674,7 @@ mod tests {
                 40.0,
                 RunEvent::Stopped {
                     reason: "test".into(),
+                    cause: None,
                 },
             ),
         ];
@@ -832,7 +833,13 @@ mod tests {
         };
         let entries = vec![
             entry(0, 1.0, short(4, 11, 260.0)),
-            entry(1, 2.0, RunEvent::Resume),
+            entry(
+                1,
+                2.0,
+                RunEvent::Resume {
+                    drift_follow: false,
+                },
+            ),
             entry(2, 3.0, short(7, 2, 180.0)),
             entry(3, 4.0, short(4, 9, 310.0)),
         ];

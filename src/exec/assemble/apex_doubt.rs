@@ -3,6 +3,37 @@
 //! this rig's, and every move would go astray: the loop stops.
 
 use crate::exec::observe::Sighting;
+use crate::exec::stop_cause::StopCause;
+
+/// Why a frame stops the run, typed by what it blames: the kind goes with
+/// the stop to where the user is told how to go on (a calibration that
+/// does not fit is not to be resumed), the words to the user.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ApexDoubt {
+    /// The calibration does not fit this camera and stage (its message
+    /// says [`CALIBRATION_UNFIT`]).
+    CalibrationUnfit(String),
+    /// Drift the run does not follow (`--no-drift-follow`) has taken the
+    /// apex past [`CALIBRATION_DOUBT_M`], a little at a time.
+    UnfollowedDrift(String),
+}
+
+impl ApexDoubt {
+    /// What the stop it makes means for going on with the run.
+    pub fn cause(&self) -> StopCause {
+        match self {
+            ApexDoubt::CalibrationUnfit(_) => StopCause::CalibrationUnfit,
+            ApexDoubt::UnfollowedDrift(_) => StopCause::Other,
+        }
+    }
+}
+
+impl std::fmt::Display for ApexDoubt {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (ApexDoubt::CalibrationUnfit(why) | ApexDoubt::UnfollowedDrift(why)) = self;
+        f.write_str(why)
+    }
+}
 
 /// Farthest the first frame's apex may lie from where the stage has it
 /// before the run stops for the calibration. The calibration maps the apex
@@ -43,23 +74,23 @@ pub fn apex_doubt(sighting: &Sighting, drift_m: [f64; 2]) -> Option<String> {
 /// against the stage alone, where an offset past [`CALIBRATION_DOUBT_M`]
 /// grown a little at a time is drift this run does not take out, and is
 /// named so (it had been blamed on the calibration).
-pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> Option<String> {
+pub fn apex_doubt_unfollowed(sighting: &Sighting, before: Option<[f64; 2]>) -> Option<ApexDoubt> {
     let Some(before) = before else {
-        return calibration_doubt(sighting);
+        return calibration_doubt(sighting).map(ApexDoubt::CalibrationUnfit);
     };
     let said = format!(" with the apex's last offset {}", um(before));
     if let Some(why) = astray(sighting, before, &said) {
-        return Some(why);
+        return Some(ApexDoubt::CalibrationUnfit(why));
     }
     let off = apex_beyond_doubt_m(sighting)?;
     let now = sighting.apex_offset_m()?;
-    Some(format!(
+    Some(ApexDoubt::UnfollowedDrift(format!(
         "the probe's apex has drifted {:.1} um from where the stage has it (by {}), a little at a time: \
              the run does not follow drift (--no-drift-follow), so every push would miss by as much; \
              go on following it (--resume with --drift-follow), or make the calibration again (nanopush rig calibrate)",
         off * 1e6,
         um(now)
-    ))
+    )))
 }
 
 /// How far the apex lies from where the stage was sent (no drift or offset
@@ -98,15 +129,9 @@ fn astray(sighting: &Sighting, offset_m: [f64; 2], offset_said: &str) -> Option<
 
 /// What every stop for a calibration that does not fit says: the apex
 /// astray here, or its offsets growing with the stage's position
-/// (`exec::calibration_fit`); [`blames_calibration`] looks for it.
+/// (`exec::calibration_fit`). Only words: such a stop is known by its type
+/// ([`ApexDoubt::CalibrationUnfit`], `StopCause::CalibrationUnfit`).
 pub const CALIBRATION_UNFIT: &str = "the calibration does not fit this camera and stage";
-
-/// True when a run's stop `reason` is a calibration that does not fit: its
-/// sites were placed through that map, so the run is not to be resumed
-/// (the `--resume` line had still been offered).
-pub fn blames_calibration(reason: &str) -> bool {
-    reason.contains(CALIBRATION_UNFIT)
-}
 
 /// A point in um as the messages print it.
 fn um(p: [f64; 2]) -> String {
@@ -148,28 +173,33 @@ mod tests {
     fn an_unfollowed_drift_is_told_from_a_calibration_that_does_not_fit() {
         let before = sighting([45.2, 50.0], [40.0, 50.0]);
         let drifted = sighting([55.4, 50.0], [50.0, 50.0]);
-        let why = apex_doubt_unfollowed(&drifted, before.apex_offset_m()).unwrap();
+        let doubt = apex_doubt_unfollowed(&drifted, before.apex_offset_m()).unwrap();
+        assert_eq!(doubt.cause(), StopCause::Other, "{doubt}");
+        let why = doubt.to_string();
         assert!(why.contains("has drifted 5.4 um"), "{why}");
         assert!(why.contains("--no-drift-follow"), "{why}");
         assert!(why.contains("--resume with --drift-follow"), "{why}");
         assert!(!why.contains("calibration does not fit"), "{why}");
-        assert!(!blames_calibration(&why), "{why}");
         // Under the doubt: nothing said.
         let near = sighting([54.9, 50.0], [50.0, 50.0]);
         assert_eq!(apex_doubt_unfollowed(&near, before.apex_offset_m()), None);
         let swapped = sighting([40.0, 60.0], [50.0, 50.0]);
         let before = sighting([40.0, 50.0], [40.0, 50.0]);
-        let why = apex_doubt_unfollowed(&swapped, before.apex_offset_m()).unwrap();
+        let doubt = apex_doubt_unfollowed(&swapped, before.apex_offset_m()).unwrap();
+        assert_eq!(doubt.cause(), StopCause::CalibrationUnfit, "{doubt}");
+        let why = doubt.to_string();
         assert!(why.contains("calibration does not fit"), "{why}");
         assert!(
             why.contains("with the apex's last offset (0.00, 0.00) um"),
             "{why}"
         );
         let first = sighting([52.0, 57.0], [50.0, 50.0]);
-        let why = apex_doubt_unfollowed(&first, None).unwrap();
-        assert!(why.contains("calibration does not fit"), "{why}");
-        assert!(blames_calibration(&why), "{why}");
-        assert_eq!(why, calibration_doubt(&first).unwrap());
+        let doubt = apex_doubt_unfollowed(&first, None).unwrap();
+        assert_eq!(
+            doubt,
+            ApexDoubt::CalibrationUnfit(calibration_doubt(&first).unwrap())
+        );
+        assert!(doubt.to_string().contains(CALIBRATION_UNFIT), "{doubt}");
     }
 
     /// Followed, the drift estimate is taken out of where the apex should be.

@@ -24,6 +24,8 @@ use super::journal::{JournalError, JournalWriter};
 use super::observe::{ObserveError, Perception, Sighting};
 use super::push_check::{CheckTolerances, PushCheck, check_push};
 use super::push_reach::StrokeAllowance;
+use super::resume_point::ResumePoint;
+use super::stop_cause::StopCause;
 use super::tracker::{Moved, Track, Tracker};
 use crate::calib::camera_map::CameraCalibration;
 use crate::model::Scene;
@@ -41,8 +43,8 @@ mod pushing;
 mod stage_moves;
 
 pub use apex_doubt::{
-    CALIBRATION_DOUBT_M, CALIBRATION_UNFIT, apex_beyond_doubt_m, apex_doubt, apex_doubt_unfollowed,
-    blames_calibration, calibration_doubt,
+    ApexDoubt, CALIBRATION_DOUBT_M, CALIBRATION_UNFIT, apex_beyond_doubt_m, apex_doubt,
+    apex_doubt_unfollowed, calibration_doubt,
 };
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
@@ -193,9 +195,10 @@ pub enum ExecError {
     /// A frame shows the apex where neither the stage nor its drift put it
     /// ([`apex_doubt`]), or the frames show it off by an amount that grows
     /// with the stage's position (`exec::calibration_fit`): every move
-    /// would go astray.
+    /// would go astray; or drift the run does not follow has taken the
+    /// apex past the doubt.
     #[error("{0}")]
-    ApexAstray(String),
+    ApexAstray(ApexDoubt),
 }
 
 impl ExecError {
@@ -207,6 +210,14 @@ impl ExecError {
             ExecError::Rig(RigError::Interrupted)
                 | ExecError::Observe(ObserveError::Rig(RigError::Interrupted))
         )
+    }
+
+    /// What a stop for this error means for going on with the run.
+    pub fn stop_cause(&self) -> StopCause {
+        match self {
+            ExecError::ApexAstray(doubt) => doubt.cause(),
+            _ => StopCause::Other,
+        }
     }
 }
 
@@ -220,9 +231,29 @@ pub enum RunEnd {
     PushesSpent(usize),
     /// Stopped before that, with the reason.
     Stopped(String),
+    /// Stopped because the calibration does not fit this camera and stage
+    /// (the reason says so): the run's sites were placed through it, so it
+    /// is not to be resumed.
+    CalibrationUnfit(String),
 }
 
 impl RunEnd {
+    /// A stop for `why`, of the kind `cause` says.
+    pub fn stopped(cause: StopCause, why: String) -> Self {
+        match cause {
+            StopCause::CalibrationUnfit => RunEnd::CalibrationUnfit(why),
+            StopCause::Other => RunEnd::Stopped(why),
+        }
+    }
+
+    /// What this end means for going on with the run.
+    pub fn cause(&self) -> StopCause {
+        match self {
+            RunEnd::CalibrationUnfit(_) => StopCause::CalibrationUnfit,
+            _ => StopCause::Other,
+        }
+    }
+
     /// Why the run stopped, as the journal and the report say it; `None` when done.
     pub fn reason(&self) -> Option<String> {
         match self {
@@ -231,7 +262,7 @@ impl RunEnd {
                 "{} made without filling every site",
                 crate::wording::counted(*n, "push")
             )),
-            RunEnd::Stopped(why) => Some(why.clone()),
+            RunEnd::Stopped(why) | RunEnd::CalibrationUnfit(why) => Some(why.clone()),
         }
     }
 }
@@ -394,20 +425,27 @@ impl<'a> Assembly<'a> {
         Ok(Self::with_journal(rig, inputs, journal, 0))
     }
 
-    /// A resumed run: `pushes_done` counts the pushes journalled before the
-    /// stop; `last_tip_nano_m` is the last nanostage target the journal
-    /// holds; `left_short_sites` the sites it left short, whose particles
-    /// (the nearest within `left_short_m` on the first look) are left there
-    /// again rather than pushed three more times in vain.
+    /// A resumed run from where `point` has it: its journal, the pushes
+    /// made before the stop, the last nanostage target, and the sites it
+    /// left short, whose particles (the nearest within `left_short_m` on
+    /// the first look) are left there again rather than pushed three more
+    /// times in vain. The resume entry says when `inputs` follow the drift
+    /// in a run that had not, so that later resumes go on following it.
     pub fn resume(
         rig: &'a mut dyn Rig,
         inputs: AssemblyInputs,
-        mut journal: JournalWriter,
-        pushes_done: usize,
-        last_tip_nano_m: Option<[f64; 2]>,
-        left_short_sites: Vec<usize>,
+        point: ResumePoint,
     ) -> Result<Self, ExecError> {
-        journal.append(rig.now_s(), &RunEvent::Resume)?;
+        let ResumePoint {
+            mut journal,
+            pushes_done,
+            last_tip_m: last_tip_nano_m,
+            left_short_sites,
+            drift_off,
+            ..
+        } = point;
+        let drift_follow = drift_off && inputs.settings.drift.is_some();
+        journal.append(rig.now_s(), &RunEvent::Resume { drift_follow })?;
         let mut run = Self::with_journal(rig, inputs, journal, pushes_done);
         run.left_short_before = left_short_sites;
         // The process may have stopped anywhere, with the tip down or hiding the
@@ -518,7 +556,7 @@ impl<'a> Assembly<'a> {
             }
             Err(e) => {
                 let why = format!("{e}{}", self.tip_left_down());
-                self.stop(RunEnd::Stopped(why))
+                self.stop(RunEnd::stopped(e.stop_cause(), why))
             }
             ended => ended,
         }
@@ -655,11 +693,16 @@ impl<'a> Assembly<'a> {
     fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
         let end = match end {
             RunEnd::Stopped(why) => RunEnd::Stopped(why + &self.unfollowed_drift_note()),
+            RunEnd::CalibrationUnfit(why) => {
+                RunEnd::CalibrationUnfit(why + &self.unfollowed_drift_note())
+            }
             other => other,
         };
-        let reason = end.reason().unwrap_or_default();
-        self.journal
-            .append(self.rig.now_s(), &RunEvent::Stopped { reason })?;
+        let stopped = RunEvent::Stopped {
+            reason: end.reason().unwrap_or_default(),
+            cause: Some(end.cause()),
+        };
+        self.journal.append(self.rig.now_s(), &stopped)?;
         Ok(end)
     }
 
@@ -697,7 +740,9 @@ impl<'a> Assembly<'a> {
         }
         // Judged before this frame's apex joins the drift estimate.
         let astray = match self.drift {
-            Some(_) => apex_doubt(&sighting, self.drift_at(sighting.t_s)),
+            Some(_) => {
+                apex_doubt(&sighting, self.drift_at(sighting.t_s)).map(ApexDoubt::CalibrationUnfit)
+            }
             None => apex_doubt_unfollowed(&sighting, self.apex_offsets_m.map(|(_, last)| last)),
         }
         .filter(|_| self.settings.check_apex);
@@ -710,7 +755,7 @@ impl<'a> Assembly<'a> {
         if astray.is_none() {
             self.follow_drift(&sighting, push);
         }
-        let astray = astray.or_else(|| self.map_doubt());
+        let astray = astray.or_else(|| self.map_doubt().map(ApexDoubt::CalibrationUnfit));
         let tracks = self.tracks();
         self.journal.append(
             sighting.t_s,
