@@ -819,6 +819,8 @@ fn ctrl_c_ends_a_dry_run_keeping_the_frames_analysed() {
         .unwrap();
     // Pressed once the first frame is printed.
     let mut lines = std::io::BufRead::lines(std::io::BufReader::new(child.stdout.take().unwrap()));
+    // The first line says where the frames' times come from.
+    assert!(lines.next().unwrap().unwrap().starts_with("replay: "));
     assert!(lines.next().unwrap().unwrap().starts_with("frame"));
     let sent = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
@@ -931,6 +933,91 @@ fn a_video_recording_keeps_its_frame_rate_and_says_when_it_is_cut_short() {
         "{printed}"
     );
     assert!(!out4.exists(), "a refused dry-run left its --out behind");
+}
+
+/// The fixture's frames as an ImageJ TIFF stack without a stage log,
+/// its description stating `description` on the first page.
+fn imagej_stack_recording(dir: &Path, description: &str) -> PathBuf {
+    let rec = dir.join("rec");
+    copy_dir(&root().join("fixtures/recordings/sim-L-seed6"), &rec);
+    let frames = load_frames(&rec.join("frames"), Channel::Luminance).unwrap();
+    let file = std::fs::File::create(rec.join("frames.tif")).unwrap();
+    let mut tiff = tiff::encoder::TiffEncoder::new(file).unwrap();
+    for (k, f) in frames.iter().enumerate() {
+        let mut image = tiff
+            .new_image::<tiff::encoder::colortype::Gray16>(f.width() as u32, f.height() as u32)
+            .unwrap();
+        if k == 0 {
+            image
+                .encoder()
+                .write_tag(tiff::tags::Tag::ImageDescription, description)
+                .unwrap();
+        }
+        let samples: Vec<u16> = f.pixels().iter().map(|&p| p as u16).collect();
+        image.write_data(&samples).unwrap();
+    }
+    set_line(
+        &rec,
+        "recording.toml",
+        "frames =",
+        "frames = \"frames.tif\"",
+    );
+    set_line(&rec, "recording.toml", "stage_log", "# no stage log");
+    rec
+}
+
+/// An ImageJ stack's stated frame interval (`finterval=0.5`) gives the
+/// frames' times, and the dry-run says so; the recording's own
+/// `frame_interval_s` overrides it, with a warning that they disagree; a
+/// stated interval that is not a time is warned of and not used. The
+/// stack's frames had been taken 1 s apart whatever it said.
+#[test]
+fn an_imagej_stacks_frame_interval_gives_the_frames_times() {
+    let times = |r: &DryRunReport| r.frames.iter().map(|f| f.t_s).collect::<Vec<_>>();
+    let dir = tempfile::tempdir().unwrap();
+    let rec = imagej_stack_recording(
+        dir.path(),
+        "ImageJ=1.54f\nimages=4\nframes=4\nfinterval=0.5\nloop=false\n",
+    );
+    let out = dir.path().join("out");
+    let o = dry_run(&rec, &out, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(times(&ok_report(&o, &out)), [0.0, 0.5, 1.0, 1.5]);
+    assert!(!stderr.contains("1 s apart"), "{stderr}");
+    let (printed, _) = printed_dry_run(&rec, &dir.path().join("printed"));
+    assert!(
+        printed.contains("replay: frame interval 0.5 s, from the stack's ImageJ description"),
+        "{printed}"
+    );
+    // The user's value wins, and the disagreement is said.
+    set_line(
+        &rec,
+        "recording.toml",
+        "# no stage log",
+        "frame_interval_s = 2.0",
+    );
+    let out2 = dir.path().join("out2");
+    let o = dry_run(&rec, &out2, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(times(&ok_report(&o, &out2)), [0.0, 2.0, 4.0, 6.0]);
+    assert!(
+        stderr.contains(
+            "frame_interval_s = 2 is used, but the stack's ImageJ description says 0.5 s"
+        ),
+        "{stderr}"
+    );
+    // A stated interval of 0 is refused, named, and the default taken.
+    let dir0 = tempfile::tempdir().unwrap();
+    let rec0 = imagej_stack_recording(dir0.path(), "ImageJ=1.54f\nimages=4\nfinterval=0\n");
+    let out3 = dir0.path().join("out");
+    let o = dry_run(&rec0, &out3, &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(times(&ok_report(&o, &out3)), [0.0, 1.0, 2.0, 3.0]);
+    assert!(
+        stderr.contains("the stack's ImageJ description states finterval=0, which is not a positive time between frames: not used"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("frames are taken 1 s apart"), "{stderr}");
 }
 
 /// A camera that sees beyond the field (here the calibration puts the

@@ -118,6 +118,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     };
     let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    if !args.json {
+        // Where the times come from: the model's advice depends on them.
+        println!("replay: {}", recording.frame_times);
+    }
     let report = dry_run(
         &recording,
         scene.as_ref(),

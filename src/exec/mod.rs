@@ -20,6 +20,7 @@ pub mod push_reach;
 pub mod recording;
 mod recording_check;
 pub mod recording_frames;
+pub mod recording_times;
 pub mod report;
 pub mod resume_point;
 pub mod scale_doubt;

@@ -21,6 +21,7 @@ use super::assemble::{FrameSink, FrameView};
 use super::recording_check::{check_frame_sizes, check_spec, check_stage_entry};
 pub use super::recording_frames::RecordingFrames;
 use super::recording_frames::entries_for_frames;
+use super::recording_times::frame_times;
 use crate::calib::camera_map::CameraCalibration;
 use crate::vision::frame::Frame;
 use crate::vision::frame_input::{Channel, FrameInputError, save_png};
@@ -52,8 +53,9 @@ pub struct RecordingSpec {
     pub calibration: String,
     /// Radius of the particles, micrometres.
     pub particle_radius_um: f64,
-    /// Seconds between frames when there is no stage log (default: a
-    /// video's own frame rate, else 1).
+    /// Seconds between frames when there is no stage log (default: the
+    /// interval the frames state, a video's frame rate or a TIFF stack's
+    /// ImageJ `finterval`, else 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frame_interval_s: Option<f64>,
     /// Stage log (JSON Lines), relative to the recording.
@@ -155,8 +157,12 @@ pub struct Recording {
     /// Seconds between frames without a stage log: `frame_interval_s`, else
     /// the video's own frame rate (a 25 fps video had read as 1 s a frame,
     /// and the model's advice was asked for the session's time 25 times
-    /// too late), else 1.
+    /// too late) or a TIFF stack's ImageJ interval, else 1
+    /// ([`frame_times`]).
     pub frame_interval_s: f64,
+    /// Where the frames' times come from, as the dry-run says it ("frame
+    /// interval 0.5 s, from the stack's ImageJ description").
+    pub frame_times: String,
     /// One entry per frame, when the recording has a stage log.
     pub stage_log: Option<Vec<StageLogEntry>>,
 }
@@ -271,10 +277,6 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     };
     let mut stream = FrameStream::open(&frames_path, spec.channel).map_err(frames_error)?;
     let exact_frames = stream.exact_len();
-    let frame_interval_s = spec
-        .frame_interval_s
-        .or_else(|| stream.frame_interval_s())
-        .unwrap_or(1.0);
     check_frame_sizes(stream.files(), &frames_path, spec.channel)?;
     // The first frame is read now: a video or stack that cannot be decoded
     // is refused before anything is written.
@@ -302,8 +304,12 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
             Some(log)
         }
     };
-    let said_rate = stream.frame_interval_s().is_some();
-    if let Some(note) = frame_times_note(stage_log.is_some(), spec.frame_interval_s, said_rate) {
+    let times = frame_times(
+        stage_log.is_some(),
+        spec.frame_interval_s,
+        stream.stated_interval(),
+    );
+    if let Some(note) = &times.warning {
         tracing::warn!("recording {}: {note}", spec_path.display());
     }
     Ok(Recording {
@@ -311,31 +317,10 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         spec,
         calibration,
         frames_path,
-        frame_interval_s,
+        frame_interval_s: times.interval_s,
+        frame_times: times.origin,
         stage_log,
     })
-}
-
-/// What to say of where the frames' times come from, when a user would not
-/// guess it (the model's advice depends on the session's time): a default
-/// of 1 s a frame had been taken without a word, and a `frame_interval_s`
-/// beside a stage log ignored.
-fn frame_times_note(
-    has_stage_log: bool,
-    frame_interval_s: Option<f64>,
-    frames_say_rate: bool,
-) -> Option<String> {
-    match (has_stage_log, frame_interval_s, frames_say_rate) {
-        (true, Some(dt), _) => Some(format!(
-            "frame_interval_s = {dt} is not used: the stage log's times are"
-        )),
-        (false, None, false) => Some(
-            "frames are taken 1 s apart (no stage log, no frame_interval_s, no frame rate in the frames): \
-             set frame_interval_s if they were not"
-                .to_owned(),
-        ),
-        _ => None,
-    }
 }
 
 /// Reads a stage log; entries must be numbered 0, 1, 2, ... with times that do not go back.
@@ -568,31 +553,6 @@ fn numbering_gap(files: &[std::path::PathBuf]) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn frame_times_from_a_default_or_beside_a_stage_log_are_said() {
-        let default = frame_times_note(false, None, false).expect("1 s assumed");
-        assert!(
-            default.starts_with("frames are taken 1 s apart"),
-            "{default}"
-        );
-        let ignored = frame_times_note(true, Some(0.5), false).expect("not used");
-        assert!(
-            ignored.starts_with("frame_interval_s = 0.5 is not used"),
-            "{ignored}"
-        );
-        for quiet in [
-            (true, None, false),
-            (false, Some(0.5), false),
-            (false, None, true),
-        ] {
-            assert_eq!(
-                frame_times_note(quiet.0, quiet.1, quiet.2),
-                None,
-                "{quiet:?}"
-            );
-        }
-    }
 
     #[test]
     fn a_break_in_the_frames_numbers_is_named() {

@@ -17,6 +17,7 @@ use super::frame_input::{
     load_frame, mat_to_frame, quietly,
 };
 use super::tiff_fallback;
+use super::tiff_stated_interval::stated_interval_s;
 use super::tiff_stated_pages;
 
 /// TIFF pages decoded per read: OpenCV walks a stack from its first page on
@@ -39,6 +40,18 @@ pub struct FrameStream {
     channel: Channel,
     source: Source,
     read: usize,
+    /// Seconds between a TIFF stack's frames, as its description states.
+    tiff_interval_s: Option<f64>,
+}
+
+/// Seconds between frames as the frames themselves state them, and what
+/// states it (for a user to see where the frames' times come from).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StatedInterval {
+    /// Seconds from one frame to the next.
+    pub seconds: f64,
+    /// What said so: "the video's frame rate", "the stack's ImageJ description".
+    pub from: &'static str,
 }
 
 enum Source {
@@ -104,6 +117,7 @@ impl FrameStream {
             channel,
             source,
             read: 0,
+            tiff_interval_s: is_tiff(path).then(|| tiff_interval_s(path)).flatten(),
         })
     }
 
@@ -129,14 +143,24 @@ impl FrameStream {
         !matches!(self.source, Source::Video { .. })
     }
 
-    /// Seconds between frames, from the frame rate a video's container
-    /// states; `None` for other sources or a rate that is not positive.
-    pub fn frame_interval_s(&self) -> Option<f64> {
+    /// Seconds between frames as the source states them: a video's
+    /// container's frame rate, a TIFF stack's ImageJ description; `None`
+    /// for other sources or a time that is not positive.
+    pub fn stated_interval(&self) -> Option<StatedInterval> {
+        if let Some(seconds) = self.tiff_interval_s {
+            return Some(StatedInterval {
+                seconds,
+                from: "the stack's ImageJ description",
+            });
+        }
         let Source::Video { capture, .. } = &self.source else {
             return None;
         };
-        let fps = capture.get(opencv::videoio::CAP_PROP_FPS).ok()?;
-        (fps.is_finite() && fps > 0.0).then(|| 1.0 / fps)
+        let fps = quietly(|| capture.get(opencv::videoio::CAP_PROP_FPS)).ok()?;
+        (fps.is_finite() && fps > 0.0).then_some(StatedInterval {
+            seconds: 1.0 / fps,
+            from: "the video's frame rate",
+        })
     }
 
     /// The files of a folder source, in the order they are read (empty for
@@ -266,6 +290,20 @@ fn tiff_stack(path: &Path, channel: Channel) -> Result<Source, FrameInputError> 
     })
 }
 
+/// The interval `path`'s description states; one it states that is not a
+/// time is warned of and not used.
+fn tiff_interval_s(path: &Path) -> Option<f64> {
+    stated_interval_s(path)
+        .inspect_err(|said| {
+            tracing::warn!(
+                "{}: the stack's ImageJ description states {said}: not used",
+                path.display()
+            );
+        })
+        .ok()
+        .flatten()
+}
+
 /// Says so when the stack's own description counts more frames than it
 /// holds ([`tiff_stated_pages::cut_short`]): cut short, it had read as its
 /// first page alone, without a word.
@@ -377,7 +415,7 @@ mod tests {
             (stream.stated_len(), stream.len_is_exact()),
             (Some(2), true)
         );
-        assert_eq!(stream.frame_interval_s(), None);
+        assert_eq!(stream.stated_interval(), None);
         let read = read_all(&folder);
         assert_eq!(names(&read), ["b_2.png", "b_10.png"]);
         assert_eq!(read[0].frame, frame(6, 4, 1, 8));
@@ -438,8 +476,9 @@ mod tests {
                 (stream.stated_len(), stream.len_is_exact()),
                 (Some(n), false)
             );
-            let dt = stream.frame_interval_s().unwrap();
-            assert!((dt - 0.05).abs() < 1e-9, "{dt}");
+            let dt = stream.stated_interval().unwrap();
+            assert!((dt.seconds - 0.05).abs() < 1e-9, "{dt:?}");
+            assert_eq!(dt.from, "the video's frame rate");
             let read = read_all(&path);
             let want: Vec<String> = (0..n).map(|i| format!("v{n}.avi #{i}")).collect();
             assert_eq!(names(&read), want);

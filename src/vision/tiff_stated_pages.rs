@@ -3,25 +3,20 @@
 //! stopped midway, a recorder that crashed) reads as its first page alone;
 //! the first page's description still says how many there were.
 
-use std::io::BufReader;
+use super::tiff_description::{first_page_description, imagej_value};
 use std::path::Path;
-use tiff::decoder::Decoder;
-use tiff::tags::Tag;
 
 /// The frame count `path`'s first page describes, if it says one.
 pub fn stated_pages(path: &Path) -> Option<usize> {
-    let file = std::fs::File::open(path).ok()?;
-    let mut decoder = Decoder::new(BufReader::new(file)).ok()?;
-    let text = decoder.get_tag_ascii_string(Tag::ImageDescription).ok()?;
-    pages_in_description(&text)
+    pages_in_description(&first_page_description(path)?)
 }
 
 /// ImageJ's `images=N` line, or tifffile's JSON `"shape"` of a stack
 /// (`[N, height, width]` of grey pages, `[N, height, width, 3]` of colour
 /// ones; a single colour image is `[height, width, 3]`).
 fn pages_in_description(text: &str) -> Option<usize> {
-    if let Some(n) = text.lines().find_map(|l| l.strip_prefix("images=")) {
-        return n.trim().parse().ok();
+    if let Some(n) = imagej_value(text, "images") {
+        return n.parse().ok();
     }
     let json: serde_json::Value = serde_json::from_str(text).ok()?;
     let shape: Vec<u64> = json
@@ -51,6 +46,7 @@ pub fn cut_short(path: &Path, read: usize) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use tiff::tags::Tag;
 
     #[test]
     fn imagej_and_tifffile_descriptions_give_the_frame_count() {
