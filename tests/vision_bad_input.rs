@@ -178,6 +178,83 @@ fn a_broken_video_is_one_line_of_error() {
     assert!(err.contains("clip.avi holds no frames"), "{err}");
 }
 
+/// A video that cannot be read, given to `detect` and to `dry-run`: random
+/// bytes as an .mp4 (FFmpeg had printed "[mov,mp4,... @ 0x...] moov atom
+/// not found") and an MJPG .avi cut after its header (OpenCV's own AVI
+/// reader had printed "Unexpected element. Expected: LIST. Got: ."). Only
+/// this program's error is on standard error, naming the file; the exit is
+/// non-zero.
+#[test]
+fn a_broken_video_leaves_only_our_error_on_stderr() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut noise = 0x2545_f491_4f6c_dd1d_u64;
+    let random: Vec<u8> = (0..6000)
+        .map(|_| {
+            noise ^= noise << 13;
+            noise ^= noise >> 7;
+            noise ^= noise << 17;
+            (noise >> 32) as u8
+        })
+        .collect();
+    let mp4 = write(&dir, "random.mp4", &random);
+    let whole = dir.path().join("whole.avi");
+    let mut video = nanopush::render::video::VideoWriter::create(&whole, 5.0, (64, 48)).unwrap();
+    for level in [40u8, 120, 200] {
+        video
+            .write(&image::RgbImage::from_pixel(64, 48, image::Rgb([level; 3])))
+            .unwrap();
+    }
+    video.finish().unwrap();
+    let avi = write(&dir, "cut.avi", &std::fs::read(&whole).unwrap()[..2000]);
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/recordings/real-brightfield"
+    );
+    for clip in [&mp4, &avi] {
+        let name = clip.file_name().unwrap().to_string_lossy().into_owned();
+        let rec = dir.path().join(format!("rec-{name}"));
+        std::fs::create_dir(&rec).unwrap();
+        std::fs::write(
+            rec.join("recording.toml"),
+            format!(
+                "schema = \"nanopush.recording/1\"\nsource = \"a broken video\"\n\
+                 frames = {:?}\ncalibration = \"{fixture}/calibration.toml\"\n\
+                 particle_radius_um = 5.0\nframe_interval_s = 1.0\n\
+                 pattern = \"{fixture}/pattern.toml\"\ndetect_tip = false\n",
+                clip.to_string_lossy()
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join(format!("out-{name}"));
+        for args in [
+            vec!["detect".to_owned(), clip.to_string_lossy().into_owned()],
+            vec![
+                "dry-run".to_owned(),
+                "--recording".to_owned(),
+                rec.to_string_lossy().into_owned(),
+                "--out".to_owned(),
+                out.to_string_lossy().into_owned(),
+            ],
+        ] {
+            let o = std::process::Command::new(env!("CARGO_BIN_EXE_nanopush"))
+                .args(&args)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert!(!o.status.success(), "{args:?}: {err}");
+            assert!(
+                err.contains(&format!("{name} holds no frames")),
+                "{args:?}: {err}"
+            );
+            assert!(
+                err.lines().all(|l| l.starts_with("error: ")),
+                "{args:?}: lines not ours on stderr:\n{err}"
+            );
+            assert!(!err.contains("global ") && !err.contains("[ERROR"), "{err}");
+        }
+    }
+}
+
 mod deadline;
 
 /// Runs `nanopush args` (at most 20 s) and returns its stderr, checking it failed.

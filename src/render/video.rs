@@ -4,6 +4,7 @@
 //! (`mp4v`), `.avi` is Motion-JPEG. Files written here read back with
 //! [`crate::vision::frame_input::load_frames`].
 
+use crate::vision::opencv_quiet::quietly;
 use image::RgbImage;
 use opencv::core::{Mat, Scalar, Size};
 use opencv::prelude::*;
@@ -62,13 +63,17 @@ impl VideoWriter {
         };
         let fourcc = videoio::VideoWriter::fourcc(code[0], code[1], code[2], code[3])
             .map_err(|e| open(e.to_string()))?;
-        let inner = videoio::VideoWriter::new(
-            &path.to_string_lossy(),
-            fourcc,
-            fps.clamp(0.1, 120.0),
-            Size::new(size.0 as i32, size.1 as i32),
-            true,
-        )
+        // OpenCV's and FFmpeg's own lines kept off standard error: the
+        // error says which file could not be written.
+        let inner = quietly(|| {
+            videoio::VideoWriter::new(
+                &path.to_string_lossy(),
+                fourcc,
+                fps.clamp(0.1, 120.0),
+                Size::new(size.0 as i32, size.1 as i32),
+                true,
+            )
+        })
         .map_err(|e| open(e.to_string()))?;
         if !inner.is_opened().map_err(|e| open(e.to_string()))? {
             return Err(open("no backend accepted the codec".to_owned()));
@@ -106,14 +111,14 @@ impl VideoWriter {
         for (dst, src) in bytes.chunks_exact_mut(3).zip(img.pixels()) {
             dst.copy_from_slice(&[src.0[2], src.0[1], src.0[0]]);
         }
-        self.inner.write(&mat).map_err(err)?;
+        quietly(|| self.inner.write(&mat)).map_err(err)?;
         self.frames += 1;
         Ok(())
     }
 
     /// Closes the file; returns the number of frames written.
     pub fn finish(mut self) -> Result<usize, VideoError> {
-        self.inner.release().map_err(|e| VideoError::Write {
+        quietly(|| self.inner.release()).map_err(|e| VideoError::Write {
             path: self.path.clone(),
             reason: e.to_string(),
         })?;

@@ -8,6 +8,7 @@ use super::camera_error::CameraError;
 use super::camera_source::CameraSource;
 use super::error::RigError;
 use crate::vision::frame_input::{Channel, mat_to_frame};
+use crate::vision::opencv_quiet::{open_video, quietly};
 use opencv::core::{Mat, MatTraitConst};
 use opencv::prelude::{VideoCaptureTrait, VideoCaptureTraitConst};
 use opencv::videoio::{CAP_ANY, CAP_GSTREAMER, VideoCapture};
@@ -77,7 +78,9 @@ impl VideoCamera {
         }
         let capture = match &input {
             VideoInput::Device(index) => VideoCapture::new(*index, CAP_ANY),
-            VideoInput::File(path) => VideoCapture::from_file(&path.to_string_lossy(), CAP_ANY),
+            // A recording: OpenCV's and FFmpeg's own errors kept quiet, the
+            // error below names the file.
+            VideoInput::File(path) => open_video(path),
             VideoInput::Gstreamer(pipeline) => VideoCapture::from_file(pipeline, CAP_GSTREAMER),
         }
         .map_err(|e| open_error(e.to_string()))?;
@@ -122,10 +125,15 @@ impl Camera for VideoCamera {
             return Ok(None);
         }
         let mut mat = Mat::default();
-        let got = self
-            .capture
-            .read(&mut mat)
-            .map_err(|e| RigError::Io(format!("camera {}: {e}", self.input.describe())))?;
+        // A file's damaged frame is said by the end it makes; a device's or
+        // a pipeline's own warnings (timeouts) are left for the user to see.
+        let capture = &mut self.capture;
+        let got = if matches!(self.input, VideoInput::File(_)) {
+            quietly(|| capture.read(&mut mat))
+        } else {
+            capture.read(&mut mat)
+        }
+        .map_err(|e| RigError::Io(format!("camera {}: {e}", self.input.describe())))?;
         if !got || mat.empty() {
             if matches!(self.input, VideoInput::File(_)) {
                 self.ended = true;

@@ -431,19 +431,6 @@ const WIDE_DEPTHS: [i32; 5] = [
     opencv::core::CV_64F,
 ];
 
-/// Runs `f` with OpenCV's log silenced: trying its backends on a file that
-/// is not a video prints a page of GStreamer and image-sequence errors
-/// before our own one-line error says the same.
-pub(super) fn quietly<T>(f: impl FnOnce() -> T) -> T {
-    use opencv::core::{LogLevel, set_log_level};
-    let before = set_log_level(LogLevel::LOG_LEVEL_SILENT);
-    let out = f();
-    if let Ok(level) = before {
-        let _ = set_log_level(level);
-    }
-    out
-}
-
 /// `path` with a dot before its file name: where a frame (or a file written
 /// with it) goes before it is renamed into place, so a reader of the folder
 /// never sees half a file (same folder, so the rename is atomic; same

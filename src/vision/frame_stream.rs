@@ -14,8 +14,9 @@ use opencv::videoio::VideoCapture;
 use super::frame::Frame;
 use super::frame_input::{
     Channel, FrameInputError, decode_error, file_name_text, image_files, is_tiff, is_video,
-    load_frame, mat_to_frame, quietly,
+    load_frame, mat_to_frame,
 };
+use super::opencv_quiet::{open_video, quietly};
 use super::tiff_fallback;
 use super::tiff_stated_interval::stated_interval_s;
 use super::tiff_stated_pages;
@@ -89,12 +90,8 @@ impl FrameStream {
                 source: std::io::Error::from(std::io::ErrorKind::NotFound),
             });
         } else if is_video(path) {
-            let capture = quietly(|| {
-                VideoCapture::from_file(&path.to_string_lossy(), opencv::videoio::CAP_ANY)
-            })
-            .map_err(|e| decode_error(path, e.to_string()))?;
-            let said = capture
-                .get(opencv::videoio::CAP_PROP_FRAME_COUNT)
+            let capture = open_video(path).map_err(|e| decode_error(path, e.to_string()))?;
+            let said = quietly(|| capture.get(opencv::videoio::CAP_PROP_FRAME_COUNT))
                 .ok()
                 .filter(|n| n.is_finite() && *n >= 1.0)
                 .map(|n| n.round() as usize);
@@ -352,9 +349,7 @@ fn next_video_frame(
     channel: Channel,
 ) -> Result<Option<Frame>, FrameInputError> {
     let mut mat = Mat::default();
-    let read = capture
-        .read(&mut mat)
-        .map_err(|e| decode_error(path, e.to_string()))?;
+    let read = quietly(|| capture.read(&mut mat)).map_err(|e| decode_error(path, e.to_string()))?;
     if !read || mat.empty() {
         return Ok(None);
     }

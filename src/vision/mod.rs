@@ -21,6 +21,7 @@ pub mod line_defects;
 pub mod log_on_change;
 pub mod matching;
 pub mod noise;
+pub mod opencv_quiet;
 pub mod overlay;
 pub mod pixel_window;
 pub mod poor_fits;
