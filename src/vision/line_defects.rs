@@ -11,6 +11,13 @@
 //! measured against the frame itself (the spread of every line's second
 //! difference, and the per-pixel noise), so 8- and 16-bit cameras, column
 //! fixed-pattern noise and interlaced rows do not count.
+//!
+//! A lossy codec (JPEG, an MJPG or mp4 video's frames) smooths the pixel
+//! noise away and rings beside the scene's straight edges, within its 8 px
+//! blocks: the columns beside a probe's edge stood off by 1-3 counts in
+//! their means along its length, and were taken for sensor lines. In such
+//! a frame a place along a line counts only where the scene beside it,
+//! within a block, has no step larger than the line's own offset there.
 
 use std::borrow::Cow;
 use std::fmt;
@@ -20,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use super::cpu_dispatch::avx2_dispatch;
 use super::frame::Frame;
 use super::log_on_change::changed;
-use super::noise::estimate_noise_sigma;
+use super::noise::{MIN_NOISE_COUNTS, estimate_noise_sigma};
 use crate::median::upper_median;
 
 /// Widest run of neighbouring defective lines repaired as one.
@@ -45,6 +52,15 @@ const NOISE_MULTIPLE: f64 = 4.0;
 /// in a nearly noiseless frame, whose line means have almost no spread)
 /// is off only across the feature.
 const MIN_LINE_PIXELS: usize = 64;
+
+/// Lines on either side of a run looked at for an edge of the scene, when
+/// a lossy codec has smoothed the frame's noise away: a JPEG or MPEG block,
+/// within which the codec's error at an edge stays.
+const CODEC_BLOCK: usize = 8;
+
+/// The lines nearest a run, left out of that look: the codec smears a
+/// sensor line into them.
+const CODEC_SMEAR: usize = 2;
 
 /// Sensor column (x) or row (y).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -117,10 +133,13 @@ pub fn repair_line_defects(frame: &Frame) -> (Cow<'_, Frame>, Vec<LineDefect>) {
     let noise = estimate_noise_sigma(frame);
     let (mut columns, mut rows) = runs(noise);
     let px = frame.pixels();
+    // The white estimate at its quantisation floor: the pixel noise is
+    // smoothed away (a lossy codec, or no noise at all).
+    let smoothed = noise <= MIN_NOISE_COUNTS;
     let column_place = |line, along| along * w + line;
     let row_place = |line, along| line * w + along;
-    columns.retain(|run| run.off_along(px, h, noise, column_place));
-    rows.retain(|run| run.off_along(px, w, noise, row_place));
+    columns.retain(|run| run.off_along(px, (h, w), noise, smoothed, column_place));
+    rows.retain(|run| run.off_along(px, (w, h), noise, smoothed, row_place));
     if columns.is_empty() && rows.is_empty() {
         return (Cow::Borrowed(frame), Vec::new());
     }
@@ -236,13 +255,16 @@ impl Run {
         }
     }
 
-    /// True when enough of the run's places along its `length` stand off
-    /// (see [`MIN_LINE_PIXELS`]).
+    /// True when enough of the run's places along its length stand off
+    /// (see [`MIN_LINE_PIXELS`]); `(length, across)` are the lines' length
+    /// and their number. In a `smoothed` frame a place beside an edge of
+    /// the scene does not count ([`Self::beside_an_edge`]).
     fn off_along(
         &self,
         pixels: &[f32],
-        length: usize,
+        (length, across): (usize, usize),
         noise_sigma: f64,
+        smoothed: bool,
         place: impl Fn(usize, usize) -> usize,
     ) -> bool {
         let by = (NOISE_MULTIPLE * noise_sigma) as f32;
@@ -251,13 +273,38 @@ impl Run {
             .filter(|&along| {
                 let before = self.before.map(|l| pixels[place(l, along)]);
                 let after = self.after.map(|l| pixels[place(l, along)]);
-                self.lines().enumerate().all(|(k, line)| {
+                let mut least = f32::INFINITY;
+                let all_off = self.lines().enumerate().all(|(k, line)| {
                     let o = pixels[place(line, along)] - self.expected(k, before, after);
+                    least = least.min(o.abs());
                     if self.bright { o > by } else { o < -by }
-                })
+                });
+                all_off && !(smoothed && self.beside_an_edge(pixels, across, along, least, &place))
             })
             .count();
         off >= needed
+    }
+
+    /// True when, at `along`, two neighbouring pixels within a codec block
+    /// on either side of the run (its [`CODEC_SMEAR`] nearest lines left
+    /// out) differ by more than the run's offset `off` there: a lossy
+    /// codec's ringing beside an edge of the scene, while a sensor line
+    /// stands off where the scene beside it is flat (the codec's own
+    /// smearing of it is smaller than the line's offset).
+    fn beside_an_edge(
+        &self,
+        pixels: &[f32],
+        across: usize,
+        along: usize,
+        off: f32,
+        place: impl Fn(usize, usize) -> usize,
+    ) -> bool {
+        let last = self.first + self.len - 1;
+        let lo = self.first.saturating_sub(CODEC_BLOCK);
+        let hi = (last + CODEC_BLOCK).min(across - 1);
+        (lo..hi)
+            .filter(|&x| x + 1 + CODEC_SMEAR < self.first || x > last + CODEC_SMEAR)
+            .any(|x| (pixels[place(x + 1, along)] - pixels[place(x, along)]).abs() > off)
     }
 
     fn beside_mean(&self, means: &[f64]) -> f64 {
