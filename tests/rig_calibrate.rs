@@ -394,8 +394,18 @@ fn a_refused_run_leaves_no_folder_it_made_and_advises_only_what_is_accepted() {
     assert!(out.exists());
 }
 
+/// Stopped with Ctrl-C after one frame (short of a fit) or after seven
+/// (enough), the command advised is accepted; a fit is advised with the
+/// run's own output (it had said `--out FILE`).
 #[test]
 fn a_run_stopped_early_advises_a_command_that_is_accepted() {
+    for frames_before_stop in [1, 7] {
+        stopped_after(frames_before_stop);
+    }
+}
+
+/// A calibration run stopped with Ctrl-C once `frames` frames are saved.
+fn stopped_after(frames: usize) {
     let b = bench();
     let rig = b.rig.to_str().unwrap();
     let args = ["rig", "calibrate", "--rig", rig];
@@ -406,10 +416,9 @@ fn a_run_stopped_early_advises_a_command_that_is_accepted() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Ctrl-C once the first frame is saved: a few frames, short of a fit.
     let csv = b.dir.path().join("camera-recording/stage.csv");
     let started = std::time::Instant::now();
-    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < 2 {
+    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < frames + 1 {
         assert!(
             started.elapsed() < Duration::from_secs(60),
             "no frame saved"
@@ -432,16 +441,18 @@ fn a_run_stopped_early_advises_a_command_that_is_accepted() {
         message.contains("the stage stopped at") && message.contains("it was not put back"),
         "{message}"
     );
-    // Whatever it advises is accepted.
+    // Whatever it advises is accepted; the fit writes where the run was to write.
     let fit = format!(
-        "`nanopush calibrate --recording {} --out FILE`",
-        csv.parent().unwrap().display()
+        "`nanopush calibrate --recording {} --out {}`",
+        csv.parent().unwrap().display(),
+        b.dir.path().join("camera.toml").display()
     );
-    if message.contains(&fit) {
+    if message.contains("fit them with") {
+        assert!(message.contains(&fit), "{message}");
         refit(csv.parent().unwrap(), &b.dir.path().join("fit.toml"), &[]);
     } else {
         assert!(
-            message.contains("run the same command again with --force"),
+            frames < 7 && message.contains("run the same command again with --force"),
             "{message}"
         );
         ok(&nanopush(&[&args[..], &["--force"]].concat()));

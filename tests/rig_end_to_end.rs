@@ -826,12 +826,21 @@ fn a_dry_run_that_ends_on_a_stage_error_exits_non_zero_and_still_reports() {
     let short = text.replace("settle_timeout_ms = 20000", "settle_timeout_ms = 3000");
     assert_ne!(short, text, "the replacement did not apply");
     std::fs::write(&b.rig_path, short).unwrap();
-    let out = finish(b.assemble("dry", &["--dry-run"]), RUN_LIMIT);
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let out = finish(b.assemble("dry", &["--dry-run", "--json"]), RUN_LIMIT);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{}", failed(out.status, &out));
-    assert!(stdout.contains("stopped: rig error"), "{stdout}");
+    // With --json, stdout is the report alone (the sent bytes' files had
+    // been named there first, and a script could not read it).
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!("{e}: {}", String::from_utf8_lossy(&out.stdout));
+    });
+    let outcome = report["outcome"].as_str().unwrap_or_default();
+    assert!(outcome.contains("stopped: rig error"), "{report}");
     assert!(stderr.contains("did not answer within 3000 ms"), "{stderr}");
+    assert!(
+        stderr.contains("bytes that would have been sent: "),
+        "{stderr}"
+    );
     for file in ["journal.jsonl", "report.json", "sent-bytes.log"] {
         assert!(b.dir.path().join("dry").join(file).exists(), "no {file}");
     }
@@ -957,6 +966,19 @@ fn an_unconfirmed_first_move_leaves_out_as_it_was() {
             assert!(
                 stderr.contains("is as it was") && !stderr.contains("--resume"),
                 "attempt {attempt}: {stderr}"
+            );
+            // The flag that waives the question is named, and the move
+            // reads in um without float noise (14.999999999999998 had shown).
+            assert!(
+                stderr.contains("run the command again with --yes-move-hardware"),
+                "{stderr}"
+            );
+            let asked = stderr.lines().find(|l| l.starts_with("first move on "));
+            assert!(
+                asked.is_some_and(|l| l.contains(" um")
+                    && !l.contains("9999")
+                    && !l.contains("0000")),
+                "{stderr}"
             );
             assert!(!b.dir.path().join("new").exists(), "{stderr}");
             assert!(!b.dir.path().join("rec").exists(), "{stderr}");
@@ -1108,6 +1130,15 @@ fn assembling_cmu_with_a_gcs_coarse_stage_completes_like_the_simulated_rig() {
     let wall_s = started.elapsed().as_secs_f64();
     assert!(out.status.success(), "{}", failed(out.status, &out));
     let report = b.completed_like(&out, &reference);
+    // The same --out again names the report a rig run writes (it had named
+    // report.md, which only the simulated rig writes).
+    let again = finish(b.assemble("run", &[]), RUN_LIMIT);
+    let said = String::from_utf8_lossy(&again.stderr);
+    assert!(!again.status.success());
+    assert!(
+        said.contains("holds a finished run (its report is report.json there)"),
+        "{said}"
+    );
 
     // The coarse stage was used: the journal holds coarse moves and the
     // coarse controller is no longer where it started.

@@ -176,7 +176,7 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
         "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
         spec.pattern, spec.seed, args.particles
     );
-    let journal_path = check_out_free(&args.out)?;
+    let journal_path = check_out_free(&args.out, None)?;
     let mut recorder = open_recorder(args, source, &spec, layout.field_m, rig.calibration())?;
     // The journal comes last: a journal holding no run could not be resumed
     // and would block this --out.
@@ -210,7 +210,8 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
 /// The journal a new run in `out` writes, refused before anything is
 /// written when `out` is a file or holds a run already (a `--record`
 /// folder made first had then blocked the corrected command).
-pub(super) fn check_out_free(out: &Path) -> anyhow::Result<PathBuf> {
+/// `rig` is the rig file of a hardware run, which its resume needs too.
+pub(super) fn check_out_free(out: &Path, rig: Option<&Path>) -> anyhow::Result<PathBuf> {
     if out.exists() && !out.is_dir() {
         bail!("--out {} is a file: give a folder", out.display());
     }
@@ -221,14 +222,20 @@ pub(super) fn check_out_free(out: &Path) -> anyhow::Result<PathBuf> {
             .is_ok_and(|c| c.entries.last().is_some_and(|e| e.event == RunEvent::Done))
     };
     if journal.exists() && finished() {
+        // A hardware rig's run writes report.json only.
+        let report = ["report.md", "report.json"]
+            .into_iter()
+            .find(|r| out.join(r).exists())
+            .map_or(String::new(), |r| format!(" (its report is {r} there)"));
         bail!(
-            "{} holds a finished run (its report is report.md there): give another --out",
+            "{} holds a finished run{report}: give another --out",
             out.display()
         );
     }
     if journal.exists() {
+        let on_rig = rig.map_or(String::new(), |r| format!(" --rig {}", r.display()));
         bail!(
-            "{} exists: use --resume {0} or another --out",
+            "{} exists: use --resume {0}{on_rig} or another --out",
             journal.display()
         );
     }

@@ -183,12 +183,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if let Some(log) = rig.sent_log() {
         let path = out.join(SENT_BYTES);
         write_sent_log(log, &path)?;
-        println!("bytes that would have been sent: {}", path.display());
+        // On stderr: stdout holds the report, with --json a JSON document.
+        eprintln!("bytes that would have been sent: {}", path.display());
     }
     if let Some(log) = rig.coarse_sent_log() {
         let path = out.join(COARSE_SENT_BYTES);
         write_sent_log(log, &path)?;
-        println!(
+        eprintln!(
             "bytes that would have been sent to the coarse stage: {}",
             path.display()
         );
@@ -258,7 +259,7 @@ fn new_start(args: &Args) -> anyhow::Result<RigStart> {
     // Checked before the rig is opened; built again for the batch the
     // first frame shows.
     target.pattern(scene.particle_radius_m)?;
-    let journal_path = check_out_free(&args.out)?;
+    let journal_path = check_out_free(&args.out, args.hardware.rig.as_deref())?;
     Ok(RigStart::New {
         scene,
         target,

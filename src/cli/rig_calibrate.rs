@@ -174,7 +174,7 @@ fn measure(
             Err(_) if moved => "where the stage stopped could not be read".to_string(),
             Err(_) => "nothing moved".to_string(),
         };
-        let kept = saved_frames(&folder, recording, rows.len(), with_tip);
+        let kept = saved_frames(&folder, recording, out, rows.len(), with_tip);
         return Err(e).with_context(|| {
             format!(
                 "calibration run on {} stopped: {at}; {kept}",
@@ -217,7 +217,13 @@ fn measure(
 /// advised to `calibrate`, which refuses under 6); with no frame the
 /// folder the run made goes (empty folders had been left behind), so the
 /// same command is accepted again.
-fn saved_frames(folder: &MadeFolder, recording: &Path, frames: usize, with_tip: usize) -> String {
+fn saved_frames(
+    folder: &MadeFolder,
+    recording: &Path,
+    out: &Path,
+    frames: usize,
+    with_tip: usize,
+) -> String {
     let dir = recording.display();
     if frames == 0 {
         let left = folder.undo_said();
@@ -225,7 +231,8 @@ fn saved_frames(folder: &MadeFolder, recording: &Path, frames: usize, with_tip: 
     }
     if enough_to_fit(with_tip) {
         return format!(
-            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out FILE`, or run the same command again with --force)"
+            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out {}`, or run the same command again with --force)",
+            out.display()
         );
     }
     format!(

@@ -44,14 +44,14 @@ pub fn ask_on_terminal(description: &str, interrupt: &AtomicBool) -> bool {
     if !stdin.is_terminal() {
         eprintln!(
             "{description}
-refused: no terminal to confirm on (pass the explicit flag to waive)"
+refused: no terminal to confirm on; to move without asking, run the command again with --yes-move-hardware"
         );
         return false;
     }
     eprint!(
         "{description}
 (nothing has been sent that moves or powers an axis; the command's later moves follow without asking)
-Type `yes` to move the real stage: "
+Type `yes` (the word) to move the real stage: "
     );
     let _ = std::io::stderr().flush();
     let read = move || {

@@ -202,12 +202,25 @@ impl GcsStage {
             FirstMoveConfirmation::Refused => return Err(SafetyViolation::NotConfirmed.into()),
             FirstMoveConfirmation::Ask(ask) => ask,
         };
+        let um = |m: &[f64]| {
+            let each: Vec<String> = m.iter().map(|v| format!("{:.3}", v * 1e6)).collect();
+            format!("({}) um", each.join(", "))
+        };
+        let travel = from_m
+            .iter()
+            .zip(target_m)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        let to = if travel < 1e-9 {
+            "staying there (servo on and velocities set first)".to_owned()
+        } else {
+            format!("to {}", um(target_m))
+        };
         let text = format!(
-            "first move on {}: axes {:?} from {:?} um to {:?} um",
+            "first move on {}: axes {:?} from {} {to}",
             self.controller.endpoint(),
             self.settings.axes,
-            from_m.iter().map(|v| v * 1e6).collect::<Vec<_>>(),
-            target_m.iter().map(|v| v * 1e6).collect::<Vec<_>>()
+            um(from_m),
         );
         if ask(&text) {
             self.confirmation = FirstMoveConfirmation::NotNeeded;
