@@ -836,7 +836,12 @@ fn a_dry_run_that_ends_on_a_stage_error_exits_non_zero_and_still_reports() {
     });
     let outcome = report["outcome"].as_str().unwrap_or_default();
     assert!(outcome.contains("stopped: rig error"), "{report}");
-    assert!(stderr.contains("did not answer within 3000 ms"), "{stderr}");
+    // The controller answered: the move did not settle in time (it had
+    // read "did not answer within 3000 ms").
+    assert!(
+        stderr.contains("was not on target within 3000 ms (the rig file's settle_timeout_ms)"),
+        "{stderr}"
+    );
     assert!(
         stderr.contains("bytes that would have been sent: "),
         "{stderr}"

@@ -97,6 +97,11 @@ fn closed_link_is_a_typed_io_error() {
 }
 
 fn stage(ctrl: GcsController) -> GcsStage {
+    stage_settling_within(ctrl, Duration::from_secs(5))
+}
+
+/// [`stage`], waiting `settle_timeout` for its axes to be on target.
+fn stage_settling_within(ctrl: GcsController, settle_timeout: Duration) -> GcsStage {
     let settings = StageSettings {
         axes: vec!["1".into(), "2".into()],
         unit_m: 1e-6,
@@ -111,7 +116,7 @@ fn stage(ctrl: GcsController) -> GcsStage {
             max_step_m: 50e-6,
             max_speed_m_per_s: 1e-3,
         },
-        settle_timeout: Duration::from_secs(5),
+        settle_timeout,
         poll_interval: Duration::from_millis(5),
     };
     GcsStage::new(
@@ -121,6 +126,26 @@ fn stage(ctrl: GcsController) -> GcsStage {
         Arc::new(AtomicBool::new(false)),
     )
     .unwrap()
+}
+
+/// A move longer than the settle timeout allows, the controller answering
+/// all along, is "not on target", naming the rig file's field, not a
+/// controller that did not answer; the stage is halted.
+#[test]
+fn a_move_that_does_not_settle_in_time_is_told_from_a_silent_controller() {
+    let (sim, ctrl) = connect();
+    let mut stage = stage_settling_within(ctrl, Duration::from_millis(100));
+    stage.enable_servo().unwrap();
+    stage.set_speed_m_per_s(10e-6).unwrap();
+    stage.start_move_m(&[90e-6, 50e-6]).unwrap();
+    let err = stage.wait_settled().unwrap_err();
+    assert!(matches!(err, GcsError::NotSettled { .. }), "{err}");
+    assert!(
+        err.to_string()
+            .contains("not on target within 100ms (the rig file's settle_timeout_ms)"),
+        "{err}"
+    );
+    assert!(!moving(&sim), "a failed wait must halt the stage");
 }
 
 #[test]

@@ -286,6 +286,17 @@ fn open_names_what_is_wrong() {
         .err()
         .unwrap();
     assert!(matches!(err, HardwareRigError::Calibration { .. }), "{err}");
+    // The simulated microscope needs a world no rig file has: the message
+    // speaks of the rig file, not of the library's API.
+    let b = bench(Some("[camera]\nkind = \"simulated\"\n"));
+    let err = HardwareRig::open(&b.rig_path, HardwareRigOptions::default())
+        .err()
+        .unwrap();
+    let said = err.to_string();
+    assert!(
+        said.contains("kind = \"folder\"") && !said.contains("HardwareRig::open"),
+        "{said}"
+    );
     // A watched folder that does not exist.
     let b = bench(Some(
         "[camera]\nkind = \"folder\"\npath = \"/nonexistent/frames\"\n",

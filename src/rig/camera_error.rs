@@ -37,7 +37,7 @@ pub enum CameraError {
     },
     /// The simulated microscope cannot be built from a rig file alone.
     #[error(
-        "camera kind \"simulated\" draws a simulated world, which a hardware rig has not got: pass a camera to HardwareRig::open, or use kind = \"folder\""
+        "camera kind \"simulated\" draws a simulated world, which a rig file has not got: give the rig's camera, kind = \"folder\" (the frames a camera program, or `nanopush rig sim-gcs --microscope`, writes), \"video\", \"device\", \"gstreamer\" or \"aravis\" (docs/rig.md)"
     )]
     SimulatedNeedsWorld,
 }

@@ -25,6 +25,12 @@ pub enum RigError {
     /// The controller or camera did not answer in time.
     #[error("{device} did not answer within {timeout_ms} ms")]
     Timeout { device: String, timeout_ms: u64 },
+    /// The stage answered, but its axes were not on target within the rig
+    /// file's settle timeout.
+    #[error(
+        "{device} was not on target within {timeout_ms} ms (the rig file's settle_timeout_ms): it answers, but the move did not settle in that time"
+    )]
+    NotSettled { device: String, timeout_ms: u64 },
     /// The rig has no coarse stage (a hardware rig whose rig file names none);
     /// nothing was moved.
     #[error("this rig has no coarse stage: move the sample by hand, or add one to the rig")]

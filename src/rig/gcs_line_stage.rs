@@ -321,6 +321,10 @@ impl GcsLineStage {
                 device: format!("stage {} (`{command}`)", self.endpoint),
                 timeout_ms: timeout.as_millis() as u64,
             },
+            GcsError::NotSettled { timeout } => RigError::NotSettled {
+                device: format!("stage {}", self.endpoint),
+                timeout_ms: timeout.as_millis() as u64,
+            },
             GcsError::Interrupted => RigError::Interrupted,
             GcsError::Safety(SafetyViolation::NotConfirmed) => RigError::NotConfirmed,
             other => RigError::StageFault(other.to_string()),

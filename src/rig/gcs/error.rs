@@ -17,7 +17,7 @@ pub enum GcsError {
     },
     /// No complete reply line arrived within the timeout.
     #[error(
-        "no reply to `{command}` within {timeout:?} (received so far: {partial:?}); is the controller on and connected?"
+        "no reply to `{command}` within {timeout:?} (the rig file's timeout_ms; received so far: {partial:?}); is the controller on and connected?"
     )]
     Timeout {
         /// The command that went unanswered.
@@ -26,6 +26,15 @@ pub enum GcsError {
         timeout: Duration,
         /// Bytes of an incomplete line received before the timeout.
         partial: String,
+    },
+    /// The controller answered, but the axes were not on target within the
+    /// settle timeout (it had read as a controller that did not answer).
+    #[error(
+        "the axes were not on target within {timeout:?} (the rig file's settle_timeout_ms): the controller answers, but the move did not settle in that time"
+    )]
+    NotSettled {
+        /// The settle timeout in force.
+        timeout: Duration,
     },
     /// A reply arrived but could not be understood.
     #[error("malformed reply to `{command}`: {reason} (reply: {reply:?})")]
@@ -65,7 +74,10 @@ impl GcsError {
     pub fn is_link_failure(&self) -> bool {
         matches!(
             self,
-            Self::Timeout { .. } | Self::Io { .. } | Self::MalformedReply { .. }
+            Self::Timeout { .. }
+                | Self::NotSettled { .. }
+                | Self::Io { .. }
+                | Self::MalformedReply { .. }
         )
     }
 

@@ -246,13 +246,7 @@ impl GcsStage {
             }
             if Instant::now() >= deadline {
                 let timeout = self.settings.settle_timeout;
-                return self.guarded(|_| {
-                    Err(GcsError::Timeout {
-                        command: "ONT? (waiting to settle)".into(),
-                        timeout,
-                        partial: String::new(),
-                    })
-                });
+                return self.guarded(|_| Err(GcsError::NotSettled { timeout }));
             }
             std::thread::sleep(self.settings.poll_interval);
         }
