@@ -327,7 +327,17 @@ impl GcsLineStage {
             },
             GcsError::Interrupted => RigError::Interrupted,
             GcsError::Safety(SafetyViolation::NotConfirmed) => RigError::NotConfirmed,
-            other => RigError::StageFault(other.to_string()),
+            // With its causes: "connection to ... failed" alone had not
+            // said the connection was refused.
+            other => {
+                let mut said = other.to_string();
+                let mut cause = std::error::Error::source(&other);
+                while let Some(c) = cause {
+                    said = format!("{said}: {c}");
+                    cause = c.source();
+                }
+                RigError::StageFault(said)
+            }
         }
     }
 }

@@ -15,6 +15,14 @@ pub struct TcpLink {
 impl TcpLink {
     /// Resolves `address` (`host:port`) and connects within `connect_timeout`.
     pub fn connect(address: &str, connect_timeout: Duration) -> std::io::Result<Self> {
+        if !address.contains(':') {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "address {address:?} has no port: write host:port (a PI controller listens on port 50000: \"{address}:50000\")"
+                ),
+            ));
+        }
         let addr = address.to_socket_addrs()?.next().ok_or_else(|| {
             std::io::Error::new(
                 std::io::ErrorKind::InvalidInput,
@@ -76,5 +84,25 @@ impl ByteLink for TcpLink {
 
     fn endpoint(&self) -> String {
         format!("tcp {}", self.addr)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An address without its port says so, with PI's port to add (it
+    /// had read "invalid socket address").
+    #[test]
+    fn an_address_without_a_port_says_what_to_write() {
+        let err = TcpLink::connect("127.0.0.1", Duration::from_millis(100))
+            .err()
+            .unwrap();
+        assert_eq!(err.kind(), std::io::ErrorKind::InvalidInput);
+        assert!(
+            err.to_string().contains("write host:port")
+                && err.to_string().contains("127.0.0.1:50000"),
+            "{err}"
+        );
     }
 }
