@@ -1482,3 +1482,77 @@ fn a_rig_run_is_recorded_and_its_recording_replays() {
         );
     }
 }
+
+/// A run on a rig with a coarse stage whose link to both controllers is
+/// lost mid-push (the program serving them killed) stops as on the rig
+/// without one: the summary on stdout, and on stderr that the tip may be
+/// down and the exact `--resume` line; report.json and sites.json written.
+/// The coarse stage, asked where it stood for sites.json's pixels, had
+/// ended the run on its own error ("stage fault: connection to tcp ...
+/// failed", naming neither stage) before any of that, sites.json left out.
+#[test]
+fn a_coarse_rig_run_that_loses_its_link_mid_push_still_says_how_to_go_on() {
+    let mut b = coarse_bench(100.0);
+    let run_dir = b.dir.path().join("lost");
+    let journal = run_dir.join("journal.jsonl");
+    let child = b.assemble("lost", &[]);
+    // The tip below the particles' tops, moving: mid-push.
+    let tops_um = 2.0 * scene().particle_radius_m / UM;
+    let started = Instant::now();
+    let pushing = || {
+        let pushed =
+            std::fs::read_to_string(&journal).is_ok_and(|t| t.contains("\"kind\":\"decision\""));
+        pushed && b.moving() && b.server.inspect(|c, now| c.position(2, now).unwrap()) < tops_um
+    };
+    while !pushing() {
+        assert!(started.elapsed() < RUN_LIMIT, "the run never pushed");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let coarse_addr = b.coarse.as_ref().and_then(|k| k.tcp_addr()).unwrap();
+    // Both controllers gone: their links closed, reconnecting refused (the
+    // coarse one first, so that it is gone when the run stops).
+    drop(b.coarse.take());
+    drop(std::mem::replace(
+        &mut b.server,
+        SimServer::new(SimConfig::default()),
+    ));
+    let out = finish(child, Duration::from_secs(60));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{}", failed(out.status, &out));
+    for said in ["assembly on", "sites filled", "report: "] {
+        assert!(
+            stdout.contains(said),
+            "no {said:?} in {stdout}\nstderr: {stderr}"
+        );
+    }
+    assert!(
+        stderr.contains("the tip may be down on the sample")
+            && stderr.contains("lift z before moving x or y by hand (--resume lifts it first)"),
+        "{stderr}"
+    );
+    let resume = format!(
+        "go on with it: nanopush assemble --rig {} --resume {}",
+        b.rig_path.display(),
+        journal.display()
+    );
+    let error = stderr.trim_end().lines().last().unwrap_or_default();
+    assert!(error.ends_with(&resume), "{stderr}");
+    // The stop is the nanostage's; the coarse stage's silence is a note.
+    assert!(
+        error.starts_with("error: assembly did not finish: stopped: rig")
+            && !error.contains(&coarse_addr.to_string()),
+        "{stderr}"
+    );
+    let report = std::fs::read_to_string(run_dir.join("report.json")).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&report).unwrap();
+    let sites = sites_px(&run_dir);
+    assert_eq!(
+        Some(sites.len() as u64),
+        report["sites"].as_u64(),
+        "{report}"
+    );
+    let last = std::fs::read_to_string(&journal).unwrap();
+    let last = last.lines().last().unwrap();
+    assert!(last.contains("\"kind\":\"stopped\""), "{last}");
+}

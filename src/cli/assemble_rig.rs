@@ -654,13 +654,39 @@ fn finish_run(
     }
     // Pixels as the camera sees the sites now (the coarse stage may have
     // moved the sample under it).
-    let offset = if rig.has_coarse() {
-        rig.coarse_position()?
-    } else {
-        [0.0, 0.0]
-    };
-    write_sites(&sites, rig.calibration(), offset, &out.join(SITES_JSON))?;
+    if let Some(offset) = sites_coarse_offset(rig) {
+        write_sites(&sites, rig.calibration(), offset, &out.join(SITES_JSON))?;
+    }
     Ok((report, end))
+}
+
+/// The coarse offset to put the sites into the camera's pixels through:
+/// zero without a coarse stage, else its reading, else where it was last
+/// known to stand ([`RigDevices::coarse_position_known`](crate::rig::hardware::RigDevices::coarse_position_known)),
+/// said so. A coarse stage that does not answer at the end (its link lost
+/// with the nanostage's) had ended the run on its error, naming neither
+/// stage, with no summary, no word that the tip may be down and no
+/// `--resume` line, and sites.json left as it was; `None` when where it
+/// stands is not known either, said plainly: sites.json is not rewritten.
+fn sites_coarse_offset(rig: &mut HardwareRig) -> Option<[f64; 2]> {
+    if !rig.has_coarse() {
+        return Some([0.0, 0.0]);
+    }
+    let e = match rig.coarse_position() {
+        Ok(offset) => return Some(offset),
+        Err(e) => e,
+    };
+    let known = rig.coarse_position_known();
+    if known.is_some() {
+        eprintln!(
+            "note: the coarse stage did not answer ({e}): {SITES_JSON}'s pixels are through where it last stood"
+        );
+    } else {
+        eprintln!(
+            "warning: {SITES_JSON} not rewritten: the coarse stage did not answer ({e}), and where it stands is not known"
+        );
+    }
+    known
 }
 
 /// Frame analysis for this rig's camera: the particles' size in its pixels.

@@ -175,6 +175,11 @@ pub struct RigDevices {
     settled_at_s: f64,
     /// True once a move was handed to the coarse stage.
     coarse_asked: bool,
+    /// Where the coarse stage last stood for sure, in its own readings (no
+    /// shift): its last reading, or the target of its last move that
+    /// ended on target; `None` before either, and after a move that failed
+    /// (it may have stopped anywhere). See [`RigDevices::coarse_position_known`].
+    coarse_known_raw: Option<[f64; 2]>,
     stale_frames: usize,
 }
 
@@ -287,6 +292,7 @@ impl RigDevices {
             stage,
             coarse,
             coarse_shift_m: [0.0, 0.0],
+            coarse_known_raw: None,
             coarse_sent_log,
             camera,
             clock,
@@ -338,8 +344,20 @@ impl RigDevices {
             return Err(RigError::NoCoarseStage);
         };
         let raw = c.coarse_position()?;
+        self.coarse_known_raw = Some(raw);
         self.coarse_shift_m = [raw[0] - offset_m[0], raw[1] - offset_m[1]];
         Ok(())
+    }
+
+    /// Where the coarse stage stands, in the sample frame, as last known
+    /// without asking it: its last reading, or the target of its last move
+    /// that ended on target. `None` without a coarse stage, before either,
+    /// or after a coarse move that failed. What a run that lost the coarse
+    /// stage's link still knows of it (its sites' pixels need it).
+    pub fn coarse_position_known(&self) -> Option<[f64; 2]> {
+        self.coarse.as_ref()?;
+        let raw = self.coarse_known_raw?;
+        Some([0, 1].map(|k| raw[k] - self.coarse_shift_m[k]))
     }
 
     /// What the run's sample frame subtracts from the coarse stage's
@@ -457,9 +475,11 @@ impl CoarseStage for RigDevices {
     fn coarse_position(&mut self) -> Result<[f64; 2], RigError> {
         let shift = self.coarse_shift_m;
         match &mut self.coarse {
-            Some(c) => c
-                .coarse_position()
-                .map(|p| [p[0] - shift[0], p[1] - shift[1]]),
+            Some(c) => {
+                let raw = c.coarse_position()?;
+                self.coarse_known_raw = Some(raw);
+                Ok([raw[0] - shift[0], raw[1] - shift[1]])
+            }
             None => Err(RigError::NoCoarseStage),
         }
     }
@@ -483,10 +503,13 @@ impl CoarseStage for RigDevices {
         }
         let shift = self.coarse_shift_m;
         self.coarse_asked = true;
+        let raw = [target[0] + shift[0], target[1] + shift[1]];
         let moved = match &mut self.coarse {
-            Some(c) => c.move_coarse([target[0] + shift[0], target[1] + shift[1]]),
+            Some(c) => c.move_coarse(raw),
             None => Err(RigError::NoCoarseStage),
         };
+        // A move that failed may have stopped anywhere on its way.
+        self.coarse_known_raw = moved.is_ok().then_some(raw);
         self.settled();
         moved
     }
