@@ -233,10 +233,10 @@ pub(super) fn check_out_free(out: &Path, rig: Option<&Path>) -> anyhow::Result<P
         );
     }
     if journal.exists() {
-        let on_rig = rig.map_or(String::new(), |r| format!(" --rig {}", r.display()));
         bail!(
-            "{} exists: use --resume {0}{on_rig} or another --out",
-            journal.display()
+            "{} exists: use --resume {0}{} or another --out",
+            journal.display(),
+            super::go_on::rig_flag(rig)
         );
     }
     Ok(journal)

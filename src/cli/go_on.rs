@@ -10,7 +10,7 @@ use crate::exec::events::RunEvent;
 use crate::exec::journal::read_journal;
 use crate::exec::resume_point::drift_off;
 use crate::exec::stop_cause::{StopCause, instead_of_resuming_for_calibration};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// How a run in progress would be gone on with.
 pub struct GoOn {
@@ -53,10 +53,14 @@ impl GoOn {
     }
 
     fn rig_flag(&self) -> String {
-        self.rig
-            .as_deref()
-            .map_or(String::new(), |r| format!(" --rig {}", r.display()))
+        rig_flag(self.rig.as_deref())
     }
+}
+
+/// " --rig FILE" for a hardware run's rig file, empty on the simulated rig:
+/// what a resume of the run needs besides its journal.
+pub(super) fn rig_flag(rig: Option<&Path>) -> String {
+    rig.map_or(String::new(), |r| format!(" --rig {}", r.display()))
 }
 
 #[cfg(test)]
