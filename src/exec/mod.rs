@@ -11,7 +11,6 @@ mod dry_run_plan;
 pub mod events;
 pub mod frame_layout;
 pub mod journal;
-pub mod journal_pushes;
 pub mod observe;
 pub mod particle_sizes;
 pub mod push_check;

@@ -11,7 +11,6 @@ use super::assemble::{AssemblySettings, RunEnd};
 use super::drift::DriftEstimate;
 use super::events::{RunEvent, RunSpec};
 use super::journal::Entry;
-use super::journal_pushes::journal_pushes;
 use super::push_log::{PushRecord, push_log};
 use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
@@ -57,7 +56,7 @@ pub struct AssemblyReport {
     /// 0 in reports written before this field, whose figures counted them.
     #[serde(default)]
     pub unfilled: usize,
-    /// Pushes made (and checked; see [`super::journal_pushes`]).
+    /// Pushes made (and checked; see [`super::push_log`]).
     pub pushes: usize,
     /// Pushes made that repeated one whose contact was lost.
     pub repushes: usize,
@@ -365,6 +364,11 @@ impl AssemblyReport {
         let tolerance_m = settings.placed_tolerance_m;
         let placed = placed_errors_m(errors_m, tolerance_m, &counts.left_short);
         let (rms_error_nm, max_error_nm) = error_figures_nm(&placed);
+        let lower_bound_s = lower_bound_s(
+            &counts,
+            scene.push.speed_m_per_s,
+            settings.travel_speed_m_per_s,
+        );
         AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
             outcome: match facts.end.reason() {
@@ -384,15 +388,11 @@ impl AssemblyReport {
             pushes: counts.pushes,
             repushes: counts.repushes,
             pushes_not_made: counts.pushes_not_made,
-            push_log: push_log(&journal_pushes(entries)),
+            push_log: counts.push_log,
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
             time_s: facts.time_s,
-            lower_bound_s: lower_bound_s(
-                &counts,
-                scene.push.speed_m_per_s,
-                settings.travel_speed_m_per_s,
-            ),
+            lower_bound_s,
             active_effects: simulate_push(scene, &scene.push)
                 .map(|r| r.active_effects)
                 .unwrap_or_default(),
@@ -415,7 +415,7 @@ pub struct JournalCounts {
     pub spec: Option<RunSpec>,
     /// Resume entries.
     pub resumes: usize,
-    /// Pushes made ([`super::journal_pushes::JournalPush::made`]).
+    /// Pushes made (numbered in [`Self::push_log`]).
     pub pushes: usize,
     /// Pushes made that were repushes.
     pub repushes: usize,
@@ -441,6 +441,8 @@ pub struct JournalCounts {
     pub drift: Option<DriftEstimate>,
     /// Sites left short, in the journal's order (one entry a site).
     pub left_short: Vec<LeftShortSite>,
+    /// Every push decided, those made numbered.
+    pub push_log: Vec<PushRecord>,
 }
 
 /// Reads the counts off a journal's entries; `sites_um` and `tolerance_um`
@@ -450,9 +452,12 @@ pub fn count_journal(
     sites_um: &[[f64; 2]],
     tolerance_um: f64,
 ) -> JournalCounts {
-    let mut c = JournalCounts::default();
-    for p in journal_pushes(entries) {
-        if p.made() {
+    let mut c = JournalCounts {
+        push_log: push_log(entries),
+        ..JournalCounts::default()
+    };
+    for p in &c.push_log {
+        if p.n.is_some() {
             c.pushes += 1;
             c.repushes += usize::from(p.repush);
         } else {
