@@ -50,7 +50,8 @@ pub enum AssignmentMethod {
     Fast,
     /// Exact, dense Jonker-Volgenant style; O(n^2 m), reference only.
     Dense,
-    /// Greedy nearest particle; fast, not optimal.
+    /// Greedy nearest particle; a fast assignment, not optimal (a plan
+    /// from it pushes further, and its crossings take longer to order).
     Greedy,
     /// Linear program through clarabel (side constraints); small N only.
     Lp,
