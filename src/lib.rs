@@ -10,6 +10,7 @@ pub mod byte_order_mark;
 pub mod calib;
 pub mod cli;
 pub mod exec;
+pub mod file_schema;
 pub mod median;
 pub mod model;
 pub mod natural_order;

@@ -130,3 +130,68 @@ fn plan_without_particles_names_layout_and_frame() {
         "{said}"
     );
 }
+
+/// A TOML file of one nanopush kind given where another is expected is
+/// named by what it is: a scene given as a calibration (`--calib`, or a rig
+/// file's `calibration`) had been refused for its "unknown field
+/// `interfaces`", a calibration as a scene for `pixel_to_stage_um`, and a
+/// rig file given as a recording was looked into as a folder.
+#[test]
+fn a_toml_file_of_another_kind_is_named_by_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    let scene = std::fs::canonicalize("calib/paper-ps-ito.toml").unwrap();
+    let text = std::fs::read_to_string("calib/rig-gcs-sim.toml")
+        .unwrap()
+        .replace(
+            "\"camera-stage-sim.toml\"",
+            &format!("{:?}", scene.display().to_string()),
+        );
+    std::fs::write(&rig, text).unwrap();
+    let frame = "fixtures/recordings/real-brightfield/frames/bf_0000.png";
+    let rig = rig.to_str().unwrap();
+    let out = dir.path().join("out");
+    let out = out.to_str().unwrap();
+    for (args, says) in [
+        (
+            vec!["detect", frame, "--calib", "calib/paper-ps-ito.toml"],
+            "calib/paper-ps-ito.toml: this is a scene file (nanopush.scene/1), not a calibration",
+        ),
+        (
+            vec!["rig", "probe", "--dry-run", "--camera", "--rig", rig],
+            "this is a scene file (nanopush.scene/1), not a calibration",
+        ),
+        (
+            vec!["detect", frame, "--calib", "calib/rig-gcs-sim.toml"],
+            "this is a rig file (nanopush.rig/1), not a calibration",
+        ),
+        (
+            vec![
+                "assemble",
+                "--text",
+                "L",
+                "--scene",
+                "calib/camera-stage-sim.toml",
+                "--out",
+                out,
+            ],
+            "this is a calibration (nanopush.calibration/1), not a scene",
+        ),
+        (
+            vec![
+                "dry-run",
+                "--recording",
+                "calib/rig-gcs-sim.toml",
+                "--out",
+                out,
+            ],
+            "recording calib/rig-gcs-sim.toml: this is a rig file (nanopush.rig/1), not a recording",
+        ),
+    ] {
+        let run = nanopush().args(&args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{args:?}: {stderr}");
+        assert!(stderr.contains(says), "{args:?}: {stderr}");
+        assert!(!stderr.contains("unknown field"), "{args:?}: {stderr}");
+    }
+}

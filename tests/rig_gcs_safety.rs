@@ -296,7 +296,7 @@ fn a_real_nanostage_with_z_must_say_where_the_substrate_is() {
     let err = RigFile::from_toml(&calibration, Path::new("c.toml")).unwrap_err();
     assert!(
         err.to_string()
-            .contains("nanopush.calibration/1 file, not a rig file"),
+            .contains("this is a calibration (nanopush.calibration/1), not a rig file"),
         "{err}"
     );
 }

@@ -19,6 +19,9 @@ pub const CALIBRATION_SCHEMA: &str = "nanopush.calibration/1";
 /// `/1` refuses them rather than ignore the lens.
 pub const CALIBRATION_SCHEMA_LENS: &str = "nanopush.calibration/2";
 
+/// A calibration, said for a person given another file for one.
+const CALIBRATION_WANTED: &str = "a calibration (nanopush.calibration/1 or /2: pixel_to_stage_um, as `nanopush calibrate` and `nanopush rig calibrate` write it)";
+
 /// Stage (metres) = linear * undistorted pixel + offset.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraCalibration {
@@ -42,6 +45,13 @@ pub enum CalibError {
     /// The TOML is malformed or has the wrong schema.
     #[error("{path}: {reason}")]
     Format { path: String, reason: String },
+    /// The file is another nanopush kind (a scene, a rig file) given as a
+    /// calibration.
+    #[error("{path}: {kind}")]
+    AnotherKind {
+        path: String,
+        kind: crate::file_schema::AnotherKind,
+    },
     /// The map cannot be inverted (all pixels map to a line).
     #[error("calibration is singular (determinant {0:e}); pixels would collapse onto a line")]
     Singular(f64),
@@ -191,6 +201,14 @@ impl CameraCalibration {
 
     /// Parses calibration TOML; `origin` names the source in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, CalibError> {
+        if let Some(kind) =
+            crate::file_schema::other_toml_kind(text, CALIBRATION_SCHEMA, CALIBRATION_WANTED)
+        {
+            return Err(CalibError::AnotherKind {
+                path: origin.into(),
+                kind,
+            });
+        }
         let f: CalibrationFile = toml::from_str(text).map_err(|e| CalibError::Format {
             path: origin.into(),
             reason: e.to_string(),

@@ -127,6 +127,13 @@ pub enum RecordingError {
     /// A file does not parse or breaks the format.
     #[error("recording {path}: {message}")]
     Format { path: PathBuf, message: String },
+    /// The file given as the recording, or its recording.toml, is another
+    /// nanopush kind (a rig file, a calibration).
+    #[error("recording {path}: {kind}")]
+    AnotherKind {
+        path: PathBuf,
+        kind: crate::file_schema::AnotherKind,
+    },
     /// The parts do not fit together (frame count vs stage log, no target).
     #[error("recording {path}: {message}")]
     Mismatch { path: PathBuf, message: String },
@@ -205,6 +212,15 @@ impl Recording {
     }
 }
 
+/// A recording, said for a person given another file for one.
+const RECORDING_WANTED: &str = "a recording (a folder with recording.toml, nanopush.recording/1, its frames and calibration; see docs/exec.md)";
+
+/// The error for `text` when it is another nanopush kind than a
+/// recording.toml.
+fn another_kind(text: &str) -> Option<crate::file_schema::AnotherKind> {
+    crate::file_schema::other_toml_kind(text, RECORDING_SCHEMA, RECORDING_WANTED)
+}
+
 /// Reads a recording folder and checks that its parts fit together.
 pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
     // The recording.toml itself names its folder (it had been looked for
@@ -215,6 +231,17 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         }
         _ => dir,
     };
+    // Another file given for the folder is named by what it is (a rig
+    // file's path had been looked into: ".../rig.toml/recording.toml").
+    if dir.is_file() {
+        let text = std::fs::read_to_string(dir).unwrap_or_default();
+        if let Some(kind) = another_kind(&text) {
+            return Err(RecordingError::AnotherKind {
+                path: dir.to_path_buf(),
+                kind,
+            });
+        }
+    }
     let spec_path = dir.join(RECORDING_FILE);
     if !spec_path.is_file() {
         return Err(RecordingError::Missing { path: spec_path });
@@ -227,6 +254,12 @@ pub fn open_recording(dir: &Path) -> Result<Recording, RecordingError> {
         path: spec_path.clone(),
         message,
     };
+    if let Some(kind) = another_kind(&text) {
+        return Err(RecordingError::AnotherKind {
+            path: spec_path,
+            kind,
+        });
+    }
     let spec: RecordingSpec = toml::from_str(&text).map_err(|e| format(e.to_string()))?;
     if spec.schema != RECORDING_SCHEMA {
         return Err(format(format!(

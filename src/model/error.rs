@@ -39,6 +39,10 @@ pub enum ModelError {
     /// ("line 3: ..."); callers name the file.
     #[error("{0}")]
     SceneText(String),
+    /// The file given as a scene is another nanopush kind (a calibration, a
+    /// rig file); callers name the file.
+    #[error(transparent)]
+    NotAScene(#[from] crate::file_schema::AnotherKind),
     /// A push parameter was invalid.
     #[error("push parameter `{field}`: {problem}")]
     Push {

@@ -329,6 +329,10 @@ pub fn scene_text(path: &Path) -> Result<String, ModelError> {
     std::fs::read_to_string(path).map_err(|e| ModelError::SceneText(format!("cannot read: {e}")))
 }
 
+/// A scene, said for a person given another file for one.
+const SCENE_WANTED: &str =
+    "a scene (nanopush.scene/1: probe, particle, materials, ...; see calib/paper-ps-ito.toml)";
+
 impl Scene {
     /// Reads and validates a scene file. A built-in scene's path falls back
     /// to the built-in copy when it is not there (a command run from another
@@ -339,6 +343,9 @@ impl Scene {
 
     /// Parses and validates scene TOML text.
     pub fn from_toml_str(text: &str) -> Result<Scene, ModelError> {
+        if let Some(kind) = crate::file_schema::other_toml_kind(text, SCENE_SCHEMA, SCENE_WANTED) {
+            return Err(kind.into());
+        }
         let raw: RawScene = toml::from_str(text).map_err(|e| {
             let msg = e.message().to_string();
             ModelError::SceneText(format!("line {}: {msg}", line_of(text, e.span())))

@@ -537,16 +537,15 @@ impl MarkedLayout {
     pub fn from_json(text: &str, origin: &str) -> Result<Self, LayoutError> {
         let text = crate::byte_order_mark::without_bom(text);
         let file: LayoutFile =
-            serde_json::from_str(text).map_err(|source| match super::file_schema::other_schema(
-                text,
-                LAYOUT_SCHEMA,
-            ) {
-                Some(found) => LayoutError::Schema { found },
-                None => LayoutError::Parse {
-                    path: origin.to_string(),
-                    source,
+            serde_json::from_str(text).map_err(
+                |source| match crate::file_schema::other_json_schema(text, LAYOUT_SCHEMA) {
+                    Some(found) => LayoutError::Schema { found },
+                    None => LayoutError::Parse {
+                        path: origin.to_string(),
+                        source,
+                    },
                 },
-            })?;
+            )?;
         if file.schema != LAYOUT_SCHEMA {
             return Err(LayoutError::Schema { found: file.schema });
         }

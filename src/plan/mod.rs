@@ -15,7 +15,6 @@ pub mod assignment;
 pub mod bounds;
 pub mod cmu_scene;
 pub mod failed_routes;
-pub mod file_schema;
 pub mod fixed_detours;
 pub mod grid;
 pub mod layout;

@@ -320,7 +320,7 @@ pub fn from_json(text: &str, origin: &str) -> Result<(Plan, Option<PlanGeometry>
     let f: PlanJ = serde_json::from_str(text).map_err(|source| {
         // Another file's schema first: a layout given as the plan had been
         // "missing field `sites`".
-        match super::file_schema::other_schema(text, PLAN_SCHEMA) {
+        match crate::file_schema::other_json_schema(text, PLAN_SCHEMA) {
             Some(s) => PlanFileError::Schema(s),
             None => PlanFileError::Parse {
                 path: origin.into(),

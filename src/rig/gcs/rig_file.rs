@@ -12,6 +12,10 @@ use std::time::Duration;
 /// The schema tag every rig file carries.
 pub const RIG_SCHEMA: &str = "nanopush.rig/1";
 
+/// A rig file, said for a person given another file for one.
+const RIG_WANTED: &str =
+    "a rig file (nanopush.rig/1: stage, safety, camera, calibration; see calib/rig-*.toml)";
+
 /// A whole rig description as written in TOML.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -184,6 +188,14 @@ pub enum RigFileError {
         /// What the parser said (with line and column).
         source: Box<toml::de::Error>,
     },
+    /// The file is another nanopush kind (a calibration, a scene).
+    #[error("rig file {path}: {kind}")]
+    AnotherKind {
+        /// The file.
+        path: PathBuf,
+        /// What it is.
+        kind: crate::file_schema::AnotherKind,
+    },
     /// The values are inconsistent.
     #[error("rig file {path}: {reason}")]
     Invalid {
@@ -199,16 +211,10 @@ impl RigFile {
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, RigFileError> {
         // A file of another kind is named by its schema (a calibration given
         // as --rig had said "unknown field `inliers`").
-        let schema = toml::from_str::<toml::Table>(text)
-            .ok()
-            .and_then(|t| t.get("schema")?.as_str().map(str::to_owned))
-            .filter(|s| s != RIG_SCHEMA && s.starts_with("nanopush."));
-        if let Some(schema) = schema {
-            return Err(RigFileError::Invalid {
+        if let Some(kind) = crate::file_schema::other_toml_kind(text, RIG_SCHEMA, RIG_WANTED) {
+            return Err(RigFileError::AnotherKind {
                 path: path.to_path_buf(),
-                reason: format!(
-                    "this is a {schema} file, not a rig file ({RIG_SCHEMA}: stage, safety, camera, calibration; see calib/rig-*.toml)"
-                ),
+                kind,
             });
         }
         let rig: RigFile = toml::from_str(text).map_err(|e| RigFileError::Parse {
