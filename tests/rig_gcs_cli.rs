@@ -40,20 +40,36 @@ fn probe(rig: &std::path::Path) -> String {
     text
 }
 
-#[test]
-fn probe_reads_a_running_simulator() {
+/// `nanopush rig sim-gcs ARGS` started, and the port of each of its
+/// first `listening` lines, which must name `what` in turn. The simulator
+/// is killed when the returned `Sim` is dropped; keep the reader (the
+/// pipe) open while it runs.
+fn sim_gcs(args: &[&str], what: &[&str]) -> (Sim, BufReader<std::process::ChildStdout>, Vec<u16>) {
     let mut child = nanopush()
-        .args(["rig", "sim-gcs", "--port", "0"])
+        .args(["rig", "sim-gcs"])
+        .args(args)
         .stdout(Stdio::piped())
         .spawn()
         .unwrap();
     let stdout = child.stdout.take().unwrap();
     let sim = Sim(child);
-    let mut first = String::new();
-    // Keep the reader (the pipe) open while the simulator runs.
     let mut reader = BufReader::new(stdout);
-    reader.read_line(&mut first).unwrap();
-    let port: u16 = first.trim().rsplit(':').next().unwrap().parse().unwrap();
+    let ports = what
+        .iter()
+        .map(|what| {
+            let mut line = String::new();
+            reader.read_line(&mut line).unwrap();
+            assert!(line.contains(what), "{line}");
+            line.trim().rsplit(':').next().unwrap().parse().unwrap()
+        })
+        .collect();
+    (sim, reader, ports)
+}
+
+#[test]
+fn probe_reads_a_running_simulator() {
+    let (sim, reader, ports) = sim_gcs(&["--port", "0"], &["GCS simulator"]);
+    let port = ports[0];
 
     let dir = tempfile::tempdir().unwrap();
     let rig = dir.path().join("rig.toml");
@@ -76,11 +92,7 @@ fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
         .unwrap()
         .port();
     std::fs::write(&rig, rig_text(port)).unwrap();
-    let out = nanopush()
-        .args(["rig", "probe", "--dry-run", "--rig"])
-        .arg(&rig)
-        .output()
-        .unwrap();
+    let out = probe_dry_run(&rig);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{text}");
     assert!(text.contains("\"*IDN?\\n\""), "{text}");
@@ -97,21 +109,11 @@ fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
 
 #[test]
 fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
-    let mut child = nanopush()
-        .args(["rig", "sim-gcs", "--port", "0", "--coarse-port", "0"])
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let stdout = child.stdout.take().unwrap();
-    let sim = Sim(child);
-    let mut reader = BufReader::new(stdout);
-    let mut port = |what: &str| -> u16 {
-        let mut line = String::new();
-        reader.read_line(&mut line).unwrap();
-        assert!(line.contains(what), "{line}");
-        line.trim().rsplit(':').next().unwrap().parse().unwrap()
-    };
-    let (nano, coarse) = (port("GCS simulator"), port("coarse-stage simulator"));
+    let (sim, reader, ports) = sim_gcs(
+        &["--port", "0", "--coarse-port", "0"],
+        &["GCS simulator", "coarse-stage simulator"],
+    );
+    let (nano, coarse) = (ports[0], ports[1]);
 
     let dir = tempfile::tempdir().unwrap();
     let rig = dir.path().join("rig.toml");
@@ -135,7 +137,36 @@ fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
     assert!(stage.contains("axes:           1 2 3"), "{text}");
     assert!(coarse_part.contains("C-884"), "{text}");
     assert!(coarse_part.contains("axes:           1 2\n"), "{text}");
-    assert!(coarse_part.contains("12.5"), "{text}");
+    // In um to 3 decimals, in columns: the coarse stage's 12.5 mm, the
+    // nanostage's 50 um (both had been printed as the controllers said
+    // them, in their units, in columns that did not line up).
+    assert!(
+        coarse_part.contains("1000 um (the rig file's unit_um)"),
+        "{text}"
+    );
+    for (part, row) in [
+        (
+            stage,
+            "1          0.000 ..    100.000        50.000       50.000",
+        ),
+        (
+            coarse_part,
+            "1          0.000 ..  25000.000     12500.000    12500.000",
+        ),
+    ] {
+        assert!(part.contains(row), "{row:?} in:\n{text}");
+        let table: Vec<&str> = part
+            .lines()
+            .skip_while(|l| !l.starts_with("axis "))
+            .take_while(|l| !l.starts_with("pending error"))
+            .collect();
+        assert!(table.len() > 2, "{text}");
+        assert!(
+            table.iter().all(|l| l.len() == table[0].len()),
+            "columns not aligned:\n{}",
+            table.join("\n")
+        );
+    }
     drop(sim);
     drop(reader);
 }
@@ -167,15 +198,50 @@ fn sim_gcs_refuses_microscope_flags_without_a_microscope() {
     }
 }
 
+/// `nanopush rig probe --dry-run --rig RIG`.
+fn probe_dry_run(rig: &std::path::Path) -> std::process::Output {
+    nanopush()
+        .args(["rig", "probe", "--dry-run", "--rig"])
+        .arg(rig)
+        .output()
+        .unwrap()
+}
+
 /// `nanopush assemble --text L --dry-run --rig RIG --out OUT`.
 fn assemble_dry_run(rig: &std::path::Path, out: &std::path::Path) -> std::process::Output {
+    assemble_on(rig, out, &["--text", "L", "--dry-run"])
+}
+
+/// `nanopush assemble --rig RIG --out OUT ARGS`.
+fn assemble_on(
+    rig: &std::path::Path,
+    out: &std::path::Path,
+    args: &[&str],
+) -> std::process::Output {
     nanopush()
-        .args(["assemble", "--text", "L", "--dry-run", "--rig"])
+        .args(["assemble", "--rig"])
         .arg(rig)
         .arg("--out")
         .arg(out)
+        .args(args)
         .output()
         .unwrap()
+}
+
+/// calib/rig-gcs-sim-xyz.toml's text, its calibration named by its full
+/// path and its camera watching `frames`.
+fn xyz_rig_text(frames: &std::path::Path) -> String {
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
+    std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml")
+        .unwrap()
+        .replace(
+            r#""camera-stage-sim.toml""#,
+            &format!("{:?}", calibration.display().to_string()),
+        )
+        .replace(
+            r#""../out/rig-gcs-sim/frames""#,
+            &format!("{:?}", frames.display().to_string()),
+        )
 }
 
 #[test]
@@ -186,11 +252,7 @@ fn a_rig_file_naming_one_axis_twice_is_refused_by_probe_and_assemble() {
     let bad = text.replace(r#"axes = ["1", "2", "3"]"#, r#"axes = ["1", "1", "3"]"#);
     assert_ne!(bad, text, "the replacement did not apply");
     std::fs::write(&rig, bad).unwrap();
-    let probe = nanopush()
-        .args(["rig", "probe", "--dry-run", "--rig"])
-        .arg(&rig)
-        .output()
-        .unwrap();
+    let probe = probe_dry_run(&rig);
     let assemble = assemble_dry_run(&rig, &dir.path().join("out"));
     for (what, run) in [("probe", probe), ("assemble", assemble)] {
         let stderr = String::from_utf8_lossy(&run.stderr);
@@ -249,17 +311,7 @@ fn a_z_travel_that_cannot_lift_the_tip_clear_is_refused_before_any_move() {
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("frames");
     std::fs::create_dir(&frames).unwrap();
-    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
-    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml")
-        .unwrap()
-        .replace(
-            r#""camera-stage-sim.toml""#,
-            &format!("{:?}", calibration.display().to_string()),
-        )
-        .replace(
-            r#""../out/rig-gcs-sim/frames""#,
-            &format!("{:?}", frames.display().to_string()),
-        );
+    let text = xyz_rig_text(&frames);
     for (surface_um, rises_um) in [("15", "0.000"), ("10", "5.000"), ("5", "10.000")] {
         let rig = dir.path().join(format!("z{surface_um}.toml"));
         let z =
@@ -285,18 +337,7 @@ fn a_z_travel_that_cannot_lift_the_tip_clear_is_refused_before_any_move() {
 fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
     let dir = tempfile::tempdir().unwrap();
     let rig = dir.path().join("rig.toml");
-    let text = std::fs::read_to_string("calib/rig-gcs-sim-xyz.toml").unwrap();
-    let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
-    let text = text.replace(
-        "\"camera-stage-sim.toml\"",
-        &format!("{:?}", calibration.display().to_string()),
-    );
-    let missing = dir.path().join("no-frames-here");
-    let text = text.replace(
-        "\"../out/rig-gcs-sim/frames\"",
-        &format!("{:?}", missing.display().to_string()),
-    );
-    std::fs::write(&rig, text).unwrap();
+    std::fs::write(&rig, xyz_rig_text(&dir.path().join("no-frames-here"))).unwrap();
     let out = dir.path().join("out");
     for attempt in 0..2 {
         let run = assemble_dry_run(&rig, &out);
@@ -309,13 +350,7 @@ fn a_rig_camera_folder_that_does_not_exist_leaves_out_without_a_journal() {
         assert!(!out.join("journal.jsonl").exists(), "attempt {attempt}");
     }
     // A pattern that cannot be is refused before the rig is opened.
-    let run = nanopush()
-        .args(["assemble", "--text", "C?", "--dry-run", "--rig"])
-        .arg(&rig)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let run = assemble_on(&rig, &out, &["--text", "C?", "--dry-run"]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(!run.status.success(), "{stderr}");
     assert!(
@@ -591,5 +626,122 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
                 "{err}"
             );
         }
+    }
+}
+
+/// A typo in a rig file's `[camera]` table is reported at its key's line,
+/// not at the table's header (line 26), where every camera error had been.
+#[test]
+fn a_typo_in_the_camera_table_is_reported_at_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string("calib/rig-gcs-sim.toml").unwrap();
+    let header = text.lines().position(|l| l == "[camera]").unwrap() + 1;
+    let line = text.lines().position(|l| l == "stable_ms = 50").unwrap() + 1;
+    assert_ne!(line, header);
+    for (typo, says) in [
+        ("stabel_ms = 50", "unknown field `stabel_ms`"),
+        ("stable_ms = \"fast\"", "expected u64"),
+        ("index = 0", "kind = \"folder\" takes only path, order"),
+    ] {
+        let rig = dir.path().join("typo.toml");
+        std::fs::write(&rig, text.replace("stable_ms = 50", typo)).unwrap();
+        let run = probe_dry_run(&rig);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{typo}: {stderr}");
+        assert!(
+            stderr.contains(&format!("at line {line},")) && stderr.contains(says),
+            "{typo}: {stderr}"
+        );
+    }
+}
+
+/// `assemble --rig` refused in its set-up, after the rig was opened and
+/// before anything moved (here: a z travel that cannot lift the tip clear),
+/// leaves no `--out` it made behind, and one that was there as it was; it
+/// had left an empty folder.
+#[test]
+fn a_set_up_refusal_leaves_no_out_folder_behind() {
+    let (sim, reader, ports) = sim_gcs(&["--port", "0"], &["GCS simulator"]);
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    std::fs::create_dir(&frames).unwrap();
+    let text = xyz_rig_text(&frames)
+        .replace("127.0.0.1:50000", &format!("127.0.0.1:{}", ports[0]))
+        .replace(
+            "real_hardware = false",
+            "real_hardware = false\nz_surface_um = 15\nz_lifts = \"increasing\"",
+        );
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(&rig, text).unwrap();
+    let mine = dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("notes.txt"), "mine").unwrap();
+    for out in [dir.path().join("new/run"), mine.clone()] {
+        let run = assemble_on(&rig, &out, &["--text", "L"]);
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(
+            !run.status.success() && stderr.contains("the tip can rise only"),
+            "{stderr}"
+        );
+        assert!(
+            stderr.contains(&format!("{} is as it was before", out.display())),
+            "{stderr}"
+        );
+    }
+    assert!(!dir.path().join("new").exists());
+    let left: Vec<_> = std::fs::read_dir(&mine)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["notes.txt"]);
+    drop(sim);
+    drop(reader);
+}
+
+/// `rig sim-gcs` says it listens only once everything asked for runs: a
+/// bad layout or a port in use had been preceded by "listening on ...",
+/// which read as a simulator running. The failure says it did not start,
+/// and a port in use what to do.
+#[test]
+fn sim_gcs_says_it_listens_only_once_it_does() {
+    let bad = tempfile::NamedTempFile::new().unwrap();
+    std::fs::write(bad.path(), "{}").unwrap();
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port().to_string();
+    let layout = bad.path().to_str().unwrap();
+    let microscope = ["--microscope", "calib/rig-gcs-sim-folder.toml"];
+    for (args, says) in [
+        (
+            vec![
+                "--port",
+                "0",
+                microscope[0],
+                microscope[1],
+                "--layout",
+                layout,
+            ],
+            "layout",
+        ),
+        (vec!["--port", &port], "is in use"),
+        (
+            vec!["--port", "0", "--coarse-port", &port],
+            "give another --coarse-port",
+        ),
+    ] {
+        let run = nanopush()
+            .args(["rig", "sim-gcs"])
+            .args(&args)
+            .output()
+            .unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr),
+        );
+        assert!(!run.status.success(), "{args:?}: {stdout}{stderr}");
+        assert!(!stdout.contains("listening"), "{args:?}: {stdout}");
+        assert!(
+            stderr.contains("the GCS simulator did not start") && stderr.contains(says),
+            "{args:?}: {stderr}"
+        );
     }
 }

@@ -173,13 +173,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     };
     // Whatever happened, the stage is left still.
     let _ = rig.halt();
+    let mut folders = vec![(&folder, out.as_path())];
+    if let (Some(made), Some(dir)) = (&record_folder, &args.record) {
+        folders.push((made, dir));
+    }
     if rig.declined_before_any_move() {
-        let mut folders = vec![(&folder, out.as_path())];
-        if let (Some(made), Some(dir)) = (&record_folder, &args.record) {
-            folders.push((made, dir));
-        }
         return Err(declined(&folders, new_run));
     }
+    // A new run refused in its set-up (the first frame, the scene against
+    // the rig, the pattern) began no journal: what it made is taken back,
+    // as a declined run's is (it had left an empty --out). A dry run keeps
+    // its sent-bytes.log, written below: the set-up's queries and `HLT`.
+    let result = match result {
+        Err(e) if new_run && !hw.dry_run && !journal.exists() => {
+            return Err(anyhow::anyhow!(
+                "{}; nothing was started: {}",
+                super::error_message::error_message(&e),
+                folders_said(&folders)
+            ));
+        }
+        result => result,
+    };
     if let Some(log) = rig.sent_log() {
         let path = out.join(SENT_BYTES);
         write_sent_log(log, &path)?;
@@ -235,10 +249,6 @@ fn resumed_folder_kept(journal: &Path) -> anyhow::Result<MadeFolder> {
 /// `--record` folder ("already holds recording.toml") likewise, and a
 /// declined resume had appended to its journal.
 fn declined(folders: &[(&MadeFolder, &Path)], new_run: bool) -> anyhow::Error {
-    let said: Vec<String> = folders
-        .iter()
-        .map(|(made, dir)| format!("{} {}", dir.display(), made.undo_said()))
-        .collect();
     let then = if new_run {
         "start"
     } else {
@@ -247,8 +257,18 @@ fn declined(folders: &[(&MadeFolder, &Path)], new_run: bool) -> anyhow::Error {
     anyhow::anyhow!(
         "{}; {}: run the same command again to {then}",
         crate::rig::error::RigError::NotConfirmed,
-        said.join("; ")
+        folders_said(folders)
     )
+}
+
+/// Each of `folders` (`--out`, `--record`) taken back, said: "OUT is as it
+/// was before; ...".
+fn folders_said(folders: &[(&MadeFolder, &Path)]) -> String {
+    folders
+        .iter()
+        .map(|(made, dir)| format!("{} {}", dir.display(), made.undo_said()))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// A new run's scene, pattern and journal, checked before the rig is opened.

@@ -46,7 +46,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut parts = vec![
         gcs::connect(&rig, args.dry_run)
             .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
-            .and_then(|(ctrl, log)| controller_section("stage", ctrl, log)),
+            .and_then(|(ctrl, log)| controller_section("stage", ctrl, log, rig.stage.unit_um)),
     ];
     if let Some(coarse) = &rig.coarse {
         parts.push(
@@ -54,7 +54,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .with_context(|| {
                     format!("connecting to the coarse stage of {}", args.rig.display())
                 })
-                .and_then(|(ctrl, log)| controller_section("coarse stage", ctrl, log)),
+                .and_then(|(ctrl, log)| {
+                    controller_section("coarse stage", ctrl, log, coarse.stage.unit_um)
+                }),
         );
     }
     if args.camera {
@@ -138,15 +140,17 @@ fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
     }
 }
 
-/// Probes one controller: its report (and, in a dry run, the bytes).
+/// Probes one controller: its report (and, in a dry run, the bytes), its
+/// lengths in um through the rig file's `unit_um`.
 fn controller_section(
     what: &str,
     mut ctrl: GcsController,
     log: Option<gcs::SentLog>,
+    unit_um: f64,
 ) -> anyhow::Result<String> {
     use std::fmt::Write;
-    let report =
-        probe(&mut ctrl).with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
+    let report = probe(&mut ctrl, unit_um)
+        .with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
     let mut s = format!("{what}:\n{report}");
     if let Some(log) = log {
         let _ = writeln!(s, "dry run: bytes that would have been sent to the {what}:");
@@ -161,7 +165,12 @@ fn controller_section(
     Ok(s)
 }
 
-fn probe(ctrl: &mut GcsController) -> Result<String, gcs::GcsError> {
+/// The controller's report; ranges, positions, targets and velocities in um
+/// (controller units times `unit_um`), to 3 decimals (the nanostage's
+/// nanometre) in right-aligned columns: the controller's own numbers had
+/// been printed as they came, `49.99999999999999` beside `50`, in mm on a
+/// coarse stage.
+fn probe(ctrl: &mut GcsController, unit_um: f64) -> Result<String, gcs::GcsError> {
     use std::fmt::Write;
     let mut s = String::new();
     let _ = writeln!(s, "endpoint:       {}", ctrl.endpoint());
@@ -171,6 +180,10 @@ fn probe(ctrl: &mut GcsController) -> Result<String, gcs::GcsError> {
     let axes = ctrl.axes()?;
     let refs: Vec<&str> = axes.iter().map(String::as_str).collect();
     let _ = writeln!(s, "axes:           {}", axes.join(" "));
+    let _ = writeln!(
+        s,
+        "unit:           1 controller unit = {unit_um} um (the rig file's unit_um)"
+    );
     let (tmn, tmx) = (ctrl.travel_min(&refs)?, ctrl.travel_max(&refs)?);
     let (pos, target) = (ctrl.positions(&refs)?, ctrl.targets(&refs)?);
     let (servo, ont, vel) = (
@@ -181,13 +194,22 @@ fn probe(ctrl: &mut GcsController) -> Result<String, gcs::GcsError> {
     let _ = writeln!(s, "moving (#5):    0x{:X}", ctrl.motion_mask()?);
     let _ = writeln!(
         s,
-        "axis  range (controller units)   position     target       servo  on-target  velocity/s"
+        "{:<5} {:>24}  {:>12} {:>12}  {:<6} {:<9} {:>14}",
+        "axis", "range um", "position um", "target um", "servo", "on-target", "velocity um/s"
     );
+    let um = |v: f64| v * unit_um;
     for i in 0..axes.len() {
         let _ = writeln!(
             s,
-            "{:<5} [{:>10}, {:>10}]     {:<12} {:<12} {:<6} {:<10} {}",
-            axes[i], tmn[i], tmx[i], pos[i], target[i], servo[i], ont[i], vel[i]
+            "{:<5} {:>10.3} .. {:>10.3}  {:>12.3} {:>12.3}  {:<6} {:<9} {:>14.3}",
+            axes[i],
+            um(tmn[i]),
+            um(tmx[i]),
+            um(pos[i]),
+            um(target[i]),
+            servo[i],
+            ont[i],
+            um(vel[i])
         );
     }
     let pending = match ctrl.last_error()? {

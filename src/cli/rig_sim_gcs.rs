@@ -97,45 +97,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter_mut()
         .for_each(|a: &mut SimAxisConfig| a.velocity = args.velocity_um_s);
     let stop = interrupt::ctrlc_flag().context("installing the Ctrl-C handler")?;
-    let mut server = SimServer::new(config.clone());
-    server
-        .handle()
-        .with(|c, now| c.set_time_scale(args.time_scale, now));
-    let addr = server
-        .serve_tcp(&format!("{}:{}", args.host, args.port))
-        .with_context(|| format!("binding {}:{}", args.host, args.port))?;
+    // The servers are kept (bound) until the loop below ends.
+    let Serving {
+        said,
+        _server,
+        _coarse,
+        feeder,
+    } = serve(&args, &config).context("the GCS simulator did not start (nothing is served)")?;
     let mut out = std::io::stdout();
-    writeln!(out, "GCS simulator listening on tcp {addr}")?;
-    if args.pty {
-        let path = server.serve_pty().context("opening a pseudo-terminal")?;
-        writeln!(out, "GCS simulator serving on pty {}", path.display())?;
+    for line in &said {
+        writeln!(out, "{line}")?;
     }
-    let coarse = match args.coarse_port {
-        Some(port) => {
-            let mut coarse = SimServer::new(SimConfig::coarse());
-            coarse
-                .handle()
-                .with(|c, now| c.set_time_scale(args.time_scale, now));
-            let addr = coarse
-                .serve_tcp(&format!("{}:{port}", args.host))
-                .with_context(|| format!("binding {}:{port} for the coarse stage", args.host))?;
-            writeln!(out, "GCS coarse-stage simulator listening on tcp {addr}")?;
-            Some(coarse)
-        }
-        None => None,
-    };
-    let feeder = match &args.microscope {
-        Some(rig_path) => {
-            let feeder = microscope(&args, &server, coarse.as_ref(), &config, rig_path)?;
-            writeln!(
-                out,
-                "simulated microscope writing frames for {}",
-                rig_path.display()
-            )?;
-            Some(feeder)
-        }
-        None => None,
-    };
     eprintln!("press Ctrl-C to stop");
     out.flush()?;
     while !stop.load(Ordering::SeqCst) && feeder.as_ref().is_none_or(|f| f.is_running()) {
@@ -147,6 +119,83 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         eprintln!("simulated microscope: {frames} frames written");
     }
     Ok(())
+}
+
+/// The simulator(s) and the microscope started, and what to say of them.
+struct Serving {
+    /// "listening on ..." lines, printed only once everything is up: one
+    /// printed first had read as a running simulator when a bad layout or a
+    /// port in use then stopped it.
+    said: Vec<String>,
+    /// The nanostage's controller, served while this lives.
+    _server: SimServer,
+    /// The coarse stage's, with --coarse-port.
+    _coarse: Option<SimServer>,
+    /// The simulated microscope, with --microscope.
+    feeder: Option<MicroscopeFeeder>,
+}
+
+/// Starts everything the arguments ask for, or nothing.
+fn serve(args: &Args, config: &SimConfig) -> anyhow::Result<Serving> {
+    let mut said = Vec::new();
+    let mut server = SimServer::new(config.clone());
+    server
+        .handle()
+        .with(|c, now| c.set_time_scale(args.time_scale, now));
+    let addr = server
+        .serve_tcp(&format!("{}:{}", args.host, args.port))
+        .map_err(|e| bind_error(e, &args.host, args.port, "--port"))?;
+    said.push(format!("GCS simulator listening on tcp {addr}"));
+    if args.pty {
+        let path = server.serve_pty().context("opening a pseudo-terminal")?;
+        said.push(format!("GCS simulator serving on pty {}", path.display()));
+    }
+    let coarse = match args.coarse_port {
+        Some(port) => {
+            let mut coarse = SimServer::new(SimConfig::coarse());
+            coarse
+                .handle()
+                .with(|c, now| c.set_time_scale(args.time_scale, now));
+            let addr = coarse
+                .serve_tcp(&format!("{}:{port}", args.host))
+                .map_err(|e| bind_error(e, &args.host, port, "--coarse-port"))
+                .context("the coarse stage")?;
+            said.push(format!(
+                "GCS coarse-stage simulator listening on tcp {addr}"
+            ));
+            Some(coarse)
+        }
+        None => None,
+    };
+    let feeder = match &args.microscope {
+        Some(rig_path) => {
+            let feeder = microscope(args, &server, coarse.as_ref(), config, rig_path)?;
+            said.push(format!(
+                "simulated microscope writing frames for {}",
+                rig_path.display()
+            ));
+            Some(feeder)
+        }
+        None => None,
+    };
+    Ok(Serving {
+        said,
+        _server: server,
+        _coarse: coarse,
+        feeder,
+    })
+}
+
+/// Why `host:port` could not be listened on, with what to do when it is
+/// taken (another simulator still running, most often).
+fn bind_error(e: std::io::Error, host: &str, port: u16, flag: &str) -> anyhow::Error {
+    if e.kind() == std::io::ErrorKind::AddrInUse {
+        anyhow::anyhow!(
+            "{host}:{port} is in use (another `nanopush rig sim-gcs` still running?): stop that, or give another {flag} (0 picks a free port)"
+        )
+    } else {
+        anyhow::Error::new(e).context(format!("listening on {host}:{port}"))
+    }
 }
 
 fn microscope(

@@ -8,64 +8,59 @@ use std::time::Duration;
 use crate::vision::frame_input::Channel;
 
 /// Where camera frames come from (`[camera] kind = "..."` in a rig file).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+/// Read key by key ([`super::camera_table`]), so that an error points at
+/// its key; a field left out takes the default its doc comment gives.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
 pub enum CameraSource {
     /// A folder the camera's own acquisition software writes TIFF/PNG frames into.
     Folder {
         /// The watched folder (relative to the rig file).
         path: PathBuf,
-        /// In which order new files are taken.
-        #[serde(default)]
+        /// In which order new files are taken (default by name).
         order: FrameOrder,
-        /// Every new frame in turn, or only the newest (older ones are skipped).
-        #[serde(default)]
+        /// Every new frame in turn (the default), or only the newest (older
+        /// ones are skipped).
         pick: FramePick,
-        /// Ignore the files already in the folder when the camera opens.
-        #[serde(default = "default_true")]
+        /// Ignore the files already in the folder when the camera opens
+        /// (default true).
         skip_existing: bool,
-        /// A file counts as complete once its size has not changed for this long.
-        #[serde(default = "default_stable_ms")]
+        /// A file counts as complete once its size has not changed for this
+        /// long (default 50).
         stable_ms: u64,
-        /// Longest wait for the next frame before `grab` returns "no frame".
-        #[serde(default = "default_frame_timeout_ms")]
+        /// Longest wait for the next frame before `grab` returns "no frame"
+        /// (default 5000).
         timeout_ms: u64,
-        /// Which part of colour frames is looked at.
-        #[serde(default)]
+        /// Which part of colour frames is looked at (default luminance).
         channel: Channel,
     },
     /// A video file read through OpenCV VideoCapture (one frame per grab).
     Video {
         /// The file (relative to the rig file).
         path: PathBuf,
-        /// Which part of colour frames is looked at.
-        #[serde(default)]
+        /// Which part of colour frames is looked at (default luminance).
         channel: Channel,
     },
     /// A video device (V4L2 `/dev/videoN`, ...) through OpenCV VideoCapture.
     Device {
         /// Device index (`0` for `/dev/video0`).
         index: i32,
-        /// Which part of colour frames is looked at.
-        #[serde(default)]
+        /// Which part of colour frames is looked at (default luminance).
         channel: Channel,
     },
     /// A GStreamer pipeline through OpenCV VideoCapture (ends in `appsink`).
     Gstreamer {
         /// The pipeline string.
         pipeline: String,
-        /// Which part of colour frames is looked at.
-        #[serde(default)]
+        /// Which part of colour frames is looked at (default luminance).
         channel: Channel,
     },
     /// A GenICam camera (GigE Vision / USB3 Vision) through Aravis; needs the
     /// `aravis` cargo feature.
     Aravis {
-        /// Aravis device id (empty: the first camera found).
-        #[serde(default)]
+        /// Aravis device id (empty, the default: the first camera found).
         device: String,
-        /// Longest wait for a frame buffer, milliseconds.
-        #[serde(default = "default_frame_timeout_ms")]
+        /// Longest wait for a frame buffer, milliseconds (default 5000).
         timeout_ms: u64,
     },
     /// The simulated microscope (the simulated rig's camera).
@@ -95,13 +90,13 @@ pub enum FramePick {
     Latest,
 }
 
-fn default_true() -> bool {
+pub(super) fn default_true() -> bool {
     true
 }
-fn default_stable_ms() -> u64 {
+pub(super) fn default_stable_ms() -> u64 {
     50
 }
-fn default_frame_timeout_ms() -> u64 {
+pub(super) fn default_frame_timeout_ms() -> u64 {
     5000
 }
 

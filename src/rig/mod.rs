@@ -9,6 +9,7 @@ pub mod camera_error;
 pub mod camera_folder;
 pub mod camera_open;
 pub mod camera_source;
+pub mod camera_table;
 pub mod camera_video;
 pub mod error;
 pub mod gcs;
