@@ -333,6 +333,11 @@ fn a_missing_calibration_is_named_with_how_to_make_it() {
     }
 }
 
+/// `nanopush rig calibrate --rig RIG --out OUT`'s arguments.
+fn calibrate_into<'a>(rig: &'a str, out: &'a str) -> [&'a str; 6] {
+    ["rig", "calibrate", "--rig", rig, "--out", out]
+}
+
 /// The names in `dir`, sorted.
 fn names_in(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
@@ -360,14 +365,7 @@ fn a_refused_run_leaves_no_folder_it_made_and_advises_only_what_is_accepted() {
     let mine = b.dir.path().join("mine");
     std::fs::create_dir(&mine).unwrap();
     std::fs::write(mine.join("notes.txt"), "objective 20x").unwrap();
-    let args = [
-        "rig",
-        "calibrate",
-        "--rig",
-        rig,
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let args = calibrate_into(rig, out.to_str().unwrap());
     for extra in [&[][..], &["--recording", mine.to_str().unwrap()]] {
         let refused = nanopush(&[&args[..], extra].concat());
         assert!(!refused.status.success());
@@ -457,4 +455,83 @@ fn stopped_after(frames: usize) {
         );
         ok(&nanopush(&[&args[..], &["--force"]].concat()));
     }
+}
+
+/// A flag the run cannot work with is named with a value that works, and
+/// that value is accepted: a first step longer than the room in the range
+/// (the tip had only been lifted and lowered again, yet the run said "the
+/// stage stopped at ...; it was not put back" and "run the same command
+/// again"), a travel height above z's travel or among the particles
+/// (`--z-um 2` had been accepted: `assemble --rig` refuses to travel
+/// there).
+#[test]
+fn a_flag_the_run_cannot_work_with_is_named_with_one_it_can() {
+    let b = bench();
+    let rig = b.rig.to_str().unwrap();
+    let out = b.dir.path().join("cal/camera.toml");
+    let args = calibrate_into(rig, out.to_str().unwrap());
+    let stopped = nanopush(&[&args[..], &["--step-um", "500"]].concat());
+    assert!(!stopped.status.success());
+    let message = String::from_utf8_lossy(&stopped.stderr);
+    assert!(
+        message.contains("only the tip's height changed (x and y never moved), and it was put back where it was, at (50.00, 50.00) um")
+            && !message.contains("not put back"),
+        "{message}"
+    );
+    assert!(
+        message.contains("run it again with --force and --step-um 5 instead of 500")
+            && !message.contains("the same command"),
+        "{message}"
+    );
+    ok(&nanopush(
+        &[&args[..], &["--force", "--step-um", "5", "--grid", "2"]].concat(),
+    ));
+    std::fs::remove_dir_all(out.parent().unwrap()).unwrap();
+    for z in ["50", "2"] {
+        let refused = nanopush(&[&args[..], &["--z-um", z]].concat());
+        assert!(!refused.status.success());
+        let message = String::from_utf8_lossy(&refused.stderr);
+        assert!(
+            message.contains("refused before anything moved")
+                && message.contains(&format!("--z-um {z}: "))
+                && message.contains("give --z-um from 12.0 to 15.0, or leave it out"),
+            "--z-um {z}: {message}"
+        );
+        assert!(!out.parent().unwrap().exists(), "{message}");
+    }
+    ok(&nanopush(
+        &[&args[..], &["--z-um", "12", "--grid", "2"]].concat(),
+    ));
+}
+
+/// A camera that gives no frame stops the run before anything moves, in
+/// two tries of its timeout, saying what to check (it had waited ten at
+/// the first stop, 51 s with no word, then said only "no frame from the
+/// camera in 10 tries").
+#[test]
+fn a_silent_camera_is_said_before_anything_moves() {
+    let b = bench();
+    let silent = b.dir.path().join("silent");
+    std::fs::create_dir(&silent).unwrap();
+    let text = std::fs::read_to_string(&b.rig)
+        .unwrap()
+        .replace(
+            &format!("{:?}", b.dir.path().join("frames").display().to_string()),
+            &format!("{:?}", silent.display().to_string()),
+        )
+        .replace("timeout_ms = 5000", "timeout_ms = 300");
+    let rig = b.dir.path().join("silent.toml");
+    std::fs::write(&rig, &text).unwrap();
+    assert!(text.contains("silent") && text.contains("timeout_ms = 300"));
+    let out = nanopush(&["rig", "calibrate", "--rig", rig.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let message = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        message.contains("waiting for a frame from the camera (folder")
+            && message.contains("refused before anything moved: no frame from the camera")
+            && message.contains("in 2 tries of its timeout")
+            && message.contains("is the camera's software writing new frames"),
+        "{message}"
+    );
+    assert!(!b.dir.path().join("camera-recording").exists());
 }

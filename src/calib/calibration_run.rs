@@ -12,7 +12,7 @@
 use super::camera_map::CameraCalibration;
 use crate::rig::camera::Camera;
 use crate::rig::error::RigError;
-use crate::rig::stage::NanoStage;
+use crate::rig::stage::{AxisRange, NanoStage, StageXyz};
 use crate::vision::analyse::prepare_frame;
 use crate::vision::frame::Frame;
 use crate::vision::tip::{TipSettings, detect_tip};
@@ -154,13 +154,45 @@ pub enum CalibrationRunError {
     #[error("{0}")]
     Shot(String),
     /// No room for a first move.
-    #[error("no room for a {step_um:.1} um move in {axis} either way within the stage's range")]
+    #[error(
+        "no room for a {step_um:.1} um move in {axis} either way within the stage's range (at most {room_um:.1} um fits in x and y from where the stage is)"
+    )]
     NoRoom {
         /// The axis.
         axis: char,
         /// The move, micrometres.
         step_um: f64,
+        /// The longest first move that fits both axes from the start, micrometres.
+        room_um: f64,
     },
+}
+
+/// What a stopped run had done with the stage: the user is told where it
+/// is and why (a run that had only lifted the tip and lowered it again
+/// was said to have "stopped at ...; it was not put back").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StageLeft {
+    /// Refused before any move was asked of the stage.
+    Untouched,
+    /// Moved and put back where it started; `xy_moved` is false when only
+    /// z moved (the lift to the travel height).
+    PutBack {
+        /// True when a move in x or y was asked for.
+        xy_moved: bool,
+    },
+    /// Not put back (Ctrl-C, a fault, a refused move back): where it stopped.
+    NotPutBack,
+}
+
+/// A calibration run that stopped: why, and where it left the stage.
+#[derive(Debug, thiserror::Error)]
+#[error("{error}")]
+pub struct CalibrationRunStop {
+    /// Why it stopped.
+    #[source]
+    pub error: CalibrationRunError,
+    /// What it had done with the stage.
+    pub left: StageLeft,
 }
 
 /// The apex must move at least this far for a first move to count.
@@ -175,18 +207,71 @@ pub type ShotSink<'a> = &'a mut dyn FnMut(&CalibrationShot) -> Result<(), String
 /// Runs the calibration: the start, two first moves and the grid, each
 /// handed to `on_shot` as it is taken, so a caller can save them as they
 /// come. Returns every shot. The stage ends where it started, unless
-/// putting it back fails (that error is returned).
+/// putting it back fails; a stop says which ([`StageLeft`]).
 pub fn run_calibration<R: NanoStage + Camera>(
     rig: &mut R,
     settings: &CalibrationRunSettings,
     on_shot: ShotSink<'_>,
-) -> Result<Vec<CalibrationShot>, CalibrationRunError> {
-    settings.check()?;
-    let start = rig.position()?;
+) -> Result<Vec<CalibrationShot>, CalibrationRunStop> {
+    let untouched = |error| CalibrationRunStop {
+        error,
+        left: StageLeft::Untouched,
+    };
+    settings.check().map_err(untouched)?;
+    let start = rig.position().map_err(|e| untouched(e.into()))?;
     let range = rig.range();
-    // The run ends by putting the stage back where it started: a start
-    // outside the limits had run the whole grid, then failed to go back
-    // and written no calibration.
+    let travel_z = travel_height(settings, start, &range).map_err(untouched)?;
+    let mut shots = Vec::new();
+    let mut keep = |shot: CalibrationShot| {
+        on_shot(&shot).map_err(CalibrationRunError::Shot)?;
+        shots.push(shot);
+        Ok(())
+    };
+    let mut xy_moved = false;
+    let outcome = (|| -> Result<(), CalibrationRunError> {
+        rig.move_to([start[0], start[1], travel_z], settings.speed_m_per_s)?;
+        let (rough, view) = rough_map(
+            rig,
+            settings,
+            [start[0], start[1]],
+            travel_z,
+            &mut keep,
+            &mut xy_moved,
+        )?;
+        for target in grid_targets(&rough, view, settings, &range) {
+            xy_moved = true;
+            rig.move_to([target[0], target[1], travel_z], settings.speed_m_per_s)?;
+            keep(take_shot(rig, settings)?)?;
+        }
+        Ok(())
+    })();
+    let back = rig
+        .move_to([start[0], start[1], travel_z], settings.speed_m_per_s)
+        .and_then(|()| rig.move_to(start, settings.speed_m_per_s));
+    let left = match back {
+        Ok(()) => StageLeft::PutBack { xy_moved },
+        Err(_) => StageLeft::NotPutBack,
+    };
+    match (outcome, back) {
+        (Err(error), _) => Err(CalibrationRunStop { error, left }),
+        (Ok(()), Err(e)) => Err(CalibrationRunStop {
+            error: e.into(),
+            left,
+        }),
+        (Ok(()), Ok(())) => Ok(shots),
+    }
+}
+
+/// The height the tip travels at: `settings.travel_z_m`, else the top of
+/// z travel (the start's on a stage without z). Refused: a start outside
+/// the range (the run ends by putting the stage back there: such a start
+/// had run the whole grid, then failed to go back and written no
+/// calibration) and a height the stage cannot take.
+fn travel_height(
+    settings: &CalibrationRunSettings,
+    start: StageXyz,
+    range: &[AxisRange; 3],
+) -> Result<f64, CalibrationRunError> {
     if let Some(axis) = (0..3).find(|&i| !(range[i].min_m..=range[i].max_m).contains(&start[i])) {
         return Err(CalibrationRunError::StartOutOfRange {
             axis: ['x', 'y', 'z'][axis],
@@ -196,39 +281,18 @@ pub fn run_calibration<R: NanoStage + Camera>(
         });
     }
     let has_z = range[2].max_m > range[2].min_m;
-    let travel_z = match settings.travel_z_m {
+    match settings.travel_z_m {
         Some(z) if !(z >= range[2].min_m && z <= range[2].max_m) => {
-            return Err(CalibrationRunError::HeightOutOfRange {
+            Err(CalibrationRunError::HeightOutOfRange {
                 z_um: z * 1e6,
                 min_um: range[2].min_m * 1e6,
                 max_um: range[2].max_m * 1e6,
-            });
+            })
         }
-        Some(z) => z,
-        None if has_z => range[2].max_m,
-        None => start[2],
-    };
-    let mut shots = Vec::new();
-    let mut keep = |shot: CalibrationShot| {
-        on_shot(&shot).map_err(CalibrationRunError::Shot)?;
-        shots.push(shot);
-        Ok(())
-    };
-    let outcome = (|| -> Result<(), CalibrationRunError> {
-        rig.move_to([start[0], start[1], travel_z], settings.speed_m_per_s)?;
-        let (rough, view) = rough_map(rig, settings, [start[0], start[1]], travel_z, &mut keep)?;
-        for target in grid_targets(&rough, view, settings, &range) {
-            rig.move_to([target[0], target[1], travel_z], settings.speed_m_per_s)?;
-            keep(take_shot(rig, settings)?)?;
-        }
-        Ok(())
-    })();
-    let back = rig
-        .move_to([start[0], start[1], travel_z], settings.speed_m_per_s)
-        .and_then(|()| rig.move_to(start, settings.speed_m_per_s));
-    outcome?;
-    back?;
-    Ok(shots)
+        Some(z) => Ok(z),
+        None if has_z => Ok(range[2].max_m),
+        None => Ok(start[2]),
+    }
 }
 
 impl CalibrationRunSettings {
@@ -281,13 +345,15 @@ fn take_shot<R: NanoStage + Camera>(
 }
 
 /// Pixel -> stage from the start and one small move along each axis, and
-/// the frame's size (width, height) in pixels.
+/// the frame's size (width, height) in pixels; `xy_moved` is raised before
+/// the first of those moves is asked for.
 fn rough_map<R: NanoStage + Camera>(
     rig: &mut R,
     settings: &CalibrationRunSettings,
     start: [f64; 2],
     z: f64,
     keep: &mut dyn FnMut(CalibrationShot) -> Result<(), CalibrationRunError>,
+    xy_moved: &mut bool,
 ) -> Result<(CameraCalibration, (usize, usize)), CalibrationRunError> {
     let first = take_shot(rig, settings)?;
     let apex0 = first.apex_px.ok_or(CalibrationRunError::NoTipAtStart)?;
@@ -307,10 +373,12 @@ fn rough_map<R: NanoStage + Camera>(
             return Err(CalibrationRunError::NoRoom {
                 axis: name,
                 step_um: step * 1e6,
+                room_um: first_move_room_m(start, &range) * 1e6,
             });
         };
         let mut target = [start[0], start[1], z];
         target[axis] += signed;
+        *xy_moved = true;
         rig.move_to(target, settings.speed_m_per_s)?;
         let shot = take_shot(rig, settings)?;
         let apex = shot.apex_px.ok_or(CalibrationRunError::TipLost {
@@ -346,6 +414,16 @@ fn rough_map<R: NanoStage + Camera>(
     Ok((rough, view))
 }
 
+/// The longest first move that fits, one way or the other, along both x
+/// and y from `start` within `range`: the `--step-um` to name when the one
+/// asked for does not.
+fn first_move_room_m(start: [f64; 2], range: &[AxisRange; 3]) -> f64 {
+    (0..2)
+        .map(|a| (range[a].max_m - start[a]).max(start[a] - range[a].min_m))
+        .fold(f64::INFINITY, f64::min)
+        .max(0.0)
+}
+
 /// An n x n grid over the frame inside its margin, mapped onto the stage by
 /// `rough` and clipped to its range; points that clipping made one are one.
 /// Row by row, every other row backwards, so that each move is short.
@@ -353,7 +431,7 @@ fn grid_targets(
     rough: &CameraCalibration,
     (w, h): (usize, usize),
     settings: &CalibrationRunSettings,
-    range: &[crate::rig::stage::AxisRange; 3],
+    range: &[AxisRange; 3],
 ) -> Vec<[f64; 2]> {
     let n = settings.grid;
     let along = |size: usize, k: usize| {
@@ -462,9 +540,13 @@ mod tests {
         })
         .unwrap_err();
         assert!(
-            matches!(err, CalibrationRunError::StartOutOfRange { axis: 'z', .. }),
+            matches!(
+                err.error,
+                CalibrationRunError::StartOutOfRange { axis: 'z', .. }
+            ),
             "{err}"
         );
+        assert_eq!(err.left, StageLeft::Untouched);
         assert_eq!((shots, rig.position().unwrap()), (0, start));
     }
 
@@ -526,7 +608,12 @@ mod tests {
             &mut |_| Ok(()),
         )
         .unwrap_err();
-        assert!(matches!(err, CalibrationRunError::NoTipAtStart), "{err}");
+        assert!(
+            matches!(err.error, CalibrationRunError::NoTipAtStart),
+            "{err}"
+        );
+        // Lifted and lowered again: x and y never moved.
+        assert_eq!(err.left, StageLeft::PutBack { xy_moved: false });
         assert!(same_place(rig.position().unwrap(), start));
     }
 
@@ -588,7 +675,7 @@ mod tests {
         )
         .unwrap_err();
         assert!(
-            matches!(err, CalibrationRunError::HeightOutOfRange { .. }),
+            matches!(err.error, CalibrationRunError::HeightOutOfRange { .. }),
             "{err}"
         );
         assert!(logged.targets.is_empty());
@@ -608,9 +695,10 @@ mod tests {
         })
         .unwrap_err();
         assert!(
-            matches!(&err, CalibrationRunError::Shot(m) if m == "disk full"),
+            matches!(&err.error, CalibrationRunError::Shot(m) if m == "disk full"),
             "{err}"
         );
+        assert_eq!(err.left, StageLeft::PutBack { xy_moved: true });
         // Start, two first moves, two grid stops: no stop after the failed one.
         assert_eq!(kept, 5);
         assert!(same_place(rig.position().unwrap(), start));
@@ -635,7 +723,10 @@ mod tests {
             },
         ] {
             let err = run_calibration(&mut rig, &settings, &mut |_| Ok(())).unwrap_err();
-            assert!(matches!(err, CalibrationRunError::Settings(_)), "{err}");
+            assert!(
+                matches!(err.error, CalibrationRunError::Settings(_)),
+                "{err}"
+            );
         }
         assert_eq!(rig.frames(), 0);
         assert_eq!(rig.position().unwrap(), start);

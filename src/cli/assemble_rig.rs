@@ -36,7 +36,7 @@ use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
 use crate::exec::assemble::layout_measured;
 use crate::exec::assemble::{
-    Assembly, AssemblyInputs, AssemblySettings, LIFT_ABOVE_PARTICLES_M, RunEnd, apex_beyond_doubt_m,
+    Assembly, AssemblyInputs, AssemblySettings, RunEnd, apex_beyond_doubt_m,
 };
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
@@ -45,6 +45,7 @@ use crate::exec::observe::{Perception, Sighting};
 use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
+use crate::exec::travel_height::check_travel_height;
 use crate::model::Scene;
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::sites_um;
@@ -368,25 +369,8 @@ fn fitted_to_rig(
     scene: &Scene,
 ) -> anyhow::Result<AssemblySettings> {
     if rig.rig_file().stage.has_z() {
-        let lift_m = 2.0 * scene.particle_radius_m + LIFT_ABOVE_PARTICLES_M;
-        let highest_m = rig.range()[2].max_m;
-        if highest_m < lift_m {
-            let stage = &rig.rig_file().stage;
-            bail!(
-                "the tip can rise only {:.3} um above the substrate (stage.z_surface_um {}, z_lifts {}, within z's \
-                 soft limits and travel), but travels {:.3} um above it, clear of the scene's {:.2} um particles: \
-                 is z_surface_um the controller's z where the tip touches the substrate, in um?",
-                highest_m * 1e6,
-                stage
-                    .z_surface_um
-                    .map_or("not given".to_owned(), |z| format!("{z} um")),
-                stage
-                    .z_lifts
-                    .map_or("not given".to_owned(), |l| format!("{l:?}").to_lowercase()),
-                lift_m * 1e6,
-                2.0 * scene.particle_radius_m * 1e6
-            );
-        }
+        let top_m = rig.range()[2].max_m;
+        check_travel_height(None, top_m, scene.particle_radius_m, &rig.rig_file().stage)?;
     }
     let limits = rig.rig_file().safety_limits();
     let top_m_per_s = limits.max_speed_m_per_s;

@@ -7,13 +7,20 @@
 
 use super::calibrate::{FitArgs, check_output, fit_recording};
 use super::made_folder::MadeFolder;
+use super::rig_probe::camera_error;
 use super::stage_csv::{StageRow, parse_stage_csv, stage_csv};
-use crate::calib::calibration_run::{CalibrationRunSettings, CalibrationShot, run_calibration};
+use crate::calib::calibration_run::{
+    CalibrationRunError, CalibrationRunSettings, CalibrationShot, StageLeft, run_calibration,
+};
 use crate::calib::camera_map::CameraCalibration;
 use crate::calib::fit_quality::{MIN_INLIERS, enough_to_fit};
+use crate::exec::camera_look::LOOK_GRABS;
+use crate::exec::observe::{ObserveError, grab_frame};
+use crate::exec::travel_height::{check_travel_height, clear_height_m};
+use crate::model::Scene;
 use crate::rig::gcs::RigFile;
 use crate::rig::hardware::{HardwareRigOptions, RigDevices};
-use crate::rig::stage::NanoStage;
+use crate::rig::stage::{NanoStage, StageXyz};
 use crate::vision::frame_input::{Channel, save_png};
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -51,6 +58,10 @@ pub struct Args {
     /// it then, but the tip must clear every particle in view.
     #[arg(long)]
     pub z_um: Option<f64>,
+    /// The scene whose particles the tip must clear: its travel height is
+    /// at least their tops plus 2 um, as `assemble --rig` travels.
+    #[arg(long, default_value = "calib/paper-ps-ito.toml")]
+    pub scene: PathBuf,
     /// On a stage without z (axes x, y): the tip has been lifted clear of
     /// the sample by hand. Without it such a rig is refused, since the run
     /// would sweep the tip across the sample at whatever height it is.
@@ -63,6 +74,9 @@ pub struct Args {
     #[arg(long)]
     pub yes_move_hardware: bool,
 }
+
+/// What a refusal after the rig is opened, before its first move, says first.
+const UNMOVED: &str = "refused before anything moved";
 
 /// Travel speed of the run: slow enough for any piezo stage, capped by the
 /// rig file's top speed.
@@ -135,6 +149,8 @@ fn measure(
         },
     )
     .with_context(|| format!("opening the rig {}", args.rig.display()))?;
+    check_z_flag(args, &devices).context(UNMOVED)?;
+    first_frame(&mut devices).context(UNMOVED)?;
     let previous = CameraCalibration::load(out).ok();
     if args.force {
         clear_recording(recording, out)?;
@@ -151,31 +167,23 @@ fn measure(
     *saved = rows.len();
     // Whatever happened, the stage is left still.
     let _ = devices.halt();
-    if let Err(e) = ran {
-        // The stage goes back to where it started only when the run ends by
-        // itself: after Ctrl-C or a fault it stays where it stopped, and
-        // the frames already saved are worth a fit (neither had been said).
-        // A run that ends before its first move says nothing moved.
+    if let Err(stop) = ran {
+        // The stage goes back to where it started unless Ctrl-C or a fault
+        // stopped it, and the frames already saved are worth a fit (neither
+        // had been said). Said as it happened: a run that had only lifted
+        // the tip had been said to have "stopped ...; not put back".
         let moved = devices.moved_any();
-        let at = match devices.position() {
-            Ok(p) => {
-                let here = format!(
-                    "({:.2}, {:.2}) um, the tip {:.2} um above the substrate",
-                    p[0] * 1e6,
-                    p[1] * 1e6,
-                    p[2] * 1e6
-                );
-                if moved {
-                    format!("the stage stopped at {here}; it was not put back")
-                } else {
-                    format!("nothing moved: the stage is where it was, at {here}")
-                }
-            }
-            Err(_) if moved => "where the stage stopped could not be read".to_string(),
-            Err(_) => "nothing moved".to_string(),
-        };
-        let kept = saved_frames(&folder, recording, out, rows.len(), with_tip);
-        return Err(e).with_context(|| {
+        let at = where_left(moved, stop.left, devices.position().ok());
+        let fix = flag_fix(&stop.error, args);
+        let kept = saved_frames(
+            &folder,
+            recording,
+            out,
+            rows.len(),
+            with_tip,
+            fix.as_deref(),
+        );
+        return Err(stop.error).with_context(|| {
             format!(
                 "calibration run on {} stopped: {at}; {kept}",
                 args.rig.display()
@@ -212,32 +220,161 @@ fn measure(
     Ok(())
 }
 
+/// Where the stopped run left the stage, as it happened: untouched, put
+/// back (after only a lift, or after moving in x and y), or stopped where
+/// it was (Ctrl-C, a fault).
+fn where_left(moved: bool, left: StageLeft, position: Option<StageXyz>) -> String {
+    let here = position.map(|p| {
+        format!(
+            "({:.2}, {:.2}) um, the tip {:.2} um above the substrate",
+            p[0] * 1e6,
+            p[1] * 1e6,
+            p[2] * 1e6
+        )
+    });
+    let at = |what: &str| {
+        here.as_ref()
+            .map_or(what.to_owned(), |h| format!("{what}, at {h}"))
+    };
+    match left {
+        StageLeft::Untouched => at("nothing moved: the stage is where it was"),
+        StageLeft::PutBack { .. } if !moved => at("nothing moved: the stage is where it was"),
+        StageLeft::PutBack { xy_moved: false } => at(
+            "only the tip's height changed (x and y never moved), and it was put back where it was",
+        ),
+        StageLeft::PutBack { xy_moved: true } => at("the stage was put back where it started"),
+        StageLeft::NotPutBack if !moved => at("nothing moved: the stage is where it was"),
+        StageLeft::NotPutBack => here.map_or(
+            "where the stage stopped could not be read".to_owned(),
+            |h| format!("the stage stopped at {h}; it was not put back"),
+        ),
+    }
+}
+
+/// The flag to give instead, when the run stopped on a value the user
+/// gave (a `--step-um` with no room in the stage's range): the same
+/// command again would stop the same way.
+fn flag_fix(error: &CalibrationRunError, args: &Args) -> Option<String> {
+    match error {
+        CalibrationRunError::NoRoom { room_um, .. } => {
+            let default_um = CalibrationRunSettings::default().probe_step_m * 1e6;
+            let step_um = default_um.min((room_um * 10.0).floor() / 10.0);
+            Some(format!("--step-um {step_um} instead of {}", args.step_um))
+        }
+        _ => None,
+    }
+}
+
+/// Refuses, before anything moves, a `--z-um` the tip could not travel
+/// at: among the particles (the rule `assemble --rig` travels by,
+/// [`check_travel_height`], so that neither takes a height the other
+/// refuses), or above the top of z travel; the refusal names the heights
+/// that would do. A stage whose z cannot rise clear at all is refused as
+/// `assemble --rig` refuses it.
+fn check_z_flag(args: &Args, devices: &RigDevices) -> anyhow::Result<()> {
+    let stage = &devices.rig_file().stage;
+    if !stage.has_z() {
+        return Ok(());
+    }
+    let radius_m = Scene::load(&args.scene)
+        .with_context(|| format!("scene {} (--scene)", args.scene.display()))?
+        .particle_radius_m;
+    let top_m = devices.range()[2].max_m;
+    let z_m = args.z_um.map(|z| z * 1e-6);
+    // Heights to 0.1 um, inside the accepted range (15 um read back from
+    // the controller is 14.999999999999998, not to be said as 14.9).
+    let accepted = |lo_um: f64, hi_um: f64| {
+        format!(
+            "give --z-um from {:.1} to {:.1}, or leave it out (the top of z travel)",
+            (lo_um * 10.0 - 1e-6).ceil() / 10.0,
+            (hi_um * 10.0 + 1e-6).floor() / 10.0
+        )
+    };
+    if let Err(e) = check_travel_height(z_m, top_m, radius_m, stage) {
+        return Err(match e.accepted_um(top_m * 1e6) {
+            Some((lo, hi)) => anyhow::anyhow!(
+                "--z-um {}: {e}: {}",
+                args.z_um.unwrap_or(0.0),
+                accepted(lo, hi)
+            ),
+            None => e.into(),
+        });
+    }
+    match (args.z_um, z_m) {
+        (Some(z_um), Some(z)) if z > top_m => bail!(
+            "--z-um {z_um}: above the top of the stage's z travel, {:.3} um above the substrate: {}",
+            top_m * 1e6,
+            accepted(clear_height_m(radius_m) * 1e6, top_m * 1e6)
+        ),
+        _ => Ok(()),
+    }
+}
+
+/// Waits for the camera's first frame before anything moves: a camera
+/// that gives none fails in [`LOOK_GRABS`] tries of its timeout, saying
+/// what to check (as `rig probe --camera` does), where the run had waited
+/// 10 tries at its first stop, 51 s with no word, after lifting the tip.
+/// An empty first try is said on stderr, since the second takes as long.
+fn first_frame(devices: &mut RigDevices) -> anyhow::Result<()> {
+    let source = devices.rig_file().camera.clone();
+    let tried = match grab_frame(devices, 1) {
+        Err(ObserveError::NoFrame(_)) => {
+            eprintln!(
+                "waiting for a frame from the camera ({}): {}",
+                source.describe(),
+                source.when_no_frame()
+            );
+            grab_frame(devices, LOOK_GRABS - 1).map_err(|e| match e {
+                ObserveError::NoFrame(_) => ObserveError::NoFrame(LOOK_GRABS),
+                other => other,
+            })
+        }
+        other => other,
+    };
+    tried.map(drop).map_err(|e| camera_error(&source, e))
+}
+
 /// What a stopped run left and what to do with it. Only a fit the saved
 /// frames can pass is advised (the 5 frames of a stopped run had been
 /// advised to `calibrate`, which refuses under 6); with no frame the
 /// folder the run made goes (empty folders had been left behind), so the
-/// same command is accepted again.
+/// same command is accepted again. `fix` is the flag to give instead, when
+/// one of the user's stopped it.
 fn saved_frames(
     folder: &MadeFolder,
     recording: &Path,
     out: &Path,
     frames: usize,
     with_tip: usize,
+    fix: Option<&str>,
 ) -> String {
     let dir = recording.display();
     if frames == 0 {
         let left = folder.undo_said();
-        return format!("no frame was taken, {dir} {left}; run the same command again");
+        return format!("no frame was taken, {dir} {left}; {}", again(fix, false));
     }
     if enough_to_fit(with_tip) {
         return format!(
-            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out {}`, or run the same command again with --force)",
-            out.display()
+            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out {}`, or {})",
+            out.display(),
+            again(fix, true)
         );
     }
     format!(
-        "{frames} frames saved in {dir}, {with_tip} with a tip: too few to fit a map (at least {MIN_INLIERS}); run the same command again with --force"
+        "{frames} frames saved in {dir}, {with_tip} with a tip: too few to fit a map (at least {MIN_INLIERS}); {}",
+        again(fix, true)
     )
+}
+
+/// The command to run next: the same again (with `--force` over a
+/// recording it left), or with `fix` instead of the flag that stopped it.
+fn again(fix: Option<&str>, force: bool) -> String {
+    match (fix, force) {
+        (None, false) => "run the same command again".into(),
+        (None, true) => "run the same command again with --force".into(),
+        (Some(fix), false) => format!("run it again with {fix}"),
+        (Some(fix), true) => format!("run it again with --force and {fix}"),
+    }
 }
 
 /// `calibration.toml` -> `calibration-recording/` beside it.

@@ -27,3 +27,4 @@ pub mod sim_run;
 pub mod stop_cause;
 pub mod stroke;
 pub mod tracker;
+pub mod travel_height;

@@ -42,13 +42,14 @@ mod planning;
 mod pushing;
 mod stage_moves;
 
+pub use crate::exec::travel_height::LIFT_ABOVE_PARTICLES_M;
 pub use apex_doubt::{
     ApexDoubt, CALIBRATION_DOUBT_M, CALIBRATION_UNFIT, apex_beyond_doubt_m, apex_doubt,
     apex_doubt_unfollowed, calibration_doubt,
 };
 use left_short::LeftShort;
 pub use planning::{layout_measured, particles_seen, planning_particles};
-pub use pushing::{LIFT_ABOVE_PARTICLES_M, decide_push, scene_for_push};
+pub use pushing::{decide_push, scene_for_push};
 
 /// Executor settings; the defaults suit 10 um particles on the simulated rig.
 #[derive(Debug, Clone, PartialEq)]

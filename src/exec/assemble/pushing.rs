@@ -6,11 +6,9 @@ use super::{Assembly, PushError, PushIntent, PushRecord};
 use crate::exec::events::RunEvent;
 use crate::exec::journal::JournalError;
 use crate::exec::stroke::{StrokeError, StrokeRequest, plan_stroke};
+use crate::exec::travel_height::clear_height_m;
 use crate::model::advice::{PushAdvice, advise_push};
 use crate::model::{ModelError, Scene};
-
-/// How far above the particles' tops the tip travels between pushes.
-pub const LIFT_ABOVE_PARTICLES_M: f64 = 2e-6;
 
 impl Assembly<'_> {
     /// Asks the model, lays out the stroke, moves the stage.
@@ -21,7 +19,7 @@ impl Assembly<'_> {
         let repush = self.repush_next.take() == Some(intent.particle);
         self.journal_decision(intent, &advice, repush)?;
         let range = self.rig.range();
-        let safe_z = (2.0 * intent.radius_m + LIFT_ABOVE_PARTICLES_M).min(range[2].max_m);
+        let safe_z = clear_height_m(intent.radius_m).min(range[2].max_m);
         let stroke = plan_stroke(&StrokeRequest {
             from: intent.from,
             to: intent.to,
