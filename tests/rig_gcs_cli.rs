@@ -107,17 +107,19 @@ fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("connecting"));
 }
 
-#[test]
-fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
-    let (sim, reader, ports) = sim_gcs(
-        &["--port", "0", "--coarse-port", "0"],
-        &["GCS simulator", "coarse-stage simulator"],
-    );
-    let (nano, coarse) = (ports[0], ports[1]);
+/// `nanopush rig sim-gcs --port 0 --coarse-port 0` with `extra` flags, its
+/// stdout (kept open while it runs) and the nanostage's and coarse stage's
+/// ports it chose.
+fn sim_with_coarse(extra: &[&str]) -> (Sim, BufReader<std::process::ChildStdout>, u16, u16) {
+    let args = [&["--port", "0", "--coarse-port", "0"], extra].concat();
+    let (sim, reader, ports) = sim_gcs(&args, &["GCS simulator", "coarse-stage simulator"]);
+    (sim, reader, ports[0], ports[1])
+}
 
-    let dir = tempfile::tempdir().unwrap();
-    let rig = dir.path().join("rig.toml");
-    let text = std::fs::read_to_string("calib/rig-gcs-sim-coarse-folder.toml")
+/// calib/rig-gcs-sim-coarse-folder.toml on the simulators' ports, its
+/// calibration named by its absolute path and its camera watching `frames`.
+fn coarse_rig_text(nano: u16, coarse: u16, frames: &std::path::Path) -> String {
+    std::fs::read_to_string("calib/rig-gcs-sim-coarse-folder.toml")
         .unwrap()
         .replace("127.0.0.1:50000", &format!("127.0.0.1:{nano}"))
         .replace("127.0.0.1:50001", &format!("127.0.0.1:{coarse}"))
@@ -130,8 +132,23 @@ fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
                     .display()
                     .to_string()
             ),
-        );
-    std::fs::write(&rig, text).unwrap();
+        )
+        .replace(
+            "\"../out/rig-gcs-sim-coarse-folder/frames\"",
+            &format!("{:?}", frames.display().to_string()),
+        )
+}
+
+#[test]
+fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
+    let (sim, reader, nano, coarse) = sim_with_coarse(&[]);
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    std::fs::write(
+        &rig,
+        coarse_rig_text(nano, coarse, &dir.path().join("frames")),
+    )
+    .unwrap();
     let text = probe(&rig);
     let (stage, coarse_part) = text.split_once("coarse stage:").expect("a coarse section");
     assert!(stage.contains("axes:           1 2 3"), "{text}");
@@ -167,6 +184,78 @@ fn probe_shows_the_coarse_stage_of_a_rig_file_with_one() {
             table.join("\n")
         );
     }
+    drop(sim);
+    drop(reader);
+}
+
+/// `rig probe` checks the rig file against the controllers and the apex
+/// as `assemble --rig` does when it opens the rig, and reports every
+/// problem: an axis the controller lacks, a coarse stage in mm written as
+/// um, a calibration 18 um off the apex (probe had passed all three, which
+/// `assemble` then refused). The rig file as it should be passes.
+#[test]
+fn probe_reports_every_way_the_rig_file_does_not_fit_its_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let frames = dir.path().join("frames");
+    let microscope = dir.path().join("microscope.toml");
+    std::fs::write(&microscope, coarse_rig_text(50000, 50001, &frames)).unwrap();
+    let microscope = microscope.to_str().unwrap();
+    let (sim, reader, nano, coarse) = sim_with_coarse(&[
+        "--time-scale",
+        "100",
+        "--microscope",
+        microscope,
+        "--seed",
+        "2",
+        "--particles",
+        "20",
+    ]);
+    let good = coarse_rig_text(nano, coarse, &frames);
+    let off = dir.path().join("off.toml");
+    std::fs::write(
+        &off,
+        std::fs::read_to_string("calib/camera-stage-sim-coarse.toml")
+            .unwrap()
+            .replace("-20.0], [0.0, -0.25, 120.0", "-5.0], [0.0, -0.25, 130.0"),
+    )
+    .unwrap();
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim-coarse.toml").unwrap();
+    let off_calibration = good.replace(
+        &format!("{:?}", calibration.display().to_string()),
+        &format!("{:?}", off.display().to_string()),
+    );
+    let mismatched = good
+        .replace(r#"axes = ["1", "2", "3"]"#, r#"axes = ["1", "2", "4"]"#)
+        .replace("unit_um = 1000.0 ", "unit_um = 1.0 ");
+    assert!(off_calibration != good && mismatched.matches("unit_um = 1.0").count() == 2);
+    let run = |name: &str, text: &str| {
+        let rig = dir.path().join(name);
+        std::fs::write(&rig, text).unwrap();
+        let out = nanopush()
+            .args(["rig", "probe", "--camera", "--rig"])
+            .arg(&rig)
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&out.stderr).into_owned();
+        (out.status.success(), said)
+    };
+    let (ok, said) = run("good.toml", &good);
+    assert!(ok, "{said}");
+    let (ok, said) = run("mismatched.toml", &mismatched);
+    assert!(
+        !ok && said.contains("2 parts of the rig")
+            && said.contains("axis 4 is not on the controller")
+            && said.contains("coarse stage: invalid argument: axis 1: soft limits")
+            && said.contains("axis 2: soft limits")
+            && said.contains("with unit_um = 1000, not 1"),
+        "{said}"
+    );
+    let (ok, said) = run("off-rig.toml", &off_calibration);
+    assert!(
+        !ok && said.contains("the calibration does not fit this camera and stage")
+            && said.contains("off.toml"),
+        "{said}"
+    );
     drop(sim);
     drop(reader);
 }

@@ -5,18 +5,31 @@
 //! A rig file with a `[coarse]` section gets the same look at the coarse
 //! stage's controller. With `--camera` it also grabs one frame from the
 //! rig file's camera and says what the loop sees in it.
+//!
+//! It checks the rig file against what it saw, with the code `assemble
+//! --rig` opens the rig and looks at its first frame with: the stage's
+//! axes on the controller, the soft limits within the controller's travel
+//! in the rig file's unit (a coarse stage in mm written as um), and the
+//! probe's apex where the calibration puts the stage. Each problem is
+//! reported, and the command fails (it had passed all three, which
+//! `assemble` then refused).
 
 use super::error_message::error_message;
+use crate::exec::assemble::calibration_doubt;
 use crate::exec::camera_look::{look, look_uncalibrated};
 use crate::exec::observe::ObserveError;
 use crate::model::Scene;
 use crate::rig::camera_clock::WallClock;
 use crate::rig::camera_open::open_camera;
 use crate::rig::camera_source::CameraSource;
-use crate::rig::gcs::{self, GcsController, RigFile};
-use crate::rig::hardware::load_rig_calibration;
+use crate::rig::gcs::{self, GcsController, RigFile, StageOpening};
+use crate::rig::gcs_coarse_stage::GcsCoarseStage;
+use crate::rig::hardware::{GcsNanoStage, HardwareRigError, load_rig_calibration};
+use crate::rig::stage::{NanoStage, StageXyz};
 use anyhow::Context;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 /// Arguments of `nanopush rig probe`.
 #[derive(clap::Args, Debug)]
@@ -43,24 +56,38 @@ pub struct Args {
 /// frame; the command then fails naming every part that could not be seen.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let rig = RigFile::load(&args.rig)?;
-    let mut parts = vec![
-        gcs::connect(&rig, args.dry_run)
-            .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
-            .and_then(|(ctrl, log)| controller_section("stage", ctrl, log, rig.stage.unit_um)),
-    ];
+    // The checked stages are only queried: no move is asked of them.
+    let opening = StageOpening {
+        dry_run: args.dry_run,
+        waive_confirmation: false,
+        interrupt: Arc::new(AtomicBool::new(false)),
+    };
+    let mut parts = Vec::new();
+    let stage = gcs::connect(&rig, args.dry_run)
+        .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
+        .and_then(|(ctrl, log)| controller_section("stage", ctrl, log, rig.stage.unit_um, &mut parts));
+    let mut nanostage = stage.and_then(|ctrl| {
+        GcsNanoStage::on_controller(ctrl, &rig, &opening)
+            .map_err(|e| against_rig_file(&args, HardwareRigError::Stage(e)))
+    });
+    // A dry run's stage is a simulator's, not where the real one is.
+    let stage_at = match &mut nanostage {
+        Ok(stage) if !args.dry_run => stage.position().ok(),
+        _ => None,
+    };
+    parts.extend(nanostage.err().map(Err));
     if let Some(coarse) = &rig.coarse {
-        parts.push(
-            gcs::connect_coarse(coarse, args.dry_run)
-                .with_context(|| {
-                    format!("connecting to the coarse stage of {}", args.rig.display())
-                })
-                .and_then(|(ctrl, log)| {
-                    controller_section("coarse stage", ctrl, log, coarse.stage.unit_um)
-                }),
-        );
+        let checked = gcs::connect_coarse(coarse, args.dry_run)
+            .with_context(|| format!("connecting to the coarse stage of {}", args.rig.display()))
+            .and_then(|(ctrl, log)| controller_section("coarse stage", ctrl, log, coarse.stage.unit_um, &mut parts))
+            .and_then(|ctrl| {
+                GcsCoarseStage::on_controller(ctrl, coarse, &opening)
+                    .map_err(|e| against_rig_file(&args, HardwareRigError::Coarse(e)))
+            });
+        parts.extend(checked.err().map(Err));
     }
     if args.camera {
-        parts.extend(camera_section(&rig, &args));
+        parts.extend(camera_section(&rig, &args, stage_at));
     }
     let (mut seen, mut failures) = (Vec::new(), Vec::new());
     for part in parts {
@@ -74,7 +101,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         0 => Ok(()),
         1 => Err(failures.remove(0)),
         n => Err(anyhow::anyhow!(
-            "{n} parts of the rig could not be seen: {}",
+            "{n} parts of the rig could not be seen, or do not fit the rig file: {}",
             failures
                 .iter()
                 .map(error_message)
@@ -82,6 +109,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .join("; ")
         )),
     }
+}
+
+/// A controller that is not what the rig file says, in the words
+/// `assemble --rig` refuses it with.
+fn against_rig_file(args: &Args, e: HardwareRigError) -> anyhow::Error {
+    anyhow::Error::new(e).context(format!(
+        "{} does not fit its controller (assemble --rig refuses it)",
+        args.rig.display()
+    ))
 }
 
 /// Why no frame of the rig's camera could be seen, with what to check: no
@@ -101,7 +137,14 @@ pub fn camera_error(source: &CameraSource, e: ObserveError) -> anyhow::Error {
 /// One frame of the rig's camera, as the loop sees it; without a
 /// calibration (none made yet), what can be seen in pixels, and the
 /// missing calibration as a part that could not be seen.
-fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
+/// With the stage's position (`stage_at`), the apex is checked against
+/// where the calibration puts it, as `assemble --rig`'s first frame is
+/// ([`calibration_doubt`]).
+fn camera_section(
+    rig: &RigFile,
+    args: &Args,
+    stage_at: Option<StageXyz>,
+) -> Vec<anyhow::Result<String>> {
     let scene = match Scene::load(&args.scene) {
         Ok(scene) => scene,
         Err(e) => return vec![Err(e).context(format!("scene {}", args.scene.display()))],
@@ -121,16 +164,29 @@ fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
         }
     };
     match calibration {
-        Ok(calibration) => vec![
-            look(
+        Ok(calibration) => {
+            match look(
                 source,
                 camera.as_mut(),
                 &calibration,
                 scene.particle_radius_m,
-            )
-            .map(|seen| format!("camera:\n{seen}"))
-            .map_err(no_frame),
-        ],
+            ) {
+                Ok(mut seen) => {
+                    seen.sighting.stage_m = stage_at;
+                    let doubt = calibration_doubt(&seen.sighting);
+                    let mut parts = vec![Ok(format!("camera:\n{seen}"))];
+                    parts.extend(doubt.map(|why| {
+                        Err(anyhow::anyhow!(why).context(format!(
+                            "calibration {} named by {}",
+                            rig.calibration.display(),
+                            args.rig.display()
+                        )))
+                    }));
+                    parts
+                }
+                Err(e) => vec![Err(no_frame(e))],
+            }
+        }
         Err(missing) => vec![
             look_uncalibrated(source, camera.as_mut())
                 .map(|seen| format!("camera:\n{seen}"))
@@ -141,13 +197,15 @@ fn camera_section(rig: &RigFile, args: &Args) -> Vec<anyhow::Result<String>> {
 }
 
 /// Probes one controller: its report (and, in a dry run, the bytes), its
-/// lengths in um through the rig file's `unit_um`.
+/// lengths in um through the rig file's `unit_um`, goes into `parts`; the
+/// controller is handed back for the rig file's checks.
 fn controller_section(
     what: &str,
     mut ctrl: GcsController,
     log: Option<gcs::SentLog>,
     unit_um: f64,
-) -> anyhow::Result<String> {
+    parts: &mut Vec<anyhow::Result<String>>,
+) -> anyhow::Result<GcsController> {
     use std::fmt::Write;
     let report = probe(&mut ctrl, unit_um)
         .with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
@@ -162,7 +220,8 @@ fn controller_section(
             let _ = writeln!(s, "  {:?}", String::from_utf8_lossy(bytes));
         }
     }
-    Ok(s)
+    parts.push(Ok(s));
+    Ok(ctrl)
 }
 
 /// The controller's report; ranges, positions, targets and velocities in um

@@ -11,7 +11,7 @@
 //! when it was opened, so that the sample frame starts as the nanostage's.
 
 use super::error::RigError;
-use super::gcs::{GcsError, GcsStage};
+use super::gcs::{self, CoarseSection, GcsController, GcsError, GcsStage, StageOpening};
 use super::gcs_line_stage::GcsLineStage;
 use super::stage::CoarseStage;
 use std::sync::Arc;
@@ -27,6 +27,28 @@ pub struct GcsCoarseStage {
 }
 
 impl GcsCoarseStage {
+    /// The rig file's coarse stage on a connected `controller`, behind every
+    /// check `assemble --rig` opens it with ([`gcs::stage_on`]; its
+    /// soft limits within the controller's travel in its `unit_um`: a
+    /// C-884 in mm taken for um is caught there), as `rig probe` checks it.
+    pub fn on_controller(
+        controller: GcsController,
+        section: &CoarseSection,
+        opening: &StageOpening,
+    ) -> Result<Self, GcsError> {
+        let stage = gcs::stage_on(
+            controller,
+            &section.stage,
+            section.stage_settings(),
+            opening,
+        )?;
+        Self::new(
+            stage,
+            Arc::clone(&opening.interrupt),
+            section.sign_factors(),
+        )
+    }
+
     /// Wraps a stage of exactly two axes (x, y, parallel to the
     /// nanostage's); `sign` is the rig file's (+1: a positive move carries
     /// the nanostage's origin positive across the sample; -1: it moves the

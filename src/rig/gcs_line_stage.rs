@@ -66,6 +66,23 @@ const PIECE_SHARE: f64 = 0.99;
 /// unit slip, would otherwise send thousands of moves).
 const MAX_PIECES: usize = 1000;
 
+/// What to say of soft limits outside an axis's travel that would lie
+/// within it in another unit (a controller in mm with `unit_um = 1`, the
+/// C-884's 0..25 mm read as 0..25 um): the unit to write instead.
+fn unit_hint(min_m: f64, max_m: f64, travel_m: [f64; 2], unit_m: f64) -> String {
+    [1000.0, 1e-3]
+        .into_iter()
+        .find(|k| min_m >= travel_m[0] * k && max_m <= travel_m[1] * k)
+        .map_or(String::new(), |k| {
+            let um = |m: f64| (m * 1e12).round() / 1e6;
+            format!(
+                " (they lie within it with unit_um = {}, not {}: is unit_um the controller's unit?)",
+                um(unit_m * k),
+                um(unit_m)
+            )
+        })
+}
+
 /// The axes of one GCS controller moving in straight lines, in metres.
 pub struct GcsLineStage {
     stage: GcsStage,
@@ -102,23 +119,30 @@ impl GcsLineStage {
         let tmn = stage.controller().travel_min(&axes)?;
         let tmx = stage.controller().travel_max(&axes)?;
         let mut range = Vec::with_capacity(n);
+        let mut outside = Vec::new();
         for i in 0..n {
             let soft = settings.limits.soft_limits[i];
+            let travel = [tmn[i] * settings.unit_m, tmx[i] * settings.unit_m];
             let r = AxisRange {
-                min_m: soft.min_m.max(tmn[i] * settings.unit_m),
-                max_m: soft.max_m.min(tmx[i] * settings.unit_m),
+                min_m: soft.min_m.max(travel[0]),
+                max_m: soft.max_m.min(travel[1]),
             };
             if r.min_m > r.max_m {
-                return Err(GcsError::InvalidArgument(format!(
-                    "axis {}: soft limits {:.3}..{:.3} um lie outside the controller's travel {:.3}..{:.3} um",
+                outside.push(format!(
+                    "axis {}: soft limits {:.3}..{:.3} um lie outside the controller's travel {:.3}..{:.3} um{}",
                     settings.axes[i],
                     soft.min_m * 1e6,
                     soft.max_m * 1e6,
-                    tmn[i] * settings.unit_m * 1e6,
-                    tmx[i] * settings.unit_m * 1e6
-                )));
+                    travel[0] * 1e6,
+                    travel[1] * 1e6,
+                    unit_hint(soft.min_m, soft.max_m, travel, settings.unit_m)
+                ));
             }
             range.push(r);
+        }
+        // Every axis at once: `rig probe` reports them all.
+        if !outside.is_empty() {
+            return Err(GcsError::InvalidArgument(outside.join("; ")));
         }
         Ok(Self {
             endpoint: stage.controller().endpoint(),

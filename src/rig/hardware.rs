@@ -20,7 +20,7 @@ use super::camera_error::CameraError;
 use super::camera_open::{BoxedCamera, open_camera};
 use super::error::RigError;
 use super::gcs::rig_file::ZConvention;
-use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog};
+use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog, StageOpening};
 use super::gcs_coarse_stage::GcsCoarseStage;
 use super::gcs_line_stage::{GcsLineStage, snap_into_range};
 use super::stage::{AxisRange, CoarseStage, NanoStage, StageXyz, check_in_range};
@@ -38,6 +38,20 @@ pub struct GcsNanoStage {
 }
 
 impl GcsNanoStage {
+    /// The rig file's nanostage on a connected `controller`, behind every
+    /// check `assemble --rig` opens it with ([`gcs::stage_on`]: its axes on
+    /// the controller; its soft limits, in the rig file's `unit_um`, within
+    /// their travel): `rig probe` makes the same on the controller it has
+    /// queried, where it had checked none.
+    pub fn on_controller(
+        controller: gcs::GcsController,
+        rig: &RigFile,
+        opening: &StageOpening,
+    ) -> Result<Self, GcsError> {
+        let stage = gcs::stage_on(controller, &rig.stage, rig.stage_settings(), opening)?;
+        Self::new(stage, Arc::clone(&opening.interrupt), rig.z_convention())
+    }
+
     /// Wraps a stage of two (x, y) or three (x, y, z) axes. The range is the
     /// rig file's soft limits narrowed to the controller's travel (`TMN?`/`TMX?`).
     /// `interrupt` is the stage's Ctrl-C flag: while it is up, moves are
@@ -262,27 +276,24 @@ impl RigDevices {
             Some(flag) => flag,
             None => crate::rig::interrupt::ctrlc_flag()?,
         };
-        let (stage, sent_log) = gcs::open_stage(
-            &rig,
-            opts.dry_run,
-            opts.waive_confirmation,
-            Arc::clone(&interrupt),
-        )?;
-        let stage = GcsNanoStage::new(stage, Arc::clone(&interrupt), rig.z_convention())?;
+        let opening = StageOpening {
+            dry_run: opts.dry_run,
+            waive_confirmation: opts.waive_confirmation,
+            interrupt: Arc::clone(&interrupt),
+        };
+        let (controller, sent_log) = gcs::connect(&rig, opts.dry_run)?;
+        let stage = GcsNanoStage::on_controller(controller, &rig, &opening)?;
         let (coarse, coarse_sent_log) = match (opts.coarse, &rig.coarse) {
             (Some(given), _) => (Some(given), None),
             (None, Some(section)) => {
-                let (coarse, log) = gcs::open_coarse_stage(
-                    section,
-                    opts.dry_run,
-                    opts.waive_confirmation,
-                    Arc::clone(&interrupt),
-                )
-                .and_then(|(s, log)| {
-                    let c = GcsCoarseStage::new(s, Arc::clone(&interrupt), section.sign_factors())?;
-                    Ok((c, log))
-                })
-                .map_err(HardwareRigError::Coarse)?;
+                let (coarse, log) = gcs::connect_coarse(section, opts.dry_run)
+                    .and_then(|(controller, log)| {
+                        Ok((
+                            GcsCoarseStage::on_controller(controller, section, &opening)?,
+                            log,
+                        ))
+                    })
+                    .map_err(HardwareRigError::Coarse)?;
                 let boxed: Box<dyn CoarseStage + Send> = Box::new(coarse);
                 (Some(boxed), log)
             }

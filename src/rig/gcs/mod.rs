@@ -86,60 +86,56 @@ fn connect_section(
     Ok((GcsController::new(Transport::new(link, timeout)), log))
 }
 
-/// Opens the stage a rig file describes, behind all host-side checks: the
-/// first move asks for confirmation on real hardware unless `dry_run` or
-/// `waive_confirmation` (the explicit CLI flag); `interrupt` is the Ctrl-C
-/// flag (see [`crate::rig::interrupt::ctrlc_flag`]).
+/// Opens the stage a rig file describes, behind all host-side checks:
+/// [`connect`], then [`stage_on`].
 pub fn open_stage(
     rig: &RigFile,
     dry_run: bool,
     waive_confirmation: bool,
     interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
 ) -> Result<(GcsStage, Option<SentLog>), GcsError> {
-    open_section(
-        &rig.stage,
-        rig.stage_settings(),
-        SimConfig::default(),
+    let (controller, log) = connect(rig, dry_run)?;
+    let opening = StageOpening {
         dry_run,
         waive_confirmation,
         interrupt,
-    )
+    };
+    let stage = stage_on(controller, &rig.stage, rig.stage_settings(), &opening)?;
+    Ok((stage, log))
 }
 
-/// [`open_stage`] for the rig file's coarse stage: the same checks under its
-/// own limits, its own confirmation on real hardware, the same Ctrl-C flag.
-pub fn open_coarse_stage(
-    coarse: &CoarseSection,
-    dry_run: bool,
-    waive_confirmation: bool,
-    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
-) -> Result<(GcsStage, Option<SentLog>), GcsError> {
-    open_section(
-        &coarse.stage,
-        coarse.stage_settings(),
-        SimConfig::coarse(),
-        dry_run,
-        waive_confirmation,
-        interrupt,
-    )
+/// How a stage is opened: what [`stage_on`] needs besides the controller
+/// and the rig file's section (both stages of a rig are opened alike).
+#[derive(Clone)]
+pub struct StageOpening {
+    /// A dry run: no confirmation is asked (nothing real moves).
+    pub dry_run: bool,
+    /// The explicit CLI flag that waives the confirmation before the
+    /// first move on real hardware.
+    pub waive_confirmation: bool,
+    /// The Ctrl-C flag (see [`crate::rig::interrupt::ctrlc_flag`]).
+    pub interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
 }
 
-/// Opens one controller section as a checked stage under `settings`.
-fn open_section(
+/// A controller section of the rig file (its `[stage]`, or its coarse
+/// stage's) on a connected `controller`, as a stage behind all host-side
+/// checks under `settings`: its axes on the controller (its soft limits
+/// within their travel are checked by the line stage over it); the first
+/// move asks for confirmation on real hardware unless `opening` is a dry
+/// run or waives it. Apart from [`connect`], so that `rig probe` checks
+/// the controller it has just queried as `assemble` checks it.
+pub fn stage_on(
+    controller: GcsController,
     section: &StageSection,
     settings: StageSettings,
-    dry_run_sim: SimConfig,
-    dry_run: bool,
-    waive_confirmation: bool,
-    interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
-) -> Result<(GcsStage, Option<SentLog>), GcsError> {
-    let (controller, log) = connect_section(section, dry_run, dry_run_sim)?;
+    opening: &StageOpening,
+) -> Result<GcsStage, GcsError> {
+    let interrupt = std::sync::Arc::clone(&opening.interrupt);
     let confirmation = FirstMoveConfirmation::for_rig(
         section.real_hardware,
-        dry_run,
-        waive_confirmation,
+        opening.dry_run,
+        opening.waive_confirmation,
         std::sync::Arc::clone(&interrupt),
     );
-    let stage = GcsStage::new(controller, settings, confirmation, interrupt)?;
-    Ok((stage, log))
+    GcsStage::new(controller, settings, confirmation, interrupt)
 }

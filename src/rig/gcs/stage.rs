@@ -69,10 +69,24 @@ impl GcsStage {
             )));
         }
         let present = controller.axes()?;
-        if let Some(missing) = settings.axes.iter().find(|a| !present.contains(a)) {
-            return Err(GcsError::InvalidArgument(format!(
-                "axis {missing} is not on the controller (it has {present:?})"
-            )));
+        // Every missing axis at once: `rig probe` reports them all.
+        let missing: Vec<&String> = settings
+            .axes
+            .iter()
+            .filter(|a| !present.contains(a))
+            .collect();
+        match missing.as_slice() {
+            [] => {}
+            [one] => {
+                return Err(GcsError::InvalidArgument(format!(
+                    "axis {one} is not on the controller (it has {present:?})"
+                )));
+            }
+            many => {
+                return Err(GcsError::InvalidArgument(format!(
+                    "axes {many:?} are not on the controller (it has {present:?})"
+                )));
+            }
         }
         Ok(Self {
             controller,
