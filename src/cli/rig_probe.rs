@@ -65,7 +65,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut parts = Vec::new();
     let stage = gcs::connect(&rig, args.dry_run)
         .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
-        .and_then(|(ctrl, log)| controller_section("stage", ctrl, log, rig.stage.unit_um, &mut parts));
+        .and_then(|(ctrl, log)| {
+            controller_section("stage", ctrl, log, rig.stage.unit_um, &mut parts)
+        });
     let mut nanostage = stage.and_then(|ctrl| {
         GcsNanoStage::on_controller(ctrl, &rig, &opening)
             .map_err(|e| against_rig_file(&args, HardwareRigError::Stage(e)))
@@ -79,7 +81,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(coarse) = &rig.coarse {
         let checked = gcs::connect_coarse(coarse, args.dry_run)
             .with_context(|| format!("connecting to the coarse stage of {}", args.rig.display()))
-            .and_then(|(ctrl, log)| controller_section("coarse stage", ctrl, log, coarse.stage.unit_um, &mut parts))
+            .and_then(|(ctrl, log)| {
+                controller_section("coarse stage", ctrl, log, coarse.stage.unit_um, &mut parts)
+            })
             .and_then(|ctrl| {
                 GcsCoarseStage::on_controller(ctrl, coarse, &opening)
                     .map_err(|e| against_rig_file(&args, HardwareRigError::Coarse(e)))
