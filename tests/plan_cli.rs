@@ -1530,6 +1530,68 @@ fn plan_from_a_frame_warns_of_a_size_hint_that_finds_pieces_of_particles() {
     assert!(!right.contains("several times over"), "{right}");
 }
 
+/// Real 1 um spheres (bulk_water_000, 2.85 px/um) are spots 7-8 px
+/// across. At 2.3 um the plan ended "7 sites but only 1 particle" with no
+/// word of the size; now a smaller radius finding hundreds of spots is
+/// named. At a radius the spot model fits, the layout gives every
+/// particle the radius asked for, and `plan` says so (a spot's width is
+/// the blur's): 689 radii of exactly 0.5 um had looked measured.
+#[test]
+fn plan_from_a_frame_of_spots_names_their_size_and_says_it_does_not_size_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let calib = dir.path().join("bulk_water.toml");
+    // The frame's README: 2.85 px/um.
+    std::fs::write(
+        &calib,
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.350877, 0.0, 0.0], [0.0, 0.350877, 0.0]]\n",
+    )
+    .unwrap();
+    let frame = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/real/bulk_water/bulk_water_000.png"
+    );
+    let layout = dir.path().join("layout.json");
+    let plan = |radius_um: &str| {
+        let args = [
+            "plan",
+            "--text",
+            "L",
+            "--frame",
+            frame,
+            "--channel",
+            "green",
+            "--calib",
+            calib.to_str().unwrap(),
+            "--radius-um",
+            radius_um,
+            "--save-layout",
+            layout.to_str().unwrap(),
+        ];
+        nanopush(&args).1
+    };
+    let large = plan("2.3");
+    assert!(
+        large.contains("1 particle found near the size hint, but a hint of radius")
+            && large.contains("spots, 1.4"),
+        "{large}"
+    );
+    let small = plan("0.5");
+    assert!(
+        small.contains("too small to size") && small.contains("each is planned at 0.50 um"),
+        "{small}"
+    );
+    assert!(!small.contains("found near the size hint"), "{small}");
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&layout).unwrap()).unwrap();
+    let radii: Vec<f64> = (saved["particles"].as_array().unwrap().iter())
+        .map(|p| p["radius_um"].as_f64().unwrap())
+        .collect();
+    assert!(
+        radii.len() > 500 && radii.iter().all(|&r| r == 0.5),
+        "{radii:?}"
+    );
+}
+
 /// `plan --frame` on a folder plans from its first image and says which,
 /// as `detect` does (a helper walking recorded videos had to guess).
 #[test]

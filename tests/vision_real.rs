@@ -484,6 +484,39 @@ fn detect_says_when_its_size_hint_does_not_fit() {
     assert!(!said.contains("warning"), "{said}");
 }
 
+/// A ring-model hint too large for frames of small spots (about 7 px)
+/// found a handful of "rings" without a word (T76S3F00001: 12 at 10 px,
+/// 1 at 15 px, where trackpy finds 344; bulk_water_000: 1 at 13 px):
+/// `detect` now says that a smaller hint finds hundreds of spots, and
+/// names their size. At the right hint it says nothing.
+#[test]
+fn a_hint_too_large_for_small_spots_is_said_with_the_spots_size() {
+    let said = |frame: &str, args: &[&str]| {
+        let out = detect_cli(&fixture(frame), args);
+        assert!(out.status.success());
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let t76 = "trackpy_tests/T76S3F00001.png";
+    for hint in ["10", "15"] {
+        let text = said(t76, &["--diameter-px", hint]);
+        assert!(
+            text.contains(&format!(
+                "at the size hint of {hint} px across, but a hint of"
+            )) && text.contains("spots besides, 8.")
+                && text.contains("is --diameter-px their size?"),
+            "{hint}: {text}"
+        );
+    }
+    let water = "bulk_water/bulk_water_000.png";
+    let text = said(water, &["--channel", "green", "--diameter-px", "13"]);
+    assert!(
+        text.contains("1 particle found at the size hint of 13 px across"),
+        "{text}"
+    );
+    let right = said(t76, &["--diameter-px", "7"]);
+    assert!(!right.contains("warning"), "{right}");
+}
+
 /// `nanopush detect --centre ring-edge` on a brightfield frame: the five
 /// particles within 0.5 px of the independent ring fit in the JSON it writes;
 /// with --locator crocker-grier (no ring fit) the flag is refused.

@@ -9,11 +9,12 @@ use crate::median::upper_median;
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::analyse::{PreparedFrame, prepare_frame, report_camera_state};
-use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding};
+use crate::vision::detect::{DetectSettings, Detection, detect_particles_excluding, model_for};
 use crate::vision::exposure::Exposure;
 use crate::vision::frame::Frame;
 use crate::vision::line_defects::LineDefect;
 use crate::vision::log_on_change::changed;
+use crate::vision::profile_fit::ProfileModel;
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
 pub(crate) use crate::vision::size_check::RADIUS_TOLERANCE;
@@ -47,6 +48,11 @@ pub struct Sighting {
     /// frame full of them says the scene's radius or the calibration's
     /// scale is wrong (`rig probe --camera` tells).
     pub off_size: Vec<Observation>,
+    /// At a size hint the spot model fits, the median fitted 1/e^2 radius
+    /// of the spots taken, metres: their blur's size, not the particles'
+    /// (1 um spheres at 2.85 px/um show spots 7-8 px across), so each
+    /// particle takes the hint's radius instead.
+    pub spot_radius_m: Option<f64>,
     /// Tip apex on the sample, metres, when found.
     pub tip_m: Option<[f64; 2]>,
     /// Frames dropped before this one was had.
@@ -267,7 +273,26 @@ impl Perception {
             .into_iter()
             .partition(|d| (d.r_px / expected_r_px - 1.0).abs() <= RADIUS_TOLERANCE);
         let measured = |d: &&Detection| on_sample_at(d.x_px, d.y_px, d.r_px);
-        let particles = fitting.iter().map(measured).collect();
+        // A spot's width is the optics' blur, not the particle's size: it
+        // had been planned with (0.5 um spheres all planned at the hint,
+        // their fits failed; at a hint of 1.2 um, 1.16-1.2 um).
+        let spots = model_for(&self.detect) == ProfileModel::Spot;
+        let particles = if spots {
+            (fitting.iter())
+                .map(|d| on_sample_at(d.x_px, d.y_px, expected_r_px))
+                .collect()
+        } else {
+            fitting.iter().map(measured).collect()
+        };
+        let spot_radius_m = spots
+            .then(|| {
+                let mut radii: Vec<f64> = (fitting.iter())
+                    .filter(|d| d.fitted)
+                    .map(|d| d.r_px * calibration.m_per_px())
+                    .collect();
+                upper_median(&mut radii)
+            })
+            .flatten();
         let off_size = off.iter().map(measured).collect();
         let cut_by_edge = cut
             .iter()
@@ -297,6 +322,7 @@ impl Perception {
             particles,
             cut_by_edge,
             off_size,
+            spot_radius_m,
             tip_m,
             dropped,
             repaired_lines,

@@ -28,6 +28,7 @@ pub mod poor_fits;
 pub mod profile_fit;
 pub mod radial_symmetry;
 pub mod ring_edge;
+pub mod ring_search;
 pub mod roi;
 pub mod size_check;
 pub mod tiff_description;

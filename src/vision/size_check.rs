@@ -7,6 +7,7 @@
 use super::detect::{DetectSettings, Detection, detect_particles, model_for};
 use super::frame::Frame;
 use super::profile_fit::ProfileModel;
+use super::ring_search::rings_where_spots_gather;
 use crate::median::upper_median;
 
 /// Relative radius error beyond which a detection is not taken for a
@@ -26,6 +27,11 @@ pub const LARGER_SIZE_FACTORS: [f64; 3] = [2.0, 4.0, 8.0];
 /// size (of [`LARGER_SIZE_FACTORS`], 3 px reached neither the 12 px nor
 /// the 24 px hint near 17 px rings).
 pub const PIECE_CHECK_FACTORS: [f64; 7] = [2.0, 2.8, 4.0, 5.7, 8.0, 11.3, 16.0];
+
+/// Smaller hints tried at a ring-model hint, those the spot model fits:
+/// 10 px on T76S3F00001's spots 7 px across found 12 "rings" without a
+/// word, where 7 px finds 744 spots (trackpy 344).
+pub const SPOT_SIZE_FACTORS: [f64; 2] = [0.5, 0.7];
 
 /// Fewest whole particles a larger hint must find for `detect` to doubt
 /// its hint: one stray ring is no evidence (bulk_water's 743 spots at 7 px
@@ -49,17 +55,17 @@ pub struct FoundAtHint {
     pub rings: Vec<[f64; 3]>,
 }
 
-/// Of `found`, how many lie on one of `rings` (within 1.2 radii of its
-/// centre): pieces of it.
-fn on_rings(found: &[Detection], rings: &[[f64; 3]]) -> usize {
-    found
+/// True when `d` lies on one of `rings` (within 1.2 radii of its
+/// centre): a piece of it.
+fn on_a_ring(d: &Detection, rings: &[[f64; 3]]) -> bool {
+    rings
         .iter()
-        .filter(|d| {
-            rings
-                .iter()
-                .any(|[x, y, r]| (d.x_px - x).hypot(d.y_px - y) <= 1.2 * r)
-        })
-        .count()
+        .any(|[x, y, r]| (d.x_px - x).hypot(d.y_px - y) <= 1.2 * r)
+}
+
+/// Of `found`, how many lie on one of `rings`: pieces of them.
+fn on_rings(found: &[Detection], rings: &[[f64; 3]]) -> usize {
+    found.iter().filter(|d| on_a_ring(d, rings)).count()
 }
 
 /// The hints of `factors` (times `detect`'s) that [`found_at_other_hint`]
@@ -83,11 +89,13 @@ fn ring_hints_px(detect: &DetectSettings, factors: &[f64]) -> Vec<f64> {
 /// of its own size in `frame` (a prepared frame), if any. Only hints the
 /// ring model fits: the spot model does not measure a size (its radius is
 /// the hint), and at half a 10 px hint it takes the rings of the true
-/// particles for 83 spots.
+/// particles for 83 spots. Given the `spots` found at the hint, only rings
+/// they could be pieces of are looked for ([`rings_where_spots_gather`]).
 pub fn found_at_other_hint(
     frame: &Frame,
     detect: &DetectSettings,
     factors: &[f64],
+    spots: &[Detection],
 ) -> Option<FoundAtHint> {
     factors
         .iter()
@@ -100,7 +108,7 @@ pub fn found_at_other_hint(
                 return None;
             }
             let hint_r_px = settings.diameter_px / 2.0;
-            let found = detect_particles(frame, &settings).ok()?;
+            let found = rings_where_spots_gather(frame, &settings, spots).ok()?;
             let rings: Vec<[f64; 3]> = whole_of_size(&found, hint_r_px)
                 .map(|d| [d.x_px, d.y_px, d.r_px])
                 .collect();
@@ -113,6 +121,50 @@ pub fn found_at_other_hint(
             })
         })
         .max_by_key(|found| found.count)
+}
+
+/// The fitted whole spots a smaller hint of [`SPOT_SIZE_FACTORS`] finds
+/// off `rings` (the ring fits at `detect`'s hint, pixels), when `detect`'s
+/// hint is one the ring model fits and the hint with most finds at least
+/// [`FEWEST_WHOLE`] and [`PIECES_PER_PARTICLE`] times `found_at_hint`: the
+/// hint is too large for particles seen as spots. Their median radius is
+/// the spots' fitted 1/e^2 radius, the blur's for particles the optics do
+/// not resolve.
+pub fn spots_at_smaller_hint(
+    frame: &Frame,
+    detect: &DetectSettings,
+    rings: &[[f64; 3]],
+    found_at_hint: usize,
+) -> Option<FoundAtHint> {
+    if model_for(detect) != ProfileModel::Ring {
+        return None;
+    }
+    SPOT_SIZE_FACTORS
+        .iter()
+        .filter_map(|factor| {
+            let settings = DetectSettings {
+                diameter_px: detect.diameter_px * factor,
+                ..detect.clone()
+            };
+            if model_for(&settings) != ProfileModel::Spot || settings.diameter_px < 2.0 {
+                return None;
+            }
+            let found = detect_particles(frame, &settings).ok()?;
+            let spots: Vec<[f64; 3]> = found
+                .iter()
+                .filter(|d| d.fitted && !d.edge_clipped && !on_a_ring(d, rings))
+                .map(|d| [d.x_px, d.y_px, d.r_px])
+                .collect();
+            let mut radii: Vec<f64> = spots.iter().map(|s| s[2]).collect();
+            Some(FoundAtHint {
+                hint_r_px: settings.diameter_px / 2.0,
+                count: spots.len(),
+                median_r_px: upper_median(&mut radii)?,
+                rings: spots,
+            })
+        })
+        .max_by_key(|found| found.count)
+        .filter(|s| s.count >= FEWEST_WHOLE && s.count >= PIECES_PER_PARTICLE * found_at_hint)
 }
 
 /// The whole detections (not cut by the frame's edge) within
@@ -132,6 +184,16 @@ const FEWEST_FOR_UNFITTED: usize = 5;
 pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -> Option<String> {
     let hint_d = detect.diameter_px;
     let whole: Vec<&Detection> = found.iter().filter(|d| !d.edge_clipped).collect();
+    let rings: Vec<[f64; 3]> = whole.iter().map(|d| [d.x_px, d.y_px, d.r_px]).collect();
+    if let Some(s) = spots_at_smaller_hint(frame, detect, &rings, whole.len()) {
+        return Some(format!(
+            "{} found at the size hint of {hint_d} px across, but a hint of {:.1} px finds {} spots besides, {:.1} px across (median 1/e^2 width): is --diameter-px their size? A hint near the spots' finds them",
+            crate::wording::counted(found.len(), "particle"),
+            2.0 * s.hint_r_px,
+            s.count,
+            2.0 * s.median_r_px
+        ));
+    }
     if whole.is_empty() {
         let tried = ring_hints_px(detect, &OTHER_SIZE_FACTORS);
         let tried_text = tried
@@ -145,7 +207,7 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
             ""
         };
         return Some(
-            match found_at_other_hint(frame, detect, &OTHER_SIZE_FACTORS) {
+            match found_at_other_hint(frame, detect, &OTHER_SIZE_FACTORS, &[]) {
                 Some(o) if o.count >= FEWEST_WHOLE => format!(
                     "no whole particle found at the size hint of {hint_d} px across; a hint of {:.1} px finds {} (median diameter {:.1} px): is --diameter-px their size?",
                     2.0 * o.hint_r_px,
@@ -162,7 +224,7 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
         );
     }
     if model_for(detect) == ProfileModel::Spot
-        && let Some(o) = found_at_other_hint(frame, detect, &PIECE_CHECK_FACTORS)
+        && let Some(o) = found_at_other_hint(frame, detect, &PIECE_CHECK_FACTORS, found)
     {
         // Pieces: most of what was found lies on a few larger rings (bulk
         // water's 649 spots at 5 px had been doubted for 3 "rings" at 10).

@@ -152,6 +152,7 @@ mod tests {
             particles: Vec::new(),
             cut_by_edge: Vec::new(),
             off_size: Vec::new(),
+            spot_radius_m: None,
             tip_m: Some(tip_um.map(|v| v * 1e-6)),
             dropped: 0,
             repaired_lines: Vec::new(),
