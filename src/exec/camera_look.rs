@@ -19,8 +19,8 @@ use crate::vision::frame::Frame;
 use crate::vision::line_defects::LineDefect;
 use crate::vision::profile_fit::ProfileModel;
 use crate::vision::size_check::{
-    LARGER_SIZE_FACTORS, OTHER_SIZE_FACTORS, PIECES_PER_PARTICLE, found_at_other_hint,
-    spots_at_smaller_hint,
+    FEWEST_WHOLE, FoundAtHint, LARGER_SIZE_FACTORS, OTHER_SIZE_FACTORS, PIECES_PER_PARTICLE,
+    found_at_other_hint, spots_at_smaller_hint,
 };
 use crate::vision::tip::{TipDetection, TipSettings, detect_tip};
 
@@ -109,7 +109,9 @@ pub fn look_uncalibrated(
 /// other hint than `detect`'s finds particles, 0.5 to 2 times it), or, at
 /// a hint the spot model fits, a larger hint that finds whole particles
 /// `PIECES_PER_PARTICLE` (3) times fewer (the hint's particles are pieces of
-/// them); `None` when particles of the size were found.
+/// them), or, at a hint the ring model fits, a smaller hint that finds
+/// that many times more spots (the hint is too large for particles seen
+/// as spots); `None` when particles of the size were found.
 pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Option<String> {
     let um_per_px = m_per_px * 1e6;
     if let Some(radius_m) = s.off_size_median_radius_m() {
@@ -123,30 +125,30 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
     let found = s.particles.len();
     // Spots a smaller hint finds in numbers: the radius is too large for
     // particles seen as spots (2.3 um on bulk_water's 1 um spheres planned
-    // "7 sites but only 1 particle" without a word), the rings it
-    // found left out (their arcs fit as spots too): the sighting keeps no
-    // pixels, so they are found again.
-    let rings = || -> Vec<[f64; 3]> {
-        (detect_particles(&frame, detect).unwrap_or_default().iter())
+    // "7 sites but only 1 particle" without a word), the rings it found
+    // left out (their arcs fit as spots too): the sighting keeps no
+    // pixels, so they are found again. Asked after the ring hints when
+    // nothing was found: larger rings' pieces are spots too.
+    let spots = || {
+        let rings: Vec<[f64; 3]> = (detect_particles(&frame, detect).unwrap_or_default().iter())
             .filter(|d| !d.edge_clipped)
             .map(|d| [d.x_px, d.y_px, d.r_px])
-            .collect()
+            .collect();
+        spots_at_smaller_hint(&frame, detect, &rings, found)
     };
-    if model_for(detect) == ProfileModel::Ring
-        && let Some(o) = spots_at_smaller_hint(&frame, detect, &rings(), found)
-    {
-        return Some(format!(
+    let spots_said = |o: FoundAtHint| {
+        format!(
             "{} found near the size hint, but a hint of radius {:.2} um finds {} spots, \
              {:.2} um in radius (median 1/e^2 width; for particles the optics do not resolve, the blur's): {SIZE_CHECK}",
             crate::wording::counted(found, "particle"),
             o.hint_r_px * um_per_px,
             o.count,
             o.median_r_px * um_per_px
-        ));
-    }
+        )
+    };
     if found > 0 || !s.cut_by_edge.is_empty() {
         if model_for(detect) == ProfileModel::Ring {
-            return None;
+            return spots().map(spots_said);
         }
         return found_at_other_hint(&frame, detect, &LARGER_SIZE_FACTORS, &[])
             .filter(|o| o.count > 0 && found >= PIECES_PER_PARTICLE * o.count)
@@ -160,19 +162,24 @@ pub fn size_doubt(s: &Sighting, detect: &DetectSettings, m_per_px: f64) -> Optio
                 )
             });
     }
+    let rings_said = |o: FoundAtHint| {
+        format!(
+            "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
+            o.hint_r_px * um_per_px,
+            o.count,
+            o.median_r_px * um_per_px
+        )
+    };
     Some(
         match found_at_other_hint(&frame, detect, &OTHER_SIZE_FACTORS, &[]) {
-            Some(o) => format!(
-                "no particle found near the size hint; with a hint of radius {:.2} um, {} found whole (median radius {:.2} um): {SIZE_CHECK}",
-                o.hint_r_px * um_per_px,
-                o.count,
-                o.median_r_px * um_per_px
-            ),
-            None => {
-                format!(
+            Some(o) if o.count >= FEWEST_WHOLE => rings_said(o),
+            other => match (spots(), other) {
+                (Some(o), _) => spots_said(o),
+                (None, Some(o)) => rings_said(o),
+                (None, None) => format!(
                     "no particle found near the size hint, nor at half or twice it: {SIZE_CHECK}"
-                )
-            }
+                ),
+            },
         },
     )
 }

@@ -185,14 +185,23 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
     let hint_d = detect.diameter_px;
     let whole: Vec<&Detection> = found.iter().filter(|d| !d.edge_clipped).collect();
     let rings: Vec<[f64; 3]> = whole.iter().map(|d| [d.x_px, d.y_px, d.r_px]).collect();
-    if let Some(s) = spots_at_smaller_hint(frame, detect, &rings, whole.len()) {
-        return Some(format!(
+    // Asked after the ring hints when nothing was found: their pieces fit
+    // as spots too (a synthetic frame's 20 px rings gave 19 "spots" at a
+    // 10 px hint's half).
+    let spots = || spots_at_smaller_hint(frame, detect, &rings, whole.len());
+    let spots_said = |s: FoundAtHint| {
+        format!(
             "{} found at the size hint of {hint_d} px across, but a hint of {:.1} px finds {} spots besides, {:.1} px across (median 1/e^2 width): is --diameter-px their size? A hint near the spots' finds them",
             crate::wording::counted(found.len(), "particle"),
             2.0 * s.hint_r_px,
             s.count,
             2.0 * s.median_r_px
-        ));
+        )
+    };
+    if !whole.is_empty()
+        && let Some(s) = spots()
+    {
+        return Some(spots_said(s));
     }
     if whole.is_empty() {
         let tried = ring_hints_px(detect, &OTHER_SIZE_FACTORS);
@@ -214,12 +223,15 @@ pub fn hint_doubt(frame: &Frame, detect: &DetectSettings, found: &[Detection]) -
                     o.count,
                     2.0 * o.median_r_px
                 ),
-                _ if tried.is_empty() => format!(
-                    "no whole particle found at the size hint of {hint_d} px across: is --diameter-px their size in this frame?{contrast}"
-                ),
-                _ => format!(
-                    "no whole particle found at the size hint of {hint_d} px across, nor at {tried_text} px: is --diameter-px their size in this frame?{contrast}"
-                ),
+                _ => match spots() {
+                    Some(s) => spots_said(s),
+                    None if tried.is_empty() => format!(
+                        "no whole particle found at the size hint of {hint_d} px across: is --diameter-px their size in this frame?{contrast}"
+                    ),
+                    None => format!(
+                        "no whole particle found at the size hint of {hint_d} px across, nor at {tried_text} px: is --diameter-px their size in this frame?{contrast}"
+                    ),
+                },
             },
         );
     }
