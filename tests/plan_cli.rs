@@ -265,6 +265,10 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
         (on_easy("CMU", &[]), "only 4 particles"),
         (on_easy("I", &["--pitch-um", "NaN"]), "pitch-um"),
         (
+            on_easy("I", &["--rotation-deg", "1e300"]),
+            "--rotation-deg must be within -360 and 360",
+        ),
+        (
             on_easy("I", &["--contact-angle-deg", "120"]),
             "--contact-angle-deg is 120.000 (must be in 0..90",
         ),
@@ -599,6 +603,36 @@ fn plan_without_at_places_where_the_plan_pushes_least() {
     );
     let total_s = summary["placement_and_planning_time_s"].as_f64().unwrap();
     assert!(total_s >= summary["planning_time_s"].as_f64().unwrap());
+    // It says where it placed the pattern, as --at takes it: the centre of
+    // the sites' box, and --at there plans the same pushes.
+    let (lo, hi) = chosen.iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), s| {
+            let c = [s.centre_m.x * 1e6, s.centre_m.y * 1e6];
+            (
+                [lo[0].min(c[0]), lo[1].min(c[1])],
+                [hi[0].max(c[0]), hi[1].max(c[1])],
+            )
+        },
+    );
+    let centre = &summary["centre_um"];
+    let at = [0, 1].map(|k| centre[k].as_f64().unwrap());
+    for k in 0..2 {
+        assert!((at[k] - (lo[k] + hi[k]) / 2.0).abs() < 1e-9, "{centre}");
+    }
+    let (ok, again) = nanopush(&[
+        "plan",
+        "--text",
+        "CMU",
+        "--layout",
+        path.to_str().unwrap(),
+        "--at",
+        &format!("{},{}", at[0], at[1]),
+        "--json",
+    ]);
+    assert!(ok, "{again}");
+    let again: serde_json::Value = serde_json::from_str(&again).unwrap();
+    assert!((again["push_distance_um"].as_f64().unwrap() - push_um).abs() < 1e-6);
 }
 
 /// Particles (um) of a layout file.

@@ -50,6 +50,14 @@ impl PatternArgs {
         {
             bail!("--pitch-um must be finite and > 0, got {p}");
         }
+        // A turn at most: 1e300 degrees had been planned as whatever its
+        // sine came to.
+        if self.rotation_deg.is_nan() || self.rotation_deg.abs() > 360.0 {
+            bail!(
+                "--rotation-deg must be within -360 and 360, got {}",
+                self.rotation_deg
+            );
+        }
         Ok(PatternRequest {
             source,
             pitch_m: self.pitch_um.map(|p| p * 1e-6),

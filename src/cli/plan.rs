@@ -303,6 +303,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     summary["verified"] = report.ok.into();
     summary["placement_and_planning_time_s"] = placing_s.into();
     summary["standoff_um"] = (plan.standoff_m * 1e6).into();
+    // Where the pattern went, as `--at` takes it (the centre of the sites'
+    // box): the summary had not said, so a user could not keep a placement.
+    let centres: Vec<_> = plan.sites.iter().map(|s| s.centre_m).collect();
+    let (lo, hi) = crate::plan::pattern::bbox(&centres);
+    let centre_um = (lo + hi) * 0.5e6;
+    summary["centre_um"] = serde_json::json!([centre_um.x, centre_um.y]);
     let held = config.immovable.len();
     let beyond_field = layout.beyond_field_ids().len();
     if args.frame.is_some() {
@@ -330,7 +336,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else if held > 0 {
             println!("immovable        {held} (marked in the layout: obstacles, not pushed)");
         }
-        println!("sites            {}", plan.sites.len());
+        println!(
+            "sites            {} centred at ({:.2}, {:.2}) um (--at {:.2},{:.2} places them there again)",
+            plan.sites.len(),
+            centre_um.x,
+            centre_um.y,
+            centre_um.x,
+            centre_um.y
+        );
         println!(
             "pushes           {} ({} buffer/detour)",
             s.pushes, s.buffer_pushes

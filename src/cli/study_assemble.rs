@@ -326,7 +326,8 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
         .unwrap_or_else(|| "-".to_string())
 }
 
-/// The acceptance figures with their targets, one line each. The RMS and
+/// The acceptance figures with their targets, one line each; time ratios
+/// to 3 decimals (a worst of 1.5018 had read "1.50 (target <= 1.5)"). The RMS and
 /// time figures are of the complete runs only, and say so when some runs
 /// are not (a stopped run's errors are microns: its worst is in the table).
 pub fn acceptance_text(s: &StudySummary) -> String {
@@ -350,8 +351,8 @@ pub fn acceptance_text(s: &StudySummary) -> String {
         wr = fmt_opt(s.worst_rms_nm, 0),
         d = s.detected_lost_contacts,
         m = s.missed_lost_contacts,
-        mt = fmt_opt(s.median_time_ratio, 2),
-        wt = fmt_opt(s.worst_time_ratio, 2),
+        mt = fmt_opt(s.median_time_ratio, 3),
+        wt = fmt_opt(s.worst_time_ratio, 3),
         mw = fmt_opt(s.median_wall_s, 1),
     )
 }
@@ -451,7 +452,7 @@ mod tests {
         assert!(text.contains("2/4 runs filled every site (50 %"), "{text}");
         assert!(
             text.contains("placement RMS of the 2 complete runs: median 200 nm, worst 300 nm")
-                && text.contains("time / lower bound of the 2 complete runs: median 1.60"),
+                && text.contains("time / lower bound of the 2 complete runs: median 1.600"),
             "{text}"
         );
     }

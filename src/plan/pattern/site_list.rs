@@ -122,6 +122,21 @@ pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> 
         SiteList::parse(&text, has_extension(path, "toml"), &origin)?.to_pattern(&origin)
     } else if has_extension(path, "svg") {
         super::svg_path::read_svg(path, pitch_m)
+    } else if path.is_dir() || image::ImageFormat::from_path(path).is_err() {
+        // Named by what a pattern may be: a folder had read "The image
+        // format could not be determined", a .csv "`.\"csv\"` was not
+        // recognized as an image format".
+        let what = if path.is_dir() {
+            "a folder"
+        } else {
+            "no pattern file"
+        };
+        Err(PatternError::File {
+            path: origin,
+            message: format!(
+                "{what}: give a site list (.toml or .json, um), an SVG drawing (.svg) or an image (.png, .bmp, .tif, ...)"
+            ),
+        })
     } else {
         super::bitmap::read_bitmap(path, pitch_m)
     }
@@ -130,6 +145,25 @@ pub fn read_pattern(path: &Path, pitch_m: f64) -> Result<Pattern, PatternError> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A folder or a file of no pattern kind is named as such, with the
+    /// kinds a pattern may be.
+    #[test]
+    fn a_file_of_no_pattern_kind_names_the_kinds() {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("sites.csv");
+        std::fs::write(&csv, "x,y\n1,2\n").unwrap();
+        for (path, what) in [
+            (dir.path().to_path_buf(), "a folder"),
+            (csv, "no pattern file"),
+        ] {
+            let e = read_pattern(&path, 10e-6).unwrap_err().to_string();
+            assert!(
+                e.contains(what) && e.contains(".toml or .json") && e.contains(".svg"),
+                "{e}"
+            );
+        }
+    }
 
     /// A site a metre or more out is refused by index, in short figures.
     #[test]
