@@ -1476,6 +1476,11 @@ fn a_frame_far_from_the_stage_origin_places_its_pattern_in_the_frame() {
     let line = format!("plan --text L --at 60,50 --frame {frame} --calib {calib}");
     let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
     assert!(!ok, "{text}");
+    // A calibration's half-pixel offset is no frame far away.
+    write_calibration(&calib, 0.5, [0.0, 0.6]);
+    let line = format!("plan --text L --frame {frame} --calib {calib}");
+    let (ok, text) = nanopush(&line.split_whitespace().collect::<Vec<_>>());
+    assert!(ok && !text.contains("the frame starts at"), "{text}");
 }
 
 /// A particle the probe's body half covers (its centre 2.5 px off the

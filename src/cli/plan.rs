@@ -168,7 +168,9 @@ fn placement_area(
         let seen_lo = Vector2::new(lo[0], lo[1]).add_scalar(radius_m);
         if seen_lo.x > area.lo_m.x || seen_lo.y > area.lo_m.y {
             area.lo_m = area.lo_m.sup(&seen_lo);
-            if tell {
+            // Said only of a frame a radius or more from the origin: a
+            // half-pixel offset of a calibration had been told too.
+            if tell && lo[0].max(lo[1]) >= radius_m {
                 eprintln!(
                     "the frame starts at ({:.1}, {:.1}) um on the stage: the pattern is placed within what it shows",
                     lo[0] * 1e6,
