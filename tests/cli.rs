@@ -195,3 +195,39 @@ fn a_toml_file_of_another_kind_is_named_by_what_it_is() {
         assert!(!stderr.contains("unknown field"), "{args:?}: {stderr}");
     }
 }
+
+/// A file given where a command writes a folder is refused before the
+/// command works, in words (simulate had printed its whole summary, then
+/// failed with "File exists (os error 17)"; dry-run and study plan's
+/// --dump-dir said the same).
+#[test]
+fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("keep.json");
+    std::fs::write(&file, "kept").unwrap();
+    let f = file.to_str().unwrap();
+    let recording = "fixtures/recordings/real-brightfield";
+    for args in [
+        vec!["simulate", "--scene", "calib/paper-ps-ito.toml", "--out", f],
+        vec!["dry-run", "--recording", recording, "--out", f],
+        vec!["study", "plan", "--sizes", "30", "--dump-dir", f],
+        vec![
+            "study", "assemble", "--text", "I", "--runs", "1", "--out", f,
+        ],
+        vec!["demo", "--out", f],
+    ] {
+        let run = nanopush().args(&args).output().unwrap();
+        let (stdout, stderr) = (
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr),
+        );
+        assert!(!run.status.success(), "{args:?}: {stderr}");
+        let flag = args[args.len() - 2];
+        assert!(
+            stderr.contains(&format!("{flag} {f} is a file: give a folder")),
+            "{args:?}: {stderr}"
+        );
+        assert!(stdout.trim().is_empty(), "{args:?} worked first: {stdout}");
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "kept");
+}

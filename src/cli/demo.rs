@@ -44,9 +44,7 @@ struct AssembleCommand {
 pub fn run(args: Args) -> anyhow::Result<()> {
     Pattern::from_text(&args.text, 1e-5)?;
     // Refused before the single push runs (it had run, then the demo failed).
-    if args.out.exists() && !args.out.is_dir() {
-        anyhow::bail!("--out {} is a file: give a folder", args.out.display());
-    }
+    super::folder_flag::check_folder_flag("--out", &args.out)?;
     let push_dir = args.out.join("paper-push");
     paper_push(&args.scene, &push_dir)?;
     let assemble_dir = args.out.join("assemble");

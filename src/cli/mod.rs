@@ -12,6 +12,7 @@ mod detect;
 mod distinct_outputs;
 mod dry_run;
 mod error_message;
+mod folder_flag;
 mod go_on;
 mod made_folder;
 mod pattern_args;

@@ -165,6 +165,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             STUDY_SIZES.end()
         );
     }
+    if let Some(dir) = &args.dump_dir {
+        super::folder_flag::check_folder_flag("--dump-dir", dir)?;
+    }
     if !args.json {
         println!(
             "{:>6} {:>9} {:>12} {:>12} {:>11}  note",
