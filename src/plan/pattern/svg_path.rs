@@ -68,6 +68,20 @@ pub fn pattern_from_svg(text: &str, pitch_m: f64, origin: &str) -> Result<Patter
             });
         }
     }
+    // A drawing within one pitch gives one site: a heart whose viewBox
+    // scaled it to 6 um had planned as one site, "pushes 0", without a word.
+    if sites.pos.len() == 1 {
+        let points: Vec<Vector2<f64>> = polylines.iter().flatten().copied().collect();
+        let (lo, hi) = super::bbox(&points);
+        return Err(PatternError::File {
+            path: origin.into(),
+            message: format!(
+                "its paths span {:.2} x {:.2} um, within one pitch ({pitch_um} um): one site. Draw it larger (1 user unit = 1 um, after any viewBox) or give a smaller --pitch-um",
+                hi.x - lo.x,
+                hi.y - lo.y
+            ),
+        });
+    }
     let offsets = sites
         .pos
         .iter()
@@ -313,6 +327,19 @@ mod tests {
             assert!(p.x.abs() < 1e-4, "{p:?}");
             assert!((p.y - (26.25 - 10.5 * k as f64)).abs() < 1e-4, "{k}: {p:?}");
         }
+    }
+
+    /// A drawing within one pitch is refused, saying its size: it had
+    /// given one site and planned "pushes 0".
+    #[test]
+    fn a_drawing_within_one_pitch_is_refused_with_its_size() {
+        let shrunk = r#"<svg xmlns="http://www.w3.org/2000/svg" width="6" height="6" viewBox="0 0 600 600"><circle cx="300" cy="300" r="250" fill="none" stroke="black"/></svg>"#;
+        let e = pattern_from_svg(shrunk, 10.5e-6, "mem")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("span 5.00 x 5.00 um, within one pitch"), "{e}");
+        let small = svg(r#"<circle cx="100" cy="100" r="3" fill="none" stroke="black"/>"#);
+        assert!(pattern_from_svg(&small, 10.5e-6, "mem").is_err());
     }
 
     #[test]
