@@ -288,8 +288,12 @@ fn synth_frame_refuses_bad_layouts_and_radii_at_once() {
     let truth = dir.path().join("t.json").display().to_string();
     let cases = [
         (
+            layout("wide.json", &p(0, "50", "50", "60")),
+            "particle 0 radius_um 60.000 is too large",
+        ),
+        (
             layout("huge.json", &p(0, "50", "50", "1e4")),
-            "particle 0 radius_um 10000.000 is too large",
+            "particle 0 radius_um 10000.000 is over 500 um",
         ),
         (
             layout("far.json", &p(2, "5000", "-50", "5")),
