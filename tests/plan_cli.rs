@@ -285,6 +285,18 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
             on_easy("I", &["--tip-radius-um", "1e9"]),
             "--tip-radius-um is 1000000000 (must be at most half",
         ),
+        (
+            on_easy("I", &["--keep-clear-um", "-1"]),
+            "--keep-clear-um is -1.000 (must be finite, >= 0 and at most 25 um",
+        ),
+        (
+            on_easy("I", &["--keep-clear-um", "NaN"]),
+            "--keep-clear-um is NaN",
+        ),
+        (
+            on_easy("I", &["--keep-clear-um", "30"]),
+            "--keep-clear-um is 30.000 (must be finite, >= 0 and at most 25 um",
+        ),
         (on_easy("I", &["--pitch-um", "5"]), "overlap"),
         (on_easy("I", &["--at", "5,5"]), "outside the reachable area"),
         // Negative numbers reach the checks (not the argument parser).
@@ -1206,27 +1218,8 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
 fn a_field_refused_at_every_placement_says_how_many_were_tried_and_why() {
     use nanopush::plan::placement::{BOUND_CANDIDATES, FALLBACK_CANDIDATES};
     let dir = tempfile::tempdir().unwrap();
-    let layout = dir.path().join("dense.json");
-    let layout = layout.to_str().unwrap();
-    let (ok, text) = nanopush(&[
-        "synth",
-        "layout",
-        "--n",
-        "75",
-        "--field-um",
-        "120x100",
-        "--radius-um",
-        "5",
-        "--min-gap-um",
-        "1",
-        "--kind",
-        "adversarial",
-        "--seed",
-        "3",
-        "--out",
-        layout,
-    ]);
-    assert!(ok, "{text}");
+    let layout = cmu_field_layout(dir.path(), "75", "adversarial", "3");
+    let layout = layout.as_str();
     let (ok, text) = nanopush(&["plan", "--text", "CMU", "--layout", layout]);
     assert!(!ok, "a plan was found: {text}");
     let tried: usize = text
@@ -1647,4 +1640,68 @@ fn plan_from_a_folder_names_the_frame_it_plans_from() {
         text.contains("planning from its first image of 4, frame_00000.png"),
         "{text}"
     );
+}
+
+/// A particle the plan does not need may lie 0.15 um beside a letter and
+/// read as part of it (the demo's 'CMU' had one bridging the C and the M);
+/// `--keep-clear-um` moves such strays that far off the pattern's
+/// particles, and the plan still verifies.
+#[test]
+fn keep_clear_leaves_no_stray_beside_the_pattern() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = cmu_field_layout(dir.path(), "50", "uniform", "4");
+    let layout = layout.as_str();
+    let stray_gap = |more: &[&str]| -> (f64, f64) {
+        let head = ["plan", "--text", "CMU", "--layout", layout, "--json"];
+        let args: Vec<&str> = head.iter().chain(more).copied().collect();
+        let (ok, text) = nanopush(&args);
+        assert!(ok, "{text}");
+        let json: serde_json::Value = serde_json::from_str(&text).expect("summary JSON");
+        assert_eq!(json["verified"], true, "{text}");
+        (
+            json["nearest_stray_gap_um"].as_f64().expect("a stray gap"),
+            json["push_distance_um"].as_f64().unwrap(),
+        )
+    };
+    let (plain_gap, plain_push) = stray_gap(&[]);
+    assert!(
+        plain_gap < 1.0,
+        "this layout's plain plan left its nearest stray {plain_gap} um off"
+    );
+    let (kept_gap, kept_push) = stray_gap(&["--keep-clear-um", "2.5"]);
+    assert!(
+        kept_gap >= 2.5,
+        "nearest stray {kept_gap} um with --keep-clear-um 2.5"
+    );
+    assert!(
+        kept_push > plain_push,
+        "clearing strays pushed no farther: {kept_push} um"
+    );
+}
+
+/// `synth layout` of `n` 10 um particles at 1 um gaps in the 120 x 100 um
+/// field of the CMU scenes, of `kind` and `seed`: its path.
+fn cmu_field_layout(dir: &Path, n: &str, kind: &str, seed: &str) -> String {
+    let path = dir.join(format!("{kind}-{n}-{seed}.json"));
+    let out = path.to_str().unwrap();
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        n,
+        "--field-um",
+        "120x100",
+        "--radius-um",
+        "5",
+        "--min-gap-um",
+        "1",
+        "--kind",
+        kind,
+        "--seed",
+        seed,
+        "--out",
+        out,
+    ]);
+    assert!(ok, "{text}");
+    out.to_owned()
 }

@@ -71,6 +71,12 @@ pub struct Args {
     /// Assignment method.
     #[arg(long, value_enum, default_value_t = AssignmentMethod::Fast)]
     pub method: AssignmentMethod,
+    /// Free space, um, that particles on no site keep from the pattern's
+    /// particles where the plan leaves them (so no stray reads as part of a
+    /// letter). Default 0: the plain planning problem; `assemble` and
+    /// `demo` keep half the particle radius (2.5 um for 10 um spheres).
+    #[arg(long, default_value_t = 0.0)]
+    pub keep_clear_um: f64,
     /// Write the plan here (nanopush.plan/1 JSON).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -249,6 +255,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         method: args.method,
         tip_start_m,
         immovable,
+        keep_clear_m: Some(args.keep_clear_um * 1e-6),
         ..PlanConfig::default()
     };
     // Named as the flags that set them ("push_speed_um_s is 0" had answered
@@ -258,6 +265,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ("tip_radius_um", "--tip-radius-um"),
             ("push_speed_um_s", "--speed-um-s"),
             ("contact_angle_deg", "--contact-angle-deg"),
+            ("keep_clear_um", "--keep-clear-um"),
         ]
         .iter()
         .fold(e.to_string(), |t, (name, flag)| t.replace(name, flag));
@@ -311,6 +319,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (lo, hi) = crate::plan::pattern::bbox(&centres);
     let centre_um = (lo + hi) * 0.5e6;
     summary["centre_um"] = serde_json::json!([centre_um.x, centre_um.y]);
+    summary["nearest_stray_gap_um"] = report.nearest_stray_gap_um.into();
+    summary["keep_clear_um"] = args.keep_clear_um.into();
     let held = config.immovable.len();
     let beyond_field = layout.beyond_field_ids().len();
     if args.frame.is_some() {
@@ -338,13 +348,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         } else if held > 0 {
             println!("immovable        {held} (marked in the layout: obstacles, not pushed)");
         }
+        let (x, y) = (format!("{:.2}", centre_um.x), format!("{:.2}", centre_um.y));
         println!(
-            "sites            {} centred at ({:.2}, {:.2}) um (--at {:.2},{:.2} places them there again)",
+            "sites            {} centred at ({x}, {y}) um (--at {x},{y} places them there again)",
             plan.sites.len(),
-            centre_um.x,
-            centre_um.y,
-            centre_um.x,
-            centre_um.y
         );
         println!(
             "pushes           {} ({} buffer/detour)",
@@ -370,6 +377,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 "tip landing      {} um behind contact ({} um left particles the tip could not get behind)",
                 plan.standoff_m * 1e6,
                 config.standoff_m * 1e6
+            );
+        }
+        if let Some(gap) = report.nearest_stray_gap_um {
+            println!(
+                "nearest stray    {gap:.2} um from the pattern's particles (a particle on no site; --keep-clear-um {} kept)",
+                args.keep_clear_um
             );
         }
         println!("coarse moves     {}", s.coarse_moves);

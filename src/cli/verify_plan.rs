@@ -138,6 +138,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
         println!("max final error   {:.4} um", rep.max_final_error_um);
+        if let Some(gap) = rep.nearest_stray_gap_um {
+            println!(
+                "nearest stray     {gap:.2} um from a site's particle (a particle on no site)"
+            );
+        }
         println!("result            {}", if rep.ok { "ok" } else { "FAILED" });
     }
     if !rep.ok {

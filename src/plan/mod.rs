@@ -96,6 +96,14 @@ pub struct PlanConfig {
     /// off the sites but never onto one. None: what the sites' spacing
     /// allows ([`site_radius_m`], set by [`plan_assembly`]).
     pub site_radius_m: Option<f64>,
+    /// Free space a particle that fills no site keeps from the sites'
+    /// particles where the plan leaves it (on top of the clearance), so
+    /// that the pattern stands clear: a stray 0.5 um beside a letter reads
+    /// as part of it (the demo's 'CMU' had one bridging the C and the M).
+    /// Default `Some(0.0)`: none, the planning problem issue 4 measures
+    /// (LB_push counts no clearing). None: [`DEFAULT_KEEP_CLEAR_RADII`] of
+    /// the sites' particle radius, what the assembling commands keep.
+    pub keep_clear_m: Option<f64>,
 }
 
 impl Default for PlanConfig {
@@ -116,15 +124,32 @@ impl Default for PlanConfig {
             immovable: Vec::new(),
             search_effort: DEFAULT_SEARCH_EFFORT,
             site_radius_m: None,
+            keep_clear_m: Some(0.0),
         }
     }
 }
+
+/// Free space between a particle on no site and the sites' particles the
+/// assembling commands keep, in the sites' particle radii
+/// ([`PlanConfig::keep_clear_m`]): 2.5 um for 10 um spheres, five times the
+/// 0.5 um between a letter's particles.
+pub const DEFAULT_KEEP_CLEAR_RADII: f64 = 0.5;
 
 impl PlanConfig {
     /// The radius the sites are held at: [`PlanConfig::site_radius_m`], or
     /// the layout's largest.
     pub fn site_radius_for(&self, layout: &Layout) -> f64 {
         self.site_radius_m.unwrap_or_else(|| layout.max_radius_m())
+    }
+
+    /// The least free space a particle on no site keeps from a site's
+    /// particle of `site_radius_m`: the clearance and
+    /// [`PlanConfig::keep_clear_m`].
+    pub fn stray_clearance_m(&self, site_radius_m: f64) -> f64 {
+        self.clearance_m
+            + self
+                .keep_clear_m
+                .unwrap_or(DEFAULT_KEEP_CLEAR_RADII * site_radius_m)
     }
 
     /// [`PlanConfig::site_radius_m`], or the one `sites` allow ([`site_radius_m`]).
@@ -377,6 +402,18 @@ impl PlanConfig {
             return Err(PlanError::Config(format!(
                 "site_radius_um is {} (must be finite and > 0)",
                 r * 1e6
+            )));
+        }
+        // A gap a quarter of the range wide would ask every particle in
+        // reach to leave the pattern's surroundings.
+        if let Some(g) = self
+            .keep_clear_m
+            .filter(|g| !(g.is_finite() && *g >= 0.0 && *g <= self.nanostage_range_m / 4.0))
+        {
+            return Err(PlanError::Config(format!(
+                "keep_clear_um is {:.3} (must be finite, >= 0 and at most {} um, a quarter of the nanostage range)",
+                g * 1e6,
+                self.nanostage_range_m * 0.25e6
             )));
         }
         // Shorter pushes would cut a move across the range into more than
@@ -934,7 +971,7 @@ fn park_costs(
         grid: &site_grid,
         centres: site_pts,
         radius_m: config.site_radius_for(layout),
-        clearance_m: config.clearance_m,
+        clearance_m: config.stray_clearance_m(config.site_radius_for(layout)),
     };
     free_particles
         .iter()

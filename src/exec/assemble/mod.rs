@@ -154,6 +154,9 @@ impl AssemblySettings {
             travel_speed_m_per_s: self.travel_speed_m_per_s,
             on_site_tolerance_m: self.placed_tolerance_m,
             max_push_m: self.longest_push_m,
+            // The pattern assembled stands clear of the particles it does
+            // not use: half their radius (`DEFAULT_KEEP_CLEAR_RADII`).
+            keep_clear_m: None,
             ..PlanConfig::default()
         }
     }
@@ -967,7 +970,48 @@ impl From<PushError> for ExecError {
 
 #[cfg(test)]
 mod tests {
-    use super::RunEnd;
+    use super::{AssemblySettings, RunEnd};
+    use crate::plan::cmu_scene::cmu_scene;
+    use crate::plan::synth_layout::LayoutKind;
+    use crate::plan::{PlanConfig, plan_assembly, verify_plan};
+
+    /// The loop's plans leave the particles they need not 2.5 um (half a
+    /// radius) off the pattern's where they can: on 12 CMU scenes, 8 keep
+    /// it; in the other 4 a stray stays 0.12-0.90 um off, in the blank
+    /// column between two letters or walled in by particles, with no free
+    /// push out (measured 2026-11-30; a regression floor, not the goal).
+    /// The plain planner keeps it on fewer scenes, its nearest stray
+    /// within 0.2 um (one that reads as part of a letter).
+    #[test]
+    fn the_loops_plans_keep_strays_clear_of_the_pattern() {
+        let loops = AssemblySettings::default().plan_config_pushing_at(1e-6);
+        let plain = PlanConfig::default();
+        let (mut kept, mut plain_gaps) = (Vec::new(), Vec::new());
+        for seed in 0..12 {
+            let (layout, sites) = cmu_scene(LayoutKind::Uniform, seed).unwrap();
+            let gap = |config: &PlanConfig| {
+                let plan = plan_assembly(&layout, &sites, config).unwrap();
+                let report = verify_plan(&plan, &layout, config);
+                assert!(report.ok, "seed {seed}: {}", report.summary());
+                report.nearest_stray_gap_um.unwrap()
+            };
+            kept.push(gap(&loops));
+            plain_gaps.push(gap(&plain));
+        }
+        eprintln!("nearest strays, keeping 2.5 um: {kept:.2?}; plain: {plain_gaps:.2?}");
+        let clear = |gaps: &[f64]| gaps.iter().filter(|&&g| g >= 2.5).count();
+        assert!(
+            clear(&kept) >= 8,
+            "{} of 12 keep 2.5 um: {kept:.2?}",
+            clear(&kept)
+        );
+        assert!(clear(&plain_gaps) < clear(&kept), "plain: {plain_gaps:.2?}");
+        let plain_nearest = plain_gaps.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            plain_nearest < 0.2,
+            "plain plans' nearest stray {plain_nearest} um"
+        );
+    }
 
     /// A dry run's one push reads "1 push made", not "1 pushes made".
     #[test]

@@ -32,7 +32,6 @@ impl Scheduler<'_> {
         let q = self.moves[m].particle;
         let from = self.occ.pos[q];
         let site = self.obstacles.site(m);
-        let r = self.radius(q);
         let spots: Vec<Vector2<f64>> = self
             .buffer_spots(q, avoid)
             .take(BUFFER_CANDIDATES)
@@ -43,7 +42,7 @@ impl Scheduler<'_> {
             .into_iter()
             .map(|s| {
                 (
-                    !self.off_sites(s, r),
+                    !self.off_sites(q, s),
                     (s - from).norm() + (site - s).norm(),
                     s,
                 )
@@ -83,18 +82,16 @@ impl Scheduler<'_> {
         q: usize,
         avoid: &'s [Corridor],
     ) -> impl Iterator<Item = Vector2<f64>> + 's {
-        let from = self.occ.pos[q];
-        let r = self.radius(q);
         let usable = move |spot: &Vector2<f64>| self.spot_usable(q, *spot, avoid);
         let nearest_out = if self.role[q] == Role::Idle {
             avoid
         } else {
             &[]
         };
-        let spots = self.ring(from, r, nearest_out, None);
+        let spots = self.ring(q, nearest_out, None);
         let on = spots.clone();
-        let off = spots.into_iter().filter(move |s| self.off_sites(*s, r));
-        let on = on.into_iter().filter(move |s| !self.off_sites(*s, r));
+        let off = spots.into_iter().filter(move |s| self.off_sites(q, *s));
+        let on = on.into_iter().filter(move |s| !self.off_sites(q, *s));
         off.chain(on).filter(usable)
     }
 
@@ -122,18 +119,27 @@ impl Scheduler<'_> {
             && avoid.iter().all(|c| !c.hits(spot, r, cl))
     }
 
-    /// True when a disc of radius r at `spot` keeps clearance from every site.
-    pub(super) fn off_sites(&self, spot: Vector2<f64>, r: f64) -> bool {
-        !self.site_discs().covered_by(spot, r)
+    /// True when particle q at `spot` keeps its clearance from every site
+    /// ([`Self::site_discs`]).
+    pub(super) fn off_sites(&self, q: usize, spot: Vector2<f64>) -> bool {
+        !self.site_discs(q).covered_by(spot, self.radius(q))
     }
 
-    /// The sites as discs of the radius they take, for the parking questions.
-    fn site_discs(&self) -> crate::plan::parking::SiteDiscs<'_> {
+    /// The sites as discs of the radius they take, for the parking
+    /// questions of particle q: an idle particle ends where it is left, so
+    /// it keeps the keep-clear gap too ([`PlanConfig::stray_clearance_m`](crate::plan::PlanConfig::stray_clearance_m));
+    /// one still to move keeps the clearance only.
+    fn site_discs(&self, q: usize) -> crate::plan::parking::SiteDiscs<'_> {
+        let clearance_m = if self.role[q] == Role::Idle {
+            self.config.stray_clearance_m(self.site_radius_m)
+        } else {
+            self.config.clearance_m
+        };
         crate::plan::parking::SiteDiscs {
             grid: &self.site_grid,
             centres: &self.site_pts,
             radius_m: self.site_radius_m,
-            clearance_m: self.config.clearance_m,
+            clearance_m,
         }
     }
 
@@ -145,30 +151,30 @@ impl Scheduler<'_> {
     /// asks 10.35): the nearest spot off the other sites still covered
     /// them, and the break fell back to quarter-pitch ring spots or none
     /// (CMU seed 82 of the 40-60 scenes: 1.1716 -> 1.0403).
-    pub(super) fn peel_site_discs(&self) -> crate::plan::parking::SiteDiscs<'_> {
-        let mut discs = self.site_discs();
+    pub(super) fn peel_site_discs(&self, q: usize) -> crate::plan::parking::SiteDiscs<'_> {
+        let mut discs = self.site_discs(q);
         discs.clearance_m += self.config.on_site_tolerance_m;
         discs
     }
 
-    /// Candidate spots around `centre` for a disc of radius r, with the
-    /// nearest ones off the sites and clear of `avoid` (see
+    /// Candidate spots around particle q, with the nearest ones off the
+    /// sites and clear of `avoid` (see
     /// [`crate::plan::parking::ring_off_sites`]).
     pub(super) fn ring(
         &self,
-        centre: Vector2<f64>,
-        r: f64,
+        q: usize,
         avoid: &[Corridor],
         own: Option<usize>,
     ) -> Vec<Vector2<f64>> {
         let cl = self.config.clearance_m;
+        let r = self.radius(q);
         let discs = if self.wide_spots {
-            self.peel_site_discs()
+            self.peel_site_discs(q)
         } else {
-            self.site_discs()
+            self.site_discs(q)
         };
         crate::plan::parking::ring_off_sites(
-            centre,
+            self.occ.pos[q],
             r,
             &discs,
             &|spot| avoid.iter().any(|c| c.hits(spot, r, cl)),
@@ -184,8 +190,8 @@ impl Scheduler<'_> {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
-        for spot in self.ring(from, r, avoid, None) {
-            if !self.off_sites(spot, r) || !self.spot_free(q, spot, avoid) {
+        for spot in self.ring(q, avoid, None) {
+            if !self.off_sites(q, spot) || !self.spot_free(q, spot, avoid) {
                 continue;
             }
             let way = self.corridor(q, from, spot);

@@ -7,6 +7,7 @@ use super::Role;
 use super::Scheduler;
 use crate::plan::peel::FillOrder;
 use crate::plan::peel::peel;
+use crate::plan::pushes::Corridor;
 use nalgebra::Vector2;
 
 /// Buffer pushes allowed to break covering cycles before the peel gives up.
@@ -19,33 +20,53 @@ const MAX_CYCLE_BREAKS: usize = 8;
 const TOWARD_SITE_GAP_M: f64 = 0.1e-6;
 
 impl Scheduler<'_> {
-    /// Pushes every idle particle that covers a site to a spot off the sites
-    /// before the moves start; one with no free parking push now is left to
-    /// the repairs.
+    /// Pushes every idle particle that covers a site (or lies within the
+    /// keep-clear gap) to a spot off the sites: before the moves start, and
+    /// once more after them; one with no free parking push now is left to
+    /// the repairs, or after the moves, where it is.
     pub(super) fn clear_sites(&mut self) {
         let mut covering: Vec<usize> = (0..self.occ.pos.len())
-            .filter(|&q| {
-                self.role[q] == Role::Idle && !self.off_sites(self.occ.pos[q], self.radius(q))
-            })
+            .filter(|&q| self.role[q] == Role::Idle && !self.off_sites(q, self.occ.pos[q]))
             .collect();
         for _round in 0..3 {
             let before = covering.len();
-            covering.retain(|&q| {
-                let spot = self
-                    .buffer_spots(q, &[])
-                    .find(|s| self.off_sites(*s, self.radius(q)));
-                match spot {
-                    Some(spot) => {
-                        self.push(q, spot, true);
-                        false
-                    }
-                    None => true,
-                }
-            });
+            covering.retain(|&q| !self.push_off_sites(q, &[]));
             if covering.is_empty() || covering.len() == before {
                 break;
             }
         }
+    }
+
+    /// Pushes idle particle q to the nearest free spot off the sites (with
+    /// the keep-clear gap) out of `avoid`; true when it moved.
+    pub(super) fn push_off_sites(&mut self, q: usize, avoid: &[Corridor]) -> bool {
+        let spot = self.buffer_spots(q, avoid).find(|s| self.off_sites(q, *s));
+        if let Some(spot) = spot {
+            self.push(q, spot, true);
+        }
+        spot.is_some()
+    }
+
+    /// Particle p, idle now that move k went to another, is pushed out of
+    /// the keep-clear gap at once (out of k's way) when it lies in it:
+    /// after the moves, the letters filled round it may wall it in (CMU
+    /// seed 3: 0.9 um beside the U, no free push left). Nothing when the
+    /// plan keeps no gap beyond the clearance.
+    pub(super) fn leave_clear(&mut self, p: usize, k: usize) {
+        let pos = self.occ.pos[p];
+        if self.config.stray_clearance_m(self.site_radius_m) <= self.config.clearance_m
+            || self.off_sites(p, pos)
+        {
+            return;
+        }
+        let q = self.moves[k].particle;
+        let mut from = self.occ.pos[q];
+        let mut way = Vec::new();
+        for &to in &self.moves[k].route {
+            way.push(self.corridor(q, from, to));
+            from = to;
+        }
+        self.push_off_sites(p, &way);
     }
 
     /// Peels the sites; when it is stuck because particles cover each
@@ -104,7 +125,7 @@ impl Scheduler<'_> {
             let ring = crate::plan::parking::ring_off_sites(
                 from,
                 r,
-                &self.peel_site_discs(),
+                &self.peel_site_discs(p),
                 &|_| false,
                 own,
             );

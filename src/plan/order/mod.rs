@@ -293,6 +293,10 @@ fn order_once(
         sch.compute_conflicts(k);
     }
     sch.run()?;
+    // A particle whose site a repair handed to another is idle where it
+    // stopped, perhaps within the keep-clear gap (CMU seed 1: 1.6 um
+    // inside the C); the pattern is whole now, so only its own way counts.
+    sch.clear_sites();
     let (steps, fewer) = take_shortcuts(sch.steps, layout, &sch.site_pts, config);
     Ok(Ordered {
         pairs: placed_pairs

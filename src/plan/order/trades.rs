@@ -128,6 +128,7 @@ impl Scheduler<'_> {
                 self.moves[k].route = route;
                 self.role[q] = Role::Pending(k);
                 self.role[p] = Role::Idle;
+                self.leave_clear(p, k);
                 self.compute_conflicts(k);
                 true
             }

@@ -12,7 +12,8 @@ use crate::plan::parking::ring_off_sites;
 use crate::plan::parking::spots_off_sites_along;
 use nalgebra::Vector2;
 
-/// The sites as a parked particle must leave them: by the clearance, and
+/// The sites as a parked particle must leave them: by the clearance and
+/// the keep-clear gap ([`PlanConfig::stray_clearance_m`]), and
 /// a spot it is pushed to by
 /// [`CLEARING_MARGIN_M`](crate::plan::parking::CLEARING_MARGIN_M) more, as
 /// the order's spots ([`ring_off_sites`] adds the margin itself).
@@ -30,7 +31,7 @@ impl<'a> Parking<'a> {
             grid: Grid::new(site_pts.iter().copied(), 2.0 * radius_m),
             site_pts,
             radius_m,
-            clearance_m: config.clearance_m,
+            clearance_m: config.stray_clearance_m(radius_m),
         }
     }
 
