@@ -806,6 +806,49 @@ fn run_line(line: &str) {
     assert!(ok, "{line}: {text}");
 }
 
+/// `synth frame --layout` writes the calibration its frame is drawn with
+/// beside it (`frame.png` -> `frame.calib.toml`): `plan --frame` with that
+/// file finds every particle within 0.1 um of where the layout has it (a
+/// map guessed with the stage's y up put them up to the field's height
+/// off), the file reads back as the map it holds, and a second run keeps
+/// it unless --force. At 0.4 um a pixel, not the default 0.5.
+#[test]
+fn synth_frame_writes_the_calibration_its_frame_is_drawn_with() {
+    let dir = tempfile::tempdir().unwrap();
+    let [truth, frame, _, found] = frame_files(dir.path());
+    let calib = dir.path().join("frame.calib.toml");
+    run_line(&format!(
+        "synth layout --n 25 --field-um 120x100 --seed 5 --out {truth}"
+    ));
+    let draw = format!("synth frame --layout {truth} --um-per-px 0.4 --out {frame}");
+    let draw: Vec<&str> = draw.split_whitespace().collect();
+    let (ok, text) = nanopush(&draw);
+    assert!(
+        ok && text.contains(&format!("wrote {}", calib.display())),
+        "{text}"
+    );
+    let map = nanopush::calib::camera_map::CameraCalibration::load(&calib).unwrap();
+    for [x, y] in [[0.0, 0.0], [299.0, 0.0], [0.0, 249.0], [123.4, 56.7]] {
+        let [u, v] = map.pixel_to_stage_m(x, y).map(|m| m * 1e6);
+        assert!(
+            (u - 0.4 * x).abs() < 1e-9 && (v - 0.4 * y).abs() < 1e-9,
+            "({x}, {y}) px at ({u}, {v}) um"
+        );
+    }
+    let written = std::fs::read_to_string(&calib).unwrap();
+    let line = "pixel_to_stage_um = [[0.4, 0.0, 0.0], [0.0, 0.4, 0.0]]";
+    assert!(written.contains(line), "{written}");
+    let calib = calib.to_str().unwrap();
+    run_line(&format!(
+        "plan --text I --frame {frame} --calib {calib} --save-layout {found}"
+    ));
+    let miss = worst_miss_um(Path::new(&truth), Path::new(&found));
+    assert!(miss < 0.1, "a particle found {miss:.3} um off");
+    let (ok, text) = nanopush(&draw);
+    assert!(!ok && text.contains("exists: pass --force"), "{text}");
+    run_line(&format!("{} --force", draw.join(" ")));
+}
+
 /// `plan --frame` lays out the whole frame: the field was the tracked view
 /// (a diameter in from the far edges), 109.5 x 89.5 um of a 120 x 100 um
 /// frame, so the layout's own particles lay outside it and "CMU" (114.7

@@ -9,7 +9,7 @@ use anyhow::Context;
 use crate::plan::Layout;
 use crate::render::microscope::{RenderSettings, TipView, check_snr, render_frame};
 use crate::render::microscope_truth::{
-    Truth, check_particle_fits, random_scene, scene_from_layout,
+    Truth, check_particle_fits, layout_pixel_map, random_scene, scene_from_layout,
 };
 use crate::vision::cramer_rao::centre_crb_px;
 use crate::vision::frame_input::{hidden_sibling, save_png};
@@ -32,6 +32,15 @@ pub struct Args {
     /// Ground-truth JSON ("nanopush.truth/1").
     #[arg(long)]
     pub truth: Option<PathBuf>,
+    /// Calibration TOML mapping the frame's pixels to the layout's
+    /// micrometres, for `plan --frame --calib` or a recording (with
+    /// --layout; default: --out with its extension replaced by
+    /// .calib.toml). An existing file is kept unless --force.
+    #[arg(long, conflicts_with = "n")]
+    pub calib_out: Option<PathBuf>,
+    /// Replace an existing calibration file.
+    #[arg(long, conflicts_with = "n")]
+    pub force: bool,
     /// Pixel size for --layout, micrometres per pixel (the frame is the
     /// layout's field at this scale).
     #[arg(long, default_value_t = 0.5, conflicts_with = "n")]
@@ -80,13 +89,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.out.display()
         );
     }
+    let calib_out = args
+        .layout
+        .as_ref()
+        .map(|_| (args.calib_out.clone()).unwrap_or_else(|| args.out.with_extension("calib.toml")));
     prepare_outputs(
         &given([flagged("--layout", &args.layout)]),
         &given([
             Some(("--out", args.out.as_path())),
             flagged("--truth", &args.truth),
+            flagged("--calib-out", &calib_out),
         ]),
     )?;
+    if let Some(path) = calib_out.as_ref().filter(|p| p.exists() && !args.force) {
+        anyhow::bail!(
+            "{} exists: pass --force to replace it, or --calib-out another file",
+            path.display()
+        );
+    }
     check_snr("--snr", args.snr).map_err(anyhow::Error::msg)?;
     let tip = [args.tip_x_px, args.tip_y_px, Some(args.tip_angle_deg)];
     if let Some(bad) = tip.into_iter().flatten().find(|v| !v.is_finite()) {
@@ -138,14 +158,17 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             Some((path, serde_json::to_string_pretty(&truth)?))
         }
     };
-    // Both files or neither: each is written under a hidden name first, and
-    // renamed once both are (a frame without its truth passes for a study's input).
+    let calib = calib_out
+        .as_ref()
+        .map(|path| (path, layout_pixel_map(args.um_per_px).to_toml(None)));
+    // All files or none: each is written under a hidden name first, and
+    // renamed once all are (a frame without its truth passes for a study's input).
     let frame_tmp = hidden_sibling(&args.out);
     let mut written = vec![(frame_tmp.clone(), args.out.clone())];
     let mut renamed = Vec::new();
     let mut write = || -> anyhow::Result<()> {
         save_png(&frame, &frame_tmp).with_context(|| format!("writing {}", args.out.display()))?;
-        if let Some((path, text)) = &truth {
+        for (path, text) in truth.iter().chain(&calib) {
             let tmp = hidden_sibling(path);
             written.push((tmp.clone(), path.to_path_buf()));
             std::fs::write(&tmp, text).with_context(|| format!("writing {}", path.display()))?;
@@ -157,8 +180,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Ok(())
     };
     if let Err(e) = write() {
-        // A truth that cannot take its name (a folder there) takes the frame
-        // renamed before it along.
+        // A truth or calibration that cannot take its name (a folder there)
+        // takes the files renamed before it along.
         for path in written.iter().map(|(tmp, _)| tmp).chain(&renamed) {
             let _ = std::fs::remove_file(path);
         }
@@ -173,5 +196,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.bits,
         args.snr
     );
+    if let Some(path) = &calib_out {
+        eprintln!(
+            "wrote {}: pixel (x, y), whole at pixel centres and y down, is at ({u} x, {u} y) um in the layout; for `plan --frame --calib` or a recording's `calibration`",
+            path.display(),
+            u = args.um_per_px
+        );
+    }
     Ok(())
 }

@@ -1,12 +1,14 @@
 //! Ground truth of a synthetic frame ("nanopush.truth/1"), random scenes, and
 //! scenes of the layout file a planner writes ("nanopush.layout/1").
 
+use nalgebra::{Matrix2, Vector2};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Uniform};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::{Layout, UM_PER_M, um_text};
 
 use super::microscope::{ParticleView, SceneView, TipView};
@@ -133,6 +135,18 @@ pub fn scene_from_layout(layout: &Layout, um_per_px: f64) -> Result<SceneView, S
         particles,
         tip: None,
     })
+}
+
+/// The calibration of a frame [`scene_from_layout`] drew at `um_per_px`:
+/// pixel (x, y), integer at pixel centres, lies at (x, y) times the pixel
+/// size in the layout's micrometres, y down as the image's. Without it a
+/// user guessed the map, and one with the stage's y up put the particles
+/// the field's height off.
+pub fn layout_pixel_map(um_per_px: f64) -> CameraCalibration {
+    CameraCalibration::affine(
+        Matrix2::identity() * (um_per_px / UM_PER_M),
+        Vector2::zeros(),
+    )
 }
 
 /// Refuses a radius that is not finite and positive, or a particle whose

@@ -4,7 +4,7 @@
 //! same. The loop's first look and `nanopush detect` ask the same question:
 //! which other hint finds most whole particles of its own size.
 
-use super::detect::{DetectSettings, Detection, detect_particles, model_for};
+use super::detect::{DetectSettings, Detection, model_for};
 use super::frame::Frame;
 use super::profile_fit::ProfileModel;
 use super::ring_search::rings_where_spots_gather;
@@ -97,30 +97,7 @@ pub fn found_at_other_hint(
     factors: &[f64],
     spots: &[Detection],
 ) -> Option<FoundAtHint> {
-    factors
-        .iter()
-        .filter_map(|factor| {
-            let settings = DetectSettings {
-                diameter_px: detect.diameter_px * factor,
-                ..detect.clone()
-            };
-            if model_for(&settings) != ProfileModel::Ring {
-                return None;
-            }
-            let hint_r_px = settings.diameter_px / 2.0;
-            let found = rings_where_spots_gather(frame, &settings, spots).ok()?;
-            let rings: Vec<[f64; 3]> = whole_of_size(&found, hint_r_px)
-                .map(|d| [d.x_px, d.y_px, d.r_px])
-                .collect();
-            let mut radii: Vec<f64> = rings.iter().map(|r| r[2]).collect();
-            Some(FoundAtHint {
-                hint_r_px,
-                count: rings.len(),
-                median_r_px: upper_median(&mut radii)?,
-                rings,
-            })
-        })
-        .max_by_key(|found| found.count)
+    most_found_at(frame, detect, factors, ProfileModel::Ring, spots, of_size)
 }
 
 /// The fitted whole spots a smaller hint of [`SPOT_SIZE_FACTORS`] finds
@@ -139,40 +116,67 @@ pub fn spots_at_smaller_hint(
     if model_for(detect) != ProfileModel::Ring {
         return None;
     }
-    SPOT_SIZE_FACTORS
+    let off_rings = |d: &Detection, _| d.fitted && !d.edge_clipped && !on_a_ring(d, rings);
+    most_found_at(
+        frame,
+        detect,
+        &SPOT_SIZE_FACTORS,
+        ProfileModel::Spot,
+        &[],
+        off_rings,
+    )
+    .filter(|s| s.count >= FEWEST_WHOLE && s.count >= PIECES_PER_PARTICLE * found_at_hint)
+}
+
+/// Smallest hint tried, pixels: `detect` refuses a smaller one.
+const SMALLEST_HINT_PX: f64 = 2.0;
+
+/// Of the hints of `factors` (times `detect`'s) that `model` fits, the
+/// one whose detections `keep` (given the hint's radius) takes most of,
+/// with those kept and their median radius. The other size hints are
+/// worth trying only with the model whose answer the caller can read: a
+/// ring's measured radius, or a spot's presence. Searched as
+/// [`rings_where_spots_gather`] does given `spots`: every detection when
+/// there are none.
+fn most_found_at(
+    frame: &Frame,
+    detect: &DetectSettings,
+    factors: &[f64],
+    model: ProfileModel,
+    spots: &[Detection],
+    keep: impl Fn(&Detection, f64) -> bool,
+) -> Option<FoundAtHint> {
+    factors
         .iter()
         .filter_map(|factor| {
             let settings = DetectSettings {
                 diameter_px: detect.diameter_px * factor,
                 ..detect.clone()
             };
-            if model_for(&settings) != ProfileModel::Spot || settings.diameter_px < 2.0 {
+            if model_for(&settings) != model || settings.diameter_px < SMALLEST_HINT_PX {
                 return None;
             }
-            let found = detect_particles(frame, &settings).ok()?;
-            let spots: Vec<[f64; 3]> = found
-                .iter()
-                .filter(|d| d.fitted && !d.edge_clipped && !on_a_ring(d, rings))
+            let hint_r_px = settings.diameter_px / 2.0;
+            let found = rings_where_spots_gather(frame, &settings, spots).ok()?;
+            let kept: Vec<[f64; 3]> = (found.iter())
+                .filter(|d| keep(d, hint_r_px))
                 .map(|d| [d.x_px, d.y_px, d.r_px])
                 .collect();
-            let mut radii: Vec<f64> = spots.iter().map(|s| s[2]).collect();
+            let mut radii: Vec<f64> = kept.iter().map(|r| r[2]).collect();
             Some(FoundAtHint {
-                hint_r_px: settings.diameter_px / 2.0,
-                count: spots.len(),
+                hint_r_px,
+                count: kept.len(),
                 median_r_px: upper_median(&mut radii)?,
-                rings: spots,
+                rings: kept,
             })
         })
         .max_by_key(|found| found.count)
-        .filter(|s| s.count >= FEWEST_WHOLE && s.count >= PIECES_PER_PARTICLE * found_at_hint)
 }
 
-/// The whole detections (not cut by the frame's edge) within
+/// True when `d` is whole (not cut by the frame's edge) and within
 /// [`RADIUS_TOLERANCE`] of `hint_r_px`.
-fn whole_of_size(found: &[Detection], hint_r_px: f64) -> impl Iterator<Item = &Detection> {
-    found
-        .iter()
-        .filter(move |d| !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE)
+fn of_size(d: &Detection, hint_r_px: f64) -> bool {
+    !d.edge_clipped && (d.r_px / hint_r_px - 1.0).abs() <= RADIUS_TOLERANCE
 }
 
 /// Fewest found, most of them not fitted, that make the hint doubtful.
