@@ -14,23 +14,19 @@ import subprocess
 import sys
 import tempfile
 
-CALIBRATION = 'schema = "nanopush.calibration/1"\npixel_to_stage_um = [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0]]\n'
-
 
 def main(binary, frames=24):
     random.seed(7)
     held, far, unseen = 0, 0, 0
     with tempfile.TemporaryDirectory() as d:
         at = lambda name: os.path.join(d, name)
-        with open(at("cal.toml"), "w") as f:
-            f.write(CALIBRATION)
         for seed in range(1, frames + 1):
             run = lambda *a: subprocess.run([binary, *a], capture_output=True, text=True)
             run("synth", "layout", "--n", "40", "--field-um", "120x100", "--seed", str(seed), "--out", at("t.json"))
             x, y, angle = random.uniform(20, 220), random.uniform(20, 180), random.uniform(0, 360)
             run("synth", "frame", "--layout", at("t.json"), "--um-per-px", "0.5", "--seed", str(seed),
                 "--tip-x-px", f"{x:.1f}", "--tip-y-px", f"{y:.1f}", "--tip-angle-deg", f"{angle:.1f}",
-                "--out", at("f.png"))
+                "--out", at("f.png"), "--calib-out", at("cal.toml"), "--force")
             run("plan", "--text", "I", "--frame", at("f.png"), "--calib", at("cal.toml"),
                 "--save-layout", at("s.json"), "--json")
             truth = json.load(open(at("t.json")))["particles"]
