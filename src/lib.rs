@@ -17,5 +17,6 @@ pub mod natural_order;
 pub mod plan;
 pub mod render;
 pub mod rig;
+pub mod toml_blame;
 pub mod vision;
 pub mod wording;

@@ -1,23 +1,21 @@
-//! Reading a rig file's `[camera]` table into a [`CameraSource`], key by
-//! key. Why by hand: serde's internally tagged enums (`tag = "kind"`) read
-//! the whole table before they look at `kind`, which drops toml's spans, so
-//! a misspelt key or a bad value was reported at the `[camera]` header, not
-//! at its line. Here each key and each value is read where it stands, so
-//! toml points at it; a key of another kind is refused at the key, naming
-//! the keys this kind takes (toml's `preserve_order` gives the keys in the
-//! file's order, so the keys after `kind`; one written before `kind` is
-//! refused at `kind`, naming the key).
+//! Reading a rig file's `[camera]` table into a [`CameraSource`]: first
+//! every key any kind takes, flat (`Table`), then the kind's own. Why not
+//! serde's internally tagged enum (`tag = "kind"`): it reads the whole table
+//! before it looks at `kind`, which drops toml's spans, so every error was
+//! reported at the `[camera]` header. Read flat, toml reports a misspelt key
+//! or a bad value at its line. A key of another kind is known only once the
+//! table is read (`kind` may come last); [`at_its_key`] moves that refusal
+//! from the header to the key's line.
 
 use super::camera_source::{
     CameraSource, FrameOrder, FramePick, default_frame_timeout_ms, default_stable_ms, default_true,
 };
 use crate::vision::frame_input::Channel;
-use serde::Deserialize;
-use serde::de::{self, DeserializeSeed, Deserializer, MapAccess, Visitor};
+use serde::{Deserialize, Deserializer, Serialize, de};
 use std::path::PathBuf;
 
 /// The kinds of camera, as `kind` names them.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 enum Kind {
     Folder,
@@ -28,151 +26,13 @@ enum Kind {
     Simulated,
 }
 
-/// Every kind, for the keys any of them takes.
-const KINDS: [Kind; 6] = [
-    Kind::Folder,
-    Kind::Video,
-    Kind::Device,
-    Kind::Gstreamer,
-    Kind::Aravis,
-    Kind::Simulated,
-];
-
-impl Kind {
-    /// The keys a camera of this kind takes besides `kind`.
-    fn keys(self) -> &'static [&'static str] {
-        match self {
-            Kind::Folder => &[
-                "path",
-                "order",
-                "pick",
-                "skip_existing",
-                "stable_ms",
-                "timeout_ms",
-                "channel",
-            ],
-            Kind::Video => &["path", "channel"],
-            Kind::Device => &["index", "channel"],
-            Kind::Gstreamer => &["pipeline", "channel"],
-            Kind::Aravis => &["device", "timeout_ms"],
-            Kind::Simulated => &[],
-        }
-    }
-
-    /// `key` as some kind takes it.
-    fn any_takes(key: &str) -> Option<&'static str> {
-        KINDS
-            .iter()
-            .flat_map(|k| k.keys())
-            .find(|k| **k == key)
-            .copied()
-    }
-
-    /// Why `key`, read before `kind`, is refused: no kind takes it.
-    fn none_takes(key: &str) -> String {
-        let mut keys: Vec<&str> = KINDS.iter().flat_map(|k| k.keys()).copied().collect();
-        keys.sort_unstable();
-        keys.dedup();
-        format!(
-            "unknown field `{key}`, expected `kind` or a key of its kind: {}",
-            keys.join(", ")
-        )
-    }
-
-    /// Why `key` is refused for this kind, naming the keys it takes.
-    fn refusal(self, key: &str) -> String {
-        let name = format!("{self:?}").to_lowercase();
-        let takes = match self.keys() {
-            [] => "no other key".to_string(),
-            keys => format!("only {}", keys.join(", ")),
-        };
-        format!("unknown field `{key}`: a camera of kind = \"{name}\" takes {takes}")
-    }
-}
-
-impl<'de> Deserialize<'de> for CameraSource {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        deserializer.deserialize_map(TableVisitor)
-    }
-}
-
-/// Visits the `[camera]` table's keys in the order written.
-struct TableVisitor;
-
-impl<'de> Visitor<'de> for TableVisitor {
-    type Value = CameraSource;
-
-    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        f.write_str("a [camera] table with a kind")
-    }
-
-    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<CameraSource, A::Error> {
-        let mut kind = None;
-        let mut read = Read::default();
-        while let Some(key) = map.next_key_seed(KeySeed(kind))? {
-            match key {
-                "kind" => kind = Some(map.next_value_seed(KindSeed(&read.keys))?),
-                "path" => read.path = Some(map.next_value()?),
-                "order" => read.order = Some(map.next_value()?),
-                "pick" => read.pick = Some(map.next_value()?),
-                "skip_existing" => read.skip_existing = Some(map.next_value()?),
-                "stable_ms" => read.stable_ms = Some(map.next_value()?),
-                "timeout_ms" => read.timeout_ms = Some(map.next_value()?),
-                "channel" => read.channel = Some(map.next_value()?),
-                "index" => read.index = Some(map.next_value()?),
-                "pipeline" => read.pipeline = Some(map.next_value()?),
-                "device" => read.device = Some(map.next_value()?),
-                other => return Err(de::Error::custom(Kind::none_takes(other))),
-            }
-            if key != "kind" {
-                read.keys.push(key);
-            }
-        }
-        read.into_source(kind.ok_or_else(|| de::Error::missing_field("kind"))?)
-    }
-}
-
-/// A key of the table: one some kind takes, and once `kind` is read, one
-/// that kind takes (refused inside the key's read, so toml points at it).
-struct KeySeed(Option<Kind>);
-
-impl<'de> DeserializeSeed<'de> for KeySeed {
-    type Value = &'static str;
-
-    fn deserialize<D: Deserializer<'de>>(self, deserializer: D) -> Result<Self::Value, D::Error> {
-        let key = String::deserialize(deserializer)?;
-        if key == "kind" {
-            return Ok("kind");
-        }
-        match (Kind::any_takes(&key), self.0) {
-            (Some(k), Some(kind)) if kind.keys().contains(&k) => Ok(k),
-            (Some(k), None) => Ok(k),
-            (_, Some(kind)) => Err(de::Error::custom(kind.refusal(&key))),
-            (None, None) => Err(de::Error::custom(Kind::none_takes(&key))),
-        }
-    }
-}
-
-/// `kind`'s value, refused when a key read before it is not of that kind
-/// (`kind` written after the keys: toml then points at the kind).
-struct KindSeed<'a>(&'a [&'static str]);
-
-impl<'de> DeserializeSeed<'de> for KindSeed<'_> {
-    type Value = Kind;
-
-    fn deserialize<D: Deserializer<'de>>(self, deserializer: D) -> Result<Kind, D::Error> {
-        let kind = Kind::deserialize(deserializer)?;
-        match self.0.iter().find(|k| !kind.keys().contains(k)) {
-            Some(key) => Err(de::Error::custom(kind.refusal(key))),
-            None => Ok(kind),
-        }
-    }
-}
-
-/// The values read so far, and which keys were written.
-#[derive(Default)]
-struct Read {
-    keys: Vec<&'static str>,
+/// The `[camera]` table as written: every key any kind takes. A new key is
+/// added here and where [`Table::into_source`] builds its kind; which keys
+/// a kind takes is read off the [`CameraSource`] built.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Table {
+    kind: Kind,
     path: Option<PathBuf>,
     order: Option<FrameOrder>,
     pick: Option<FramePick>,
@@ -185,16 +45,25 @@ struct Read {
     device: Option<String>,
 }
 
-impl Read {
-    /// The camera of `kind`, defaults filled in; a required key missing
-    /// is refused (at the table: it has no line of its own).
-    fn into_source<E: de::Error>(self, kind: Kind) -> Result<CameraSource, E> {
-        let path = || self.path.clone().ok_or_else(|| E::missing_field("path"));
+/// Why a table read whole is refused: a key its kind does not take (named,
+/// to be reported at its line) or a required key missing (`key` none: it
+/// has no line of its own, the table's is used).
+struct Refusal {
+    key: Option<String>,
+    message: String,
+}
+
+impl Table {
+    /// The camera of its kind, defaults filled in; refused for a key of
+    /// another kind, then for a required key missing.
+    fn into_source(self) -> Result<CameraSource, Refusal> {
+        let written = keys_of(&self);
+        let mut missing = None;
         let channel = self.channel.unwrap_or_default();
         let timeout_ms = self.timeout_ms.unwrap_or_else(default_frame_timeout_ms);
-        Ok(match kind {
+        let source = match self.kind {
             Kind::Folder => CameraSource::Folder {
-                path: path()?,
+                path: required(self.path, "path", &mut missing),
                 order: self.order.unwrap_or_default(),
                 pick: self.pick.unwrap_or_default(),
                 skip_existing: self.skip_existing.unwrap_or_else(default_true),
@@ -203,15 +72,15 @@ impl Read {
                 channel,
             },
             Kind::Video => CameraSource::Video {
-                path: path()?,
+                path: required(self.path, "path", &mut missing),
                 channel,
             },
             Kind::Device => CameraSource::Device {
-                index: self.index.ok_or_else(|| E::missing_field("index"))?,
+                index: required(self.index, "index", &mut missing),
                 channel,
             },
             Kind::Gstreamer => CameraSource::Gstreamer {
-                pipeline: self.pipeline.ok_or_else(|| E::missing_field("pipeline"))?,
+                pipeline: required(self.pipeline, "pipeline", &mut missing),
                 channel,
             },
             Kind::Aravis => CameraSource::Aravis {
@@ -219,7 +88,74 @@ impl Read {
                 timeout_ms,
             },
             Kind::Simulated => CameraSource::Simulated,
-        })
+        };
+        let takes = keys_of(&source);
+        if let Some(key) = written.into_iter().find(|k| !takes.contains(k)) {
+            let takes = match takes.as_slice() {
+                [] => "no other key".to_string(),
+                keys => format!("only {}", keys.join(", ")),
+            };
+            let kind = source.kind();
+            return Err(Refusal {
+                message: format!(
+                    "unknown field `{key}`: a camera of kind = \"{kind}\" takes {takes}"
+                ),
+                key: Some(key),
+            });
+        }
+        match missing {
+            Some(key) => Err(Refusal {
+                key: None,
+                message: format!("missing field `{key}`"),
+            }),
+            None => Ok(source),
+        }
+    }
+}
+
+/// `value`, or a stand-in noting `key` as missing (refused once the keys
+/// are checked: a key of another kind says more).
+fn required<T: Default>(value: Option<T>, key: &'static str, missing: &mut Option<&str>) -> T {
+    value.unwrap_or_else(|| {
+        missing.get_or_insert(key);
+        T::default()
+    })
+}
+
+/// The keys `value` writes besides `kind` (a `None` writes none), in order.
+fn keys_of(value: &impl Serialize) -> Vec<String> {
+    toml::Table::try_from(value)
+        .map(|t| t.keys().filter(|k| *k != "kind").cloned().collect())
+        .unwrap_or_default()
+}
+
+impl<'de> Deserialize<'de> for CameraSource {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        Table::deserialize(deserializer)?
+            .into_source()
+            .map_err(|refusal| de::Error::custom(refusal.message))
+    }
+}
+
+/// `err`, toml's error reading the rig file `text`, at the key it names when
+/// it refuses a `[camera]` key of another kind (toml had put it at the
+/// `[camera]` header); any other error as it is.
+pub fn at_its_key(text: &str, err: toml::de::Error) -> toml::de::Error {
+    #[derive(Deserialize)]
+    struct Rig {
+        camera: Table,
+    }
+    let Ok(Rig { camera }) = toml::from_str::<Rig>(text) else {
+        return err;
+    };
+    match camera.into_source() {
+        Err(Refusal {
+            key: Some(key),
+            message,
+        }) if message == err.message() => {
+            crate::toml_blame::error_at_key(text, &["camera", &key], &message).unwrap_or(err)
+        }
+        _ => err,
     }
 }
 
@@ -234,16 +170,18 @@ mod tests {
         camera: CameraSource,
     }
 
-    /// The line toml's error points at, 1-based.
+    /// The line the error points at, 1-based, as a rig file is read.
     fn error_line(text: &str) -> (usize, String) {
         let err = toml::from_str::<Rig>(text).unwrap_err();
+        let err = at_its_key(text, err);
         let at = err.span().expect("a span").start;
         (text[..at].matches('\n').count() + 1, err.to_string())
     }
 
     /// A misspelt key, a bad value, a key of another kind (before or after
     /// `kind`) and an unknown kind are each reported at their own line; they
-    /// had all been reported at the `[camera]` header (line 2).
+    /// had all been reported at the `[camera]` header (line 2), and a key of
+    /// another kind above `kind` at the kind's line.
     #[test]
     fn each_error_points_at_its_key() {
         let head = "name = \"r\"\n[camera]\n";
@@ -251,7 +189,7 @@ mod tests {
             (
                 "kind = \"folder\"\npath = \"f\"\nstabel_ms = 50\n",
                 5,
-                "unknown field `stabel_ms`: a camera of kind = \"folder\" takes only path, order",
+                "unknown field `stabel_ms`, expected one of `kind`, `path`",
             ),
             (
                 "kind = \"folder\"\npath = \"f\"\nstable_ms = \"fast\"\n",
@@ -261,18 +199,23 @@ mod tests {
             (
                 "kind = \"device\"\nindex = 0\npath = \"x\"\n",
                 5,
-                "a camera of kind = \"device\" takes only index, channel",
+                "unknown field `path`: a camera of kind = \"device\" takes only index, channel",
             ),
             (
                 "index = 0\npath = \"x\"\nkind = \"device\"\n",
-                5,
+                4,
+                "unknown field `path`: a camera of kind = \"device\"",
+            ),
+            (
+                "path = \"x\"\nkind = \"device\"\nindex = 0\n",
+                3,
                 "unknown field `path`: a camera of kind = \"device\"",
             ),
             ("path = \"x\"\nkind = \"webcam\"\n", 4, "webcam"),
             (
                 "path = \"x\"\nstabel_ms = 1\n",
                 4,
-                "unknown field `stabel_ms`, expected `kind` or a key of its kind: channel, device",
+                "unknown field `stabel_ms`, expected one of `kind`, `path`",
             ),
             (
                 "kind = \"aravis\"\nchannel = \"green\"\n",
@@ -283,6 +226,12 @@ mod tests {
                 "kind = \"simulated\"\npath = \"x\"\n",
                 4,
                 "takes no other key",
+            ),
+            // A key of another kind is named before a required key missing.
+            (
+                "kind = \"device\"\npath = \"x\"\n",
+                4,
+                "unknown field `path`",
             ),
         ] {
             let (at, err) = error_line(&format!("{head}{body}"));

@@ -219,7 +219,7 @@ impl RigFile {
         }
         let rig: RigFile = toml::from_str(text).map_err(|e| RigFileError::Parse {
             path: path.to_path_buf(),
-            source: Box::new(e),
+            source: Box::new(crate::rig::camera_table::at_its_key(text, e)),
         })?;
         rig.validate().map_err(|reason| RigFileError::Invalid {
             path: path.to_path_buf(),
