@@ -305,6 +305,83 @@ fn bad_calibration_flags_are_refused_before_the_rig_is_opened() {
     }
 }
 
+/// A file given as --recording is refused before the rig is opened,
+/// named by its kind (it had failed after the rig was opened, "reading
+/// .../stage.csv: Not a directory").
+#[test]
+fn a_file_given_as_the_recording_folder_is_refused_by_what_it_is() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = unreachable_rig(dir.path());
+    let scene = manifest().join("calib/paper-ps-ito.toml");
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, "objective 20x").unwrap();
+    for (file, says) in [
+        (
+            &scene,
+            "this is a scene file (nanopush.scene/1), not a recording folder",
+        ),
+        (&notes, "give a recording folder (frames and stage.csv"),
+    ] {
+        let out = nanopush(&[
+            "rig",
+            "calibrate",
+            "--rig",
+            rig.to_str().unwrap(),
+            "--recording",
+            file.to_str().unwrap(),
+        ]);
+        assert!(!out.status.success());
+        let message = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            message.contains(&format!("--recording {} is a file: {says}", file.display())),
+            "{message}"
+        );
+        assert!(!message.contains("connecting"), "{message}");
+    }
+}
+
+/// On a stage without z, --z-um is refused before the rig is opened as a
+/// flag that does not apply: its refusal had ended "run the same command
+/// again", which stops the same way.
+#[test]
+fn z_um_on_a_stage_without_z_is_said_not_to_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = dir.path().join("rig.toml");
+    let text = std::fs::read_to_string(manifest().join("calib/rig-gcs-sim.toml")).unwrap();
+    assert!(text.contains("axes = [\"1\", \"2\"]"), "{text}");
+    std::fs::write(
+        &rig,
+        text.replace("\"camera-stage-sim.toml\"", "\"camera.toml\""),
+    )
+    .unwrap();
+    for (by_hand, then) in [
+        (&["--tip-lifted-by-hand"][..], "Leave --z-um out"),
+        (
+            &[][..],
+            "Leave --z-um out, lift the tip clear by hand and pass --tip-lifted-by-hand",
+        ),
+    ] {
+        let args = [
+            "rig",
+            "calibrate",
+            "--rig",
+            rig.to_str().unwrap(),
+            "--z-um",
+            "50",
+        ];
+        let out = nanopush(&[&args[..], by_hand].concat());
+        assert!(!out.status.success());
+        let message = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            message.contains("the stage has no z axis")
+                && message.contains("--z-um 50 does not apply")
+                && message.trim_end().ends_with(then)
+                && !message.contains("run the same command again"),
+            "{by_hand:?}: {message}"
+        );
+    }
+}
+
 #[test]
 fn a_missing_calibration_is_named_with_how_to_make_it() {
     let dir = tempfile::tempdir().unwrap();

@@ -97,6 +97,21 @@ fn probe_dry_run_lists_the_bytes_and_a_dead_address_fails() {
     assert!(out.status.success(), "{text}");
     assert!(text.contains("\"*IDN?\\n\""), "{text}");
     assert!(!text.contains("MOV "), "probe must not move: {text}");
+    // The bytes in the order sent: the report's queries, then the rig
+    // file's checks' (which had been left out, the list printed before
+    // them), listed after the report.
+    let listed = text
+        .split_once("dry run: bytes that would have been sent to the stage, in order")
+        .map(|(report, list)| (report.contains("pending error:"), list))
+        .unwrap_or((false, ""));
+    let sent: Vec<&str> = listed.1.lines().skip(1).map(str::trim).collect();
+    let error_query = sent.iter().position(|b| *b == "\"ERR?\\n\"");
+    assert!(
+        listed.0
+            && sent.first() == Some(&"\"*IDN?\\n\"")
+            && error_query.is_some_and(|at| sent[at..].contains(&"\"SAI?\\n\"")),
+        "{text}"
+    );
 
     let out = nanopush()
         .args(["rig", "probe", "--rig"])
@@ -742,6 +757,17 @@ fn a_typo_in_the_camera_table_is_reported_at_its_line() {
             "{typo}: {stderr}"
         );
     }
+    // A key of another kind above `kind` is reported at its own line, not
+    // at the kind's (where it had been).
+    let rig = dir.path().join("above.toml");
+    std::fs::write(&rig, text.replace("[camera]\n", "[camera]\nindex = 0\n")).unwrap();
+    let run = probe_dry_run(&rig);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains(&format!("at line {},", header + 1))
+            && stderr.contains("unknown field `index`: a camera of kind = \"folder\""),
+        "{stderr}"
+    );
 }
 
 /// `assemble --rig` refused in its set-up, after the rig was opened and

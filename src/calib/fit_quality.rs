@@ -46,8 +46,8 @@ pub fn judge(fit: &CalibrationFit, pixels: &[[f64; 2]], frame_px: (usize, usize)
     let n = pixels.len();
     if !enough_to_fit(fit.inliers) {
         verdict.refusal = Some(format!(
-            "only {} frames fit the map (of {n} with a tip): an affine map takes 3 exactly, and at least {MIN_INLIERS} are needed to check it; record more (nanopush rig calibrate --grid 3 or more)",
-            fit.inliers
+            "only {} fit the map (of {n} with a tip): an affine map takes 3 exactly, and at least {MIN_INLIERS} are needed to check it; record more (nanopush rig calibrate --grid 3 or more)",
+            crate::wording::counted(fit.inliers, "frame")
         ));
     } else if (fit.inliers as f64) < MIN_INLIER_SHARE * n as f64 {
         verdict.refusal = Some(format!(

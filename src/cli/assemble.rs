@@ -212,7 +212,7 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
 /// folder made first had then blocked the corrected command).
 /// `rig` is the rig file of a hardware run, which its resume needs too.
 pub(super) fn check_out_free(out: &Path, rig: Option<&Path>) -> anyhow::Result<PathBuf> {
-    super::folder_flag::check_folder_flag("--out", out)?;
+    super::folder_flag::check_folder_flag("--out", out, "a folder")?;
     let journal = out.join(JOURNAL);
     // A finished run cannot be resumed: --resume was offered, then refused.
     let finished = || {

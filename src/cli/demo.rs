@@ -44,7 +44,7 @@ struct AssembleCommand {
 pub fn run(args: Args) -> anyhow::Result<()> {
     Pattern::from_text(&args.text, 1e-5)?;
     // Refused before the single push runs (it had run, then the demo failed).
-    super::folder_flag::check_folder_flag("--out", &args.out)?;
+    super::folder_flag::check_folder_flag("--out", &args.out, "a folder")?;
     let push_dir = args.out.join("paper-push");
     paper_push(&args.scene, &push_dir)?;
     let assemble_dir = args.out.join("assemble");

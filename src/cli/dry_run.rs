@@ -64,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             );
         }
     }
-    super::folder_flag::check_folder_flag("--out", &args.out)?;
+    super::folder_flag::check_folder_flag("--out", &args.out, "a folder")?;
     let t = &args.target;
     let asked = if t.text.is_some() || t.pattern.is_some() {
         Some(t.request()?)

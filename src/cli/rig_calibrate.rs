@@ -6,6 +6,7 @@
 //! looks for it, so that `assemble --rig` uses it next.
 
 use super::calibrate::{FitArgs, check_output, fit_recording};
+use super::folder_flag::check_folder_flag;
 use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
 use super::stage_csv::{StageRow, parse_stage_csv, stage_csv};
@@ -22,6 +23,7 @@ use crate::rig::gcs::RigFile;
 use crate::rig::hardware::{HardwareRigOptions, RigDevices};
 use crate::rig::stage::{NanoStage, StageXyz};
 use crate::vision::frame_input::{Channel, save_png};
+use crate::wording::counted;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 
@@ -78,6 +80,10 @@ pub struct Args {
 /// What a refusal after the rig is opened, before its first move, says first.
 const UNMOVED: &str = "refused before anything moved";
 
+/// What `--recording` takes, for a file given there.
+const RECORDING_FOLDER: &str =
+    "a recording folder (frames and stage.csv; --recording takes the folder, made if missing)";
+
 /// Travel speed of the run: slow enough for any piezo stage, capped by the
 /// rig file's top speed.
 const TRAVEL_SPEED_UM_S: f64 = 20.0;
@@ -85,6 +91,9 @@ const TRAVEL_SPEED_UM_S: f64 = 20.0;
 /// Records the grid, fits the map and writes it.
 pub fn run(args: Args) -> anyhow::Result<()> {
     args.fit.check()?;
+    if let Some(recording) = &args.recording {
+        check_folder_flag("--recording", recording, RECORDING_FOLDER)?;
+    }
     let rig = RigFile::load(&args.rig)?;
     let out = args.out.clone().unwrap_or_else(|| rig.calibration.clone());
     let recording = args
@@ -119,11 +128,25 @@ fn measure(
     // Refused before anything moves: a good calibration or recording is
     // not lost to a re-run.
     check_output(out, &[], args.force)?;
+    let no_z = format!(
+        "{}: the stage has no z axis (stage.axes {:?})",
+        args.rig.display(),
+        rig.stage.axes
+    );
+    // Said before the run: on a stage without z, the run's refusal of the
+    // height had advised running the same command again.
+    if let (false, Some(z_um)) = (rig.stage.has_z(), args.z_um) {
+        let lift = match args.tip_lifted_by_hand {
+            true => "",
+            false => ", lift the tip clear by hand and pass --tip-lifted-by-hand",
+        };
+        bail!(
+            "{no_z}, so --z-um {z_um} does not apply: the tip stays at the height it is lifted to by hand. Leave --z-um out{lift}"
+        );
+    }
     if !rig.stage.has_z() && !args.tip_lifted_by_hand {
-        anyhow::bail!(
-            "{}: the stage has no z axis (stage.axes {:?}), so the tip cannot be lifted and the grid would sweep it across the sample (particles moved 6 um on a simulated run): lift it clear by hand, then pass --tip-lifted-by-hand",
-            args.rig.display(),
-            rig.stage.axes
+        bail!(
+            "{no_z}, so the tip cannot be lifted and the grid would sweep it across the sample (particles moved 6 um on a simulated run): lift it clear by hand, then pass --tip-lifted-by-hand"
         );
     }
     let csv = recording.join("stage.csv");
@@ -191,7 +214,11 @@ fn measure(
         });
     }
     let new = fit_recording(recording, out, Channel::Luminance, &args.fit, args.force)?;
-    println!("recording: {} ({} frames)", recording.display(), rows.len());
+    println!(
+        "recording: {} ({})",
+        recording.display(),
+        counted(rows.len(), "frame")
+    );
     if let Some(old) = previous {
         // A camera or stage that moved since the last calibration shows here.
         let moved = new.largest_difference_m(&old, view.0, view.1);
@@ -355,13 +382,15 @@ fn saved_frames(
     }
     if enough_to_fit(with_tip) {
         return format!(
-            "{frames} frames saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out {}`, or {})",
+            "{} saved in {dir} (fit them with `nanopush calibrate --recording {dir} --out {}`, or {})",
+            counted(frames, "frame"),
             out.display(),
             again(fix, true)
         );
     }
     format!(
-        "{frames} frames saved in {dir}, {with_tip} with a tip: too few to fit a map (at least {MIN_INLIERS}); {}",
+        "{} saved in {dir}, {with_tip} with a tip: too few to fit a map (at least {MIN_INLIERS}); {}",
+        counted(frames, "frame"),
         again(fix, true)
     )
 }
@@ -419,8 +448,9 @@ fn clear_recording(dir: &Path, out: &Path) -> anyhow::Result<()> {
         removed += 1;
     }
     println!(
-        "replacing the recording in {}: {removed} files of the earlier one removed",
-        dir.display()
+        "replacing the recording in {}: {} of the earlier one removed",
+        dir.display(),
+        counted(removed, "file")
     );
     Ok(())
 }

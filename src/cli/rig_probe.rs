@@ -63,10 +63,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         interrupt: Arc::new(AtomicBool::new(false)),
     };
     let mut parts = Vec::new();
+    // A dry run's bytes are listed once the rig file's checks have sent
+    // theirs too, in the order sent (they had been listed before the
+    // checks' queries, which were left out).
+    let mut stage_log = None;
     let stage = gcs::connect(&rig, args.dry_run)
         .with_context(|| format!("connecting to the stage of {}", args.rig.display()))
         .and_then(|(ctrl, log)| {
-            controller_section("stage", ctrl, log, rig.stage.unit_um, &mut parts)
+            stage_log = log;
+            controller_section("stage", ctrl, rig.stage.unit_um, &mut parts)
         });
     let mut nanostage = stage.and_then(|ctrl| {
         GcsNanoStage::on_controller(ctrl, &rig, &opening)
@@ -78,17 +83,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         _ => None,
     };
     parts.extend(nanostage.err().map(Err));
+    parts.extend(stage_log.map(|log| sent_bytes("stage", &log)));
     if let Some(coarse) = &rig.coarse {
+        let mut coarse_log = None;
         let checked = gcs::connect_coarse(coarse, args.dry_run)
             .with_context(|| format!("connecting to the coarse stage of {}", args.rig.display()))
             .and_then(|(ctrl, log)| {
-                controller_section("coarse stage", ctrl, log, coarse.stage.unit_um, &mut parts)
+                coarse_log = log;
+                controller_section("coarse stage", ctrl, coarse.stage.unit_um, &mut parts)
             })
             .and_then(|ctrl| {
                 GcsCoarseStage::on_controller(ctrl, coarse, &opening)
                     .map_err(|e| against_rig_file(&args, HardwareRigError::Coarse(e)))
             });
         parts.extend(checked.err().map(Err));
+        parts.extend(coarse_log.map(|log| sent_bytes("coarse stage", &log)));
     }
     if args.camera {
         parts.extend(camera_section(&rig, &args, stage_at));
@@ -200,32 +209,35 @@ fn camera_section(
     }
 }
 
-/// Probes one controller: its report (and, in a dry run, the bytes), its
-/// lengths in um through the rig file's `unit_um`, goes into `parts`; the
-/// controller is handed back for the rig file's checks.
+/// Probes one controller: its report, its lengths in um through the rig
+/// file's `unit_um`, goes into `parts`; the controller is handed back for
+/// the rig file's checks.
 fn controller_section(
     what: &str,
     mut ctrl: GcsController,
-    log: Option<gcs::SentLog>,
     unit_um: f64,
     parts: &mut Vec<anyhow::Result<String>>,
 ) -> anyhow::Result<GcsController> {
-    use std::fmt::Write;
     let report = probe(&mut ctrl, unit_um)
         .with_context(|| format!("probing the {what} at {}", ctrl.endpoint()))?;
-    let mut s = format!("{what}:\n{report}");
-    if let Some(log) = log {
-        let _ = writeln!(s, "dry run: bytes that would have been sent to the {what}:");
-        for bytes in log
-            .lock()
-            .map_err(|_| anyhow::anyhow!("dry-run log poisoned"))?
-            .iter()
-        {
-            let _ = writeln!(s, "  {:?}", String::from_utf8_lossy(bytes));
-        }
-    }
-    parts.push(Ok(s));
+    parts.push(Ok(format!("{what}:\n{report}")));
     Ok(ctrl)
+}
+
+/// A dry run's bytes for the controller `what`, in the order sent: the
+/// report's queries, then the rig file's checks'.
+fn sent_bytes(what: &str, log: &gcs::SentLog) -> anyhow::Result<String> {
+    use std::fmt::Write;
+    let sent = log
+        .lock()
+        .map_err(|_| anyhow::anyhow!("dry-run log poisoned"))?;
+    let mut s = format!(
+        "dry run: bytes that would have been sent to the {what}, in order (the report's queries above, then the rig file's checks):\n"
+    );
+    for bytes in sent.iter() {
+        let _ = writeln!(s, "  {:?}", String::from_utf8_lossy(bytes));
+    }
+    Ok(s)
 }
 
 /// The controller's report; ranges, positions, targets and velocities in um

@@ -116,7 +116,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     stop.store(false, Ordering::SeqCst);
     if let Some(feeder) = feeder {
         let frames = feeder.stop()?;
-        eprintln!("simulated microscope: {frames} frames written");
+        eprintln!(
+            "simulated microscope: {} written",
+            crate::wording::counted(frames, "frame")
+        );
     }
     Ok(())
 }

@@ -89,7 +89,7 @@ pub(super) fn simulate_scene(scene: &Scene) -> anyhow::Result<(PushSummary, Vec<
 /// Runs the simulation and prints or writes the result.
 pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(dir) = &args.out {
-        super::folder_flag::check_folder_flag("--out", dir)?;
+        super::folder_flag::check_folder_flag("--out", dir, "a folder")?;
     }
     let scene = scene_with_overrides(&args)?;
     let (summary, rows) = simulate_scene(&scene)?;

@@ -127,7 +127,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 args.first_seed, args.runs
             )
         })?;
-    super::folder_flag::check_folder_flag("--out", &args.out)?;
+    super::folder_flag::check_folder_flag("--out", &args.out, "a folder")?;
     if !args.force
         && let Some(held) = held_study(&args.out)
     {

@@ -166,7 +166,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
     }
     if let Some(dir) = &args.dump_dir {
-        super::folder_flag::check_folder_flag("--dump-dir", dir)?;
+        super::folder_flag::check_folder_flag("--dump-dir", dir, "a folder")?;
     }
     if !args.json {
         println!(

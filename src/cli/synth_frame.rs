@@ -188,11 +188,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         return Err(e);
     }
     eprintln!(
-        "wrote {} ({}x{}, {} particles, {}-bit, SNR {})",
+        "wrote {} ({}x{}, {}, {}-bit, SNR {})",
         args.out.display(),
         frame.width(),
         frame.height(),
-        scene.particles.len(),
+        crate::wording::counted(scene.particles.len(), "particle"),
         args.bits,
         args.snr
     );

@@ -63,8 +63,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let layout = synth_layout(&p)?;
     layout.write(&args.out)?;
     println!(
-        "wrote {} particles to {}",
-        layout.particles.len(),
+        "wrote {} to {}",
+        crate::wording::counted(layout.particles.len(), "particle"),
         args.out.display()
     );
     Ok(())

@@ -207,7 +207,10 @@ fn write_frame_lines(
     writeln!(f, "source:         {source}")?;
     let grabs = match dropped {
         0 => String::new(),
-        n => format!(" (after {n} grabs without a frame)"),
+        n => format!(
+            " (after {} without a frame)",
+            crate::wording::counted(n, "grab")
+        ),
     };
     writeln!(
         f,

@@ -193,7 +193,13 @@ pub struct RepairedLine {
 
 impl std::fmt::Display for RepairedLine {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} {} ({} frames)", self.axis, self.index, self.frames)
+        write!(
+            f,
+            "{} {} ({})",
+            self.axis,
+            self.index,
+            crate::wording::counted(self.frames, "frame")
+        )
     }
 }
 
@@ -323,7 +329,12 @@ impl AssemblyReport {
             saturated_fraction: c.max_saturated_fraction,
             dark_fraction: c.max_dark_fraction,
         };
-        (c.frames > 0).then(|| format!("{} frames (up to {worst})", c.frames))
+        (c.frames > 0).then(|| {
+            format!(
+                "{} (up to {worst})",
+                crate::wording::counted(c.frames, "frame")
+            )
+        })
     }
 
     /// "rms 12 nm, max 30 nm (camera)", with "over 19 sites with a
@@ -1021,18 +1032,26 @@ mod tests {
             r.clipped_frames_summary().as_deref(),
             Some("12 frames (up to 61.0 % saturated, 0.0 % at 0 counts)")
         );
-        r.repaired_lines = vec![RepairedLine {
-            axis: LineAxis::Column,
-            index: 200,
-            frames: 12,
-        }];
+        // One frame is said as one ("row 7 (1 frames)" had been).
+        r.repaired_lines = vec![
+            RepairedLine {
+                axis: LineAxis::Column,
+                index: 200,
+                frames: 12,
+            },
+            RepairedLine {
+                axis: LineAxis::Row,
+                index: 7,
+                frames: 1,
+            },
+        ];
         assert_eq!(
             r.repaired_lines_summary().as_deref(),
-            Some("column 200 (12 frames)")
+            Some("column 200 (12 frames), row 7 (1 frame)")
         );
         let text = serde_json::to_string(&r).unwrap();
         assert!(
-            text.contains(r#""repaired_lines":[{"axis":"column","index":200,"frames":12}]"#),
+            text.contains(r#""repaired_lines":[{"axis":"column","index":200,"frames":12},{"axis":"row","index":7,"frames":1}]"#),
             "{text}"
         );
         assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);

@@ -128,8 +128,8 @@ impl VerifyReport {
         }
         if let Some(first) = self.bad_starts.first() {
             parts.push(format!(
-                "{} pushes start away from their particle (first: step {first})",
-                self.bad_starts.len()
+                "{} start away from their particle (first: step {first})",
+                crate::wording::counted(self.bad_starts.len(), "push")
             ));
         }
         if !self.unknown_particles.is_empty() {
@@ -140,26 +140,26 @@ impl VerifyReport {
         }
         if let Some(first) = self.bad_approaches.first() {
             parts.push(format!(
-                "{} pushes approach away from their particle's back (first: step {first})",
-                self.bad_approaches.len()
+                "{} approach away from their particle's back (first: step {first})",
+                crate::wording::counted(self.bad_approaches.len(), "push")
             ));
         }
         if let Some(first) = self.unreachable.first() {
             parts.push(format!(
-                "{} pushes leave the nanostage window, no coarse move bringing them into it (first: step {first})",
-                self.unreachable.len()
+                "{} leave the nanostage window, no coarse move bringing them into it (first: step {first})",
+                crate::wording::counted(self.unreachable.len(), "push")
             ));
         }
         if let Some(first) = self.left_field.first() {
             parts.push(format!(
-                "{} pushes leave their particle more than two radii beyond the field (first: step {first})",
-                self.left_field.len()
+                "{} leave their particle more than two radii beyond the field (first: step {first})",
+                crate::wording::counted(self.left_field.len(), "push")
             ));
         }
         if let Some(first) = self.moved_immovable.first() {
             parts.push(format!(
-                "{} pushes move a particle that must not move (first: step {first})",
-                self.moved_immovable.len()
+                "{} move a particle that must not move (first: step {first})",
+                crate::wording::counted(self.moved_immovable.len(), "push")
             ));
         }
         if !self.unfilled_sites.is_empty() {
