@@ -1,6 +1,10 @@
 //! The binary's contract: help works, unknown commands fail with a non-zero exit.
 
 use std::process::Command;
+use std::time::Duration;
+
+mod interrupted;
+use interrupted::interrupt_after;
 
 fn nanopush() -> Command {
     Command::new(env!("CARGO_BIN_EXE_nanopush"))
@@ -111,12 +115,109 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
     );
     assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
     assert!(study("L", &["--force"]).status.success());
+    let written = std::fs::read_to_string(&summary).unwrap();
+    // More sites than the layout's particles: refused before any run, the
+    // study left as it was (each run had failed on it in turn).
     let too_big = study("HELLO WORLD NANOPUSH", &["--force"]);
     let said = String::from_utf8_lossy(&too_big.stderr);
     assert!(
-        !too_big.status.success() && said.contains("no run produced a report"),
+        !too_big.status.success()
+            && said.contains("sites but only 50 particles: cannot fill the pattern"),
         "{said}"
     );
+    assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
+}
+
+/// `demo` and `study assemble` count a text's sites against the simulated
+/// layout's particles before any work, and refuse in the planner's words
+/// with both counts: the demo had simulated the paper push and placed the
+/// pattern, the study had run every seed, before the run said so.
+#[test]
+fn a_text_with_more_sites_than_particles_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    for (command, extra) in [
+        ("demo", &[][..]),
+        ("study", &["assemble", "--runs", "3"][..]),
+    ] {
+        let out = dir.path().join(command);
+        let run = nanopush()
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .arg(command)
+            .args(extra)
+            .args(["--text", "NANOPUSH NANOPUSH", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let said = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{command}: {said}");
+        let sites = nanopush::plan::Pattern::from_text("NANOPUSH NANOPUSH", 1e-5)
+            .unwrap()
+            .offsets_m
+            .len();
+        assert!(
+            said.contains(&format!(
+                "{sites} sites but only 50 particles: cannot fill the pattern"
+            )),
+            "{command}: {said}"
+        );
+        assert!(
+            !out.exists(),
+            "{command} worked first: {}",
+            String::from_utf8_lossy(&run.stdout)
+        );
+    }
+}
+
+/// Ctrl-C (here SIGINT to the study alone, as `kill -INT` sends it) is
+/// answered at once and stops the seed in progress as a run stops, within
+/// seconds: the seeds finished are kept and said (it had let the seed run
+/// to its end). The stopped seed's journal reads back, ending in its stop.
+#[test]
+fn ctrl_c_stops_a_study_at_once_keeping_the_seeds_finished() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("study");
+    let mut command = nanopush();
+    command
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["study", "assemble", "--text", "CMU", "--runs", "4", "--out"])
+        .arg(&out);
+    // Pressed once the first seed is done, the second under way.
+    let pressed = interrupt_after(command, &["seed   1:"], Duration::from_millis(1500));
+    let stderr = pressed.stopped_at_once("stopping the study (Ctrl-C or a termination signal) now");
+    assert!(
+        !pressed.after.iter().any(|l| l.starts_with("seed   2:")),
+        "seed 2 was counted: {:?}",
+        pressed.after
+    );
+    assert!(
+        stderr.contains("study interrupted (Ctrl-C or a termination signal) after 1 of 4 seeds"),
+        "{stderr}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("study-assemble.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["rows"].as_array().unwrap().len(), 1);
+    assert_eq!(summary["rows"][0]["seed"], 1);
+    // Seed 2 stopped as a run stops, or (pressed in its first moments,
+    // before it wrote anything) ended without a journal; never finished.
+    match std::fs::read_to_string(out.join("seed-2/journal.jsonl")) {
+        Ok(journal) => {
+            let last: serde_json::Value =
+                serde_json::from_str(journal.lines().last().unwrap()).unwrap();
+            assert!(
+                last.to_string().contains("interrupted"),
+                "seed 2 ended on {last}"
+            );
+            assert!(
+                stderr.contains("seed 2, stopped part way, is left in"),
+                "{stderr}"
+            );
+        }
+        Err(_) => assert!(
+            stderr.contains("seed 2 was stopped before it wrote anything"),
+            "{stderr}"
+        ),
+    }
 }
 
 /// `plan` without particles names both ways to give them (it named only

@@ -11,6 +11,10 @@ use nanopush::vision::line_defects::LineAxis;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::Duration;
+
+mod interrupted;
+use interrupted::interrupt_after;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -804,35 +808,20 @@ fn ctrl_c_ends_a_dry_run_keeping_the_frames_analysed() {
         std::fs::write(frames.join(format!("bf_1{k:04}.png")), &first).unwrap();
     }
     let out = dir.path().join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_nanopush"))
-        .current_dir(root())
-        .args([
-            "dry-run",
-            "--recording",
-            rec.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Pressed once the first frame is printed.
-    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(child.stdout.take().unwrap()));
-    // The first line says where the frames' times come from.
-    assert!(lines.next().unwrap().unwrap().starts_with("replay: "));
-    assert!(lines.next().unwrap().unwrap().starts_with("frame"));
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-    let rest: Vec<String> = lines.map(Result::unwrap).collect();
-    let o = child.wait_with_output().unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "{stderr}");
+    let command = dry_run_command(&rec, &out);
+    // Pressed once the first frame is printed (the first line says where
+    // the frames' times come from).
+    let pressed = interrupt_after(command, &["replay: ", "frame"], Duration::ZERO);
+    let stderr =
+        pressed.stopped_at_once("stopping the dry-run (Ctrl-C or a termination signal) now");
+    let rest = pressed.after;
     assert!(
-        stderr.contains("dry-run interrupted (Ctrl-C or a termination signal) after"),
+        stderr.contains("dry-run interrupted (Ctrl-C or a termination signal) after")
+            && stderr.contains(&format!(
+                "{} and {}",
+                out.join("dry-run.json").display(),
+                out.join("dry-run.mp4").display()
+            )),
         "{stderr}"
     );
     let written: DryRunReport =
@@ -846,6 +835,73 @@ fn ctrl_c_ends_a_dry_run_keeping_the_frames_analysed() {
     );
     assert!(out.join("dry-run.mp4").is_file());
     assert!(!out.join(".dry-run.mp4").exists());
+}
+
+/// Ctrl-C in the middle of a long frame (the first of 600 particles, where
+/// a four-letter pattern is placed by full plans: over a minute on a
+/// loaded machine) is answered at once on stderr and stops the dry-run
+/// within seconds, with what was analysed (here nothing) written and
+/// readable: the frame had been finished first, 8-120 s without a word.
+#[test]
+fn ctrl_c_in_a_long_frame_is_answered_and_stops_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("rec");
+    let frames = rec.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for name in ["bulk_water_000.png", "bulk_water_100.png"] {
+        std::fs::copy(
+            root().join("fixtures/real/bulk_water").join(name),
+            frames.join(name),
+        )
+        .unwrap();
+    }
+    // 1 um spheres at 2.85 px/um (fixtures/real/PROVENANCE.md).
+    std::fs::write(
+        rec.join("calibration.toml"),
+        "schema = \"nanopush.calibration/1\"\npixel_to_stage_um = [[0.350877, 0.0, 0.0], [0.0, -0.350877, 148.77]]\n",
+    )
+    .unwrap();
+    std::fs::write(
+        rec.join("recording.toml"),
+        "schema = \"nanopush.recording/1\"\nsource = \"bulk_water\"\nframes = \"frames\"\n\
+         calibration = \"calibration.toml\"\nparticle_radius_um = 0.5\nframe_interval_s = 1.0\n\
+         channel = \"green\"\ndetect_tip = false\nfield_um = [224.5, 148.7]\npattern_text = \"NANO\"\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let command = dry_run_command(&rec, &out);
+    let pressed = interrupt_after(command, &["replay: "], Duration::from_secs(1));
+    let stderr =
+        pressed.stopped_at_once("stopping the dry-run (Ctrl-C or a termination signal) now");
+    let rest = pressed.after;
+    assert!(
+        stderr.contains("dry-run interrupted (Ctrl-C or a termination signal) after 0 frames"),
+        "{stderr}"
+    );
+    let written: DryRunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("dry-run.json")).unwrap()).unwrap();
+    assert_eq!(
+        written.frames.len(),
+        rest.iter().filter(|l| l.starts_with("frame")).count(),
+        "every frame printed is in the file, and no other"
+    );
+    assert!(
+        written
+            .ended_early
+            .is_some_and(|why| why.contains("interrupted"))
+    );
+}
+
+/// `nanopush dry-run` of `rec` into `out`, run from the project's root.
+fn dry_run_command(rec: &Path, out: &Path) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_nanopush"));
+    command
+        .current_dir(root())
+        .args(["dry-run", "--recording"])
+        .arg(rec)
+        .arg("--out")
+        .arg(out);
+    command
 }
 
 /// The fixture's frames as an MJPG video at 25 fps, its stage log left out:

@@ -23,7 +23,9 @@ use crate::exec::sim_run::{
     SimFaults, SimRun, SimRunRequest, inputs_for, layout_for, missed_lost_contacts, prepare_sim_run,
 };
 use crate::model::Scene;
+use crate::plan::Pattern;
 use crate::plan::Site;
+use crate::plan::assignment::enough_particles;
 use crate::plan::layout::um_in_file;
 use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
@@ -33,6 +35,21 @@ use crate::rig::sim::rig::SimRig;
 use crate::vision::frame_input::save_png;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
+
+/// Particles in the simulated rig's random layout unless `--particles`
+/// says otherwise: what `demo` and `study assemble` runs have.
+pub const DEFAULT_PARTICLES: usize = 50;
+
+/// Refuses `text` before any work when its sites outnumber the particles of
+/// the simulated rig's layout (`assemble`'s default), in the planner's words.
+pub fn check_text_fits_the_layout(text: &str) -> anyhow::Result<()> {
+    let sites = Pattern::from_text(text, 1e-5)?.offsets_m.len();
+    enough_particles(sites, DEFAULT_PARTICLES).map_err(|e| {
+        anyhow::anyhow!(
+            "--text {text:?}: {e} (the simulated rig's layout has {DEFAULT_PARTICLES}); give a shorter text"
+        )
+    })
+}
 
 /// Arguments of `nanopush assemble`.
 #[derive(clap::Args, Debug)]
@@ -52,7 +69,7 @@ pub struct Args {
     pub seed: u64,
     /// Particles in the random layout (not with --layout or --rig, whose
     /// particles are the file's or the camera's).
-    #[arg(long, default_value_t = 50, conflicts_with_all = ["layout", "rig"])]
+    #[arg(long, default_value_t = DEFAULT_PARTICLES, conflicts_with_all = ["layout", "rig"])]
     pub particles: usize,
     /// Output folder (must not hold a journal yet; a resumed run writes
     /// next to its journal, so not with --resume).

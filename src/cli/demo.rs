@@ -4,11 +4,10 @@
 //! prints where the report is; also simulates the paper scene's single push
 //! and writes its plots, the model's reference case.
 
-use super::assemble;
+use super::assemble::{self, check_text_fits_the_layout};
 use super::simulate::simulate_scene;
 use crate::model::Scene;
 use crate::model::push_plots::write_push_outputs;
-use crate::plan::Pattern;
 use anyhow::Context;
 use clap::Parser;
 use std::path::{Path, PathBuf};
@@ -42,7 +41,7 @@ struct AssembleCommand {
 
 /// Simulates the paper push, then assembles the pattern; prints where everything is.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    Pattern::from_text(&args.text, 1e-5)?;
+    check_text_fits_the_layout(&args.text)?;
     // Refused before the single push runs (it had run, then the demo failed).
     super::folder_flag::check_folder_flag("--out", &args.out, "a folder")?;
     let push_dir = args.out.join("paper-push");

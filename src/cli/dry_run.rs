@@ -3,12 +3,13 @@
 //! loop would command; writes `dry-run.json` and an annotated animation
 //! `dry-run.mp4` in `--out`. The recording itself is only read.
 
+use super::dry_run_worker::{Replayed, replay};
 use super::pattern_args::PatternArgs;
 use crate::exec::animation::AnimationWriter;
-use crate::exec::dry_run::{DryRunFrame, dry_run};
+use crate::exec::dry_run::DryRunFrame;
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
-use crate::rig::interrupt::ctrlc_flag;
+use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
 use crate::vision::analyse::camera_notes;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -110,27 +111,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(Path::to_path_buf);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut animation = AnimationWriter::new(&animation_path, 1.0);
-    // Each frame is printed as it is analysed: a long recording shows its
-    // progress, and a frame that stops it is seen after those before.
-    let mut print = |f: &DryRunFrame, sites: usize| {
-        if !args.json {
-            print_frame(f, sites);
-        }
-    };
+    let animation = AnimationWriter::new(&animation_path, 1.0);
     let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    acknowledge_with(format!(
+        "stopping the dry-run ({CAUSE}) now: the frames analysed are kept in {} \
+         (a second press, {} s on, ends it at once)",
+        args.out.display(),
+        SECOND_PRESS_GRACE.as_secs()
+    ));
     if !args.json {
         // Where the times come from: the model's advice depends on them.
         println!("replay: {}", recording.frame_times);
     }
-    let report = dry_run(
-        &recording,
-        scene.as_ref(),
-        asked.as_ref(),
-        Some(&mut animation),
-        &mut print,
-        &interrupt,
-    );
+    // Each frame is printed as it is analysed: a long recording shows its
+    // progress, and a frame that stops it is seen after those before.
+    let print = if args.json {
+        |_: &DryRunFrame, _| {}
+    } else {
+        print_frame
+    };
+    let Replayed { report, animation } =
+        replay(recording, scene, asked, animation, print, &interrupt)?;
     let report = match report {
         Ok(report) => report,
         Err(e) => {
@@ -149,7 +150,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             return Err(e.into());
         }
     };
-    animation.finish().context("writing the animation")?;
+    let animated = animation.finish().context("writing the animation")?;
     std::fs::write(&report_path, serde_json::to_string_pretty(&report)?)
         .with_context(|| format!("writing {}", report_path.display()))?;
     if args.json {
@@ -163,8 +164,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     match &report.ended_early {
         Some(why) if interrupt.load(Ordering::SeqCst) || report.unread_after > 0 => {
+            let video = animated.map_or(String::new(), |(path, _)| {
+                format!(" and {}", path.display())
+            });
             bail!(
-                "dry-run {why}: what was analysed is in {}",
+                "dry-run {why}: what was analysed is in {}{video}",
                 report_path.display()
             )
         }

@@ -7,12 +7,14 @@
 //! panics or is killed cannot take the study down, and the study sees exactly
 //! what a user sees.
 
+use super::child_stop::run_stopping_on;
 use crate::model::Scene;
-use crate::plan::Pattern;
+use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
 use anyhow::{Context, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Arguments of `nanopush study assemble`.
@@ -117,7 +119,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     // Checked once here: each run would fail the same way, after the table's header.
     Scene::load(&args.scene).with_context(|| format!("scene {}", args.scene.display()))?;
-    Pattern::from_text(&args.text, 1e-5)?;
+    super::assemble::check_text_fits_the_layout(&args.text)?;
     let last_seed = args
         .first_seed
         .checked_add(args.runs - 1)
@@ -139,17 +141,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let exe = std::env::current_exe().context("locating the nanopush binary")?;
-    // Ctrl-C reaches the runs too (one process group): each stops as a run
-    // stops; the study then keeps the runs it finished and stops.
-    let interrupt = crate::rig::interrupt::ctrlc_flag().context("installing the Ctrl-C handler")?;
+    // Ctrl-C stops the run in progress as a run stops (the study passes it
+    // on: a `kill -INT` of the study alone had let the seed finish); the
+    // study then keeps the runs it finished and stops.
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    acknowledge_with(format!(
+        "stopping the study ({CAUSE}) now: the run in progress is stopped, the seeds finished are kept in {} \
+         (a second press, {} s on, ends it at once)",
+        args.out.display(),
+        SECOND_PRESS_GRACE.as_secs()
+    ));
     let (json, md) = (
         args.out.join("study-assemble.json"),
         args.out.join("study-assemble.md"),
     );
     let mut summary = summarise(&args.text, Vec::new());
+    let mut stopped_seed = None;
     for seed in args.first_seed..=last_seed {
-        let row = run_one(&exe, &args, seed)?;
-        if interrupt.load(std::sync::atomic::Ordering::SeqCst) {
+        let row = run_one(&exe, &args, seed, &interrupt)?;
+        if interrupt.load(Ordering::SeqCst) {
+            stopped_seed = Some(seed);
             break;
         }
         print_row(&row);
@@ -165,12 +176,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !summary.rows.is_empty() {
         println!("table: {}  data: {}", md.display(), json.display());
     }
-    if interrupt.load(std::sync::atomic::Ordering::SeqCst) {
+    if let Some(seed) = stopped_seed {
+        let kept = if summary.rows.is_empty() {
+            "no seed had finished, so no summary was written".to_owned()
+        } else {
+            format!(
+                "their results are in {} and {}",
+                md.display(),
+                json.display()
+            )
+        };
+        let folder = args.out.join(format!("seed-{seed}"));
+        let left = if folder.exists() {
+            format!(
+                "seed {seed}, stopped part way, is left in {} and not counted",
+                folder.display()
+            )
+        } else {
+            format!("seed {seed} was stopped before it wrote anything")
+        };
         bail!(
-            "interrupted ({}) after {} of {} runs; the summary holds those",
-            crate::rig::interrupt::CAUSE,
+            "study interrupted ({CAUSE}) after {} of {} seeds: {kept}; {left}",
             summary.rows.len(),
-            args.runs
+            args.runs,
         );
     }
     if let Some(first) = summary.rows.iter().find(|r| r.figures.is_none())
@@ -198,13 +226,14 @@ fn held_study(out: &Path) -> Option<String> {
     (runs > 0).then(|| format!("{runs} seed-* run folders"))
 }
 
-fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
+fn run_one(exe: &Path, args: &Args, seed: u64, interrupt: &AtomicBool) -> anyhow::Result<RunRow> {
     let dir = args.out.join(format!("seed-{seed}"));
     if dir.exists() {
         std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
     }
     let t0 = Instant::now();
-    let output = Command::new(exe)
+    let mut command = Command::new(exe);
+    command
         .arg("assemble")
         .args(["--text", &args.text])
         .arg("--scene")
@@ -212,8 +241,8 @@ fn run_one(exe: &Path, args: &Args, seed: u64) -> anyhow::Result<RunRow> {
         .args(["--seed", &seed.to_string()])
         .arg("--out")
         .arg(&dir)
-        .arg("--json")
-        .output()
+        .arg("--json");
+    let output = run_stopping_on(command, interrupt)
         .with_context(|| format!("running {} assemble", exe.display()))?;
     let wall_s = t0.elapsed().as_secs_f64();
     let stdout = String::from_utf8_lossy(&output.stdout);

@@ -4,8 +4,8 @@
 //! ([`super::assemble`]); only the rig is replaced by the recorded frames.
 
 use super::assemble::{
-    AssemblySettings, FrameSink, FrameView, PlannedPush, PushIntent, calibration_doubt,
-    decide_push, layout_measured, planning_particles, track_to_site_m,
+    AssemblySettings, FrameView, PlannedPush, PushIntent, calibration_doubt, decide_push,
+    layout_measured, planning_particles, track_to_site_m,
 };
 use super::camera_look::warn_of_pieces;
 use super::dry_run_plan::{kept_plan, not_made};
@@ -28,7 +28,6 @@ use crate::vision::line_defects::LineDefect;
 use crate::wording::counted;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Schema of `dry-run.json`.
 pub const DRY_RUN_SCHEMA: &str = "nanopush.dry-run/1";
@@ -158,19 +157,17 @@ impl Camera for Replay {
 /// Runs perception, tracking and planning over every frame of `recording`,
 /// read one at a time; with a `scene`, also the model's decision for each
 /// push; the pattern `asked` for instead of the recording's target, when
-/// given. `sink` sees every frame (the annotated animation), and
-/// `on_frame` each frame's outcome as it is made, with the number of sites.
-/// Raising `interrupt` (Ctrl-C) ends the replay before the next frame, as
-/// does a frame after the first that cannot be read
-/// ([`DryRunReport::ended_early`]): what was analysed is kept (it had all
-/// been thrown away, a long replay's output with it).
+/// given. `on_frame` sees each frame as it is analysed, with what the loop
+/// knew then and its outcome, in one call: what the caller keeps of a
+/// replay stopped part way (Ctrl-C, `cli/dry_run.rs`) holds every frame it
+/// saw whole, animated and printed alike. A frame after the first that
+/// cannot be read ends the replay there ([`DryRunReport::ended_early`]):
+/// what was analysed is kept.
 pub fn dry_run(
     recording: &Recording,
     scene: Option<&Scene>,
     asked: Option<&PatternRequest>,
-    mut sink: Option<&mut dyn FrameSink>,
-    on_frame: &mut dyn FnMut(&DryRunFrame, usize),
-    interrupt: &AtomicBool,
+    on_frame: &mut dyn FnMut(&FrameView<'_>, &DryRunFrame),
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
     let calibration = recording.calibration;
@@ -194,14 +191,6 @@ pub fn dry_run(
     let frames_in = recording.frames()?;
     let exact_len = frames_in.exact_len();
     for (i, recorded) in frames_in.enumerate() {
-        if interrupt.load(Ordering::SeqCst) {
-            ended_early = Some(format!(
-                "interrupted ({}) after {}",
-                crate::rig::interrupt::CAUSE,
-                counted(i, "frame")
-            ));
-            break;
-        }
         let recorded = match recorded {
             Ok(recorded) => recorded,
             Err(e @ RecordingError::Format { .. }) if i > 0 => {
@@ -313,28 +302,27 @@ pub fn dry_run(
                 sighting.t_s,
             )
         };
-        if let Some(s) = sink.as_mut() {
-            s.frame(&FrameView {
-                sighting: &sighting,
-                tracks: &tracks,
-                sites,
-                push: None,
-                plan: &plan,
-                calibration: &calibration,
-            });
-        }
         let outcome = DryRunFrame {
             frame: i,
             source: recorded.name,
             t_s: sighting.t_s,
-            particles: tracks,
+            particles: tracks.clone(),
             tip_um: sighting.tip_m.map(|t| [t[0] * 1e6, t[1] * 1e6]),
             filled,
             command,
-            repaired_lines: sighting.repaired_lines,
+            repaired_lines: sighting.repaired_lines.clone(),
             clipped: sighting.exposure.clipped(),
             last_command_not_made,
         };
+        let view = FrameView {
+            sighting: &sighting,
+            tracks: &tracks,
+            sites,
+            push: None,
+            plan: &plan,
+            calibration: &calibration,
+        };
+        on_frame(&view, &outcome);
         commanded = match outcome.command {
             DryCommand::Push {
                 particle,
@@ -348,7 +336,6 @@ pub fn dry_run(
             }),
             _ => None,
         };
-        on_frame(&outcome, sites.len());
         frames.push(outcome);
     }
     Ok(DryRunReport {

@@ -8,7 +8,9 @@
 //! program at once, for a run that no longer looks at the flag, but only
 //! [`SECOND_PRESS_GRACE`] after the first: two presses in a panic had
 //! ended it before the stage was sent `HLT`, the push running on with the
-//! tip down, and without a report.
+//! tip down, and without a report. A command whose stop is not at once
+//! ([`acknowledge_with`]: a dry-run, a study) has the first press answered
+//! on stderr, so a wait is not taken for a press that went unseen.
 
 use std::io::Write;
 use std::sync::atomic::AtomicBool;
@@ -16,6 +18,17 @@ use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// The line the first press is answered with, when a command set one.
+static ACKNOWLEDGEMENT: OnceLock<String> = OnceLock::new();
+
+/// Has the first Ctrl-C (or termination signal) answered on stderr with
+/// `line` at once, from the handler's own thread, while the run goes on
+/// to its stop (a dry-run's frame in analysis had left 8-20 s without a
+/// word). Set once per process; later calls are ignored.
+pub fn acknowledge_with(line: String) {
+    let _ = ACKNOWLEDGEMENT.set(line);
+}
 
 /// What raised the flag, as messages name it. The ctrlc crate calls one
 /// handler for SIGINT, SIGTERM and SIGHUP alike and does not say which
@@ -43,9 +56,11 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     // could halt the stage; the run's own stop says it was interrupted.
     ctrlc::set_handler(move || {
         let first = *first_press.get_or_init(Instant::now);
-        if raised.swap(true, std::sync::atomic::Ordering::SeqCst)
-            && first.elapsed() >= SECOND_PRESS_GRACE
-        {
+        let again = raised.swap(true, std::sync::atomic::Ordering::SeqCst);
+        if !again && let Some(line) = ACKNOWLEDGEMENT.get() {
+            say_without_sigpipe(line);
+        }
+        if again && first.elapsed() >= SECOND_PRESS_GRACE {
             let _ = writeln!(
                 std::io::stderr(),
                 "interrupted again ({CAUSE}): ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
@@ -54,4 +69,17 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
         }
     })?;
     Ok(Arc::clone(FLAG.get_or_init(|| flag)))
+}
+
+/// Writes `line` to stderr from the handler's thread with SIGPIPE blocked
+/// in that thread alone: a closed stderr (a `| tee` gone with its
+/// terminal) then fails the write instead of ending the run before it
+/// writes what it did.
+fn say_without_sigpipe(line: &str) {
+    use nix::sys::signal::{SigSet, SigmaskHow, Signal, pthread_sigmask};
+    let mut pipe = SigSet::empty();
+    pipe.add(Signal::SIGPIPE);
+    if pthread_sigmask(SigmaskHow::SIG_BLOCK, Some(&pipe), None).is_ok() {
+        let _ = writeln!(std::io::stderr(), "{line}");
+    }
 }

@@ -69,6 +69,17 @@ pub struct Assignment {
     pub lower_bound_m: Option<f64>,
 }
 
+/// Refuses `sites` sites for `particles` particles with the assignment's
+/// own words, for a command that can count both before any work (`demo`
+/// and `study assemble` had run, or simulated a push, before the run
+/// found it).
+pub fn enough_particles(sites: usize, particles: usize) -> Result<(), AssignmentError> {
+    if sites > particles {
+        return Err(AssignmentError::TooFewParticles { sites, particles });
+    }
+    Ok(())
+}
+
 /// Ways an assignment can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AssignmentError {
@@ -123,12 +134,7 @@ pub fn assign(
     particles: &[Vector2<f64>],
     method: AssignmentMethod,
 ) -> Result<Assignment, AssignmentError> {
-    if sites.len() > particles.len() {
-        return Err(AssignmentError::TooFewParticles {
-            sites: sites.len(),
-            particles: particles.len(),
-        });
-    }
+    enough_particles(sites.len(), particles.len())?;
     for (what, points) in [("site", sites), ("particle", particles)] {
         if let Some(index) = points
             .iter()

@@ -1,0 +1,65 @@
+//! A command interrupted as Ctrl-C interrupts it: SIGINT (`kill -INT`) to
+//! the process alone once its output has reached a given point, timed from
+//! the press to its exit.
+
+use std::io::BufRead;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// What an interrupted command left.
+pub struct Interrupted {
+    /// Its stdout lines after the press, and its stderr and status.
+    pub after: Vec<String>,
+    /// Its exit status and stderr (stdout is in `after`).
+    pub output: Output,
+    /// From the press to its exit.
+    pub stopped_in: Duration,
+}
+
+/// Runs `command`, checks its first stdout lines start as `first_lines`
+/// say, waits `then`, presses Ctrl-C and waits for it to end.
+pub fn interrupt_after(mut command: Command, first_lines: &[&str], then: Duration) -> Interrupted {
+    let mut child = command
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+    for start in first_lines {
+        let line = lines.next().unwrap().unwrap();
+        assert!(
+            line.starts_with(start),
+            "{line:?} does not start with {start:?}"
+        );
+    }
+    std::thread::sleep(then);
+    let pressed = Instant::now();
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let after = lines.map(Result::unwrap).collect();
+    let output = child.wait_with_output().unwrap();
+    Interrupted {
+        after,
+        output,
+        stopped_in: pressed.elapsed(),
+    }
+}
+
+impl Interrupted {
+    /// Its stderr, once checked that it failed, within 5 s of the press,
+    /// and that its stderr starts with `answer` (the press answered first).
+    pub fn stopped_at_once(&self, answer: &str) -> String {
+        let stderr = String::from_utf8_lossy(&self.output.stderr).into_owned();
+        assert!(!self.output.status.success(), "{stderr}");
+        let stopped_in = self.stopped_in;
+        assert!(
+            stopped_in.as_secs_f64() < 5.0,
+            "stopped {stopped_in:?} after the press: {stderr}"
+        );
+        assert!(stderr.starts_with(answer), "{stderr}");
+        stderr
+    }
+}
