@@ -23,7 +23,8 @@ static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 static ACKNOWLEDGEMENT: OnceLock<String> = OnceLock::new();
 
 /// Has the first Ctrl-C (or termination signal) answered on stderr with
-/// `line` at once, from the handler's own thread, while the run goes on
+/// `line` at once (for a command that moves no stage: a second press then
+/// does not send the user to the stage), from the handler's own thread, while the run goes on
 /// to its stop (a dry-run's frame in analysis had left 8-20 s without a
 /// word). Set once per process; later calls are ignored.
 pub fn acknowledge_with(line: String) {
@@ -61,9 +62,15 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
             say_without_sigpipe(line);
         }
         if again && first.elapsed() >= SECOND_PRESS_GRACE {
+            // A command that answers the first press moves no stage.
+            let stage = if ACKNOWLEDGEMENT.get().is_some() {
+                ""
+            } else {
+                "; check the stage by hand (the tip may be down)"
+            };
             let _ = writeln!(
                 std::io::stderr(),
-                "interrupted again ({CAUSE}): ending now, without waiting for the stop; check the stage by hand (the tip may be down)"
+                "interrupted again ({CAUSE}): ending now, without waiting for the stop{stage}"
             );
             std::process::exit(130);
         }
