@@ -461,3 +461,31 @@ fn resuming_a_finished_run_is_refused_and_leaves_its_journal_alone() {
     assert!(err.contains("--out"), "{err}");
     assert_eq!(std::fs::read(&journal).unwrap(), before, "journal changed");
 }
+
+/// `--keep-clear-um` is checked before any work, in the flag's name, and a
+/// run's gap is in its journal's start entry, where a resume reads it.
+#[test]
+fn keep_clear_is_checked_first_and_journalled() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let run = |gap: &str| {
+        binary()
+            .args(["assemble", "--text", "I", "--keep-clear-um", gap])
+            .args(["--out", out.to_str().unwrap(), "--seed", "6"])
+            .output()
+            .unwrap()
+    };
+    let o = run("-1");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("--keep-clear-um is -1.000 (must be finite, >= 0"),
+        "{err}"
+    );
+    assert!(!out.exists(), "--out made for a refused flag");
+    let o = run("2.5");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
+    let start = journal.lines().nth(1).unwrap();
+    assert!(start.contains(r#""keep_clear_um":2.5"#), "{start}");
+}

@@ -105,6 +105,12 @@ pub struct Args {
     /// choice (unless --drift-follow), so not with --resume.
     #[arg(long, conflicts_with = "resume")]
     pub no_drift_follow: bool,
+    /// Free space, um, the plans keep between a particle on no site and the
+    /// pattern's particles, so no stray reads as part of a letter (default
+    /// 0; `demo` keeps half the particle radius). A resumed run keeps its
+    /// run's, so not with --resume.
+    #[arg(long, default_value_t = 0.0, conflicts_with = "resume")]
+    pub keep_clear_um: f64,
     /// With --resume: follow the tip's drift from here in a run started
     /// with --no-drift-follow (its journal keeps that choice otherwise), as
     /// such a run stopped for drift needs. The journal keeps this choice
@@ -155,8 +161,21 @@ pub(super) fn run_folder(journal: &Path) -> PathBuf {
     parent.unwrap_or(Path::new(".")).to_path_buf()
 }
 
+/// `--keep-clear-um` as the planner takes it, refused before any work
+/// in the flag's own name.
+pub(super) fn check_keep_clear(um: f64) -> anyhow::Result<()> {
+    let config = crate::plan::PlanConfig {
+        keep_clear_m: um * 1e-6,
+        ..Default::default()
+    };
+    config
+        .validate()
+        .map_err(|e| anyhow::anyhow!(e.to_string().replace("keep_clear_um", "--keep-clear-um")))
+}
+
 /// The library request these arguments make.
 fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
+    check_keep_clear(args.keep_clear_um)?;
     let mut hide = Vec::new();
     for pair in &args.hide {
         let parsed = pair
@@ -177,6 +196,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
             hide,
         },
         drift_off: args.no_drift_follow,
+        keep_clear_m: args.keep_clear_um * 1e-6,
     })
 }
 
@@ -204,7 +224,13 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
         .with_context(|| format!("creating {}", journal_path.display()))?;
     rig.persist_to(args.out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
-    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, spec.drift_off);
+    let inputs = inputs_for(
+        &scene,
+        sites,
+        &rig,
+        layout.field_m,
+        (spec.drift_off, spec.keep_clear_um * 1e-6),
+    );
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
         let mut progress = Progress::new(inputs.sites.len());
@@ -328,7 +354,13 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, R
     rig.persist_to(out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
     let drift_off = point.drift_off_unless(args.drift_follow);
-    let inputs = inputs_for(&scene, sites, &rig, layout.field_m, drift_off);
+    let inputs = inputs_for(
+        &scene,
+        sites,
+        &rig,
+        layout.field_m,
+        (drift_off, point.spec.keep_clear_um * 1e-6),
+    );
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),
         ANIMATION_SCALE,

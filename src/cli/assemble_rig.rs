@@ -403,8 +403,13 @@ fn assemble(
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
+    super::assemble::check_keep_clear(args.keep_clear_um)?;
     let mut settings = fitted_to_rig(
-        AssemblySettings::default().with_drift_off(args.no_drift_follow),
+        AssemblySettings {
+            keep_clear_m: args.keep_clear_um * 1e-6,
+            ..AssemblySettings::default()
+        }
+        .with_drift_off(args.no_drift_follow),
         rig,
         scene,
     )?;
@@ -506,6 +511,7 @@ fn assemble(
                 .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
         drift_off: args.no_drift_follow,
+        keep_clear_um: args.keep_clear_um,
         command: None,
         scene_crc32: None,
     }
@@ -571,6 +577,7 @@ fn resume(
     let settings = fitted_to_rig(
         AssemblySettings {
             field_m: frame.field_um.map(|v| v * 1e-6),
+            keep_clear_m: point.spec.keep_clear_um * 1e-6,
             ..Default::default()
         }
         .with_drift_off(drift_off),

@@ -73,8 +73,8 @@ pub struct Args {
     pub method: AssignmentMethod,
     /// Free space, um, that particles on no site keep from the pattern's
     /// particles where the plan leaves them (so no stray reads as part of a
-    /// letter). Default 0: the plain planning problem; `assemble` and
-    /// `demo` keep half the particle radius (2.5 um for 10 um spheres).
+    /// letter). Default 0: the plain planning problem, as `assemble`;
+    /// `demo` keeps half the particle radius (2.5 um for 10 um spheres).
     #[arg(long, default_value_t = 0.0)]
     pub keep_clear_um: f64,
     /// Write the plan here (nanopush.plan/1 JSON).
@@ -255,7 +255,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         method: args.method,
         tip_start_m,
         immovable,
-        keep_clear_m: Some(args.keep_clear_um * 1e-6),
+        keep_clear_m: args.keep_clear_um * 1e-6,
         ..PlanConfig::default()
     };
     // Named as the flags that set them ("push_speed_um_s is 0" had answered

@@ -32,6 +32,12 @@ pub struct RunSpec {
     /// does (and in journals from before 2026-11-29).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub drift_off: bool,
+    /// Free space the run's plans keep between a particle on no site and
+    /// the pattern's particles, um (`assemble --keep-clear-um`), which its
+    /// resume keeps too; absent when 0 (and in journals from before
+    /// 2026-11-30).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub keep_clear_um: f64,
     /// The command line that started the run and the nanopush version, so
     /// that a report says how to make the run again (`nanopush 0.1.0:
     /// nanopush assemble --text CMU --seed 7`); absent in journals from
@@ -51,6 +57,11 @@ pub fn scene_file_crc(scene: &str) -> Option<u32> {
     std::fs::read(scene)
         .ok()
         .map(|bytes| crc32fast::hash(&bytes))
+}
+
+/// True for 0 (a spec's field left out of the journal).
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 impl RunSpec {
@@ -293,8 +304,9 @@ pub enum RunEvent {
 mod tests {
     use super::*;
 
-    /// A run spec says `drift_off` only when the drift is not followed, reads
-    /// it back, and a spec from before the field reads as followed.
+    /// A run spec says `drift_off` (and `keep_clear_um`) only when the drift
+    /// is not followed (strays are kept clear), reads it back, and a spec
+    /// from before the fields reads as followed (none kept).
     #[test]
     fn a_run_spec_keeps_whether_the_drift_is_followed() {
         let spec = RunSpec {
@@ -306,18 +318,22 @@ mod tests {
             radius_um: 5.0,
             rig: None,
             drift_off: true,
+            keep_clear_um: 2.5,
             command: Some(this_command()),
             scene_crc32: None,
         };
         let text = serde_json::to_string(&spec).unwrap();
         assert!(text.contains(r#""drift_off":true"#), "{text}");
+        assert!(text.contains(r#""keep_clear_um":2.5"#), "{text}");
         assert_eq!(serde_json::from_str::<RunSpec>(&text).unwrap(), spec);
         let followed = RunSpec {
             drift_off: false,
+            keep_clear_um: 0.0,
             ..spec
         };
         let older = serde_json::to_string(&followed).unwrap();
         assert!(!older.contains("drift_off"), "{older}");
+        assert!(!older.contains("keep_clear"), "{older}");
         assert_eq!(serde_json::from_str::<RunSpec>(&older).unwrap(), followed);
     }
 
@@ -373,6 +389,7 @@ mod tests {
             radius_um: 5.0,
             rig: None,
             drift_off: false,
+            keep_clear_um: 0.0,
             command: None,
             scene_crc32: scene_file_crc(&path),
         };

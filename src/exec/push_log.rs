@@ -205,6 +205,7 @@ mod tests {
             radius_um: 5.0,
             rig: None,
             drift_off: false,
+            keep_clear_um: 0.0,
             command: None,
             scene_crc32: None,
         };

@@ -196,6 +196,7 @@ mod tests {
                 first_view_coarse_um: None,
             }),
             drift_off,
+            keep_clear_um: 0.0,
             command: None,
             scene_crc32: None,
         };

@@ -42,6 +42,9 @@ pub struct SimRunRequest {
     pub faults: SimFaults,
     /// Do not follow the tip's drift (`assemble --no-drift-follow`).
     pub drift_off: bool,
+    /// Free space the plans keep round the pattern, metres
+    /// ([`AssemblySettings::keep_clear_m`]; `assemble --keep-clear-um`).
+    pub keep_clear_m: f64,
 }
 
 /// Faults the simulated rig injects (tests).
@@ -131,6 +134,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         radius_um: scene.particle_radius_m * 1e6,
         rig: None,
         drift_off: req.drift_off,
+        keep_clear_um: req.keep_clear_m * 1e6,
         command: None,
         scene_crc32: None,
     }
@@ -225,23 +229,29 @@ fn sites_for(
         &pattern,
         &area,
         layout,
-        &AssemblySettings::default().plan_config(scene),
+        &AssemblySettings {
+            keep_clear_m: req.keep_clear_m,
+            ..AssemblySettings::default()
+        }
+        .plan_config(scene),
         PlacementGoal::LeastTime,
     )?)
 }
 
 /// The executor's inputs for a run on the simulated rig, following the
-/// tip's drift unless `drift_off`.
+/// tip's drift unless `drift_off`, its plans keeping `keep_clear_m` round
+/// the pattern.
 pub fn inputs_for(
     scene: &Scene,
     sites: Vec<Site>,
     rig: &SimRig,
     field_m: [f64; 2],
-    drift_off: bool,
+    (drift_off, keep_clear_m): (bool, f64),
 ) -> AssemblyInputs {
     use crate::rig::Rig;
     let settings = AssemblySettings {
         field_m,
+        keep_clear_m,
         ..AssemblySettings::default()
     }
     .with_drift_off(drift_off);

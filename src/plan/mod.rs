@@ -100,10 +100,10 @@ pub struct PlanConfig {
     /// particles where the plan leaves it (on top of the clearance), so
     /// that the pattern stands clear: a stray 0.5 um beside a letter reads
     /// as part of it (the demo's 'CMU' had one bridging the C and the M).
-    /// Default `Some(0.0)`: none, the planning problem issue 4 measures
-    /// (LB_push counts no clearing). None: [`DEFAULT_KEEP_CLEAR_RADII`] of
-    /// the sites' particle radius, what the assembling commands keep.
-    pub keep_clear_m: Option<f64>,
+    /// Default 0: none, the planning problem issue 4 measures (LB_push
+    /// counts no clearing); `demo` keeps [`DEFAULT_KEEP_CLEAR_RADII`] of
+    /// the particle radius.
+    pub keep_clear_m: f64,
 }
 
 impl Default for PlanConfig {
@@ -124,13 +124,13 @@ impl Default for PlanConfig {
             immovable: Vec::new(),
             search_effort: DEFAULT_SEARCH_EFFORT,
             site_radius_m: None,
-            keep_clear_m: Some(0.0),
+            keep_clear_m: 0.0,
         }
     }
 }
 
 /// Free space between a particle on no site and the sites' particles the
-/// assembling commands keep, in the sites' particle radii
+/// demo keeps, in the particle radius
 /// ([`PlanConfig::keep_clear_m`]): 2.5 um for 10 um spheres, five times the
 /// 0.5 um between a letter's particles.
 pub const DEFAULT_KEEP_CLEAR_RADII: f64 = 0.5;
@@ -143,13 +143,9 @@ impl PlanConfig {
     }
 
     /// The least free space a particle on no site keeps from a site's
-    /// particle of `site_radius_m`: the clearance and
-    /// [`PlanConfig::keep_clear_m`].
-    pub fn stray_clearance_m(&self, site_radius_m: f64) -> f64 {
-        self.clearance_m
-            + self
-                .keep_clear_m
-                .unwrap_or(DEFAULT_KEEP_CLEAR_RADII * site_radius_m)
+    /// particle: the clearance and [`PlanConfig::keep_clear_m`].
+    pub fn stray_clearance_m(&self) -> f64 {
+        self.clearance_m + self.keep_clear_m
     }
 
     /// [`PlanConfig::site_radius_m`], or the one `sites` allow ([`site_radius_m`]).
@@ -406,10 +402,8 @@ impl PlanConfig {
         }
         // A gap a quarter of the range wide would ask every particle in
         // reach to leave the pattern's surroundings.
-        if let Some(g) = self
-            .keep_clear_m
-            .filter(|g| !(g.is_finite() && *g >= 0.0 && *g <= self.nanostage_range_m / 4.0))
-        {
+        let g = self.keep_clear_m;
+        if !(g.is_finite() && g >= 0.0 && g <= self.nanostage_range_m / 4.0) {
             return Err(PlanError::Config(format!(
                 "keep_clear_um is {:.3} (must be finite, >= 0 and at most {} um, a quarter of the nanostage range)",
                 g * 1e6,
@@ -971,7 +965,7 @@ fn park_costs(
         grid: &site_grid,
         centres: site_pts,
         radius_m: config.site_radius_for(layout),
-        clearance_m: config.stray_clearance_m(config.site_radius_for(layout)),
+        clearance_m: config.stray_clearance_m(),
     };
     free_particles
         .iter()

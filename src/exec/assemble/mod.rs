@@ -89,6 +89,10 @@ pub struct AssemblySettings {
     /// this from where it expects it (default 0.5 um, and the kept steps must
     /// still verify collision-free); beyond, the loop plans afresh.
     pub keep_plan_shift_m: f64,
+    /// Free space the plans keep between a particle on no site and the
+    /// pattern's particles ([`PlanConfig::keep_clear_m`]; default 0,
+    /// `assemble --keep-clear-um`, the demo half the particle radius).
+    pub keep_clear_m: f64,
     /// How the tip's drift against the sample is followed in the frames and
     /// taken out of every move (`exec::drift`); None: not at all, every
     /// move goes where the calibration alone says.
@@ -154,9 +158,7 @@ impl AssemblySettings {
             travel_speed_m_per_s: self.travel_speed_m_per_s,
             on_site_tolerance_m: self.placed_tolerance_m,
             max_push_m: self.longest_push_m,
-            // The pattern assembled stands clear of the particles it does
-            // not use: half their radius (`DEFAULT_KEEP_CLEAR_RADII`).
-            keep_clear_m: None,
+            keep_clear_m: self.keep_clear_m,
             ..PlanConfig::default()
         }
     }
@@ -176,6 +178,7 @@ impl Default for AssemblySettings {
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
+            keep_clear_m: 0.0,
             drift: Some(DriftSettings::default()),
             check_apex: true,
             map_fit: MapFitSettings::default(),
@@ -975,8 +978,9 @@ mod tests {
     use crate::plan::synth_layout::LayoutKind;
     use crate::plan::{PlanConfig, plan_assembly, verify_plan};
 
-    /// The loop's plans leave the particles they need not 2.5 um (half a
-    /// radius) off the pattern's where they can: on 12 CMU scenes, 8 keep
+    /// The loop's plans keeping 2.5 um (the demo's half a radius) leave
+    /// the particles they need not that far off the pattern's where they
+    /// can: on 12 CMU scenes, 8 keep
     /// it; in the other 4 a stray stays 0.12-0.90 um off, in the blank
     /// column between two letters or walled in by particles, with no free
     /// push out (measured 2026-11-30; a regression floor, not the goal).
@@ -984,7 +988,11 @@ mod tests {
     /// within 0.2 um (one that reads as part of a letter).
     #[test]
     fn the_loops_plans_keep_strays_clear_of_the_pattern() {
-        let loops = AssemblySettings::default().plan_config_pushing_at(1e-6);
+        let keeping = AssemblySettings {
+            keep_clear_m: 2.5e-6,
+            ..AssemblySettings::default()
+        };
+        let loops = keeping.plan_config_pushing_at(1e-6);
         let plain = PlanConfig::default();
         let (mut kept, mut plain_gaps) = (Vec::new(), Vec::new());
         for seed in 0..12 {

@@ -131,7 +131,7 @@ impl Scheduler<'_> {
     /// one still to move keeps the clearance only.
     fn site_discs(&self, q: usize) -> crate::plan::parking::SiteDiscs<'_> {
         let clearance_m = if self.role[q] == Role::Idle {
-            self.config.stray_clearance_m(self.site_radius_m)
+            self.config.stray_clearance_m()
         } else {
             self.config.clearance_m
         };

@@ -54,9 +54,7 @@ impl Scheduler<'_> {
     /// plan keeps no gap beyond the clearance.
     pub(super) fn leave_clear(&mut self, p: usize, k: usize) {
         let pos = self.occ.pos[p];
-        if self.config.stray_clearance_m(self.site_radius_m) <= self.config.clearance_m
-            || self.off_sites(p, pos)
-        {
+        if self.config.keep_clear_m <= 0.0 || self.off_sites(p, pos) {
             return;
         }
         let q = self.moves[k].particle;

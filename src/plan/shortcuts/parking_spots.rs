@@ -31,7 +31,7 @@ impl<'a> Parking<'a> {
             grid: Grid::new(site_pts.iter().copied(), 2.0 * radius_m),
             site_pts,
             radius_m,
-            clearance_m: config.stray_clearance_m(radius_m),
+            clearance_m: config.stray_clearance_m(),
         }
     }
 
