@@ -164,13 +164,10 @@ pub(super) fn run_folder(journal: &Path) -> PathBuf {
 /// `--keep-clear-um` as the planner takes it, refused before any work
 /// in the flag's own name.
 pub(super) fn check_keep_clear(um: f64) -> anyhow::Result<()> {
-    let config = crate::plan::PlanConfig {
+    super::plan::validate_in_flags(&crate::plan::PlanConfig {
         keep_clear_m: um * 1e-6,
         ..Default::default()
-    };
-    config
-        .validate()
-        .map_err(|e| anyhow::anyhow!(e.to_string().replace("keep_clear_um", "--keep-clear-um")))
+    })
 }
 
 /// The library request these arguments make.
@@ -229,7 +226,8 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
         sites,
         &rig,
         layout.field_m,
-        (spec.drift_off, spec.keep_clear_um * 1e-6),
+        spec.drift_off,
+        spec.keep_clear_um * 1e-6,
     );
     let mut animation = AnimationWriter::new(&args.out.join("run.mp4"), ANIMATION_SCALE);
     let run = {
@@ -359,7 +357,8 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, R
         sites,
         &rig,
         layout.field_m,
-        (drift_off, point.spec.keep_clear_um * 1e-6),
+        drift_off,
+        point.spec.keep_clear_um * 1e-6,
     );
     let mut animation = AnimationWriter::new(
         &out.join(format!("run-resume-{}.mp4", point.resumes + 1)),

@@ -227,6 +227,23 @@ fn check_files(args: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `config` checked, its refusal naming the flags that set the values
+/// ("push_speed_um_s is 0" had answered --speed-um-s 0); `assemble
+/// --keep-clear-um` is checked so too.
+pub(super) fn validate_in_flags(config: &PlanConfig) -> anyhow::Result<()> {
+    config.validate().map_err(|e| {
+        let text = [
+            ("tip_radius_um", "--tip-radius-um"),
+            ("push_speed_um_s", "--speed-um-s"),
+            ("contact_angle_deg", "--contact-angle-deg"),
+            ("keep_clear_um", "--keep-clear-um"),
+        ]
+        .iter()
+        .fold(e.to_string(), |t, (name, flag)| t.replace(name, flag));
+        anyhow::anyhow!(text)
+    })
+}
+
 /// Plans and prints the summary; writes the plan and overlay when asked.
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_files(&args)?;
@@ -258,19 +275,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         keep_clear_m: args.keep_clear_um * 1e-6,
         ..PlanConfig::default()
     };
-    // Named as the flags that set them ("push_speed_um_s is 0" had answered
-    // --speed-um-s 0).
-    config.validate().map_err(|e| {
-        let text = [
-            ("tip_radius_um", "--tip-radius-um"),
-            ("push_speed_um_s", "--speed-um-s"),
-            ("contact_angle_deg", "--contact-angle-deg"),
-            ("keep_clear_um", "--keep-clear-um"),
-        ]
-        .iter()
-        .fold(e.to_string(), |t, (name, flag)| t.replace(name, flag));
-        anyhow::anyhow!(text)
-    })?;
+    validate_in_flags(&config)?;
     let placing = std::time::Instant::now();
     let plan = match request.at_m {
         Some(at) => plan_assembly(&layout, &place_at(&pattern, at, &area, radius)?, &config)?,

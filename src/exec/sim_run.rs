@@ -246,7 +246,8 @@ pub fn inputs_for(
     sites: Vec<Site>,
     rig: &SimRig,
     field_m: [f64; 2],
-    (drift_off, keep_clear_m): (bool, f64),
+    drift_off: bool,
+    keep_clear_m: f64,
 ) -> AssemblyInputs {
     use crate::rig::Rig;
     let settings = AssemblySettings {

@@ -127,7 +127,8 @@ pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError
         run.sites.clone(),
         &run.rig,
         run.layout.field_m,
-        (false, request.keep_clear_m),
+        false,
+        request.keep_clear_m,
     );
     adjust(&mut inputs);
     let sites: Vec<[f64; 2]> = run

@@ -57,13 +57,7 @@ impl Scheduler<'_> {
         if self.config.keep_clear_m <= 0.0 || self.off_sites(p, pos) {
             return;
         }
-        let q = self.moves[k].particle;
-        let mut from = self.occ.pos[q];
-        let mut way = Vec::new();
-        for &to in &self.moves[k].route {
-            way.push(self.corridor(q, from, to));
-            from = to;
-        }
+        let way = self.route_corridors(k);
         self.push_off_sites(p, &way);
     }
 
