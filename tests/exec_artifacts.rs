@@ -462,20 +462,24 @@ fn resuming_a_finished_run_is_refused_and_leaves_its_journal_alone() {
     assert_eq!(std::fs::read(&journal).unwrap(), before, "journal changed");
 }
 
-/// `--keep-clear-um` is checked before any work, in the flag's name, and a
-/// run's gap is in its journal's start entry, where a resume reads it.
+/// `--keep-clear-um` is checked before any work, in the flag's name; a
+/// run keeps half the particle radius unless told (the default scene's
+/// spheres are 5 um in radius), and its gap is in its journal's start
+/// entry, where a resume reads it.
 #[test]
 fn keep_clear_is_checked_first_and_journalled() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let run = |gap: &str| {
+    let run = |gap: &[&str]| {
+        let _ = std::fs::remove_dir_all(&out);
         binary()
-            .args(["assemble", "--text", "I", "--keep-clear-um", gap])
+            .args(["assemble", "--text", "I"])
+            .args(gap)
             .args(["--out", out.to_str().unwrap(), "--seed", "6"])
             .output()
             .unwrap()
     };
-    let o = run("-1");
+    let o = run(&["--keep-clear-um", "-1"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());
     assert!(
@@ -483,9 +487,12 @@ fn keep_clear_is_checked_first_and_journalled() {
         "{err}"
     );
     assert!(!out.exists(), "--out made for a refused flag");
-    let o = run("2.5");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
-    let start = journal.lines().nth(1).unwrap();
-    assert!(start.contains(r#""keep_clear_um":2.5"#), "{start}");
+    for (gap, journalled) in [(&[][..], "2.5"), (&["--keep-clear-um", "1.5"][..], "1.5")] {
+        let o = run(gap);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let journal = std::fs::read_to_string(out.join("journal.jsonl")).unwrap();
+        let start = journal.lines().nth(1).unwrap();
+        let wanted = format!(r#""keep_clear_um":{journalled}"#);
+        assert!(start.contains(&wanted), "{gap:?}: {start}");
+    }
 }

@@ -1148,7 +1148,9 @@ fn particles_beyond_the_field_are_obstacles_of_the_plans_not_refused() {
 /// unpushed, a particle pushed out from under the probe had got a new id,
 /// and its old place, hidden by the probe, stayed as a ghost the planner
 /// pushed: 51 particles in a world of 50, and pushes of 29 nm the loop
-/// never made.
+/// never made. Its plans keep the gap round the pattern the run kept (the
+/// recording's `keep_clear_um`): planning with none, it commanded other
+/// pushes from frame 32 on, and saw 51 particles there.
 #[test]
 fn on_a_recorded_run_the_dry_run_commands_every_push_the_loop_made() {
     let dir = tempfile::tempdir().unwrap();

@@ -106,11 +106,11 @@ pub struct Args {
     #[arg(long, conflicts_with = "resume")]
     pub no_drift_follow: bool,
     /// Free space, um, the plans keep between a particle on no site and the
-    /// pattern's particles, so no stray reads as part of a letter (default
-    /// 0; `demo` keeps half the particle radius). A resumed run keeps its
-    /// run's, so not with --resume.
-    #[arg(long, default_value_t = 0.0, conflicts_with = "resume")]
-    pub keep_clear_um: f64,
+    /// pattern's particles, so no stray reads as part of a letter (default:
+    /// half the particle radius; 0 keeps none, as `plan` by default). A
+    /// resumed run keeps its run's, so not with --resume.
+    #[arg(long, conflicts_with = "resume")]
+    pub keep_clear_um: Option<f64>,
     /// With --resume: follow the tip's drift from here in a run started
     /// with --no-drift-follow (its journal keeps that choice otherwise), as
     /// such a run stopped for drift needs. The journal keeps this choice
@@ -161,18 +161,20 @@ pub(super) fn run_folder(journal: &Path) -> PathBuf {
     parent.unwrap_or(Path::new(".")).to_path_buf()
 }
 
-/// `--keep-clear-um` as the planner takes it, refused before any work
-/// in the flag's own name.
-pub(super) fn check_keep_clear(um: f64) -> anyhow::Result<()> {
+/// `--keep-clear-um` as the planner takes it, metres, refused before any
+/// work in the flag's own name (None: not given).
+pub(super) fn keep_clear_flag_m(um: Option<f64>) -> anyhow::Result<Option<f64>> {
+    let Some(um) = um else { return Ok(None) };
     super::plan::validate_in_flags(&crate::plan::PlanConfig {
         keep_clear_m: um * 1e-6,
         ..Default::default()
-    })
+    })?;
+    Ok(Some(um * 1e-6))
 }
 
 /// The library request these arguments make.
 fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
-    check_keep_clear(args.keep_clear_um)?;
+    let keep_clear_m = keep_clear_flag_m(args.keep_clear_um)?;
     let mut hide = Vec::new();
     for pair in &args.hide {
         let parsed = pair
@@ -193,7 +195,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
             hide,
         },
         drift_off: args.no_drift_follow,
-        keep_clear_m: args.keep_clear_um * 1e-6,
+        keep_clear_m,
     })
 }
 
@@ -320,6 +322,7 @@ pub(super) fn open_recorder(
         scene: None,
         detect_tip: true,
         channel: Default::default(),
+        keep_clear_um: Some(spec.keep_clear_um),
     };
     let scene = crate::model::scene::scene_text(&args.scene).ok();
     RecordingWriter::create(dir, description, calibration, scene.as_deref())

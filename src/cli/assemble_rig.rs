@@ -403,10 +403,13 @@ fn assemble(
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
-    super::assemble::check_keep_clear(args.keep_clear_um)?;
+    let keep_clear_m = crate::plan::keep_clear_or_default_m(
+        super::assemble::keep_clear_flag_m(args.keep_clear_um)?,
+        r,
+    );
     let mut settings = fitted_to_rig(
         AssemblySettings {
-            keep_clear_m: args.keep_clear_um * 1e-6,
+            keep_clear_m,
             ..AssemblySettings::default()
         }
         .with_drift_off(args.no_drift_follow),
@@ -511,7 +514,7 @@ fn assemble(
                 .then(|| [0, 1].map(|k| calibrated_to_field[k] * 1e6)),
         }),
         drift_off: args.no_drift_follow,
-        keep_clear_um: args.keep_clear_um,
+        keep_clear_um: settings.keep_clear_m * 1e6,
         command: None,
         scene_crc32: None,
     }

@@ -52,12 +52,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             .with_context(|| format!("clearing the previous demo in {}", assemble_dir.display()))?;
     }
     let seed = args.seed.to_string();
-    // The letters stand clear of the particles they do not use: a stray
-    // 0.5 um beside the C and the M had joined them.
-    let radius_m = Scene::load(&args.scene)
-        .with_context(|| format!("scene {}", args.scene.display()))?
-        .particle_radius_m;
-    let keep_clear = (crate::plan::DEFAULT_KEEP_CLEAR_RADII * radius_m * 1e6).to_string();
+    // Its letters stand clear of the particles they do not use, as
+    // `assemble` keeps them by default.
     let command = AssembleCommand::try_parse_from([
         "assemble".as_ref(),
         "--text".as_ref(),
@@ -68,9 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed.as_str().as_ref(),
         "--out".as_ref(),
         assemble_dir.as_os_str(),
-        "--keep-clear-um".as_ref(),
-        keep_clear.as_str().as_ref(),
-    ] as [&std::ffi::OsStr; 11])?;
+    ] as [&std::ffi::OsStr; 9])?;
     println!(
         "assembling '{}' on the simulated rig (seed {})",
         args.text, args.seed

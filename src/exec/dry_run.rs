@@ -10,7 +10,7 @@ use super::assemble::{
 use super::camera_look::warn_of_pieces;
 use super::dry_run_plan::{kept_plan, not_made};
 use super::events::SeenParticle;
-use super::observe::{ObserveError, Perception};
+use super::observe::{ObserveError, Perception, Sighting};
 use super::particle_sizes::ParticleSizes;
 use super::recording::{RECORDING_FILE, Recording, RecordingError};
 use super::recording_check::{check_sites_in_field, sites_of};
@@ -170,6 +170,11 @@ pub fn dry_run(
     on_frame: &mut dyn FnMut(&FrameView<'_>, &DryRunFrame),
 ) -> Result<DryRunReport, DryRunError> {
     let radius_m = recording.spec.particle_radius_um * 1e-6;
+    let keep_clear_m = crate::plan::keep_clear_or_default_m(
+        recording.spec.keep_clear_um.map(|um| um * 1e-6),
+        radius_m,
+    );
+    let planning = plan_config(scene, keep_clear_m);
     let calibration = recording.calibration;
     let perception = Perception::for_particles(radius_m, calibration.m_per_px(), 1);
     // The loop's own tracking gate and placed tolerance.
@@ -249,7 +254,7 @@ pub fn dry_run(
                 &sighting.particles,
                 field_m,
                 radius_m,
-                &plan_config(scene),
+                &planning,
             )?);
         }
         let sites = sites.as_deref().unwrap_or_default();
@@ -297,9 +302,9 @@ pub fn dry_run(
                 (&mut in_hand, commanded),
                 sites,
                 field_m,
-                sighting.tip_m,
+                &sighting,
                 scene,
-                sighting.t_s,
+                &planning,
             )
         };
         let outcome = DryRunFrame {
@@ -350,10 +355,15 @@ pub fn dry_run(
 
 /// The planner's settings without the tip, as the loop's: its placed
 /// tolerance and travel speed, the scene's push speed (1 um/s without a
-/// scene). (At the planner's default travel speed, 10 um/s, not the loop's
-/// 50, the tour weighed travel more and chose other orders than the loop's.)
-fn plan_config(scene: Option<&Scene>) -> PlanConfig {
-    AssemblySettings::default().plan_config_pushing_at(scene.map_or(1e-6, |s| s.push.speed_m_per_s))
+/// scene), the free space kept round the pattern. (At the planner's default
+/// travel speed, 10 um/s, not the loop's 50, the tour weighed travel more
+/// and chose other orders than the loop's.)
+fn plan_config(scene: Option<&Scene>, keep_clear_m: f64) -> PlanConfig {
+    AssemblySettings {
+        keep_clear_m,
+        ..AssemblySettings::default()
+    }
+    .plan_config_pushing_at(scene.map_or(1e-6, |s| s.push.speed_m_per_s))
 }
 
 /// The sites: the pattern `asked` for (the recording's target aside), as
@@ -419,15 +429,16 @@ fn target_sites(
         .map_err(|e| target(e.to_string()))
 }
 
-/// Plans from the tracks and names the first push (with the model's choice).
+/// Plans from the tracks with `planning` (from the tip `sighting` shows)
+/// and names the first push (with the model's choice).
 fn next_command(
     tracker: &Tracker,
     (in_hand, commanded): (&mut Option<Plan>, Option<Moved>),
     sites: &[Site],
     field_m: [f64; 2],
-    tip_m: Option<[f64; 2]>,
+    sighting: &Sighting,
     scene: Option<&Scene>,
-    t_s: f64,
+    planning: &PlanConfig,
 ) -> (DryCommand, Vec<PlannedPush>) {
     // As the loop does: the particles' measured sizes, the scene's (or 5
     // um) before any is seen.
@@ -438,8 +449,8 @@ fn next_command(
         particles: planning_particles(tracks, &sizes, field_m),
     };
     let config = PlanConfig {
-        tip_start_m: tip_m.map(|t| Vector2::new(t[0], t[1])),
-        ..plan_config(scene)
+        tip_start_m: sighting.tip_m.map(|t| Vector2::new(t[0], t[1])),
+        ..planning.clone()
     };
     let kept = kept_plan(in_hand.take(), commanded, tracker, &layout, &config);
     let plan = match kept.map_or_else(|| plan_assembly(&layout, sites, &config), Ok) {
@@ -478,7 +489,7 @@ fn next_command(
         to: first.to,
         radius_m: sizes.radius_of(tracks, particle as usize),
     };
-    let advice = scene.map(|s| decide_push(s, &intent, t_s));
+    let advice = scene.map(|s| decide_push(s, &intent, sighting.t_s));
     let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];
     let command = DryCommand::Push {
         particle: intent.particle,

@@ -83,6 +83,11 @@ pub struct RecordingSpec {
     /// recording this program writes holds grey frames).
     #[serde(default, skip_serializing_if = "is_luminance")]
     pub channel: Channel,
+    /// Free space the run's plans kept round the pattern, micrometres
+    /// (`assemble --keep-clear-um`), which the dry run's plans keep too
+    /// (default: half the particle radius, as `assemble`'s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub keep_clear_um: Option<f64>,
 }
 
 fn is_luminance(channel: &Channel) -> bool {
@@ -629,6 +634,7 @@ mod tests {
             scene: None,
             detect_tip: true,
             channel: Channel::Luminance,
+            keep_clear_um: None,
         }
     }
 
@@ -648,8 +654,11 @@ mod tests {
         let lens = crate::calib::lens::RadialLens::centred_on(16, 12, -0.01);
         let cal = CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [-20e-6, 120e-6])
             .with_lens(Some(lens));
-        let mut w =
-            RecordingWriter::create(&rec_dir, spec(), &cal, Some("name = \"x\"\n")).unwrap();
+        let kept = RecordingSpec {
+            keep_clear_um: Some(1.5),
+            ..spec()
+        };
+        let mut w = RecordingWriter::create(&rec_dir, kept, &cal, Some("name = \"x\"\n")).unwrap();
         for k in 0..3 {
             let entry = StageLogEntry {
                 frame: 99,
@@ -676,6 +685,7 @@ mod tests {
         assert_eq!(r.calibration.lens, Some(lens));
         assert_eq!(r.spec.sites_um, spec().sites_um);
         assert_eq!(r.spec.scene.as_deref(), Some("scene.toml"));
+        assert_eq!(r.spec.keep_clear_um, Some(1.5));
         assert!(matches!(
             RecordingWriter::create(&rec_dir, spec(), &cal, None),
             Err(RecordingError::Mismatch { .. })
@@ -803,6 +813,17 @@ mod tests {
         let text = e.to_string();
         assert!(
             text.contains(RECORDING_FILE) && text.contains("stage_logs"),
+            "{e}"
+        );
+        // A gap round the pattern no plan may keep is refused by name.
+        std::fs::write(
+            rec_dir.join(RECORDING_FILE),
+            format!("{description}keep_clear_um = -2.0\n"),
+        )
+        .unwrap();
+        let e = open_recording(&rec_dir).unwrap_err().to_string();
+        assert!(
+            e.contains(RECORDING_FILE) && e.contains("keep_clear_um is -2.000 (must be finite"),
             "{e}"
         );
         // A corrupt description is named.

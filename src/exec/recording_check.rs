@@ -6,15 +6,27 @@
 
 use super::recording::{RecordingError, RecordingSpec, StageLogEntry};
 use crate::plan::layout::{UM_PER_M, um_text};
-use crate::plan::{Layout, MAX_COORDINATE_UM, Pattern, Site, coordinate_in_range};
+use crate::plan::{
+    Layout, MAX_COORDINATE_UM, Pattern, PlanConfig, PlanError, Site, coordinate_in_range,
+};
 use crate::vision::frame::check_one_size;
 use crate::vision::frame_input::{Channel, file_name_text, load_frame};
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
 
-/// `field_um` and `sites_um`: finite, within a metre, sites apart by a
+/// `keep_clear_um`, `field_um` and `sites_um`: finite, within a metre, sites apart by a
 /// particle diameter and (with a field) in the field as a layout's particles.
 pub(super) fn check_spec(spec: &RecordingSpec) -> Result<(), String> {
+    if let Some(um) = spec.keep_clear_um {
+        let asked = PlanConfig {
+            keep_clear_m: um / UM_PER_M,
+            ..PlanConfig::default()
+        };
+        asked.validate().map_err(|e| match e {
+            PlanError::Config(why) => why,
+            other => other.to_string(),
+        })?;
+    }
     let field = match spec.field_um {
         Some([w, h]) => {
             let ok = |v: f64| v > 0.0 && coordinate_in_range(v);

@@ -43,8 +43,10 @@ pub struct SimRunRequest {
     /// Do not follow the tip's drift (`assemble --no-drift-follow`).
     pub drift_off: bool,
     /// Free space the plans keep round the pattern, metres
-    /// ([`AssemblySettings::keep_clear_m`]; `assemble --keep-clear-um`).
-    pub keep_clear_m: f64,
+    /// ([`AssemblySettings::keep_clear_m`]; `assemble --keep-clear-um`);
+    /// None: half the scene's particle radius
+    /// ([`crate::plan::keep_clear_or_default_m`]).
+    pub keep_clear_m: Option<f64>,
 }
 
 /// Faults the simulated rig injects (tests).
@@ -120,7 +122,9 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
     })?;
     let layout = layout_for(req.layout.as_deref(), &scene, req.seed, req.particles)?;
     let first_seen = layout_first_seen(&scene, &layout, req.seed)?;
-    let sites = sites_for(req, &scene, &first_seen)?;
+    let keep_clear_m =
+        crate::plan::keep_clear_or_default_m(req.keep_clear_m, scene.particle_radius_m);
+    let sites = sites_for(req, &scene, &first_seen, keep_clear_m)?;
     let spec = RunSpec {
         pattern: req
             .target
@@ -134,7 +138,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
         radius_um: scene.particle_radius_m * 1e6,
         rig: None,
         drift_off: req.drift_off,
-        keep_clear_um: req.keep_clear_m * 1e6,
+        keep_clear_um: keep_clear_m * 1e6,
         command: None,
         scene_crc32: None,
     }
@@ -198,11 +202,13 @@ fn layout_first_seen(scene: &Scene, layout: &Layout, seed: u64) -> Result<Layout
     Ok(layout_measured(layout.field_m, &first.particles, r))
 }
 
-/// The pattern, checked against the particles and placed on them.
+/// The pattern, checked against the particles and placed on them by
+/// plans keeping `keep_clear_m` round it.
 fn sites_for(
     req: &SimRunRequest,
     scene: &Scene,
     layout: &Layout,
+    keep_clear_m: f64,
 ) -> Result<Vec<Site>, SimRunError> {
     let r = scene.particle_radius_m;
     let target = req.target.as_ref().ok_or(SimRunError::NoPattern)?;
@@ -230,7 +236,7 @@ fn sites_for(
         &area,
         layout,
         &AssemblySettings {
-            keep_clear_m: req.keep_clear_m,
+            keep_clear_m,
             ..AssemblySettings::default()
         }
         .plan_config(scene),

@@ -130,10 +130,16 @@ impl Default for PlanConfig {
 }
 
 /// Free space between a particle on no site and the sites' particles the
-/// demo keeps, in the particle radius
+/// closed loop keeps unless told otherwise, in the particle radius
 /// ([`PlanConfig::keep_clear_m`]): 2.5 um for 10 um spheres, five times the
 /// 0.5 um between a letter's particles.
 pub const DEFAULT_KEEP_CLEAR_RADII: f64 = 0.5;
+
+/// The free space round the pattern a run keeps: `asked_m` (a flag, a
+/// journal), else [`DEFAULT_KEEP_CLEAR_RADII`] of the particle radius.
+pub fn keep_clear_or_default_m(asked_m: Option<f64>, particle_radius_m: f64) -> f64 {
+    asked_m.unwrap_or(DEFAULT_KEEP_CLEAR_RADII * particle_radius_m)
+}
 
 impl PlanConfig {
     /// The radius the sites are held at: [`PlanConfig::site_radius_m`], or

@@ -128,7 +128,7 @@ pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError
         &run.rig,
         run.layout.field_m,
         false,
-        request.keep_clear_m,
+        run.spec.keep_clear_um * 1e-6,
     );
     adjust(&mut inputs);
     let sites: Vec<[f64; 2]> = run

@@ -90,8 +90,9 @@ pub struct AssemblySettings {
     /// still verify collision-free); beyond, the loop plans afresh.
     pub keep_plan_shift_m: f64,
     /// Free space the plans keep between a particle on no site and the
-    /// pattern's particles ([`PlanConfig::keep_clear_m`]; default 0,
-    /// `assemble --keep-clear-um`, the demo half the particle radius).
+    /// pattern's particles ([`PlanConfig::keep_clear_m`]; default 0 here,
+    /// `assemble --keep-clear-um`, which keeps half the particle radius
+    /// unless told, [`crate::plan::keep_clear_or_default_m`]).
     pub keep_clear_m: f64,
     /// How the tip's drift against the sample is followed in the frames and
     /// taken out of every move (`exec::drift`); None: not at all, every
