@@ -32,6 +32,7 @@ pub mod rebase;
 pub mod refine;
 pub mod route;
 pub mod shortcuts;
+pub mod stray_gap;
 pub mod synth_layout;
 pub mod touching;
 pub mod tour;
