@@ -209,8 +209,10 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
         mut rig,
     } = prepare_sim_run(&request(args)?)?;
     let source = format!(
-        "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {} particles",
-        spec.pattern, spec.seed, args.particles
+        "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {}",
+        spec.pattern,
+        spec.seed,
+        crate::wording::counted(args.particles, "particle")
     );
     let journal_path = check_out_free(&args.out, None)?;
     let mut recorder = open_recorder(args, source, &spec, layout.field_m, rig.calibration())?;

@@ -210,10 +210,10 @@ fn print_frame(f: &DryRunFrame, sites: usize) {
         ""
     };
     println!(
-        "frame {:>4}{source}  t {:>8.2} s  {:>3} particles  {tip}  filled {}/{}  -> {}{camera}{not_made}",
+        "frame {:>4}{source}  t {:>8.2} s  {:>13}  {tip}  filled {}/{}  -> {}{camera}{not_made}",
         f.frame,
         f.t_s,
-        f.particles.len(),
+        crate::wording::counted(f.particles.len(), "particle"),
         f.filled,
         sites,
         f.command.describe()

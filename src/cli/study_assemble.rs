@@ -10,6 +10,7 @@
 use super::child_stop::run_stopping_on;
 use crate::model::Scene;
 use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
+use crate::wording::counted;
 use anyhow::{Context, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -196,9 +197,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             format!("seed {seed} was stopped before it wrote anything")
         };
         bail!(
-            "study interrupted ({CAUSE}) after {} of {} seeds: {kept}; {left}",
+            "study interrupted ({CAUSE}) after {} of {}: {kept}; {left}",
             summary.rows.len(),
-            args.runs,
+            counted(args.runs as usize, "seed"),
         );
     }
     if let Some(first) = summary.rows.iter().find(|r| r.figures.is_none())
@@ -330,12 +331,12 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
 fn print_row(r: &RunRow) {
     match (&r.figures, &r.error) {
         (Some(f), _) => println!(
-            "seed {:>3}: {}/{} sites, rms {:.0} nm, {} pushes ({} re), lost {} seen {} missed, time {:.0} s / LB {:.0} s, wall {:.1} s",
+            "seed {:>3}: {}/{}, rms {:.0} nm, {} ({} re), lost {} seen {} missed, time {:.0} s / LB {:.0} s, wall {:.1} s",
             r.seed,
             f.filled,
-            f.sites,
+            counted(f.sites, "site"),
             f.rms_error_nm,
-            f.pushes,
+            counted(f.pushes, "push"),
             f.repushes,
             f.lost_contacts_detected,
             f.lost_contacts_missed,
@@ -363,19 +364,19 @@ fn fmt_opt(v: Option<f64>, digits: usize) -> String {
 pub fn acceptance_text(s: &StudySummary) -> String {
     let share = s.complete_runs as f64 / s.runs.max(1) as f64;
     let of = if s.complete_runs < s.runs {
-        format!(" of the {} complete runs", s.complete_runs)
+        format!(" of the {}", counted(s.complete_runs, "complete run"))
     } else {
         String::new()
     };
     format!(
-        "{text}: {c}/{n} runs filled every site ({pct:.0} %, target >= 98 %)\n\
+        "{text}: {c}/{n} filled every site ({pct:.0} %, target >= 98 %)\n\
          placement RMS{of}: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
          lost contacts: {d} detected, {m} missed (target 0 missed)\n\
          time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5)\n\
          wall time per run: median {mw} s\n",
         text = s.text,
         c = s.complete_runs,
-        n = s.runs,
+        n = counted(s.runs, "run"),
         pct = 100.0 * share,
         mr = fmt_opt(s.median_rms_nm, 0),
         wr = fmt_opt(s.worst_rms_nm, 0),
@@ -399,7 +400,11 @@ fn to_markdown(s: &StudySummary, args: &Args) -> String {
         if s.runs as u64 == args.runs {
             String::new()
         } else {
-            format!(" ({} of its {} runs so far)", s.runs, args.runs)
+            format!(
+                " ({} of its {} so far)",
+                s.runs,
+                counted(args.runs as usize, "run")
+            )
         },
         acceptance_text(s)
     );
@@ -485,6 +490,29 @@ mod tests {
                 && text.contains("time / lower bound of the 2 complete runs: median 1.600"),
             "{text}"
         );
+    }
+
+    /// A study of one run, or of one complete run, says "run" once.
+    #[test]
+    fn one_run_is_counted_in_the_singular() {
+        let s = summarise(
+            "L",
+            vec![
+                row(1, Some(figures(3, 50.0, 0, 150.0))),
+                row(2, Some(figures(2, 900.0, 0, 900.0))),
+            ],
+        );
+        let text = acceptance_text(&s);
+        assert!(text.contains("L: 1/2 runs filled every site"), "{text}");
+        assert!(
+            text.contains("placement RMS of the 1 complete run: median 50 nm"),
+            "{text}"
+        );
+        let text = acceptance_text(&summarise(
+            "L",
+            vec![row(1, Some(figures(3, 50.0, 0, 150.0)))],
+        ));
+        assert!(text.contains("L: 1/1 run filled every site"), "{text}");
     }
 
     #[test]

@@ -267,8 +267,8 @@ fn full_plan(n: usize, sites: &[Vector2<f64>], layout: &crate::plan::Layout, jso
         Ok(p) => (
             Some(p.summary.push_distance_m / p.summary.lb_push_m),
             format!(
-                "planned, {} pushes ({} to buffer spots or waypoints), push+tip ratio {:.3}, executed assignment {:.4} LB_push",
-                p.summary.pushes,
+                "planned, {} ({} to buffer spots or waypoints), push+tip ratio {:.3}, executed assignment {:.4} LB_push",
+                crate::wording::counted(p.summary.pushes, "push"),
                 p.summary.buffer_pushes,
                 (p.summary.push_distance_m + p.summary.tip_travel_m)
                     / (p.summary.lb_push_m + p.summary.lb_tip_m),

@@ -128,8 +128,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let s = random_scene(n, args.width_px, args.height_px, args.radius_px, args.seed);
             if s.particles.len() < n {
                 eprintln!(
-                    "note: only {} of {n} particles fit without overlap",
-                    s.particles.len()
+                    "note: only {} of {} fit without overlap",
+                    s.particles.len(),
+                    crate::wording::counted(n, "particle")
                 );
             }
             s

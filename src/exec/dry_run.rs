@@ -419,8 +419,8 @@ fn target_sites(
             n => format!(" ({n} more beyond it)"),
         };
         return Err(target(format!(
-            "the pattern has {} sites but the first frame shows {} in the field{beyond}",
-            pattern.offsets_m.len(),
+            "the pattern has {} but the first frame shows {} in the field{beyond}",
+            counted(pattern.offsets_m.len(), "site"),
             counted(held, "particle"),
         )));
     }

@@ -161,7 +161,7 @@ pub enum ObserveError {
     #[error(transparent)]
     Rig(#[from] RigError),
     /// Every try gave a dropped frame.
-    #[error("the camera dropped {0} frames in a row")]
+    #[error("the camera dropped {} in a row", crate::wording::counted(*.0, "frame"))]
     NoFrame(usize),
     /// The detector refused the frame.
     #[error("detection failed: {0}")]

@@ -226,8 +226,8 @@ fn sites_for(
         })?;
     if pattern.offsets_m.len() > layout.particles.len() {
         return Err(mismatch(format!(
-            "{} sites but only {}",
-            pattern.offsets_m.len(),
+            "{} but only {}",
+            counted(pattern.offsets_m.len(), "site"),
             counted(layout.particles.len(), "particle")
         )));
     }

@@ -55,9 +55,9 @@ pub fn draw_plan_on_frame(
         push_px: None,
         tip_px: tip_m.map(px).transpose()?,
         caption: format!(
-            "plan: {} sites, {} pushes, push {:.1} um, tip travel {:.1} um",
-            plan.sites.len(),
-            s.pushes,
+            "plan: {}, {}, push {:.1} um, tip travel {:.1} um",
+            crate::wording::counted(plan.sites.len(), "site"),
+            crate::wording::counted(s.pushes, "push"),
             s.push_distance_m * 1e6,
             s.tip_travel_m * 1e6
         ),

@@ -363,8 +363,9 @@ fn warn_if_cut_short(path: &Path, said: Option<usize>, read: usize) {
         && said > read
     {
         tracing::warn!(
-            "{}: the video says it has {said} frames, but only the first {read} could be read (is the file cut short?)",
+            "{}: the video says it has {}, but only the first {read} could be read (is the file cut short?)",
             path.display(),
+            crate::wording::counted(said, "frame"),
         );
     }
 }

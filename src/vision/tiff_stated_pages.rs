@@ -38,8 +38,9 @@ fn pages_in_description(text: &str) -> Option<usize> {
 pub fn cut_short(path: &Path, read: usize) -> Option<String> {
     let said = stated_pages(path).filter(|&said| said > read)?;
     Some(format!(
-        "{}: the TIFF stack says it holds {said} frames, but only {read} could be read (is the file cut short?)",
-        path.display()
+        "{}: the TIFF stack says it holds {}, but only {read} could be read (is the file cut short?)",
+        path.display(),
+        crate::wording::counted(said, "frame")
     ))
 }
 
