@@ -128,6 +128,44 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
     assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
 }
 
+/// A study whose every seed fails before its run reports (here a scene
+/// whose 10 um particles the simulated rig's 120 x 100 um field cannot hold
+/// 50 of: each seed's layout is refused) fails, naming the first seed and
+/// its error, and keeps a summary of the seeds' errors; it does not print
+/// an acceptance table of nothing as a success.
+#[test]
+fn a_study_where_no_run_reports_fails_with_the_first_seeds_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let paper = std::fs::read_to_string(root.join("calib/paper-ps-ito.toml")).unwrap();
+    let large = paper.replacen("radius_um = 5.0 ", "radius_um = 10.0 ", 1);
+    assert_ne!(large, paper, "the paper scene's particle radius moved");
+    let scene = dir.path().join("large-particles.toml");
+    std::fs::write(&scene, large).unwrap();
+    let out = dir.path().join("study");
+    let run = nanopush()
+        .current_dir(root)
+        .args(["study", "assemble", "--text", "L", "--runs", "2", "--scene"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("run nanopush");
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{said}");
+    assert!(
+        said.contains("no run produced a report; seed 1: ")
+            && said.contains("50 particles of radius 10.000 um at least 1.000 um apart cannot fit"),
+        "{said}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("study-assemble.json")).unwrap())
+            .unwrap();
+    let rows = summary["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert!(rows.iter().all(|r| r["figures"].is_null()), "{rows:?}");
+}
+
 /// `demo` and `study assemble` count a text's sites against the simulated
 /// layout's particles before any work, and refuse in the planner's words
 /// with both counts: the demo had simulated the paper push and placed the
