@@ -402,6 +402,58 @@ fn bad_input_is_a_clear_error_with_non_zero_exit() {
     );
 }
 
+/// The drawing of a plan from a layout has a key naming its marks (it had
+/// none: grey discs, black rings and red and orange arrows were left to
+/// guess), under the field, so it hides no particle.
+#[test]
+fn a_plans_drawing_from_a_layout_has_a_key_of_its_marks() {
+    let dir = tempfile::tempdir().unwrap();
+    let easy = easy_layout(dir.path());
+    let sites = dir.path().join("sites.json");
+    std::fs::write(
+        &sites,
+        r#"{"sites": [{"x_um": 0, "y_um": 0}, {"x_um": 11, "y_um": 0}]}"#,
+    )
+    .unwrap();
+    let svg = dir.path().join("plan.svg");
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        sites.to_str().unwrap(),
+        "--layout",
+        &easy,
+        "--at",
+        "100,120",
+        "--overlay",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(ok, "{text}");
+    let drawing = std::fs::read_to_string(&svg).unwrap();
+    let texts: Vec<&str> = drawing
+        .split("</text>")
+        .filter_map(|piece| piece.rsplit_once('>').map(|(_, t)| t.trim()))
+        .filter(|t| !t.is_empty())
+        .collect();
+    assert_eq!(
+        texts,
+        [
+            "particle",
+            "site of the pattern",
+            "push onto a site (dot: where it ends)",
+            "push to a buffer spot or waypoint",
+            "tip travel between pushes (tip lifted)",
+        ]
+    );
+    // The key lies below the field's 200 um at 6 px a um.
+    let svg_height = drawing
+        .split("height=\"")
+        .nth(1)
+        .and_then(|h| h.split('"').next())
+        .and_then(|h| h.parse::<u32>().ok())
+        .unwrap();
+    assert!(svg_height > 1200, "{svg_height}");
+}
+
 #[test]
 fn plan_writes_a_file_that_verify_plan_accepts_and_synth_layout_reads_back() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,6 +1,8 @@
 //! Overlay of a plan on its layout: particles (grey), sites (circles), pushes
 //! (arrows from start to end; buffer/detour pushes in orange), tip travel
-//! (dashed blue). SVG or PNG through plotters, chosen by the file extension.
+//! (faint blue), with a key under the field that says so (a lab user
+//! handed the drawing had nothing to read the marks by). SVG or PNG through
+//! plotters, chosen by the file extension.
 
 use crate::plan::layout::Layout;
 use crate::plan::{Plan, Step};
@@ -33,19 +35,70 @@ pub fn overlay_kind(path: &Path) -> anyhow::Result<OverlayKind> {
     }
 }
 
-/// Draws `plan` over `layout` into `path` (.svg or .png).
+/// Fill of a particle.
+const PARTICLE: RGBColor = RGBColor(170, 170, 170);
+/// A push that ends on a site.
+const PUSH_TO_SITE: RGBColor = RED;
+/// A push that ends elsewhere: to a buffer spot, or a waypoint of a detour.
+const PUSH_ELSEWHERE: RGBColor = RGBColor(255, 140, 0);
+/// Width the key's longest line needs, pixels.
+const KEY_WIDTH_PX: u32 = 320;
+/// Height of one line of the key, pixels.
+const KEY_LINE_PX: i32 = 16;
+/// What the key names, in its order.
+#[derive(Clone, Copy)]
+enum Mark {
+    Particle,
+    Site,
+    PushToSite,
+    PushElsewhere,
+    TipTravel,
+}
+
+impl Mark {
+    const ALL: [Mark; 5] = [
+        Mark::Particle,
+        Mark::Site,
+        Mark::PushToSite,
+        Mark::PushElsewhere,
+        Mark::TipTravel,
+    ];
+
+    fn label(self) -> &'static str {
+        match self {
+            Mark::Particle => "particle",
+            Mark::Site => "site of the pattern",
+            Mark::PushToSite => "push onto a site (dot: where it ends)",
+            Mark::PushElsewhere => "push to a buffer spot or waypoint",
+            Mark::TipTravel => "tip travel between pushes (tip lifted)",
+        }
+    }
+}
+
+/// Height of the key under the field, pixels.
+fn key_height_px() -> u32 {
+    (KEY_LINE_PX * (Mark::ALL.len() as i32 + 1)) as u32
+}
+
+/// Draws `plan` over `layout` into `path` (.svg or .png), its key under it.
 pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
     let scale = 6.0; // pixels per um
-    let w = (layout.field_m[0] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
-    let h = (layout.field_m[1] * 1e6 * scale).clamp(200.0, 4000.0) as u32;
+    let field_px = (
+        (layout.field_m[0] * 1e6 * scale).clamp(200.0, 4000.0) as u32,
+        (layout.field_m[1] * 1e6 * scale).clamp(200.0, 4000.0) as u32,
+    );
+    // Wide enough for the key's longest line, the field drawn from the left.
+    let (w, h) = (field_px.0.max(KEY_WIDTH_PX), field_px.1 + key_height_px());
     match overlay_kind(path)? {
         OverlayKind::Svg => paint(
             SVGBackend::new(path, (w, h)).into_drawing_area(),
+            field_px,
             plan,
             layout,
         ),
         OverlayKind::Png => paint(
             BitMapBackend::new(path, (w, h)).into_drawing_area(),
+            field_px,
             plan,
             layout,
         ),
@@ -54,6 +107,7 @@ pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
 
 fn paint<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
+    field_px: (u32, u32),
     plan: &Plan,
     layout: &Layout,
 ) -> anyhow::Result<()>
@@ -63,6 +117,9 @@ where
     let map_err =
         |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("overlay drawing failed: {e:?}");
     root.fill(&WHITE).map_err(map_err)?;
+    let (field, key) = root.split_vertically(field_px.1);
+    draw_key(&key).map_err(map_err)?;
+    let root = field.shrink((0, 0), field_px);
     let (pw, ph) = root.dim_in_pixel();
     let fw = layout.field_m[0] * 1e6;
     let sx = pw as f64 / fw;
@@ -72,7 +129,7 @@ where
         root.draw(&Circle::new(
             px(p.centre_m.x, p.centre_m.y),
             rad(p.radius_m),
-            RGBColor(170, 170, 170).filled(),
+            PARTICLE.filled(),
         ))
         .map_err(map_err)?;
     }
@@ -90,7 +147,11 @@ where
         match step {
             Step::Push { from_m, to_m, .. } => {
                 let to_site = site_pts.iter().any(|s| (s - to_m).norm() < 1e-9);
-                let colour = if to_site { RED } else { RGBColor(255, 140, 0) };
+                let colour = if to_site {
+                    PUSH_TO_SITE
+                } else {
+                    PUSH_ELSEWHERE
+                };
                 root.draw(&PathElement::new(
                     vec![px(from_m.x, from_m.y), px(to_m.x, to_m.y)],
                     colour.stroke_width(2),
@@ -102,7 +163,7 @@ where
             Step::TipTravel { from_m, to_m } => {
                 root.draw(&PathElement::new(
                     vec![px(from_m.x, from_m.y), px(to_m.x, to_m.y)],
-                    BLUE.mix(0.4).stroke_width(1),
+                    tip_travel(),
                 ))
                 .map_err(map_err)?;
             }
@@ -110,5 +171,40 @@ where
         }
     }
     root.present().map_err(map_err)?;
+    Ok(())
+}
+
+/// The faint line of the tip's travel.
+fn tip_travel() -> ShapeStyle {
+    BLUE.mix(0.4).stroke_width(1)
+}
+
+/// One line a mark: the mark as the drawing draws it, then its label.
+fn draw_key<DB: DrawingBackend>(
+    key: &DrawingArea<DB, Shift>,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    key.draw(&PathElement::new(
+        vec![(0, 0), (key.dim_in_pixel().0 as i32, 0)],
+        BLACK.mix(0.3).stroke_width(1),
+    ))?;
+    let font = ("sans-serif", 15).into_font().color(&BLACK);
+    for (i, mark) in Mark::ALL.into_iter().enumerate() {
+        let y = KEY_LINE_PX * (i as i32 + 1);
+        let (left, right) = ((10, y), (34, y));
+        match mark {
+            Mark::Particle => key.draw(&Circle::new((22, y), 6, PARTICLE.filled()))?,
+            Mark::Site => key.draw(&Circle::new((22, y), 6, BLACK.stroke_width(1)))?,
+            Mark::PushToSite | Mark::PushElsewhere => {
+                let colour = match mark {
+                    Mark::PushToSite => PUSH_TO_SITE,
+                    _ => PUSH_ELSEWHERE,
+                };
+                key.draw(&PathElement::new(vec![left, right], colour.stroke_width(2)))?;
+                key.draw(&Circle::new(right, 3, colour.filled()))?;
+            }
+            Mark::TipTravel => key.draw(&PathElement::new(vec![left, right], tip_travel()))?,
+        }
+        key.draw(&Text::new(mark.label(), (44, y - 7), font.clone()))?;
+    }
     Ok(())
 }
