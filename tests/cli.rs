@@ -126,6 +126,26 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
         "{said}"
     );
     assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
+    // The gap round the pattern: checked before any run, and passed to
+    // every run (assemble's default, half the radius, when not given).
+    let start = || {
+        let journal = std::fs::read_to_string(out.join("seed-1/journal.jsonl")).unwrap();
+        journal.lines().nth(1).unwrap().to_owned()
+    };
+    assert!(start().contains(r#""keep_clear_um":2.5"#), "{}", start());
+    let bad = study("L", &["--force", "--keep-clear-um", "-1"]);
+    let said = String::from_utf8_lossy(&bad.stderr);
+    assert!(
+        !bad.status.success() && said.contains("--keep-clear-um is -1.000"),
+        "{said}"
+    );
+    assert_eq!(std::fs::read_to_string(&summary).unwrap(), written);
+    assert!(
+        study("L", &["--force", "--keep-clear-um", "0"])
+            .status
+            .success()
+    );
+    assert!(!start().contains("keep_clear_um"), "{}", start());
 }
 
 /// A study whose every seed fails before its run reports (here a scene
