@@ -743,6 +743,14 @@ fn a_rig_run_builds_the_pattern_where_asked() {
     );
     assert!(out.status.success(), "{}", failed(out.status, &out));
     let events = journal_events(&b.dir.path().join("at"));
+    // A rig has no seed: neither the start entry nor the report gives one
+    // (both had said seed 1, the simulated rig's default).
+    assert!(events[0].get("seed").is_none(), "{}", events[0]);
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(b.dir.path().join("at/report.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(report["asked"]["seed"].is_null(), "{}", report["asked"]);
     let sites = points_um(&events[0]["sites_um"]);
     let ((cx, w), (cy, h)) = (span(&sites, 0), span(&sites, 1));
     assert!(

@@ -211,7 +211,7 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let source = format!(
         "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {}",
         spec.pattern,
-        spec.seed,
+        args.seed,
         crate::wording::counted(args.particles, "particle")
     );
     let journal_path = check_out_free(&args.out, None)?;
@@ -344,15 +344,21 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, R
     }
     let out = run_folder(journal_path);
     spec.warn_if_scene_changed();
+    let seed = spec.seed.with_context(|| {
+        format!(
+            "{}: its start entry has no seed, which the simulated rig's world needs",
+            journal_path.display()
+        )
+    })?;
     let scene = load_scene(Path::new(&spec.scene))?;
     let layout = layout_for(
         spec.layout.as_deref().map(Path::new),
         &scene,
-        spec.seed,
+        seed,
         args.particles,
     )?;
     let sites = point.sites();
-    let mut rig = build_sim_rig(&scene, &layout, spec.seed)?;
+    let mut rig = build_sim_rig(&scene, &layout, seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
     rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);

@@ -502,7 +502,7 @@ fn assemble(
         pattern: target.label(),
         scene: args.scene.display().to_string(),
         layout: None,
-        seed: args.seed,
+        seed: None,
         sites_um: sites_um(&sites),
         radius_um: r * 1e6,
         rig: Some(RigFrame {

@@ -90,13 +90,13 @@ fn write_asked(md: &mut String, report: &AssemblyReport, journal: &Path) {
     if let Some(a) = &report.asked {
         let _ = writeln!(
             md,
-            "Asked: pattern {}, scene {}, {}seed {}.",
+            "Asked: pattern {}, scene {}{}{}.",
             a.pattern,
             a.scene,
             a.layout
                 .as_ref()
-                .map_or(String::new(), |l| format!("layout {l}, ")),
-            a.seed
+                .map_or(String::new(), |l| format!(", layout {l}")),
+            a.seed.map_or(String::new(), |s| format!(", seed {s}"))
         );
         if let Some(command) = &a.command {
             let _ = writeln!(md, "Command: `{command}`.");

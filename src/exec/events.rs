@@ -17,8 +17,11 @@ pub struct RunSpec {
     pub scene: String,
     /// Layout file of the simulated rig, if one was given.
     pub layout: Option<String>,
-    /// Seed of the simulated rig's random layout and noise.
-    pub seed: u64,
+    /// Seed of the simulated rig's random layout and noise; absent on a
+    /// hardware rig, which has no seed (rig journals from before
+    /// 2026-11-30 say `"seed":1`, which nothing reads).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
     /// Target sites on the sample, micrometres.
     pub sites_um: Vec<[f64; 2]>,
     /// Particle radius the run was planned for, micrometres.
@@ -313,7 +316,7 @@ mod tests {
             pattern: "I".into(),
             scene: "scene.toml".into(),
             layout: None,
-            seed: 1,
+            seed: Some(1),
             sites_um: vec![[1.0, 2.0]],
             radius_um: 5.0,
             rig: None,
@@ -335,6 +338,28 @@ mod tests {
         assert!(!older.contains("drift_off"), "{older}");
         assert!(!older.contains("keep_clear"), "{older}");
         assert_eq!(serde_json::from_str::<RunSpec>(&older).unwrap(), followed);
+    }
+
+    /// A hardware rig's run has no seed: its start entry says none and
+    /// reads back without one, and a rig journal from before (`"seed":1`)
+    /// still reads; a simulated run's seed is kept.
+    #[test]
+    fn a_rig_runs_start_entry_has_no_seed() {
+        let older = r#"{"pattern":"L","scene":"s.toml","layout":null,"seed":1,"sites_um":[[1.0,2.0]],"radius_um":5.0,"rig":{"rig_file":"rig.toml","field_um":[100.0,100.0]}}"#;
+        let read = serde_json::from_str::<RunSpec>(older).unwrap();
+        assert_eq!(read.seed, Some(1));
+        let rig = RunSpec { seed: None, ..read };
+        let text = serde_json::to_string(&rig).unwrap();
+        assert!(!text.contains("seed"), "{text}");
+        assert_eq!(serde_json::from_str::<RunSpec>(&text).unwrap(), rig);
+        let simulated = RunSpec {
+            seed: Some(7),
+            rig: None,
+            ..rig
+        };
+        let text = serde_json::to_string(&simulated).unwrap();
+        assert!(text.contains(r#""seed":7"#), "{text}");
+        assert_eq!(serde_json::from_str::<RunSpec>(&text).unwrap(), simulated);
     }
 
     /// A resume that follows the drift and a stop's cause are journalled
@@ -384,7 +409,7 @@ mod tests {
             pattern: "I".into(),
             scene: path.clone(),
             layout: None,
-            seed: 1,
+            seed: Some(1),
             sites_um: Vec::new(),
             radius_um: 5.0,
             rig: None,

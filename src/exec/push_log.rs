@@ -200,7 +200,7 @@ mod tests {
             pattern: "I".into(),
             scene: "s.toml".into(),
             layout: None,
-            seed: 1,
+            seed: Some(1),
             sites_um: vec![[9.0, 9.0], [3.0, 4.0]],
             radius_um: 5.0,
             rig: None,

@@ -130,8 +130,9 @@ pub struct RunAsked {
     pub scene: String,
     /// Layout file of the simulated rig, if one was given.
     pub layout: Option<String>,
-    /// Seed of the simulated rig.
-    pub seed: u64,
+    /// Seed of the simulated rig; none on a hardware rig.
+    #[serde(default)]
+    pub seed: Option<u64>,
     /// "nanopush VERSION: COMMAND LINE", when the journal has it.
     pub command: Option<String>,
 }

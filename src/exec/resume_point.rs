@@ -186,7 +186,7 @@ mod tests {
             pattern: "I".into(),
             scene: "scene.toml".into(),
             layout: None,
-            seed: 1,
+            seed: None,
             sites_um: vec![[10.0, 20.0]],
             radius_um: 5.0,
             rig: Some(RigFrame {

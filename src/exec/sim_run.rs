@@ -133,7 +133,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
             .unwrap_or_default(),
         scene: as_resumable(&req.scene),
         layout: req.layout.as_deref().map(as_resumable),
-        seed: req.seed,
+        seed: Some(req.seed),
         sites_um: sites_um(&sites),
         radius_um: scene.particle_radius_m * 1e6,
         rig: None,
