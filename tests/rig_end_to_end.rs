@@ -733,6 +733,38 @@ fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
     assert_eq!(b.positions_um(), before, "the simulator moved");
 }
 
+/// A rig run's journal starts when the run does, before its first frame:
+/// the start entry had been stamped after the first frame was looked at
+/// and the pattern placed, later than the first observations journalled.
+#[test]
+fn a_rig_runs_journal_is_stamped_from_its_start() {
+    let b = bench(50.0);
+    let out = finish(b.assemble("stamped", &["--dry-run"]), RUN_LIMIT);
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let lines: Vec<serde_json::Value> =
+        std::fs::read_to_string(b.dir.path().join("stamped/journal.jsonl"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+    assert_eq!(lines[0]["event"]["kind"], "start", "{}", lines[0]);
+    let time = |l: &serde_json::Value| l["t_s"].as_f64().unwrap();
+    let first_seen = lines
+        .iter()
+        .find(|l| l["event"]["kind"] == "observation")
+        .expect("an observation");
+    assert!(
+        time(&lines[0]) <= time(first_seen),
+        "start at {} s, first observation at {} s",
+        time(&lines[0]),
+        time(first_seen)
+    );
+    for l in &lines[1..] {
+        assert!(time(l) >= time(&lines[0]), "{l} before the start");
+    }
+}
+
 #[test]
 fn a_rig_run_builds_the_pattern_where_asked() {
     let b = bench(50.0);

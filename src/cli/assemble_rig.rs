@@ -401,6 +401,8 @@ fn assemble(
     rig: &mut HardwareRig,
     journal_path: &Path,
 ) -> anyhow::Result<(AssemblyReport, RunEnd)> {
+    // The run starts before its first frame is taken (the journal's start).
+    let started_s = rig.now_s();
     let r = scene.particle_radius_m;
     let rig_file = args.hardware.rig.as_deref().unwrap_or(Path::new("RIG"));
     let keep_clear_m = crate::plan::keep_clear_or_default_m(
@@ -431,6 +433,10 @@ fn assemble(
         .sight(rig, &calibration, offset)
         .map_err(|e| camera_error(&rig.rig_file().camera, e))
         .context("the first frame")?;
+    // A camera's newest frame may have been exposed before it was asked
+    // for: the start is no later than it, so that no frame the loop
+    // journals comes before the start.
+    let started_s = started_s.min(first.t_s);
     if args.hardware.dry_run {
         first.stage_m = rig.position().ok();
         warn_of_unchecked_calibration(&first);
@@ -536,7 +542,7 @@ fn assemble(
     // (the first frame failed, say) would block this --out for nothing.
     let journal = JournalWriter::create(journal_path)
         .with_context(|| format!("creating {}", journal_path.display()))?;
-    let mut assembly = Assembly::start(rig, inputs, journal, spec)?;
+    let mut assembly = Assembly::started_at(rig, inputs, journal, spec, started_s)?;
     if let Some(r) = recorder.as_mut() {
         assembly = assembly.with_sink(r);
     }

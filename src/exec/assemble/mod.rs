@@ -422,14 +422,29 @@ pub struct AssemblyInputs {
 }
 
 impl<'a> Assembly<'a> {
-    /// A new run: writes the run spec as the journal's first entry.
+    /// A new run: writes the run spec as the journal's first entry, stamped now.
     pub fn start(
+        rig: &'a mut dyn Rig,
+        inputs: AssemblyInputs,
+        journal: JournalWriter,
+        spec: RunSpec,
+    ) -> Result<Self, ExecError> {
+        let now_s = rig.now_s();
+        Self::started_at(rig, inputs, journal, spec, now_s)
+    }
+
+    /// [`Assembly::start`] of a run that began at rig time `started_s`:
+    /// `assemble --rig` looks at its first frame (its layout) and plans
+    /// before the loop starts, and its start entry had been stamped after
+    /// that, later than the first frames the loop then journalled.
+    pub fn started_at(
         rig: &'a mut dyn Rig,
         inputs: AssemblyInputs,
         mut journal: JournalWriter,
         spec: RunSpec,
+        started_s: f64,
     ) -> Result<Self, ExecError> {
-        journal.append(rig.now_s(), &RunEvent::Start(spec))?;
+        journal.append(started_s, &RunEvent::Start(spec))?;
         Ok(Self::with_journal(rig, inputs, journal, 0))
     }
 
