@@ -1088,6 +1088,34 @@ fn an_unconfirmed_resume_leaves_the_run_as_it_was() {
     assert_eq!(b.positions_um(), at);
 }
 
+/// A rig file whose stage unit is 1000 times the controller's (`unit_um =
+/// 1000` for a controller counting in um): the stage reads 1000 times where
+/// the camera sees the probe. The run stops at its first frame naming the
+/// factor and unit_um, and offers `--resume` (the calibration fits); it
+/// had stopped blaming the calibration ("make it again").
+#[test]
+fn a_stage_unit_1000_times_off_is_named_not_the_calibration() {
+    let b = bench(50.0);
+    let text = std::fs::read_to_string(&b.rig_path).unwrap();
+    assert!(text.contains("unit_um = 1.0\n"), "{text}");
+    std::fs::write(
+        &b.rig_path,
+        text.replace("unit_um = 1.0\n", "unit_um = 1000.0\n"),
+    )
+    .unwrap();
+    let run = finish(b.assemble("run", &[]), RUN_LIMIT);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success(), "{}", failed(run.status, &run));
+    assert!(
+        stderr.contains("the stage moved 1/1000 of what it was asked")
+            && stderr.contains("stage unit_um")
+            && stderr.contains("1000 times too large"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("calibration does not fit"), "{stderr}");
+    assert!(stderr.contains("--resume"), "{stderr}");
+}
+
 /// A rig file whose calibration is not the camera's (the camera's view
 /// lies 20 um further along x than it says) stops the run at its first
 /// frame for the calibration, and offers no `--resume`: the sites were

@@ -16,6 +16,10 @@ pub enum ApexDoubt {
     /// Drift the run does not follow (`--no-drift-follow`) has taken the
     /// apex past [`CALIBRATION_DOUBT_M`], a little at a time.
     UnfollowedDrift(String),
+    /// The stage's unit in the rig file is not the controller's
+    /// (`stage_unit::stage_unit_doubt`): the
+    /// calibration may fit, and the run goes on once the unit is set.
+    StageUnit(String),
 }
 
 impl ApexDoubt {
@@ -23,14 +27,16 @@ impl ApexDoubt {
     pub fn cause(&self) -> StopCause {
         match self {
             ApexDoubt::CalibrationUnfit(_) => StopCause::CalibrationUnfit,
-            ApexDoubt::UnfollowedDrift(_) => StopCause::Other,
+            ApexDoubt::UnfollowedDrift(_) | ApexDoubt::StageUnit(_) => StopCause::Other,
         }
     }
 }
 
 impl std::fmt::Display for ApexDoubt {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let (ApexDoubt::CalibrationUnfit(why) | ApexDoubt::UnfollowedDrift(why)) = self;
+        let (ApexDoubt::CalibrationUnfit(why)
+        | ApexDoubt::UnfollowedDrift(why)
+        | ApexDoubt::StageUnit(why)) = self;
         f.write_str(why)
     }
 }
@@ -139,13 +145,13 @@ fn um(p: [f64; 2]) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::vision::exposure::Exposure;
     use crate::vision::frame::Frame;
 
     /// A frame's sighting of the apex at `tip_um` with the stage sent to `stage_um`.
-    fn sighting(tip_um: [f64; 2], stage_um: [f64; 2]) -> Sighting {
+    pub(in crate::exec::assemble) fn sighting(tip_um: [f64; 2], stage_um: [f64; 2]) -> Sighting {
         Sighting {
             frame: Frame::new(1, 1, vec![0.0], 8).unwrap(),
             t_s: 0.0,

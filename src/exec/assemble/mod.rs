@@ -41,6 +41,7 @@ mod left_short;
 mod planning;
 mod pushing;
 mod stage_moves;
+mod stage_unit;
 
 pub use crate::exec::travel_height::LIFT_ABOVE_PARTICLES_M;
 pub use apex_doubt::{
@@ -761,13 +762,20 @@ impl<'a> Assembly<'a> {
             self.journal
                 .append(self.rig.now_s(), &RunEvent::FrameDropped)?;
         }
-        // Judged before this frame's apex joins the drift estimate.
+        // Judged before this frame's apex joins the drift estimate. A wrong
+        // stage unit reads as a calibration that does not fit: named so.
         let astray = match self.drift {
             Some(_) => {
                 apex_doubt(&sighting, self.drift_at(sighting.t_s)).map(ApexDoubt::CalibrationUnfit)
             }
             None => apex_doubt_unfollowed(&sighting, self.apex_offsets_m.map(|(_, last)| last)),
         }
+        .map(|doubt| match doubt {
+            ApexDoubt::CalibrationUnfit(_) => {
+                stage_unit::stage_unit_doubt(&sighting).map_or(doubt, ApexDoubt::StageUnit)
+            }
+            other => other,
+        })
         .filter(|_| self.settings.check_apex);
         if let (None, Some(now)) = (&astray, sighting.apex_offset_m()) {
             let first = self.apex_offsets_m.map_or(now, |(first, _)| first);
