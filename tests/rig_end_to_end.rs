@@ -706,7 +706,10 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
 /// A dry run reads no position from the controller: its in-process stage
 /// starts at the centre of the travel wherever the real one is. With the
 /// real stage 20 um off, it had stopped blaming the calibration; it warns
-/// that it cannot check it, and makes its push on paper.
+/// that it cannot check it, and makes its push on paper. Its recording
+/// logs no stage position, so `nanopush dry-run` replays it without
+/// blaming the calibration either (every frame had said "the loop stops
+/// on its first look: ... the calibration does not fit ... make it again").
 #[test]
 fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
     let b = bench(50.0);
@@ -722,7 +725,11 @@ fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
     }
     let before = b.positions_um();
     assert!((before[0] - start[0] - 20.0).abs() < 0.1, "{before:?}");
-    let out = finish(b.assemble("dry", &["--dry-run"]), RUN_LIMIT);
+    let rec = b.dir.path().join("rec");
+    let out = finish(
+        b.assemble("dry", &["--dry-run", "--record", rec.to_str().unwrap()]),
+        RUN_LIMIT,
+    );
     assert!(out.status.success(), "{}", failed(out.status, &out));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -731,6 +738,17 @@ fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
         "{stderr}"
     );
     assert_eq!(b.positions_um(), before, "the simulator moved");
+    let o = nanopush()
+        .args(["dry-run", "--recording"])
+        .arg(&rec)
+        .arg("--out")
+        .arg(b.dir.path().join("replay"))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!said.contains("calibration does not fit"), "{said}");
+    assert!(said.contains("-> push particle"), "{said}");
 }
 
 /// A rig run's journal starts when the run does, before its first frame:

@@ -537,7 +537,14 @@ fn assemble(
         rig_file.display(),
         spec.pattern
     );
-    let mut recorder = open_recorder(args, source, &spec, settings.field_m, &calibration)?;
+    let mut recorder =
+        open_recorder(args, source, &spec, settings.field_m, &calibration)?.map(|r| {
+            if args.hardware.dry_run {
+                r.without_stage_positions()
+            } else {
+                r
+            }
+        });
     // Created only now, when the run spec is known: a journal without one
     // (the first frame failed, say) would block this --out for nothing.
     let journal = JournalWriter::create(journal_path)

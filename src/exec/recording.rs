@@ -429,6 +429,8 @@ pub struct RecordingWriter {
     log: std::fs::File,
     frames: usize,
     error: Option<RecordingError>,
+    /// The stage log says where the stage was (false: `stage_um` null).
+    stage_positions: bool,
 }
 
 impl RecordingWriter {
@@ -492,7 +494,21 @@ impl RecordingWriter {
             log,
             frames: 0,
             error: None,
+            stage_positions: true,
         })
+    }
+
+    /// The writer logging no stage position (`stage_um` null), for a dry
+    /// run on a rig: its stage is an in-process simulator's, starting
+    /// wherever the real stage is not, and its positions read as the real
+    /// stage's made every frame of `nanopush dry-run` say the loop stops
+    /// for the calibration. The replay then does not check it, as the dry
+    /// run could not.
+    pub fn without_stage_positions(self) -> Self {
+        Self {
+            stage_positions: false,
+            ..self
+        }
     }
 
     /// Adds one frame with the stages' state.
@@ -540,7 +556,10 @@ impl FrameSink for RecordingWriter {
             frame: self.frames,
             t_s: s.t_s,
             coarse_offset_um: [s.coarse_offset_m[0] * 1e6, s.coarse_offset_m[1] * 1e6],
-            stage_um: s.stage_m.map(|p| [p[0] * 1e6, p[1] * 1e6, p[2] * 1e6]),
+            stage_um: s
+                .stage_m
+                .filter(|_| self.stage_positions)
+                .map(|p| [p[0] * 1e6, p[1] * 1e6, p[2] * 1e6]),
         };
         if let Err(e) = self.add(&s.frame, entry) {
             self.error = Some(e);
