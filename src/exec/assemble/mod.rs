@@ -715,13 +715,7 @@ impl<'a> Assembly<'a> {
     }
 
     fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
-        let end = match end {
-            RunEnd::Stopped(why) => RunEnd::Stopped(why + &self.unfollowed_drift_note()),
-            RunEnd::CalibrationUnfit(why) => {
-                RunEnd::CalibrationUnfit(why + &self.unfollowed_drift_note())
-            }
-            other => other,
-        };
+        let end = with_drift_note(end, &self.unfollowed_drift_note());
         let stopped = RunEvent::Stopped {
             reason: end.reason().unwrap_or_default(),
             cause: Some(end.cause()),
@@ -730,7 +724,7 @@ impl<'a> Assembly<'a> {
         Ok(end)
     }
 
-    /// Said at a stop when the run does not follow drift and the apex has
+    /// Said at a plain stop ([`with_drift_note`]) when the run does not follow drift and the apex has
     /// moved against the stage by more than the placed tolerance since the
     /// first frame: every push misses by about as much, and the stop (lost
     /// contacts, a planner refusal at 0.3-0.6 um of drift) had named
@@ -995,12 +989,37 @@ impl From<PushError> for ExecError {
     }
 }
 
+/// `end` with the note of a drift the run did not follow
+/// (`Assembly::unfollowed_drift_note`), on a plain stop only, which the
+/// drift may explain: a calibration stop is not to be resumed, and the
+/// note's "--resume with --drift-follow" had contradicted it.
+fn with_drift_note(end: RunEnd, note: &str) -> RunEnd {
+    match end {
+        RunEnd::Stopped(why) => RunEnd::Stopped(why + note),
+        other => other,
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{AssemblySettings, RunEnd};
+    use super::{AssemblySettings, RunEnd, with_drift_note};
     use crate::plan::cmu_scene::cmu_scene;
     use crate::plan::synth_layout::LayoutKind;
     use crate::plan::{PlanConfig, plan_assembly, verify_plan};
+
+    /// The drift note goes on a plain stop, not on a calibration stop
+    /// (whose advice is a new calibration and run, not a resume).
+    #[test]
+    fn only_a_plain_stop_gets_the_drift_note() {
+        let note = "; the run does not follow drift (--resume with --drift-follow follows it)";
+        assert_eq!(
+            with_drift_note(RunEnd::Stopped("lost".into()), note),
+            RunEnd::Stopped(format!("lost{note}"))
+        );
+        let unfit = RunEnd::CalibrationUnfit("the calibration does not fit".into());
+        assert_eq!(with_drift_note(unfit.clone(), note), unfit);
+        assert_eq!(with_drift_note(RunEnd::Done, note), RunEnd::Done);
+    }
 
     /// The loop's plans keeping 2.5 um (the demo's half a radius) leave
     /// the particles they need not that far off the pattern's where they
