@@ -1021,7 +1021,7 @@ mod tests {
         assert_eq!(with_drift_note(RunEnd::Done, note), RunEnd::Done);
     }
 
-    /// The loop's plans keeping 2.5 um (the demo's half a radius) leave
+    /// The loop's plans keeping 2.5 um (assemble's default, half a radius) leave
     /// the particles they need not that far off the pattern's where they
     /// can: on 12 CMU scenes, 8 keep
     /// it; in the other 4 a stray stays 0.12-0.90 um off, in the blank
