@@ -2,6 +2,7 @@
 //! the run follows) put it. An apex far off says the calibration is not
 //! this rig's, and every move would go astray: the loop stops.
 
+use super::stage_unit::stage_unit_doubt;
 use crate::exec::observe::Sighting;
 use crate::exec::stop_cause::StopCause;
 
@@ -53,9 +54,11 @@ pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
 /// the dry-run says the loop would. (Another camera's map, 0.30 um/px
 /// turned 90 deg, put the apex 17 um off; the run pushed three times, lost
 /// contact three times and stopped on "no collision-free order", naming no
-/// calibration.)
+/// calibration.) A stage whose unit is wrong reads as such a calibration
+/// and is named instead ([`stage_unit_doubt`]), in `rig probe --camera`
+/// and the dry-run as in the loop.
 pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
-    apex_doubt(sighting, [0.0, 0.0])
+    stage_unit_doubt(sighting).or_else(|| apex_doubt(sighting, [0.0, 0.0]))
 }
 
 /// [`calibration_doubt`] of any frame of a run, `drift_m` (the tip's drift

@@ -23,7 +23,7 @@ const FROM_ZERO_MIN_M: f64 = 1e-6;
 /// factor (at least [`UNIT_FACTOR_MIN`], or its inverse) of the stage's
 /// reading on both axes, as if every move from the stage's zero had gone
 /// that factor of what was asked.
-pub fn stage_unit_doubt(sighting: &Sighting) -> Option<String> {
+pub(super) fn stage_unit_doubt(sighting: &Sighting) -> Option<String> {
     apex_beyond_doubt_m(sighting)?;
     let (tip, stage) = (sighting.tip_m?, sighting.stage_m?);
     let seen = [0, 1].map(|k| tip[k] - sighting.coarse_offset_m[k]);
@@ -84,6 +84,10 @@ mod tests {
         );
         assert!(why.contains("divide it by 1000"), "{why}");
         assert!(!why.contains("calibration"), "{why}");
+        // The first look's check (rig probe --camera, the dry-run) says the same.
+        let first_look =
+            super::super::calibration_doubt(&sighting([50.02, 49.98], [50_000.0, 50_000.0]));
+        assert_eq!(first_look.as_deref(), Some(why.as_str()));
         let why = stage_unit_doubt(&sighting([50.0, 40.0], [0.05, 0.04])).unwrap();
         assert!(
             why.contains("the stage moved 1000 times what it was asked"),
