@@ -55,7 +55,7 @@ pub const CALIBRATION_DOUBT_M: f64 = 5e-6;
 /// turned 90 deg, put the apex 17 um off; the run pushed three times, lost
 /// contact three times and stopped on "no collision-free order", naming no
 /// calibration.) A stage whose unit is wrong reads as such a calibration
-/// and is named instead ([`stage_unit_doubt`]), in `rig probe --camera`
+/// and is named instead (`stage_unit.rs`), in `rig probe --camera`
 /// and the dry-run as in the loop.
 pub fn calibration_doubt(sighting: &Sighting) -> Option<String> {
     stage_unit_doubt(sighting).or_else(|| apex_doubt(sighting, [0.0, 0.0]))
