@@ -73,8 +73,9 @@ pub struct Args {
     pub method: AssignmentMethod,
     /// Free space, um, that particles on no site keep from the pattern's
     /// particles where the plan leaves them (so no stray reads as part of a
-    /// letter). Default 0: the plain planning problem, as `assemble`;
-    /// `demo` keeps half the particle radius (2.5 um for 10 um spheres).
+    /// letter). Default 0: the plain planning problem; `assemble` (and so
+    /// `demo`) keeps half the particle radius unless told (2.5 um for 10 um
+    /// spheres).
     #[arg(long, default_value_t = 0.0)]
     pub keep_clear_um: f64,
     /// Write the plan here (nanopush.plan/1 JSON).

@@ -102,8 +102,8 @@ pub struct PlanConfig {
     /// that the pattern stands clear: a stray 0.5 um beside a letter reads
     /// as part of it (the demo's 'CMU' had one bridging the C and the M).
     /// Default 0: none, the planning problem issue 4 measures (LB_push
-    /// counts no clearing); `demo` keeps [`DEFAULT_KEEP_CLEAR_RADII`] of
-    /// the particle radius.
+    /// counts no clearing); `assemble` keeps [`DEFAULT_KEEP_CLEAR_RADII`]
+    /// of the particle radius unless told ([`keep_clear_or_default_m`]).
     pub keep_clear_m: f64,
 }
 
