@@ -3,10 +3,12 @@
 //! alone against sites.json, shows the pattern; bad pattern input is refused
 //! before anything is written.
 
+use nalgebra::Vector2;
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
 use nanopush::exec::recording::open_recording;
 use nanopush::exec::report::AssemblyReport;
+use nanopush::plan::stray_gap::seen_stray_gap_m;
 use nanopush::vision::detect::{DetectSettings, detect_particles};
 use nanopush::vision::frame::Frame;
 use nanopush::vision::frame_input::{Channel, load_frame, load_frames};
@@ -109,6 +111,44 @@ fn the_final_frame_checked_by_the_detector_shows_the_pattern() {
         "the first frame already shows {} of {} sites",
         sites_shown(&first, &s),
         s.sites.len()
+    );
+}
+
+/// The report's nearest stray is what the final frame shows: the detector
+/// alone, on final.png against sites.json, measures the same gap, and it
+/// is at least the gap the run's plans keep (assemble's default).
+#[test]
+fn the_reported_stray_gap_is_the_final_frames() {
+    let (_, out, _) = run();
+    let text = std::fs::read_to_string(out.join("report.json")).unwrap();
+    let report: AssemblyReport = serde_json::from_str(&text).unwrap();
+    let gap_um = report.nearest_stray_gap_um.expect("a stray gap");
+    let kept_um = report.asked.as_ref().unwrap().keep_clear_um;
+    assert!(
+        kept_um > 0.0 && gap_um >= kept_um,
+        "{gap_um} um, {kept_um} um kept"
+    );
+    let s = sites(out);
+    let (a, b) = (&s.sites[0], &s.sites[1]);
+    let um_per_px =
+        (a.x_um - b.x_um).hypot(a.y_um - b.y_um) / (a.x_px - b.x_px).hypot(a.y_px - b.y_px);
+    let at = |x_px: f64, y_px: f64| Vector2::new(x_px, y_px) * um_per_px;
+    let last = load_frame(&out.join("final.png"), Channel::Luminance).unwrap();
+    let settings = DetectSettings {
+        diameter_px: DIAMETER_PX,
+        ..DetectSettings::default()
+    };
+    let seen: Vec<(Vector2<f64>, f64)> = (detect_particles(&last, &settings).unwrap().iter())
+        .map(|d| (at(d.x_px, d.y_px), d.r_px * um_per_px))
+        .collect();
+    let site_at: Vec<Vector2<f64>> = s.sites.iter().map(|r| at(r.x_px, r.y_px)).collect();
+    // In um throughout: the measure does not care for the unit. Within
+    // 0.1 um: the detector sizes particles this far apart within 15 nm
+    // (tracker.rs, ISOLATED_GAP_M); 0.03 um apart when written.
+    let seen_um = seen_stray_gap_m(&site_at, &seen).expect("the frame shows a stray");
+    assert!(
+        (seen_um - gap_um).abs() < 0.1,
+        "the final frame shows {seen_um} um, the report says {gap_um} um"
     );
 }
 

@@ -14,6 +14,7 @@ use nanopush::exec::observe::Perception;
 use nanopush::exec::sim_run::layout_for;
 use nanopush::model::Scene;
 use nanopush::plan::Layout;
+use nanopush::plan::stray_gap::seen_stray_gap_m;
 use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
 use nanopush::rig::gcs::{RigFile, SimConfig, SimFault, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
@@ -605,6 +606,23 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
         world.contacts().iter().any(|c| c.moved_m > 1.0 * UM),
         "the probe pushed nothing"
     );
+    // The camera's nearest stray is the world's, within what the detector
+    // sizes particles to (15 nm a radius, tracker.rs ISOLATED_GAP_M).
+    let centres: Vec<_> = sites
+        .iter()
+        .map(|s| nalgebra::Vector2::new(s[0], s[1]))
+        .collect();
+    let discs: Vec<_> = (world.world.particles.iter())
+        .map(|p| (nalgebra::Vector2::new(p.x_m, p.y_m), p.radius_m))
+        .collect();
+    let truth_um = seen_stray_gap_m(&centres, &discs).expect("a stray in the world") * 1e6;
+    let seen_um = report["nearest_stray_gap_um"]
+        .as_f64()
+        .expect("a stray gap");
+    assert!(
+        (seen_um - truth_um).abs() < 0.1,
+        "the camera saw the nearest stray {seen_um} um off, the world has it {truth_um} um"
+    );
     drop(world);
     // The half-written frame was skipped with a warning, not read.
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -695,7 +713,12 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
         printed.contains("1 on paper: the stage did not move"),
         "{printed}"
     );
-    for figure in ["placement error  rms", "lost contacts)", "tip drift:"] {
+    for figure in [
+        "placement error  rms",
+        "lost contacts)",
+        "tip drift:",
+        "nearest stray:",
+    ] {
         assert!(!printed.contains(figure), "{figure}: {printed}");
     }
     // The bench's 150 um step does not bound the pushes: no note of it.

@@ -386,6 +386,16 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, R
     finish(run, &rig, &scene, &out, journal_path)
 }
 
+/// Least free space between the pattern and a stray where the simulated
+/// rig's particles truly are.
+fn stray_gap_m(sites: &[Site], truth: &[crate::rig::sim::world::SimParticle]) -> Option<f64> {
+    let centres: Vec<_> = sites.iter().map(|s| s.centre_m).collect();
+    let discs: Vec<_> = (truth.iter())
+        .map(|p| (nalgebra::Vector2::new(p.x_m, p.y_m), p.radius_m))
+        .collect();
+    crate::plan::stray_gap::seen_stray_gap_m(&centres, &discs)
+}
+
 /// What is kept of a run once the executor hands the rig back.
 struct Finished {
     end: RunEnd,
@@ -441,6 +451,7 @@ fn finish(
         lost_contacts_missed: Some(missed),
         time_s: rig.now_s(),
         effect_work: Some(rig.stage.effect_work()),
+        nearest_stray_gap_m: stray_gap_m(&run.sites, truth),
     };
     let report = AssemblyReport::from_run(facts, &entries, scene, &AssemblySettings::default());
     std::fs::write(

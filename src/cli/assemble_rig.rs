@@ -553,7 +553,7 @@ fn assemble(
     if let Some(r) = recorder.as_mut() {
         assembly = assembly.with_sink(r);
     }
-    let ran = RunResult::of(assembly);
+    let ran = RunResult::of(assembly, !args.hardware.dry_run);
     if let Some(r) = recorder {
         r.finish().context("writing the recording")?;
     }
@@ -616,7 +616,7 @@ fn resume(
         settings: settings.clone(),
     };
     let out = &run_folder(journal_path);
-    let ran = RunResult::of(Assembly::resume(rig, inputs, point)?);
+    let ran = RunResult::of(Assembly::resume(rig, inputs, point)?, true);
     finish_run(ran, rig, out, scene, &settings, journal_path)
 }
 
@@ -626,16 +626,19 @@ struct RunResult {
     end: Result<RunEnd, crate::exec::assemble::ExecError>,
     sites: Vec<crate::plan::Site>,
     errors_m: Vec<f64>,
+    stray_gap_m: Option<f64>,
     last: Option<Sighting>,
 }
 
 impl RunResult {
-    /// Runs the loop to its end.
-    fn of(mut assembly: Assembly<'_>) -> Self {
+    /// Runs the loop to its end; the stray gap only where the stage moved
+    /// (a dry run's would be the sample's as found).
+    fn of(mut assembly: Assembly<'_>, stage_moved: bool) -> Self {
         let end = assembly.run();
         Self {
             end,
             errors_m: assembly.site_errors_m(),
+            stray_gap_m: assembly.nearest_stray_gap_m().filter(|_| stage_moved),
             sites: assembly.sites().to_vec(),
             last: assembly.last_sighting.clone(),
         }
@@ -656,6 +659,7 @@ fn finish_run(
         end,
         sites,
         errors_m,
+        stray_gap_m,
         last,
     } = ran;
     let end = end?;
@@ -670,6 +674,7 @@ fn finish_run(
         time_s: rig.now_s(),
         // A hardware rig has no model inside to count.
         effect_work: None,
+        nearest_stray_gap_m: stray_gap_m,
     };
     let report = AssemblyReport::from_run(facts, &entries, scene, settings);
     std::fs::write(

@@ -119,6 +119,13 @@ pub struct AssemblyReport {
     /// last process only; every other figure covers the whole run.
     #[serde(default)]
     pub resumes: usize,
+    /// Least free space, um, between the pattern's particles where the run
+    /// ended and any particle on no site: how clearly the pattern stands
+    /// out (a stray 0.5 um beside a letter reads as part of it). Absent
+    /// when the run has no such figure (a dry run, which moved nothing; no
+    /// site filled) and in reports written before this field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nearest_stray_gap_um: Option<f64>,
 }
 
 /// What a run was asked, for its report.
@@ -135,6 +142,10 @@ pub struct RunAsked {
     pub seed: Option<u64>,
     /// "nanopush VERSION: COMMAND LINE", when the journal has it.
     pub command: Option<String>,
+    /// Free space the plans kept round the pattern, um (`--keep-clear-um`);
+    /// 0 when none, and in reports written before this field.
+    #[serde(default)]
+    pub keep_clear_um: f64,
 }
 
 impl From<&RunSpec> for RunAsked {
@@ -145,6 +156,7 @@ impl From<&RunSpec> for RunAsked {
             layout: s.layout.clone(),
             seed: s.seed,
             command: s.command.clone(),
+            keep_clear_um: s.keep_clear_um,
         }
     }
 }
@@ -222,6 +234,9 @@ pub struct RunFacts<'a> {
     pub time_s: f64,
     /// Effect work counted by a simulated rig.
     pub effect_work: Option<BTreeMap<String, u64>>,
+    /// Least free space between the pattern and a stray where the run
+    /// ended, metres ([`seen_stray_gap_m`](crate::plan::stray_gap::seen_stray_gap_m)).
+    pub nearest_stray_gap_m: Option<f64>,
 }
 
 impl AssemblyReport {
@@ -263,12 +278,30 @@ impl AssemblyReport {
             .map(|s| ("camera lines repaired", s));
         let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
         let drift = self.drift_summary().map(|s| ("tip drift", s));
+        let stray = self.stray_gap_summary().map(|s| ("nearest stray", s));
         short
             .into_iter()
             .chain(lines)
             .chain(clipped)
             .chain(drift)
+            .chain(stray)
             .collect()
+    }
+
+    /// "2.71 um off the pattern (its plans kept 2.50 um)", saying so when
+    /// nearer than asked (the planner could not keep it, or a push moved
+    /// it); None without the figure.
+    pub fn stray_gap_summary(&self) -> Option<String> {
+        let gap = self.nearest_stray_gap_um?;
+        let kept = self.asked.as_ref().map_or(0.0, |a| a.keep_clear_um);
+        let plans = if kept <= 0.0 {
+            "no gap asked of its plans: --keep-clear-um 0".to_owned()
+        } else if gap < kept - 0.005 {
+            format!("nearer than the {kept:.2} um asked of its plans")
+        } else {
+            format!("its plans kept {kept:.2} um")
+        };
+        Some(format!("{gap:.2} um off the pattern ({plans})"))
     }
 
     /// "site 24 by particle 14 (264 nm off by the camera when left), ...:
@@ -416,6 +449,7 @@ impl AssemblyReport {
             placed_tolerance_nm: Some(settings.placed_tolerance_m * 1e9),
             asked: counts.spec.as_ref().map(RunAsked::from),
             resumes: counts.resumes,
+            nearest_stray_gap_um: facts.nearest_stray_gap_m.map(|g| g * 1e6),
         }
     }
 }
@@ -909,6 +943,7 @@ mod tests {
             lost_contacts_missed: None,
             time_s: 10.0,
             effect_work: None,
+            nearest_stray_gap_m: None,
         };
         let journal = [entry(
             0,
@@ -987,7 +1022,41 @@ mod tests {
             placed_tolerance_nm: Some(200.0),
             asked: None,
             resumes: 0,
+            nearest_stray_gap_um: None,
         }
+    }
+
+    /// The stray gap is said against the gap asked of the plans, and
+    /// read back from report.json.
+    #[test]
+    fn the_stray_gap_is_said_against_the_gap_asked() {
+        let mut r = small_report();
+        assert_eq!(r.stray_gap_summary(), None);
+        assert!(r.notes().iter().all(|(what, _)| *what != "nearest stray"));
+        r.nearest_stray_gap_um = Some(2.714);
+        let said = r.stray_gap_summary().unwrap();
+        assert!(
+            said.contains("2.71 um off the pattern (no gap asked"),
+            "{said}"
+        );
+        r.asked = Some(RunAsked {
+            pattern: "CMU".into(),
+            scene: "s.toml".into(),
+            layout: None,
+            seed: Some(3),
+            command: None,
+            keep_clear_um: 2.5,
+        });
+        assert_eq!(
+            r.stray_gap_summary().unwrap(),
+            "2.71 um off the pattern (its plans kept 2.50 um)"
+        );
+        r.nearest_stray_gap_um = Some(0.87);
+        let said = r.stray_gap_summary().unwrap();
+        assert!(said.contains("nearer than the 2.50 um asked"), "{said}");
+        assert!(r.notes().iter().any(|(what, _)| *what == "nearest stray"));
+        let text = serde_json::to_string(&r).unwrap();
+        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
     }
 
     /// No ratio without a lower bound, nor for a stopped run (the bound is

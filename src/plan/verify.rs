@@ -383,16 +383,18 @@ fn nearest_stray_gap_m(
     let assigned: std::collections::HashSet<u32> =
         plan.assignment.iter().map(|&(p, _)| p).collect();
     let largest = layout.max_radius_m();
-    let site_radius = &site_radius;
-    (layout.particles.iter().zip(pos))
-        .filter(|(p, _)| !assigned.contains(&p.id))
-        .flat_map(|(p, at)| {
-            plan.sites.iter().map(move |s| {
-                let rs = site_radius.get(&s.id).copied().unwrap_or(largest);
-                (at - s.centre_m).norm() - p.radius_m - rs
-            })
+    let pattern: Vec<(Vector2<f64>, f64)> = (plan.sites.iter())
+        .map(|s| {
+            (
+                s.centre_m,
+                site_radius.get(&s.id).copied().unwrap_or(largest),
+            )
         })
-        .min_by(f64::total_cmp)
+        .collect();
+    let strays = (layout.particles.iter().zip(pos))
+        .filter(|(p, _)| !assigned.contains(&p.id))
+        .map(|(p, at)| (*at, p.radius_m));
+    super::stray_gap::least_gap_m(strays, &pattern)
 }
 
 /// Replays a plan made with `config` (the executor's entry point), its tip

@@ -559,6 +559,19 @@ impl<'a> Assembly<'a> {
             .collect()
     }
 
+    /// Least free space between the pattern and a particle on no site,
+    /// metres, as the last look saw them (tracks it matched: one missed
+    /// may have been pushed off, or never was a particle).
+    pub fn nearest_stray_gap_m(&self) -> Option<f64> {
+        let centre = |t: &Track| nalgebra::Vector2::new(t.last.x_m, t.last.y_m);
+        let seen: Vec<_> = (self.tracker.tracks().iter())
+            .filter(|t| t.missed_frames == 0)
+            .map(|t| (centre(t), t.own_radius_m().unwrap_or(t.last.radius_m)))
+            .collect();
+        let sites: Vec<_> = self.sites.iter().map(|s| s.centre_m).collect();
+        crate::plan::stray_gap::seen_stray_gap_m(&sites, &seen)
+    }
+
     /// The tracked particle nearest to site `s`.
     fn nearest_track(&self, s: &Site) -> Option<&Track> {
         let tracks = self.tracker.tracks().iter();
