@@ -1023,6 +1023,72 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     std::fs::write(&b.rig_path, text).unwrap();
 }
 
+/// True once process `pid` catches SIGINT, i.e. has its Ctrl-C handler
+/// installed: bit SIGINT-1 of `SigCgt` in /proc/PID/status (Linux). Before
+/// that (the program still loading its libraries) Ctrl-C ends it at once,
+/// with nothing written: no program can answer it there.
+fn catches_sigint(pid: u32) -> bool {
+    let bit = 1u64 << (nix::sys::signal::Signal::SIGINT as i32 - 1);
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigCgt:").map(|h| h.trim().to_owned()))
+        })
+        .and_then(|h| u64::from_str_radix(&h, 16).ok())
+        .is_some_and(|mask| mask & bit != 0)
+}
+
+/// Ctrl-C as soon as `assemble --rig` can take it, before the rig is even
+/// open: answered at once on stderr, and the set-up (opening the rig, the
+/// first frame, placing the pattern: seconds) stops at its next step with
+/// "interrupted ... nothing was moved", --out left unmade and the stage
+/// still. The set-up had run on to the first stage command unaware of the
+/// press, begun a journal and only then stopped, or (the handler installed
+/// only with the stage) been ended by it without a word.
+#[test]
+fn ctrl_c_during_the_set_up_is_answered_at_once_and_starts_nothing() {
+    // Real time, and the coarse rig: its set-up plans CMU on 50 particles.
+    let b = coarse_bench(1.0);
+    let before = b.positions_um();
+    let child = b.assemble("early", &[]);
+    let started = Instant::now();
+    while !catches_sigint(child.id()) {
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "no Ctrl-C handler was installed"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let pressed = Instant::now();
+    // Generous: a noisy machine may be slow, but the run must not go on.
+    let out = interrupted(child, Duration::from_secs(60));
+    let stopped_in = pressed.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("stopped {stopped_in:?} after the press: {stderr}");
+    assert!(!out.status.success(), "{}", failed(out.status, &out));
+    assert!(
+        stopped_in < Duration::from_secs(10),
+        "stopped {stopped_in:?} after the press: {stderr}"
+    );
+    assert!(
+        stderr.starts_with("stopping (Ctrl-C or a termination signal) now"),
+        "the press was not answered first: {stderr}"
+    );
+    assert!(
+        stderr.contains("error: interrupted (Ctrl-C or a termination signal)"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("nothing was moved"), "{stderr}");
+    assert!(stderr.contains("nothing was started"), "{stderr}");
+    assert!(
+        !b.dir.path().join("early").exists(),
+        "--out was made for a run that never began"
+    );
+    assert!(!b.moving(), "a stage was left moving");
+    assert_eq!(b.positions_um(), before, "the nanostage moved");
+}
+
 /// A first move on real hardware that nobody confirms (here standard input
 /// at its end, no terminal: what EOF or Ctrl-C at the question come to)
 /// moves nothing, and leaves `--out` and `--record` as they were: a

@@ -45,6 +45,7 @@ use crate::exec::observe::{Perception, Sighting};
 use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
+use crate::exec::stop_cause::StopCause;
 use crate::exec::travel_height::check_travel_height;
 use crate::model::Scene;
 use crate::plan::pattern::PatternError;
@@ -56,11 +57,17 @@ use crate::plan::pushes::max_push_len;
 use crate::rig::Rig;
 use crate::rig::gcs::{RigFile, SentLog};
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
+use crate::rig::interrupt::{
+    CAUSE, SECOND_PRESS_GRACE, SetUpInterrupted, acknowledge_halting_with, ctrlc_flag,
+    stop_if_raised,
+};
 use crate::rig::stage::{CoarseStage, NanoStage};
 use crate::vision::frame_input::save_png;
 use anyhow::{Context, bail};
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 /// The hardware-rig flags of `nanopush assemble`.
 #[derive(clap::Args, Debug, Default)]
@@ -114,6 +121,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     if args.layout.is_some() {
         bail!("--layout is for the simulated rig: with --rig the camera shows the layout");
     }
+    // First of all: a press during the set-up (the rig opened, the first
+    // frame, the plan: seconds) had ended the program without a word, or
+    // gone unseen until the run's first stage command.
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    acknowledge_halting_with(format!(
+        "stopping ({CAUSE}) now: the stage is halted and the run stopped \
+         (a second press, {} s on, ends it at once)",
+        SECOND_PRESS_GRACE.as_secs()
+    ));
     let rig_file = RigFile::load(rig_path)?;
     if !rig_file.stage.has_z() {
         bail!(
@@ -139,16 +155,38 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         RigStart::Resume { point, .. } => point.last_t_s,
         RigStart::New { .. } => 0.0,
     };
-    let mut rig = HardwareRig::from_rig_file(
+    let opened = HardwareRig::from_rig_file(
         rig_file,
         HardwareRigOptions {
             dry_run: hw.dry_run,
             waive_confirmation: hw.yes_move_hardware,
             clock_from_s,
+            interrupt: Some(Arc::clone(&interrupt)),
             ..Default::default()
         },
-    )
-    .with_context(|| format!("opening the rig {}", rig_path.display()))?;
+    );
+    // Stopped before anything was made or moved, said so.
+    let untouched = |during| {
+        let stop = SetUpInterrupted { during };
+        match &args.resume {
+            Some(journal) => anyhow::anyhow!(
+                "{stop}: nothing was moved and {} is as it was; {}",
+                journal.display(),
+                GoOn::of_journal(Some(rig_path.clone()), journal.clone()).after(StopCause::Other)
+            ),
+            None => anyhow::anyhow!("{stop}: nothing was moved, nothing was started"),
+        }
+    };
+    let mut rig = match opened {
+        Err(_) if interrupt.load(Ordering::SeqCst) => {
+            return Err(untouched("while the rig was opened"));
+        }
+        opened => opened.with_context(|| format!("opening the rig {}", rig_path.display()))?,
+    };
+    if interrupt.load(Ordering::SeqCst) {
+        let _ = rig.halt();
+        return Err(untouched("once the rig was open"));
+    }
     let folder = match resumed_folder {
         Some(kept) => kept,
         None => MadeFolder::create(&out)?,
@@ -185,12 +223,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // the rig, the pattern) began no journal: what it made is taken back,
     // as a declined run's is (it had left an empty --out). A dry run keeps
     // its sent-bytes.log, written below: the set-up's queries and `HLT`.
+    let interrupted = interrupt.load(Ordering::SeqCst);
     let result = match result {
         Err(e) if new_run && !hw.dry_run && !journal.exists() => {
+            let moved = if interrupted && !rig.moved_any() {
+                "nothing was moved; "
+            } else {
+                ""
+            };
             return Err(anyhow::anyhow!(
-                "{}; nothing was started: {}",
+                "{}; {moved}nothing was started: {}",
                 super::error_message::error_message(&e),
                 folders_said(&folders)
+            ));
+        }
+        // A resume stopped before its loop began: its journal goes on as
+        // it was (the loop's own stop says how to go on; this had not).
+        Err(e) if interrupted && !new_run => {
+            return Err(anyhow::anyhow!(
+                "{}; the stage was halted; {}",
+                super::error_message::error_message(&e),
+                GoOn::of_journal(Some(rig_path.clone()), journal).after(StopCause::Other)
             ));
         }
         result => result,
@@ -429,8 +482,11 @@ fn assemble(
     } else {
         [0.0, 0.0]
     };
-    let mut first = perception
-        .sight(rig, &calibration, offset)
+    stop_if_raised(rig.interrupt_flag(), "before the first frame")?;
+    let first = perception.sight(rig, &calibration, offset);
+    // A press while waiting for the frame is said as such, not as a camera fault.
+    stop_if_raised(rig.interrupt_flag(), "at the first frame")?;
+    let mut first = first
         .map_err(|e| camera_error(&rig.rig_file().camera, e))
         .context("the first frame")?;
     // A camera's newest frame may have been exposed before it was asked
@@ -504,6 +560,9 @@ fn assemble(
             (e, _) => e,
         })
         .context("placing the pattern among the particles of the first frame")?;
+    // Planning takes seconds on a big pattern and looks at no flag: a
+    // press during it stops here, before the journal is begun.
+    stop_if_raised(rig.interrupt_flag(), "while the pattern was placed")?;
     let spec = RunSpec {
         pattern: target.label(),
         scene: args.scene.display().to_string(),
@@ -616,6 +675,7 @@ fn resume(
         settings: settings.clone(),
     };
     let out = &run_folder(journal_path);
+    stop_if_raised(rig.interrupt_flag(), "before the run went on")?;
     let ran = RunResult::of(Assembly::resume(rig, inputs, point)?, true);
     finish_run(ran, rig, out, scene, &settings, journal_path)
 }

@@ -538,9 +538,15 @@ impl Camera for RigDevices {
     /// from before (a camera program's backlog, or one exposed while the
     /// stage was still moving) shows particles where they no longer are and
     /// is discarded. After `STALE_FRAME_PATIENCE` of stale frames, `Ok(None)`.
+    /// Once Ctrl-C is pressed, [`RigError::Interrupted`] before asking the
+    /// camera: a camera giving no frame is asked again and again, each for
+    /// its timeout, where a press had gone unseen (no stage command checks).
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
         let started = std::time::Instant::now();
         loop {
+            if self.interrupt.load(std::sync::atomic::Ordering::SeqCst) {
+                return Err(RigError::Interrupted);
+            }
             match self.camera.grab()? {
                 Some(f) if f.t_s < self.settled_at_s => {
                     self.stale_frames += 1;

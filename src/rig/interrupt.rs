@@ -10,7 +10,11 @@
 //! ended it before the stage was sent `HLT`, the push running on with the
 //! tip down, and without a report. A command whose stop is not at once
 //! ([`acknowledge_with`]: a dry-run, a study) has the first press answered
-//! on stderr, so a wait is not taken for a press that went unseen.
+//! on stderr, so a wait is not taken for a press that went unseen; so has
+//! `assemble --rig` ([`acknowledge_halting_with`]), whose set-up (the rig
+//! opened, the first frame, the plan) had run on for seconds unaware of a
+//! press, or been ended by it without a word. Such set-up steps look at
+//! the flag between them ([`stop_if_raised`]).
 
 use std::io::Write;
 use std::sync::atomic::AtomicBool;
@@ -20,7 +24,14 @@ use std::time::{Duration, Instant};
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 
 /// The line the first press is answered with, when a command set one.
-static ACKNOWLEDGEMENT: OnceLock<String> = OnceLock::new();
+static ACKNOWLEDGEMENT: OnceLock<Acknowledgement> = OnceLock::new();
+
+/// A command's answer to the first press, and whether it drives a stage
+/// (a second press then sends the user to check it by hand).
+struct Acknowledgement {
+    line: String,
+    drives_stage: bool,
+}
 
 /// Has the first Ctrl-C (or termination signal) answered on stderr with
 /// `line` at once (for a command that moves no stage: a second press then
@@ -28,7 +39,38 @@ static ACKNOWLEDGEMENT: OnceLock<String> = OnceLock::new();
 /// to its stop (a dry-run's frame in analysis had left 8-20 s without a
 /// word). Set once per process; later calls are ignored.
 pub fn acknowledge_with(line: String) {
-    let _ = ACKNOWLEDGEMENT.set(line);
+    let _ = ACKNOWLEDGEMENT.set(Acknowledgement {
+        line,
+        drives_stage: false,
+    });
+}
+
+/// [`acknowledge_with`] for a command that drives a stage: a second press
+/// still says the stage is to be checked by hand.
+pub fn acknowledge_halting_with(line: String) {
+    let _ = ACKNOWLEDGEMENT.set(Acknowledgement {
+        line,
+        drives_stage: true,
+    });
+}
+
+/// A set-up step found the flag raised: the command stops before its next
+/// step (the run not begun), `during` saying where, e.g. "at the first frame".
+#[derive(Debug, thiserror::Error)]
+#[error("interrupted ({CAUSE}) {during}")]
+pub struct SetUpInterrupted {
+    /// Where the set-up was when it looked.
+    pub during: &'static str,
+}
+
+/// Fails once `flag` is raised: called between set-up steps that send the
+/// stage nothing (so no stage check would see the press) and may take
+/// seconds (a camera's first frame, planning).
+pub fn stop_if_raised(flag: &AtomicBool, during: &'static str) -> Result<(), SetUpInterrupted> {
+    if flag.load(std::sync::atomic::Ordering::SeqCst) {
+        return Err(SetUpInterrupted { during });
+    }
+    Ok(())
 }
 
 /// What raised the flag, as messages name it. The ctrlc crate calls one
@@ -58,12 +100,11 @@ pub fn ctrlc_flag() -> Result<Arc<AtomicBool>, ctrlc::Error> {
     ctrlc::set_handler(move || {
         let first = *first_press.get_or_init(Instant::now);
         let again = raised.swap(true, std::sync::atomic::Ordering::SeqCst);
-        if !again && let Some(line) = ACKNOWLEDGEMENT.get() {
-            say_without_sigpipe(line);
+        if !again && let Some(said) = ACKNOWLEDGEMENT.get() {
+            say_without_sigpipe(&said.line);
         }
         if again && first.elapsed() >= SECOND_PRESS_GRACE {
-            // A command that answers the first press moves no stage.
-            let stage = if ACKNOWLEDGEMENT.get().is_some() {
+            let stage = if ACKNOWLEDGEMENT.get().is_some_and(|a| !a.drives_stage) {
                 ""
             } else {
                 "; check the stage by hand (the tip may be down)"
