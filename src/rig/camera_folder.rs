@@ -9,7 +9,8 @@
 //! skipped (with a warning, and listed in [`FolderCamera::skipped`]) after
 //! `max_decode_attempts` reads of the same unchanged content: with the
 //! defaults, 50 + 100 + 200 ms. A grab
-//! waits at most `timeout` and then returns `Ok(None)` ("no frame"), so a
+//! waits at most `timeout` (or until Ctrl-C's flag is raised:
+//! [`Camera::stop_waiting_on`]) and then returns `Ok(None)` ("no frame"), so a
 //! writer that stops or a file that stays half-written never hangs the caller.
 //! Polling (not inotify) keeps it portable and works on network shares.
 
@@ -22,6 +23,8 @@ use crate::natural_order::natural_cmp;
 use crate::vision::frame_input::{Channel, decode_image};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime};
 
 /// File extensions taken as frames (compared case-insensitively).
@@ -126,6 +129,8 @@ pub struct FolderCamera {
     taken: HashSet<PathBuf>,
     watching: HashMap<PathBuf, Watch>,
     skipped: Vec<SkippedFile>,
+    /// Ctrl-C's flag, once given ([`Camera::stop_waiting_on`]).
+    stop: Option<Arc<AtomicBool>>,
 }
 
 /// What one look at a candidate file found.
@@ -145,6 +150,7 @@ impl FolderCamera {
             taken: HashSet::new(),
             watching: HashMap::new(),
             skipped: Vec::new(),
+            stop: None,
         };
         let existing = camera.list().map_err(|source| CameraError::Folder {
             path: camera.settings.dir.clone(),
@@ -319,6 +325,9 @@ impl Camera for FolderCamera {
                 return Ok(Some(frame));
             }
             let now = Instant::now();
+            if self.stop.as_ref().is_some_and(|f| f.load(Ordering::SeqCst)) {
+                return Ok(None);
+            }
             if now >= deadline {
                 tracing::debug!(
                     "camera folder {}: no new frame within {:?}",
@@ -329,6 +338,10 @@ impl Camera for FolderCamera {
             }
             std::thread::sleep(self.settings.poll_interval.min(deadline - now));
         }
+    }
+
+    fn stop_waiting_on(&mut self, flag: Arc<AtomicBool>) {
+        self.stop = Some(flag);
     }
 }
 
@@ -354,5 +367,28 @@ mod tests {
         .err()
         .unwrap();
         assert!(matches!(err, CameraError::Folder { .. }), "{err}");
+    }
+
+    /// A grab waiting on a folder no frame comes to gives up once Ctrl-C's
+    /// flag is raised, not at its timeout.
+    #[test]
+    fn a_waiting_grab_gives_up_once_ctrl_c_is_pressed() {
+        let dir = tempfile::tempdir().unwrap();
+        let settings = FolderCameraSettings {
+            timeout: Duration::from_secs(30),
+            ..FolderCameraSettings::new(dir.path())
+        };
+        let mut camera = FolderCamera::open(settings, WallClock::start()).unwrap();
+        let flag = Arc::new(AtomicBool::new(false));
+        camera.stop_waiting_on(Arc::clone(&flag));
+        let raiser = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(100));
+            flag.store(true, Ordering::SeqCst);
+        });
+        let asked = Instant::now();
+        assert!(camera.grab().unwrap().is_none());
+        let waited = asked.elapsed();
+        raiser.join().unwrap();
+        assert!(waited < Duration::from_secs(10), "waited {waited:?}");
     }
 }

@@ -268,14 +268,15 @@ impl RigDevices {
     /// `opts.clock_from_s`. The calibration the rig file names is not read.
     pub fn open(rig: RigFile, opts: HardwareRigOptions) -> Result<Self, HardwareRigError> {
         let clock = WallClock::continuing_from(opts.clock_from_s);
-        let camera = match opts.camera {
-            Some(camera) => camera,
-            None => open_camera(&rig.camera, clock)?,
-        };
         let interrupt = match opts.interrupt {
             Some(flag) => flag,
             None => crate::rig::interrupt::ctrlc_flag()?,
         };
+        let mut camera = match opts.camera {
+            Some(camera) => camera,
+            None => open_camera(&rig.camera, clock)?,
+        };
+        camera.stop_waiting_on(Arc::clone(&interrupt));
         let opening = StageOpening {
             dry_run: opts.dry_run,
             waive_confirmation: opts.waive_confirmation,
