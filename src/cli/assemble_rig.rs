@@ -124,12 +124,14 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // First of all: a press during the set-up (the rig opened, the first
     // frame, the plan: seconds) had ended the program without a word, or
     // gone unseen until the run's first stage command.
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     acknowledge_halting_with(format!(
         "stopping ({CAUSE}) now: the stage is halted and the run stopped \
          (a second press, {} s on, ends it at once)",
         SECOND_PRESS_GRACE.as_secs()
     ));
+    // The answer set first: a press just after the handler went in had
+    // stopped the command unanswered.
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     let rig_file = RigFile::load(rig_path)?;
     if !rig_file.stage.has_z() {
         bail!(

@@ -164,13 +164,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Ctrl-C stops the run in progress as a run stops (the study passes it
     // on: a `kill -INT` of the study alone had let the seed finish); the
     // study then keeps the runs it finished and stops.
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     acknowledge_with(format!(
         "stopping the study ({CAUSE}) now: the run in progress is stopped, the seeds finished are kept in {} \
          (a second press, {} s on, ends it at once)",
         args.out.display(),
         SECOND_PRESS_GRACE.as_secs()
     ));
+    // The answer set first: a press just after the handler went in had
+    // stopped the command unanswered.
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     let (json, md) = (
         args.out.join("study-assemble.json"),
         args.out.join("study-assemble.md"),
