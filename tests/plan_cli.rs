@@ -1282,9 +1282,13 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
         .iter()
         .map(|s| to_px(s["x_um"].as_f64().unwrap(), s["y_um"].as_f64().unwrap()))
         .collect();
-    let picture = image::open(&overlay).unwrap().to_rgb8();
     let shot = image::open(&frame).unwrap();
-    assert_eq!(picture.dimensions(), (shot.width(), shot.height()));
+    // The frame's part of the drawing; its key below is checked in
+    // `a_plans_drawing_over_a_frame_has_a_key_of_its_marks`.
+    let picture = image::open(&overlay).unwrap().to_rgb8();
+    assert_eq!(picture.width(), shot.width());
+    assert!(picture.height() > shot.height());
+    let picture = image::imageops::crop_imm(&picture, 0, 0, shot.width(), shot.height()).to_image();
     // Site circles are drawn in (0, 200, 255), 5 um = 8.5 px round each site.
     let site_pixels: Vec<(f64, f64)> = picture
         .enumerate_pixels()
@@ -1304,6 +1308,63 @@ fn plan_from_a_real_frame_finds_its_five_particles() {
             .all(|&p| sites_px.iter().any(|&s| near(p, s))),
         "site colour away from every site"
     );
+}
+
+/// The drawing of a plan over a camera frame has a key naming its marks
+/// under the frame, as the drawing over a layout has (it had none: cyan and
+/// green rings and orange arrows over the frame were left to guess). Each
+/// line of the key shows its mark in the colour the frame's marks are drawn
+/// in, then its label's text.
+#[test]
+fn a_plans_drawing_over_a_frame_has_a_key_of_its_marks() {
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/recordings/real-brightfield");
+    let dir = tempfile::tempdir().unwrap();
+    let overlay = dir.path().join("plan.png");
+    let path = |p: &Path| p.to_str().unwrap().to_string();
+    let frame = fixture.join("frames").join("bf_0000.png");
+    let (ok, text) = nanopush(&[
+        "plan",
+        "--pattern",
+        &path(&fixture.join("pattern.toml")),
+        "--frame",
+        &path(&frame),
+        "--calib",
+        &path(&fixture.join("calibration.toml")),
+        "--overlay",
+        &path(&overlay),
+    ]);
+    assert!(ok, "{text}");
+    let shot = image::open(&frame).unwrap();
+    let picture = image::open(&overlay).unwrap().to_rgb8();
+    let key_top = shot.height();
+    assert!(
+        picture.height() >= key_top + 16 * 4,
+        "{:?}",
+        picture.dimensions()
+    );
+    // Line i of the key is centred 16 (i + 1) px below the frame; its mark
+    // lies left of x = 40, its label from x = 44.
+    let line_has = |i: u32, x0: u32, x1: u32, hit: &dyn Fn([u8; 3]) -> bool| {
+        let y = key_top + 16 * (i + 1);
+        (x0..x1).any(|x| (y - 7..y + 8).any(|y| hit(picture.get_pixel(x, y).0)))
+    };
+    let marks = [
+        ("site", [0, 200, 255]),
+        ("particle", [40, 220, 40]),
+        ("push", [255, 160, 0]),
+    ];
+    for (i, (name, colour)) in marks.into_iter().enumerate() {
+        let i = i as u32;
+        assert!(
+            line_has(i, 0, 40, &|p| p == colour),
+            "no {name} mark on line {i} of the key"
+        );
+        assert!(
+            line_has(i, 44, picture.width(), &|p| p.iter().all(|&c| c < 100)),
+            "no label on line {i} of the key"
+        );
+    }
 }
 
 /// A dense field refused at every placement tried says how many were tried

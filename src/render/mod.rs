@@ -1,5 +1,6 @@
 //! Synthetic microscope frames, overlays, plots and animations.
 
+pub mod key;
 pub mod microscope;
 pub mod microscope_truth;
 pub mod noise;

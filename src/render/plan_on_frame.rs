@@ -4,9 +4,11 @@
 //! own picture of it: a particle the detector missed or a site over dirt
 //! shows here and nowhere else. Drawn like the run animation's frames
 //! ([`draw_run_frame`]): sites, the particles planned with, every push as an
-//! arrow, and the tip's apex when the frame showed it.
+//! arrow, and the tip's apex when the frame showed it; under the frame, a
+//! key naming those marks ([`super::key`]), as the drawing over a layout has.
 
-use super::run_overlay::{RunOverlay, draw_run_frame};
+use super::key::with_key_below;
+use super::run_overlay::{RunOverlay, draw_run_frame, key};
 use crate::calib::camera_map::CameraCalibration;
 use crate::plan::layout::Layout;
 use crate::plan::{Plan, Step};
@@ -17,7 +19,9 @@ use nalgebra::Vector2;
 /// `plan` (sites and pushes), the particles of `layout` and the tip at
 /// `tip_m` over `frame`, placed in its pixels by `calibration` (the frame
 /// taken with the coarse stage at its origin, as `plan --frame` assumes).
-/// Errors are the calibration's (not invertible) or the drawing's, as text.
+/// The key of the marks goes under the frame, the picture widened if the
+/// frame is narrower than the key's lines. Errors are the calibration's (not
+/// invertible) or the drawing's, as text.
 pub fn draw_plan_on_frame(
     plan: &Plan,
     layout: &Layout,
@@ -62,5 +66,5 @@ pub fn draw_plan_on_frame(
             s.tip_travel_m * 1e6
         ),
     };
-    draw_run_frame(frame, &overlay, 1.0)
+    with_key_below(&draw_run_frame(frame, &overlay, 1.0)?, &key(&overlay))
 }

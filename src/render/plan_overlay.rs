@@ -1,9 +1,10 @@
 //! Overlay of a plan on its layout: particles (grey), sites (circles), pushes
 //! (arrows from start to end; buffer/detour pushes in orange), tip travel
 //! (faint blue), with a key under the field that says so (a lab user
-//! handed the drawing had nothing to read the marks by). SVG or PNG through
+//! handed the drawing had nothing to read the marks by; [`super::key`]). SVG or PNG through
 //! plotters, chosen by the file extension.
 
+use super::key::{KeyEntry, Swatch, draw_key, key_height_px, key_width_px};
 use crate::plan::layout::Layout;
 use crate::plan::{Plan, Step};
 use plotters::coord::Shift;
@@ -41,44 +42,35 @@ const PARTICLE: RGBColor = RGBColor(170, 170, 170);
 const PUSH_TO_SITE: RGBColor = RED;
 /// A push that ends elsewhere: to a buffer spot, or a waypoint of a detour.
 const PUSH_ELSEWHERE: RGBColor = RGBColor(255, 140, 0);
-/// Width the key's longest line needs, pixels.
-const KEY_WIDTH_PX: u32 = 320;
-/// Height of one line of the key, pixels.
-const KEY_LINE_PX: i32 = 16;
-/// What the key names, in its order.
-#[derive(Clone, Copy)]
-enum Mark {
-    Particle,
-    Site,
-    PushToSite,
-    PushElsewhere,
-    TipTravel,
-}
-
-impl Mark {
-    const ALL: [Mark; 5] = [
-        Mark::Particle,
-        Mark::Site,
-        Mark::PushToSite,
-        Mark::PushElsewhere,
-        Mark::TipTravel,
-    ];
-
-    fn label(self) -> &'static str {
-        match self {
-            Mark::Particle => "particle",
-            Mark::Site => "site of the pattern",
-            Mark::PushToSite => "push onto a site (dot: where it ends)",
-            Mark::PushElsewhere => "push to a buffer spot or waypoint",
-            Mark::TipTravel => "tip travel between pushes (tip lifted)",
-        }
-    }
-}
-
-/// Height of the key under the field, pixels.
-fn key_height_px() -> u32 {
-    (KEY_LINE_PX * (Mark::ALL.len() as i32 + 1)) as u32
-}
+/// The faint line of the tip's travel.
+const TIP_TRAVEL: ShapeStyle = ShapeStyle {
+    color: RGBAColor(0, 0, 255, 0.4),
+    filled: false,
+    stroke_width: 1,
+};
+/// The key of the drawing's marks, in its order.
+const KEY: [KeyEntry; 5] = [
+    KeyEntry {
+        swatch: Swatch::Disc(PARTICLE),
+        label: "particle",
+    },
+    KeyEntry {
+        swatch: Swatch::Ring(BLACK),
+        label: "site of the pattern",
+    },
+    KeyEntry {
+        swatch: Swatch::LineToDot(PUSH_TO_SITE),
+        label: "push onto a site (dot: where it ends)",
+    },
+    KeyEntry {
+        swatch: Swatch::LineToDot(PUSH_ELSEWHERE),
+        label: "push to a buffer spot or waypoint",
+    },
+    KeyEntry {
+        swatch: Swatch::Line(TIP_TRAVEL),
+        label: "tip travel between pushes (tip lifted)",
+    },
+];
 
 /// Draws `plan` over `layout` into `path` (.svg or .png), its key under it.
 pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
@@ -88,7 +80,10 @@ pub fn draw(plan: &Plan, layout: &Layout, path: &Path) -> anyhow::Result<()> {
         (layout.field_m[1] * 1e6 * scale).clamp(200.0, 4000.0) as u32,
     );
     // Wide enough for the key's longest line, the field drawn from the left.
-    let (w, h) = (field_px.0.max(KEY_WIDTH_PX), field_px.1 + key_height_px());
+    let (w, h) = (
+        field_px.0.max(key_width_px(&KEY)),
+        field_px.1 + key_height_px(&KEY),
+    );
     match overlay_kind(path)? {
         OverlayKind::Svg => paint(
             SVGBackend::new(path, (w, h)).into_drawing_area(),
@@ -118,7 +113,7 @@ where
         |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("overlay drawing failed: {e:?}");
     root.fill(&WHITE).map_err(map_err)?;
     let (field, key) = root.split_vertically(field_px.1);
-    draw_key(&key).map_err(map_err)?;
+    draw_key(&key, &KEY).map_err(anyhow::Error::msg)?;
     let root = field.shrink((0, 0), field_px);
     let (pw, ph) = root.dim_in_pixel();
     let fw = layout.field_m[0] * 1e6;
@@ -163,7 +158,7 @@ where
             Step::TipTravel { from_m, to_m } => {
                 root.draw(&PathElement::new(
                     vec![px(from_m.x, from_m.y), px(to_m.x, to_m.y)],
-                    tip_travel(),
+                    TIP_TRAVEL,
                 ))
                 .map_err(map_err)?;
             }
@@ -171,40 +166,5 @@ where
         }
     }
     root.present().map_err(map_err)?;
-    Ok(())
-}
-
-/// The faint line of the tip's travel.
-fn tip_travel() -> ShapeStyle {
-    BLUE.mix(0.4).stroke_width(1)
-}
-
-/// One line a mark: the mark as the drawing draws it, then its label.
-fn draw_key<DB: DrawingBackend>(
-    key: &DrawingArea<DB, Shift>,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    key.draw(&PathElement::new(
-        vec![(0, 0), (key.dim_in_pixel().0 as i32, 0)],
-        BLACK.mix(0.3).stroke_width(1),
-    ))?;
-    let font = ("sans-serif", 15).into_font().color(&BLACK);
-    for (i, mark) in Mark::ALL.into_iter().enumerate() {
-        let y = KEY_LINE_PX * (i as i32 + 1);
-        let (left, right) = ((10, y), (34, y));
-        match mark {
-            Mark::Particle => key.draw(&Circle::new((22, y), 6, PARTICLE.filled()))?,
-            Mark::Site => key.draw(&Circle::new((22, y), 6, BLACK.stroke_width(1)))?,
-            Mark::PushToSite | Mark::PushElsewhere => {
-                let colour = match mark {
-                    Mark::PushToSite => PUSH_TO_SITE,
-                    _ => PUSH_ELSEWHERE,
-                };
-                key.draw(&PathElement::new(vec![left, right], colour.stroke_width(2)))?;
-                key.draw(&Circle::new(right, 3, colour.filled()))?;
-            }
-            Mark::TipTravel => key.draw(&PathElement::new(vec![left, right], tip_travel()))?,
-        }
-        key.draw(&Text::new(mark.label(), (44, y - 7), font.clone()))?;
-    }
     Ok(())
 }

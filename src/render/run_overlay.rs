@@ -3,6 +3,7 @@
 //! come, the tip, the push whose result the frame shows, and a caption.
 //! Drawn with plotters on an RGB buffer (no extra drawing crate).
 
+use super::key::{KeyEntry, Swatch};
 use crate::vision::frame::Frame;
 use image::RgbImage;
 use plotters::prelude::*;
@@ -82,11 +83,7 @@ pub fn draw_run_frame(frame: &Frame, overlay: &RunOverlay, scale: f64) -> Result
             draw_arrow(&root, px(a), px(b), PUSH, 2)?;
         }
         if let Some(t) = overlay.tip_px {
-            let (x, y) = px(t);
-            for seg in [[(x - 6, y), (x + 6, y)], [(x, y - 6), (x, y + 6)]] {
-                root.draw(&PathElement::new(seg.to_vec(), TIP.stroke_width(2)))
-                    .map_err(e)?;
-            }
+            draw_cross(&root, px(t), TIP)?;
         }
         let style = ("sans-serif", 14).into_font().color(&YELLOW);
         let fits = |line: &str| {
@@ -121,7 +118,52 @@ fn caption_lines(caption: &str, fits: impl Fn(&str) -> bool) -> Vec<String> {
     lines
 }
 
-fn draw_arrow<DB: DrawingBackend>(
+/// The key of `overlay`'s marks, those it draws ([`super::key`]).
+pub fn key(overlay: &RunOverlay) -> Vec<KeyEntry> {
+    let mut entries = vec![
+        KeyEntry {
+            swatch: Swatch::Ring(SITE),
+            label: "site of the pattern",
+        },
+        KeyEntry {
+            swatch: Swatch::Ring(PARTICLE),
+            label: "particle seen (ring: its size)",
+        },
+        KeyEntry {
+            swatch: Swatch::Arrow(PLAN, 1),
+            label: "push to come (head: where it ends)",
+        },
+    ];
+    if overlay.push_px.is_some() {
+        entries.push(KeyEntry {
+            swatch: Swatch::Arrow(PUSH, 2),
+            label: "push whose result is shown",
+        });
+    }
+    if overlay.tip_px.is_some() {
+        entries.push(KeyEntry {
+            swatch: Swatch::Cross(TIP),
+            label: "the tip's apex",
+        });
+    }
+    entries
+}
+
+/// A cross of 12 px centred on `at`: the tip's apex.
+pub(super) fn draw_cross<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    (x, y): (i32, i32),
+    colour: RGBColor,
+) -> Result<(), String> {
+    for seg in [[(x - 6, y), (x + 6, y)], [(x, y - 6), (x, y + 6)]] {
+        root.draw(&PathElement::new(seg.to_vec(), colour.stroke_width(2)))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// A line from `a` to `b` with a head at `b`.
+pub(super) fn draw_arrow<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     a: (i32, i32),
     b: (i32, i32),
