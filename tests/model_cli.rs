@@ -309,7 +309,8 @@ fn study_writes_a_table_that_reads_back() {
         rows
     );
     // Run again into the same folder: refused before any work, the table
-    // kept, unless --force (it had been replaced without a word).
+    // kept, unless --force (it had been replaced without a word). The advice
+    // names a folder, as --out takes (it had said "another file").
     let table = std::fs::read(dir.path().join("study-model.csv")).unwrap();
     let again = |force: bool| {
         let mut cmd = nanopush();
@@ -325,7 +326,8 @@ fn study_writes_a_table_that_reads_back() {
     assert!(
         !refused.status.success()
             && said.contains("study-model.md exists")
-            && said.contains("--force"),
+            && said.contains("--force")
+            && said.contains("or --out another folder"),
         "{said}"
     );
     assert_eq!(

@@ -56,10 +56,23 @@ pub struct FitArgs {
 /// path), or an existing file without `force` (a good calibration is not
 /// lost to a re-run).
 pub fn check_output(out: &Path, inputs: &[(&str, &Path)], force: bool) -> anyhow::Result<()> {
+    check_output_in(out, inputs, force, "file")
+}
+
+/// As [`check_output`], for an output that `--out` names a `kind` ("file",
+/// or "folder" when it names the folder `out` is written in), so the
+/// refusal's advice names what `--out` takes (`study model` had advised
+/// "--out another file" for its folder).
+pub fn check_output_in(
+    out: &Path,
+    inputs: &[(&str, &Path)],
+    force: bool,
+    kind: &str,
+) -> anyhow::Result<()> {
     prepare_outputs(inputs, &[("--out", out)])?;
     anyhow::ensure!(
         force || !out.exists(),
-        "{} exists: pass --force to replace it, or --out another file",
+        "{} exists: pass --force to replace it, or --out another {kind}",
         out.display()
     );
     Ok(())

@@ -29,7 +29,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // or scene set was replaced without a word.
     if let Some(dir) = &args.out {
         for path in output_paths(dir) {
-            super::calibrate::check_output(&path, &[], args.force)?;
+            super::calibrate::check_output_in(&path, &[], args.force, "folder")?;
         }
     }
     let paths: Vec<PathBuf> = if args.scenes.is_empty() {
