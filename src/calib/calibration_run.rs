@@ -100,7 +100,7 @@ pub enum CalibrationRunError {
         max_um: f64,
     },
     /// The camera gave no frame.
-    #[error("no frame from the camera in {0} tries")]
+    #[error("no frame from the camera in {}", crate::wording::counted(*.0, "try"))]
     NoFrame(usize),
     /// No tip in the first frame.
     #[error(

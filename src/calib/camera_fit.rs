@@ -112,9 +112,9 @@ pub fn fit_camera_map(
 ) -> Result<CalibrationFit, CalibError> {
     if pixels.len() != stage_m.len() || pixels.len() < 3 {
         return Err(CalibError::Fit(format!(
-            "need at least 3 matching pairs, got {} pixels and {} stage positions",
-            pixels.len(),
-            stage_m.len()
+            "need at least 3 matching pairs, got {} and {}",
+            crate::wording::counted(pixels.len(), "pixel"),
+            crate::wording::counted(stage_m.len(), "stage position")
         )));
     }
     if !(threshold_px.is_finite() && threshold_px > 0.0)
@@ -160,7 +160,10 @@ pub fn fit_camera_map(
     };
     let kept = inliers.iter().filter(|&&k| k).count();
     if kept < 3 {
-        return Err(CalibError::Fit(format!("only {kept} inliers")));
+        return Err(CalibError::Fit(format!(
+            "only {}",
+            crate::wording::counted(kept, "inlier")
+        )));
     }
     let r = residuals(&map, lens, pixels, &stage_um);
     // Over the same inliers as the map's RMS: over RANSAC's, which the lens
@@ -460,6 +463,27 @@ mod tests {
             }
         }
         (px, st)
+    }
+
+    /// Too few pairs are counted in words that fit one of each ("got 1
+    /// pixels and 1 stage positions" had been said).
+    #[test]
+    fn one_pair_is_said_in_the_singular() {
+        let refusal = |pixels: usize| {
+            fit_camera_map(
+                &vec![[1.0, 2.0]; pixels],
+                &[[0.0, 0.0]],
+                1.0,
+                LensModel::None,
+                (640, 480),
+            )
+            .unwrap_err()
+            .to_string()
+        };
+        let err = refusal(1);
+        assert!(err.contains("got 1 pixel and 1 stage position"), "{err}");
+        let err = refusal(2);
+        assert!(err.contains("got 2 pixels and 1 stage position"), "{err}");
     }
 
     #[test]

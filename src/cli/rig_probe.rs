@@ -139,8 +139,9 @@ fn against_rig_file(args: &Args, e: HardwareRigError) -> anyhow::Error {
 pub fn camera_error(source: &CameraSource, e: ObserveError) -> anyhow::Error {
     match e {
         ObserveError::NoFrame(grabs) => anyhow::anyhow!(
-            "no frame from the camera ({}) in {grabs} tries of its timeout: {}",
+            "no frame from the camera ({}) in {} of its timeout: {}",
             source.describe(),
+            crate::wording::counted(grabs, "try"),
             source.when_no_frame()
         ),
         other => anyhow::Error::new(other)

@@ -337,7 +337,9 @@ pub enum PlanError {
     Blocked(String),
     /// Too few particles narrow enough for the sites' spacing.
     #[error(
-        "{sites} sites to fill but only {fitting} free particles fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch: {sites} of them fit sites at least {spacing_um:.3} um apart, their diameter plus the clearance and on-site tolerance)"
+        "{} to fill but only {} fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch: {sites} of them fit sites at least {spacing_um:.3} um apart, their diameter plus the clearance and on-site tolerance)",
+        crate::wording::counted(*sites, "site"),
+        crate::wording::counted(*fitting, "free particle")
     )]
     TooFewFitting {
         /// Sites still to fill.

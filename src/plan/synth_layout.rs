@@ -67,7 +67,8 @@ pub enum SynthError {
     NoParticles,
     /// More particles than any packing holds.
     #[error(
-        "{n} particles of radius {r_um:.3} um at least {gap_um:.3} um apart cannot fit in {w_um:.1} x {h_um:.1} um: no packing holds more than {most} (ask for fewer particles, a larger field or a smaller gap)"
+        "{} of radius {r_um:.3} um at least {gap_um:.3} um apart cannot fit in {w_um:.1} x {h_um:.1} um: no packing holds more than {most} (ask for fewer particles, a larger field or a smaller gap)",
+        crate::wording::counted(*n, "particle")
     )]
     BeyondPacking {
         /// Requested.
@@ -85,7 +86,8 @@ pub enum SynthError {
     },
     /// Could not place all particles.
     #[error(
-        "could place only {placed} of {n} particles with gap {gap_um:.3} um in {w_um:.1} x {h_um:.1} um: too dense (ask for fewer particles, a larger field or a smaller gap)"
+        "could place only {placed} of {} with gap {gap_um:.3} um in {w_um:.1} x {h_um:.1} um: too dense (ask for fewer particles, a larger field or a smaller gap)",
+        crate::wording::counted(*n, "particle")
     )]
     TooDense {
         /// Placed.

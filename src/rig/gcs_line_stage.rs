@@ -110,8 +110,8 @@ impl GcsLineStage {
         let n = settings.axes.len();
         if n != names.len() {
             return Err(GcsError::InvalidArgument(format!(
-                "{} axes ({}) expected, the rig file names {n}",
-                names.len(),
+                "{} ({}) expected, the rig file names {n}",
+                crate::wording::counted(names.len(), "axis"),
                 names.iter().collect::<String>()
             )));
         }
@@ -258,9 +258,9 @@ impl GcsLineStage {
     fn check_in_range(&self, target_m: &[f64]) -> Result<(), RigError> {
         if target_m.len() != self.range.len() {
             return Err(RigError::StageFault(format!(
-                "{} coordinates for {} axes",
-                target_m.len(),
-                self.range.len()
+                "{} for {}",
+                crate::wording::counted(target_m.len(), "coordinate"),
+                crate::wording::counted(self.range.len(), "axis")
             )));
         }
         for ((t, r), name) in target_m.iter().zip(&self.range).zip(&self.names) {

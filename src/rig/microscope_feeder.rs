@@ -169,8 +169,8 @@ impl MicroscopeFeeder {
             [x, y, z] => [index(x)?, index(y)?, index(z)?],
             other => {
                 return Err(FeederError::Setup(format!(
-                    "the simulated world needs the probe height: the rig file names {} axes, not 3 (x, y, z)",
-                    other.len()
+                    "the simulated world needs the probe height: the rig file names {}, not 3 (x, y, z)",
+                    crate::wording::counted(other.len(), "axis")
                 )));
             }
         };

@@ -84,7 +84,7 @@ pub fn enough_particles(sites: usize, particles: usize) -> Result<(), Assignment
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum AssignmentError {
     /// More sites than particles.
-    #[error("{sites} sites but only {}: cannot fill the pattern", crate::wording::counted(*particles, "particle"))]
+    #[error("{} but only {}: cannot fill the pattern", crate::wording::counted(*sites, "site"), crate::wording::counted(*particles, "particle"))]
     TooFewParticles {
         /// Number of sites.
         sites: usize,

@@ -57,9 +57,9 @@ impl GcsStage {
         }
         if settings.axes.len() != settings.limits.soft_limits.len() {
             return Err(GcsError::InvalidArgument(format!(
-                "{} axes but {} soft limits",
-                settings.axes.len(),
-                settings.limits.soft_limits.len()
+                "{} but {}",
+                crate::wording::counted(settings.axes.len(), "axis"),
+                crate::wording::counted(settings.limits.soft_limits.len(), "soft limit")
             )));
         }
         if let Some(axis) = super::protocol::repeated_axis(&settings.axes) {
