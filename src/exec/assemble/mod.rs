@@ -593,7 +593,8 @@ impl<'a> Assembly<'a> {
             }
             Err(e) => {
                 let why = format!("{e}{}", self.tip_left_down());
-                self.stop(RunEnd::stopped(e.stop_cause(), why))
+                let end = error_end(&e, why, &self.unfollowed_drift_note());
+                self.journal_stop(end)
             }
             ended => ended,
         }
@@ -729,6 +730,11 @@ impl<'a> Assembly<'a> {
 
     fn stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
         let end = with_drift_note(end, &self.unfollowed_drift_note());
+        self.journal_stop(end)
+    }
+
+    /// Journals `end` as said, and returns it.
+    fn journal_stop(&mut self, end: RunEnd) -> Result<RunEnd, ExecError> {
         let stopped = RunEvent::Stopped {
             reason: end.reason().unwrap_or_default(),
             cause: Some(end.cause()),
@@ -750,12 +756,7 @@ impl<'a> Assembly<'a> {
         if moved <= self.settings.placed_tolerance_m {
             return String::new();
         }
-        format!(
-            "; the run does not follow drift (--no-drift-follow), and the apex has moved {:.2} um against \
-             the stage since the first frame: every push misses by about as much (--resume with \
-             --drift-follow follows it)",
-            moved * 1e6
-        )
+        unfollowed_drift_said(moved)
     }
 
     /// Grabs, detects, tracks and journals one frame.
@@ -1002,6 +1003,29 @@ impl From<PushError> for ExecError {
     }
 }
 
+/// The note of drift the run did not follow, the apex `moved_m` against
+/// the stage since the first frame ([`Assembly::unfollowed_drift_note`]).
+fn unfollowed_drift_said(moved_m: f64) -> String {
+    format!(
+        "; the run does not follow drift (--no-drift-follow), and the apex has moved {:.2} um against \
+         the stage since the first frame: every push misses by about as much (--resume with \
+         --drift-follow follows it)",
+        moved_m * 1e6
+    )
+}
+
+/// The end of a run stopped by `e`, said as `why`, with `note` (the drift
+/// the run did not follow, [`with_drift_note`]) unless `e` is that drift's
+/// own stop ([`ApexDoubt::UnfollowedDrift`]), which names the drift and
+/// the flag already: the stop had said "--resume with --drift-follow" twice.
+fn error_end(e: &ExecError, why: String, note: &str) -> RunEnd {
+    let end = RunEnd::stopped(e.stop_cause(), why);
+    match e {
+        ExecError::ApexAstray(ApexDoubt::UnfollowedDrift(_)) => end,
+        _ => with_drift_note(end, note),
+    }
+}
+
 /// `end` with the note of a drift the run did not follow
 /// (`Assembly::unfollowed_drift_note`), on a plain stop only, which the
 /// drift may explain: a calibration stop is not to be resumed, and the
@@ -1015,7 +1039,10 @@ fn with_drift_note(end: RunEnd, note: &str) -> RunEnd {
 
 #[cfg(test)]
 mod tests {
-    use super::{AssemblySettings, RunEnd, with_drift_note};
+    use super::{
+        AssemblySettings, ExecError, RunEnd, apex_doubt_unfollowed, error_end,
+        unfollowed_drift_said, with_drift_note,
+    };
     use crate::plan::cmu_scene::cmu_scene;
     use crate::plan::synth_layout::LayoutKind;
     use crate::plan::{PlanConfig, plan_assembly, verify_plan};
@@ -1032,6 +1059,28 @@ mod tests {
         let unfit = RunEnd::CalibrationUnfit("the calibration does not fit".into());
         assert_eq!(with_drift_note(unfit.clone(), note), unfit);
         assert_eq!(with_drift_note(RunEnd::Done, note), RunEnd::Done);
+    }
+
+    /// A stop for drift the run does not follow (`--no-drift-follow`, the
+    /// apex moved past the doubt) advises following it once: its doubt says
+    /// so, and the drift note appended to plain stops said it again. Other
+    /// stops keep the note.
+    #[test]
+    fn an_unfollowed_drift_stop_advises_following_drift_once() {
+        use super::apex_doubt::tests::sighting;
+        let before = sighting([45.2, 50.0], [40.0, 50.0]);
+        let drifted = sighting([55.4, 50.0], [50.0, 50.0]);
+        let doubt = apex_doubt_unfollowed(&drifted, before.apex_offset_m()).unwrap();
+        let e = ExecError::ApexAstray(doubt);
+        let note = unfollowed_drift_said(5.4e-6);
+        let advice = "--resume with --drift-follow";
+        let said = error_end(&e, e.to_string(), &note).reason().unwrap();
+        assert_eq!(said.matches(advice).count(), 1, "{said}");
+        assert!(said.contains("has drifted 5.4 um"), "{said}");
+        let lost = ExecError::Rig(crate::rig::RigError::StageFault("lost".into()));
+        let said = error_end(&lost, lost.to_string(), &note).reason().unwrap();
+        assert_eq!(said.matches(advice).count(), 1, "{said}");
+        assert!(said.ends_with(&note), "{said}");
     }
 
     /// The loop's plans keeping 2.5 um (assemble's default, half a radius) leave
