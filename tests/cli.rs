@@ -4,7 +4,7 @@ use std::process::Command;
 use std::time::Duration;
 
 mod interrupted;
-use interrupted::interrupt_after;
+use interrupted::{interrupt_after, interrupt_once_caught};
 
 fn nanopush() -> Command {
     Command::new(env!("CARGO_BIN_EXE_nanopush"))
@@ -389,4 +389,29 @@ fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
         assert!(stdout.trim().is_empty(), "{args:?} worked first: {stdout}");
     }
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "kept");
+}
+
+/// Ctrl-C as soon as `assemble` (the simulated rig) can take it: answered
+/// at once, and the run not begun while the pattern is placed (CMU on 50
+/// particles: a second or so), --out left unmade. A press there had ended
+/// the program without a word, or, where the shell ignores SIGINT for a
+/// background job, gone unseen and let the run finish.
+#[test]
+fn ctrl_c_while_assemble_places_the_pattern_starts_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mut command = nanopush();
+    command
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["assemble", "--text", "CMU", "--seed", "2", "--out"])
+        .arg(&out);
+    let pressed = interrupt_once_caught(command);
+    let stderr = pressed.stopped_at_once("stopping (Ctrl-C or a termination signal) now");
+    assert!(
+        stderr
+            .contains("interrupted (Ctrl-C or a termination signal) while the pattern was placed"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("nothing was started"), "{stderr}");
+    assert!(!out.exists(), "--out was made for a run that never began");
 }

@@ -25,6 +25,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
 
+mod interrupted;
+use interrupted::wait_until_caught;
+
 const UM: f64 = 1e-6;
 /// The pattern on the rig without a coarse stage: its 94 um of travel holds
 /// L, not CMU; L on the layout of seed 4 completes (see docs/rig.md).
@@ -1023,22 +1026,6 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     std::fs::write(&b.rig_path, text).unwrap();
 }
 
-/// True once process `pid` catches SIGINT, i.e. has its Ctrl-C handler
-/// installed: bit SIGINT-1 of `SigCgt` in /proc/PID/status (Linux). Before
-/// that (the program still loading its libraries) Ctrl-C ends it at once,
-/// with nothing written: no program can answer it there.
-fn catches_sigint(pid: u32) -> bool {
-    let bit = 1u64 << (nix::sys::signal::Signal::SIGINT as i32 - 1);
-    std::fs::read_to_string(format!("/proc/{pid}/status"))
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find_map(|l| l.strip_prefix("SigCgt:").map(|h| h.trim().to_owned()))
-        })
-        .and_then(|h| u64::from_str_radix(&h, 16).ok())
-        .is_some_and(|mask| mask & bit != 0)
-}
-
 /// Ctrl-C as soon as `assemble --rig` can take it, before the rig is even
 /// open: answered at once on stderr, and the set-up (opening the rig, the
 /// first frame, placing the pattern: seconds) stops at its next step with
@@ -1052,14 +1039,7 @@ fn ctrl_c_during_the_set_up_is_answered_at_once_and_starts_nothing() {
     let b = coarse_bench(1.0);
     let before = b.positions_um();
     let child = b.assemble("early", &[]);
-    let started = Instant::now();
-    while !catches_sigint(child.id()) {
-        assert!(
-            started.elapsed() < Duration::from_secs(30),
-            "no Ctrl-C handler was installed"
-        );
-        std::thread::sleep(Duration::from_millis(1));
-    }
+    wait_until_caught(&child);
     let pressed = Instant::now();
     // Generous: a noisy machine may be slow, but the run must not go on.
     let out = interrupted(child, Duration::from_secs(60));

@@ -29,12 +29,16 @@ use crate::plan::assignment::enough_particles;
 use crate::plan::layout::um_in_file;
 use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
-use crate::rig::interrupt::ctrlc_flag;
+use crate::rig::interrupt::{
+    CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag, stop_if_raised,
+};
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
 use crate::vision::frame_input::save_png;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 /// Particles in the simulated rig's random layout unless `--particles`
 /// says otherwise: what `demo` and `study assemble` runs have.
@@ -132,9 +136,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if args.hardware.rig.is_some() {
         return super::assemble_rig::run(&args);
     }
+    // First of all, answered at once: a press while the pattern was being
+    // placed (seconds on a crowded field) had ended the run without a word
+    // (or, where the shell ignores SIGINT, gone unseen and let it finish).
+    acknowledge_with(format!(
+        "stopping ({CAUSE}) now: the simulated rig stops at its next frame or move \
+         (a second press, {} s on, ends it at once)",
+        SECOND_PRESS_GRACE.as_secs()
+    ));
+    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
     let (report, end) = match &args.resume {
-        Some(journal) => resume(&args, journal)?,
-        None => start(&args)?,
+        Some(journal) => resume(&args, journal, interrupt)?,
+        None => start(&args, interrupt)?,
     };
     let out = match &args.resume {
         Some(journal) => run_folder(journal),
@@ -199,7 +212,7 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
     })
 }
 
-fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
+fn start(args: &Args, interrupt: Arc<AtomicBool>) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     // Everything that can refuse the input does so before the folder is touched.
     let SimRun {
         scene,
@@ -208,6 +221,12 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
         spec,
         mut rig,
     } = prepare_sim_run(&request(args)?)?;
+    if let Err(stop) = stop_if_raised(&interrupt, "while the pattern was placed") {
+        bail!(
+            "{stop}; nothing was started: {} is as it was before",
+            args.out.display()
+        );
+    }
     let source = format!(
         "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {}",
         spec.pattern,
@@ -224,7 +243,7 @@ fn start(args: &Args) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let journal = JournalWriter::create(&journal_path)
         .with_context(|| format!("creating {}", journal_path.display()))?;
     rig.persist_to(args.out.join(SIM_STATE))?;
-    rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
+    rig.stop_on(interrupt);
     let inputs = inputs_for(
         &scene,
         sites,
@@ -332,7 +351,11 @@ pub(super) fn open_recorder(
         .with_context(|| format!("--record {}", dir.display()))
 }
 
-fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, RunEnd)> {
+fn resume(
+    args: &Args,
+    journal_path: &Path,
+    interrupt: Arc<AtomicBool>,
+) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     let point = ResumePoint::read(journal_path)?;
     let spec = &point.spec;
     if let Some(frame) = &spec.rig {
@@ -361,7 +384,7 @@ fn resume(args: &Args, journal_path: &Path) -> anyhow::Result<(AssemblyReport, R
     let mut rig = build_sim_rig(&scene, &layout, seed)?;
     rig.restore_from(&out.join(SIM_STATE))?;
     rig.persist_to(out.join(SIM_STATE))?;
-    rig.stop_on(ctrlc_flag().context("installing the Ctrl-C handler")?);
+    rig.stop_on(interrupt);
     let drift_off = point.drift_off_unless(args.drift_follow);
     let inputs = inputs_for(
         &scene,

@@ -3,7 +3,7 @@
 //! the press to its exit.
 
 use std::io::BufRead;
-use std::process::{Command, Output, Stdio};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 /// What an interrupted command left.
@@ -61,5 +61,61 @@ impl Interrupted {
         );
         assert!(stderr.starts_with(answer), "{stderr}");
         stderr
+    }
+}
+
+/// True once process `pid` catches SIGINT, i.e. has its Ctrl-C handler
+/// installed: bit SIGINT-1 of `SigCgt` in /proc/PID/status (Linux). Before
+/// that (the program still loading its libraries) Ctrl-C ends it at once,
+/// with nothing written: no program can answer it there.
+pub fn catches_sigint(pid: u32) -> bool {
+    const SIGINT: u32 = 2;
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigCgt:").map(|h| h.trim().to_owned()))
+        })
+        .and_then(|h| u64::from_str_radix(&h, 16).ok())
+        .is_some_and(|mask| mask & (1 << (SIGINT - 1)) != 0)
+}
+
+/// Waits (up to 30 s) until `child` catches Ctrl-C: a press sent earlier
+/// would test the loader, not the program.
+pub fn wait_until_caught(child: &Child) {
+    let started = Instant::now();
+    while !catches_sigint(child.id()) {
+        assert!(
+            started.elapsed() < Duration::from_secs(30),
+            "no Ctrl-C handler was installed"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}
+
+/// Runs `command`, presses Ctrl-C as soon as it can take it and waits for
+/// it to end.
+pub fn interrupt_once_caught(mut command: Command) -> Interrupted {
+    let child = command
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until_caught(&child);
+    let pressed = Instant::now();
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let output = child.wait_with_output().unwrap();
+    let after = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    Interrupted {
+        after,
+        output,
+        stopped_in: pressed.elapsed(),
     }
 }
