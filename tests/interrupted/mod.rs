@@ -1,6 +1,8 @@
 //! A command interrupted as Ctrl-C interrupts it: SIGINT (`kill -INT`) to
 //! the process alone once its output has reached a given point, timed from
-//! the press to its exit.
+//! the press to its exit, or as soon as it can take the press.
+// Each test binary uses its own part.
+#![allow(dead_code)]
 
 use std::io::BufRead;
 use std::process::{Child, Command, Output, Stdio};
