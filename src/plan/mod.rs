@@ -337,9 +337,10 @@ pub enum PlanError {
     Blocked(String),
     /// Too few particles narrow enough for the sites' spacing.
     #[error(
-        "{} to fill but only {} fit them: {too_wide} more are wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch: {sites} of them fit sites at least {spacing_um:.3} um apart, their diameter plus the clearance and on-site tolerance)",
+        "{} to fill but only {} fit them: {too_wide} more {} wider than the {site_radius_um:.3} um radius the sites' spacing allows (set a larger pitch: {sites} of them fit sites at least {spacing_um:.3} um apart, their diameter plus the clearance and on-site tolerance)",
         crate::wording::counted(*sites, "site"),
-        crate::wording::counted(*fitting, "free particle")
+        crate::wording::counted(*fitting, "free particle"),
+        if *too_wide == 1 { "is" } else { "are" }
     )]
     TooFewFitting {
         /// Sites still to fill.
@@ -1011,6 +1012,22 @@ pub fn summarise(steps: &[Step], config: &PlanConfig) -> PlanSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One particle too wide is said in the singular ("1 more is wider").
+    #[test]
+    fn one_particle_too_wide_is_said_in_the_singular() {
+        let error = |too_wide| PlanError::TooFewFitting {
+            sites: 3,
+            fitting: 2,
+            too_wide,
+            site_radius_um: 5.075,
+            spacing_um: 10.5,
+        };
+        let one = error(1).to_string();
+        assert!(one.contains("1 more is wider than the 5.075 um"), "{one}");
+        let two = error(2).to_string();
+        assert!(two.contains("2 more are wider than the 5.075 um"), "{two}");
+    }
 
     fn ordered(push_m: f64) -> order::Ordered {
         order::Ordered {
