@@ -9,7 +9,8 @@
 //! [`SECOND_PRESS_GRACE`] after the first: two presses in a panic had
 //! ended it before the stage was sent `HLT`, the push running on with the
 //! tip down, and without a report. A command whose stop is not at once
-//! ([`acknowledge_with`]: a dry-run, a study) has the first press answered
+//! ([`acknowledge_with`]: a dry-run, a study, `assemble` on the simulated
+//! rig) has the first press answered
 //! on stderr, so a wait is not taken for a press that went unseen; so has
 //! `assemble --rig` ([`acknowledge_halting_with`]), whose set-up (the rig
 //! opened, the first frame, the plan) had run on for seconds unaware of a
