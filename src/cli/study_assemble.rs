@@ -8,6 +8,7 @@
 //! what a user sees.
 
 use super::child_stop::run_stopping_on;
+use crate::exec::report::nearer_than_asked;
 use crate::model::Scene;
 use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
 use crate::wording::counted;
@@ -76,6 +77,19 @@ pub struct RunFigures {
     /// before 2026-11-30).
     #[serde(default)]
     pub nearest_stray_gap_um: Option<f64>,
+    /// The gap the run's plans were asked to keep (absent in studies from
+    /// before 2026-11-30).
+    #[serde(default)]
+    pub asked: Option<AskedGap>,
+}
+
+/// The gap a run's plans were asked to keep: its report's `asked`, as far
+/// as the study needs it.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+pub struct AskedGap {
+    /// um; 0 when none.
+    #[serde(default)]
+    pub keep_clear_um: f64,
 }
 
 /// One run of the study: its seed, figures (or why it has none) and wall time.
@@ -124,6 +138,13 @@ pub struct StudySummary {
     /// The least of those gaps, um.
     #[serde(default)]
     pub least_stray_gap_um: Option<f64>,
+    /// Complete runs whose nearest stray is nearer than the gap asked of
+    /// their plans.
+    #[serde(default)]
+    pub runs_nearer_than_asked: usize,
+    /// Complete runs whose plans were asked to keep a gap.
+    #[serde(default)]
+    pub runs_asked_a_gap: usize,
     /// Every run.
     pub rows: Vec<RunRow>,
 }
@@ -335,6 +356,12 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
         .filter(|f| f.lower_bound_s > 0.0)
         .map(|f| f.time_s / f.lower_bound_s)
         .collect();
+    // (gap, gap asked) of the complete runs that have both.
+    let asked_gap = || -> Vec<(f64, f64)> {
+        (complete.iter())
+            .filter_map(|f| Some((f.nearest_stray_gap_um?, f.asked?.keep_clear_um)))
+            .collect()
+    };
     let gaps: Vec<f64> = (complete.iter())
         .filter_map(|f| f.nearest_stray_gap_um)
         .collect();
@@ -353,6 +380,10 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
         median_wall_s: median(rows.iter().map(|r| r.wall_s).collect()),
         median_stray_gap_um: median(gaps.clone()),
         least_stray_gap_um: gaps.iter().copied().min_by(f64::total_cmp),
+        runs_nearer_than_asked: (asked_gap().iter())
+            .filter(|(gap, kept)| nearer_than_asked(*gap, *kept))
+            .count(),
+        runs_asked_a_gap: asked_gap().iter().filter(|(_, kept)| *kept > 0.0).count(),
         rows,
     }
 }
@@ -401,7 +432,7 @@ pub fn acceptance_text(s: &StudySummary) -> String {
     format!(
         "{text}: {c}/{n} filled every site ({pct:.0} %, target >= 98 %)\n\
          placement RMS{of}: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
-         nearest stray off the pattern{of}: median {mg} um, least {lg} um\n\
+         nearest stray off the pattern{of}: median {mg} um, least {lg} um{nearer}\n\
          lost contacts: {d} detected, {m} missed (target 0 missed)\n\
          time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5)\n\
          wall time per run: median {mw} s\n",
@@ -413,6 +444,14 @@ pub fn acceptance_text(s: &StudySummary) -> String {
         wr = fmt_opt(s.worst_rms_nm, 0),
         mg = fmt_opt(s.median_stray_gap_um, 2),
         lg = fmt_opt(s.least_stray_gap_um, 2),
+        nearer = if s.runs_asked_a_gap > 0 {
+            format!(
+                "; {} of {} nearer than the gap asked of its plans",
+                s.runs_nearer_than_asked, s.runs_asked_a_gap
+            )
+        } else {
+            String::new()
+        },
         d = s.detected_lost_contacts,
         m = s.missed_lost_contacts,
         mt = fmt_opt(s.median_time_ratio, 3),
@@ -490,6 +529,7 @@ mod tests {
             time_s: time,
             lower_bound_s: 100.0,
             nearest_stray_gap_um: Some(time / 100.0),
+            asked: Some(AskedGap { keep_clear_um: 1.5 }),
         }
     }
 
@@ -523,9 +563,11 @@ mod tests {
         // Gaps of 1.2 and 2.0 um; the stopped run's 9.0 is not counted.
         assert_eq!(s.median_stray_gap_um, Some(1.6));
         assert_eq!(s.least_stray_gap_um, Some(1.2));
+        // Asked 1.5 um: the 1.2 um run is nearer, the 2.0 um one not.
+        assert_eq!((s.runs_nearer_than_asked, s.runs_asked_a_gap), (1, 2));
         let text = acceptance_text(&s);
         assert!(
-            text.contains("nearest stray off the pattern of the 2 complete runs: median 1.60 um, least 1.20 um"),
+            text.contains("nearest stray off the pattern of the 2 complete runs: median 1.60 um, least 1.20 um; 1 of 2 nearer than the gap asked of its plans"),
             "{text}"
         );
         assert!(text.contains("2/4 runs filled every site (50 %"), "{text}");
@@ -579,6 +621,26 @@ mod tests {
         );
         assert_eq!(parse_figures(&out).unwrap().filled, 3);
         assert!(parse_figures("error: no such scene").is_none());
+    }
+
+    /// The stray gap and the gap asked are read off the report `assemble
+    /// --json` prints, by its own field names.
+    #[test]
+    fn the_stray_gap_and_the_gap_asked_are_read_off_a_runs_report() {
+        let mut report = crate::exec::report::tests::small_report();
+        report.nearest_stray_gap_um = Some(0.75);
+        report.asked = Some(crate::exec::report::RunAsked {
+            pattern: "CMU".into(),
+            scene: "s.toml".into(),
+            layout: None,
+            seed: Some(5),
+            command: None,
+            keep_clear_um: 2.5,
+        });
+        let printed = serde_json::to_string_pretty(&report).unwrap();
+        let f = parse_figures(&printed).unwrap();
+        assert_eq!(f.nearest_stray_gap_um, Some(0.75));
+        assert_eq!(f.asked.map(|a| a.keep_clear_um), Some(2.5));
     }
 
     #[test]

@@ -128,6 +128,13 @@ pub struct AssemblyReport {
     pub nearest_stray_gap_um: Option<f64>,
 }
 
+/// Whether a stray `gap_um` off the pattern is nearer than the `kept_um`
+/// asked of the plans (none asked: never), to the 0.01 um the figures are
+/// said to.
+pub fn nearer_than_asked(gap_um: f64, kept_um: f64) -> bool {
+    kept_um > 0.0 && gap_um < kept_um - 0.005
+}
+
 /// What a run was asked, for its report.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunAsked {
@@ -296,7 +303,7 @@ impl AssemblyReport {
         let kept = self.asked.as_ref().map_or(0.0, |a| a.keep_clear_um);
         let plans = if kept <= 0.0 {
             "no gap asked of its plans: --keep-clear-um 0".to_owned()
-        } else if gap < kept - 0.005 {
+        } else if nearer_than_asked(gap, kept) {
             format!("nearer than the {kept:.2} um asked of its plans")
         } else {
             format!("its plans kept {kept:.2} um")
@@ -649,7 +656,7 @@ pub fn error_figures_nm(errors_m: &[f64]) -> (f64, f64) {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::exec::events::SeenParticle;
     use crate::vision::line_defects::LineDefect;
@@ -994,7 +1001,7 @@ mod tests {
     }
 
     /// A finished one-site run, 30 s against a 20 s bound.
-    fn small_report() -> AssemblyReport {
+    pub(crate) fn small_report() -> AssemblyReport {
         AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
             outcome: "done".into(),
