@@ -29,9 +29,7 @@ use crate::plan::assignment::enough_particles;
 use crate::plan::layout::um_in_file;
 use crate::plan::pattern::sites_um;
 use crate::rig::Rig;
-use crate::rig::interrupt::{
-    CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag, stop_if_raised,
-};
+use crate::rig::interrupt::{CAUSE, ctrlc_flag_answering, stop_if_raised};
 use crate::rig::sim::build::build_sim_rig;
 use crate::rig::sim::rig::SimRig;
 use crate::vision::frame_input::save_png;
@@ -139,12 +137,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // First of all, answered at once: a press while the pattern was being
     // placed (seconds on a crowded field) had ended the run without a word
     // (or, where the shell ignores SIGINT, gone unseen and let it finish).
-    acknowledge_with(format!(
-        "stopping ({CAUSE}) now: the simulated rig stops at its next frame or move \
-         (a second press, {} s on, ends it at once)",
-        SECOND_PRESS_GRACE.as_secs()
-    ));
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    let interrupt = ctrlc_flag_answering(&format!(
+        "stopping ({CAUSE}) now: the simulated rig stops at its next frame or move"
+    ))
+    .context("installing the Ctrl-C handler")?;
     let (report, end) = match &args.resume {
         Some(journal) => resume(&args, journal, interrupt)?,
         None => start(&args, interrupt)?,

@@ -58,8 +58,7 @@ use crate::rig::Rig;
 use crate::rig::gcs::{RigFile, SentLog};
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
 use crate::rig::interrupt::{
-    CAUSE, SECOND_PRESS_GRACE, SetUpInterrupted, acknowledge_halting_with, ctrlc_flag,
-    stop_if_raised,
+    CAUSE, SetUpInterrupted, ctrlc_flag_answering_halting, stop_if_raised,
 };
 use crate::rig::stage::{CoarseStage, NanoStage};
 use crate::vision::frame_input::save_png;
@@ -124,14 +123,10 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     // First of all: a press during the set-up (the rig opened, the first
     // frame, the plan: seconds) had ended the program without a word, or
     // gone unseen until the run's first stage command.
-    acknowledge_halting_with(format!(
-        "stopping ({CAUSE}) now: the stage is halted and the run stopped \
-         (a second press, {} s on, ends it at once)",
-        SECOND_PRESS_GRACE.as_secs()
-    ));
-    // The answer set first: a press just after the handler went in had
-    // stopped the command unanswered.
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    let interrupt = ctrlc_flag_answering_halting(&format!(
+        "stopping ({CAUSE}) now: the stage is halted and the run stopped"
+    ))
+    .context("installing the Ctrl-C handler")?;
     let rig_file = RigFile::load(rig_path)?;
     if !rig_file.stage.has_z() {
         bail!(

@@ -9,7 +9,7 @@ use crate::exec::animation::AnimationWriter;
 use crate::exec::dry_run::DryRunFrame;
 use crate::exec::recording::open_recording;
 use crate::model::Scene;
-use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
+use crate::rig::interrupt::{CAUSE, ctrlc_flag_answering};
 use crate::vision::analyse::camera_notes;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -112,15 +112,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let animation = AnimationWriter::new(&animation_path, 1.0);
-    acknowledge_with(format!(
-        "stopping the dry-run ({CAUSE}) now: the frames analysed are kept in {} \
-         (a second press, {} s on, ends it at once)",
-        args.out.display(),
-        SECOND_PRESS_GRACE.as_secs()
-    ));
-    // The answer set first: a press just after the handler went in had
-    // stopped the command unanswered.
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    let interrupt = ctrlc_flag_answering(&format!(
+        "stopping the dry-run ({CAUSE}) now: the frames analysed are kept in {}",
+        args.out.display()
+    ))
+    .context("installing the Ctrl-C handler")?;
     if !args.json {
         // Where the times come from: the model's advice depends on them.
         println!("replay: {}", recording.frame_times);

@@ -10,7 +10,7 @@
 use super::child_stop::run_stopping_on;
 use crate::exec::report::nearer_than_asked;
 use crate::model::Scene;
-use crate::rig::interrupt::{CAUSE, SECOND_PRESS_GRACE, acknowledge_with, ctrlc_flag};
+use crate::rig::interrupt::{CAUSE, ctrlc_flag_answering};
 use crate::wording::counted;
 use anyhow::{Context, bail};
 use serde::{Deserialize, Serialize};
@@ -185,15 +185,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // Ctrl-C stops the run in progress as a run stops (the study passes it
     // on: a `kill -INT` of the study alone had let the seed finish); the
     // study then keeps the runs it finished and stops.
-    acknowledge_with(format!(
-        "stopping the study ({CAUSE}) now: the run in progress is stopped, the seeds finished are kept in {} \
-         (a second press, {} s on, ends it at once)",
-        args.out.display(),
-        SECOND_PRESS_GRACE.as_secs()
-    ));
-    // The answer set first: a press just after the handler went in had
-    // stopped the command unanswered.
-    let interrupt = ctrlc_flag().context("installing the Ctrl-C handler")?;
+    let interrupt = ctrlc_flag_answering(&format!(
+        "stopping the study ({CAUSE}) now: the run in progress is stopped, the seeds finished are kept in {}",
+        args.out.display()
+    ))
+    .context("installing the Ctrl-C handler")?;
     let (json, md) = (
         args.out.join("study-assemble.json"),
         args.out.join("study-assemble.md"),
@@ -357,11 +353,9 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
         .map(|f| f.time_s / f.lower_bound_s)
         .collect();
     // (gap, gap asked) of the complete runs that have both.
-    let asked_gap = || -> Vec<(f64, f64)> {
-        (complete.iter())
-            .filter_map(|f| Some((f.nearest_stray_gap_um?, f.asked?.keep_clear_um)))
-            .collect()
-    };
+    let asked_gap: Vec<(f64, f64)> = (complete.iter())
+        .filter_map(|f| Some((f.nearest_stray_gap_um?, f.asked?.keep_clear_um)))
+        .collect();
     let gaps: Vec<f64> = (complete.iter())
         .filter_map(|f| f.nearest_stray_gap_um)
         .collect();
@@ -380,10 +374,10 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
         median_wall_s: median(rows.iter().map(|r| r.wall_s).collect()),
         median_stray_gap_um: median(gaps.clone()),
         least_stray_gap_um: gaps.iter().copied().min_by(f64::total_cmp),
-        runs_nearer_than_asked: (asked_gap().iter())
+        runs_nearer_than_asked: (asked_gap.iter())
             .filter(|(gap, kept)| nearer_than_asked(*gap, *kept))
             .count(),
-        runs_asked_a_gap: asked_gap().iter().filter(|(_, kept)| *kept > 0.0).count(),
+        runs_asked_a_gap: asked_gap.iter().filter(|(_, kept)| *kept > 0.0).count(),
         rows,
     }
 }

@@ -9,10 +9,10 @@
 //! [`SECOND_PRESS_GRACE`] after the first: two presses in a panic had
 //! ended it before the stage was sent `HLT`, the push running on with the
 //! tip down, and without a report. A command whose stop is not at once
-//! ([`acknowledge_with`]: a dry-run, a study, `assemble` on the simulated
-//! rig) has the first press answered
+//! ([`ctrlc_flag_answering`]: a dry-run, a study, `assemble` on the
+//! simulated rig) has the first press answered
 //! on stderr, so a wait is not taken for a press that went unseen; so has
-//! `assemble --rig` ([`acknowledge_halting_with`]), whose set-up (the rig
+//! `assemble --rig` ([`ctrlc_flag_answering_halting`]), whose set-up (the rig
 //! opened, the first frame, the plan) had run on for seconds unaware of a
 //! press, or been ended by it without a word. Such set-up steps look at
 //! the flag between them ([`stop_if_raised`]).
@@ -34,25 +34,33 @@ struct Acknowledgement {
     drives_stage: bool,
 }
 
-/// Has the first Ctrl-C (or termination signal) answered on stderr with
-/// `line` at once (for a command that moves no stage: a second press then
-/// does not send the user to the stage), from the handler's own thread, while the run goes on
-/// to its stop (a dry-run's frame in analysis had left 8-20 s without a
-/// word). Set once per process; later calls are ignored.
-pub fn acknowledge_with(line: String) {
-    let _ = ACKNOWLEDGEMENT.set(Acknowledgement {
-        line,
-        drives_stage: false,
-    });
+/// [`ctrlc_flag`] for a command whose stop is not at once (a dry-run, a
+/// study, `assemble` on the simulated rig): the first press is answered on
+/// stderr at once with `line`, then "(a second press, 3 s on, ends it at
+/// once)", from the handler's own thread, while the run goes on to its
+/// stop (a dry-run's frame in analysis had left 8-20 s without a word).
+/// The answer is set before the handler goes in: set after, a press
+/// between the two had stopped the command unanswered. Set once per
+/// process; a later line is ignored.
+pub fn ctrlc_flag_answering(line: &str) -> Result<Arc<AtomicBool>, ctrlc::Error> {
+    answered_flag(line, false)
 }
 
-/// [`acknowledge_with`] for a command that drives a stage: a second press
-/// still says the stage is to be checked by hand.
-pub fn acknowledge_halting_with(line: String) {
+/// [`ctrlc_flag_answering`] for a command that drives a stage: a second
+/// press still says the stage is to be checked by hand.
+pub fn ctrlc_flag_answering_halting(line: &str) -> Result<Arc<AtomicBool>, ctrlc::Error> {
+    answered_flag(line, true)
+}
+
+fn answered_flag(line: &str, drives_stage: bool) -> Result<Arc<AtomicBool>, ctrlc::Error> {
     let _ = ACKNOWLEDGEMENT.set(Acknowledgement {
-        line,
-        drives_stage: true,
+        line: format!(
+            "{line} (a second press, {} s on, ends it at once)",
+            SECOND_PRESS_GRACE.as_secs()
+        ),
+        drives_stage,
     });
+    ctrlc_flag()
 }
 
 /// A set-up step found the flag raised: the command stops before its next

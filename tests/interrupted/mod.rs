@@ -35,12 +35,7 @@ pub fn interrupt_after(mut command: Command, first_lines: &[&str], then: Duratio
         );
     }
     std::thread::sleep(then);
-    let pressed = Instant::now();
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
+    let pressed = press_ctrl_c(&child);
     let after = lines.map(Result::unwrap).collect();
     let output = child.wait_with_output().unwrap();
     Interrupted {
@@ -104,12 +99,7 @@ pub fn interrupt_once_caught(mut command: Command) -> Interrupted {
         .spawn()
         .unwrap();
     wait_until_caught(&child);
-    let pressed = Instant::now();
-    let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
+    let pressed = press_ctrl_c(&child);
     let output = child.wait_with_output().unwrap();
     let after = String::from_utf8_lossy(&output.stdout)
         .lines()
@@ -120,4 +110,15 @@ pub fn interrupt_once_caught(mut command: Command) -> Interrupted {
         output,
         stopped_in: pressed.elapsed(),
     }
+}
+
+/// Sends `child` alone SIGINT, as Ctrl-C does; when it was sent.
+fn press_ctrl_c(child: &Child) -> Instant {
+    let pressed = Instant::now();
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    pressed
 }
