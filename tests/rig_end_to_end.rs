@@ -1714,3 +1714,89 @@ fn a_coarse_rig_run_that_loses_its_link_mid_push_still_says_how_to_go_on() {
     let last = last.lines().last().unwrap();
     assert!(last.contains("\"kind\":\"stopped\""), "{last}");
 }
+
+/// Real hardware's first move waits for the operator's `yes`, typed here
+/// on a pseudo-terminal 2 s after the question: the wait is journalled,
+/// said apart, and left out of the report's time, which had counted it as
+/// the rig's work against the lower bound.
+#[test]
+fn the_wait_for_the_operators_yes_is_not_the_runs_time() {
+    use std::io::{Read, Write};
+    let b = bench(50.0);
+    b.as_real_hardware();
+    let terminal = nix::pty::openpty(None, None).unwrap();
+    let mut child = nanopush()
+        .args(["assemble", "--rig"])
+        .arg(&b.rig_path)
+        .args(["--text", b.text, "--out"])
+        .arg(b.dir.path().join("run"))
+        .stdin(Stdio::from(terminal.slave))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Stderr read as it comes: the question ends without a newline.
+    let mut stderr = child.stderr.take().unwrap();
+    let (asked, question) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut all = Vec::new();
+        let mut chunk = [0u8; 4096];
+        while let Ok(n @ 1..) = stderr.read(&mut chunk) {
+            all.extend_from_slice(&chunk[..n]);
+            if String::from_utf8_lossy(&all).contains("Type `yes`") {
+                let _ = asked.send(());
+            }
+        }
+        String::from_utf8_lossy(&all).into_owned()
+    });
+    question
+        .recv_timeout(RUN_LIMIT)
+        .expect("the first move was not asked");
+    let waited = Duration::from_secs(2);
+    std::thread::sleep(waited);
+    let mut operator = std::fs::File::from(terminal.master);
+    operator.write_all(b"yes\n").unwrap();
+    let journal = b.dir.path().join("run/journal.jsonl");
+    let started = Instant::now();
+    while !std::fs::read_to_string(&journal).is_ok_and(|t| t.contains("\"kind\":\"decision\"")) {
+        assert!(started.elapsed() < RUN_LIMIT, "the run never pushed");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let out = interrupted(child, Duration::from_secs(30));
+    let stderr = reader.join().unwrap();
+    assert!(!out.status.success(), "{stderr}");
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(b.dir.path().join("run/report.json")).unwrap(),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&journal).unwrap();
+    let entries: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let journalled: f64 = entries
+        .iter()
+        .filter(|e| e["event"]["kind"] == "operator_wait")
+        .map(|e| e["event"]["waited_s"].as_f64().unwrap())
+        .sum();
+    let last_t_s = entries.last().unwrap()["t_s"].as_f64().unwrap();
+    let wait_s = report["operator_wait_s"].as_f64().unwrap();
+    let time_s = report["time_s"].as_f64().unwrap();
+    eprintln!("waited {wait_s:.2} s; run time {time_s:.2} s, last entry at {last_t_s:.2} s");
+    assert_eq!(wait_s, journalled, "{report}");
+    assert!(wait_s >= waited.as_secs_f64(), "{report}");
+    assert!(wait_s < waited.as_secs_f64() + 2.0, "{report}");
+    // The report is written after the last entry, at the end's rig time.
+    assert!(time_s + wait_s >= last_t_s, "{report}");
+    assert!(
+        time_s < last_t_s - 1.0,
+        "the wait is in the run's time: {report}"
+    );
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        summary.contains(&format!(
+            "operator: {wait_s:.1} s waiting for `yes`, not in the run's time"
+        )),
+        "{summary}"
+    );
+}

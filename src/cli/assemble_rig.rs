@@ -26,7 +26,8 @@
 //! sites stay.
 //!
 //! The report's placement errors are what the camera measured (there is no
-//! ground truth on a rig), and its time is wall time.
+//! ground truth on a rig), and its time is wall time less the wait for
+//! the operator's `yes` before the first move.
 
 use super::assemble::{
     Args, check_out_free, open_recorder, print_recording, run_folder, write_sites,
@@ -861,7 +862,7 @@ fn print_summary(r: &AssemblyReport, rig: &Path, out: &Path, dry_run: bool) {
             crate::wording::counted(r.lost_contacts_detected, "lost contact")
         );
     }
-    println!("  wall time        {:.1} s", r.time_s);
+    println!("  run time         {:.1} s", r.time_s);
     for (what, note) in r.notes() {
         if !(dry_run && what == "tip drift") {
             println!("  {what}: {note}");

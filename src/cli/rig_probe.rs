@@ -61,6 +61,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         dry_run: args.dry_run,
         waive_confirmation: false,
         interrupt: Arc::new(AtomicBool::new(false)),
+        operator_wait: Default::default(),
     };
     let mut parts = Vec::new();
     // A dry run's bytes are listed once the rig file's checks have sent

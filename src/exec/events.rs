@@ -254,6 +254,13 @@ pub enum RunEvent {
         /// New offset of the nanostage origin on the sample, micrometres.
         offset_um: [f64; 2],
     },
+    /// The move journalled before waited for the operator's answer (the
+    /// confirmation before real hardware's first move): seconds of rig
+    /// time that are no work of the rig's, left out of the report's time.
+    OperatorWait {
+        /// Seconds waited.
+        waited_s: f64,
+    },
     /// A move failed; the stage was halted.
     MoveFailed {
         /// What the rig said.

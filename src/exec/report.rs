@@ -74,8 +74,15 @@ pub struct AssemblyReport {
     /// Lost contacts the simulated rig caused that the executor did not see
     /// (null on a real rig, where nobody knows).
     pub lost_contacts_missed: Option<usize>,
-    /// Rig time of the run, seconds.
+    /// Rig time of the run, seconds, less [`Self::operator_wait_s`].
     pub time_s: f64,
+    /// Rig time the run spent waiting for the operator (the confirmation
+    /// before real hardware's first move, once a process), seconds: no
+    /// work of the rig's, so not in `time_s`, which had counted it against
+    /// the lower bound. 0 on a simulated rig, and in reports written before
+    /// this field.
+    #[serde(default)]
+    pub operator_wait_s: f64,
     /// Least time any plan could take with this physics, seconds (module doc).
     pub lower_bound_s: f64,
     /// Effects the scene made active, with why.
@@ -286,12 +293,20 @@ impl AssemblyReport {
         let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
         let drift = self.drift_summary().map(|s| ("tip drift", s));
         let stray = self.stray_gap_summary().map(|s| ("nearest stray", s));
+        let waited = (self.operator_wait_s > 0.0).then(|| {
+            let s = self.operator_wait_s;
+            (
+                "operator",
+                format!("{s:.1} s waiting for `yes`, not in the run's time"),
+            )
+        });
         short
             .into_iter()
             .chain(lines)
             .chain(clipped)
             .chain(drift)
             .chain(stray)
+            .chain(waited)
             .collect()
     }
 
@@ -443,7 +458,8 @@ impl AssemblyReport {
             push_log: counts.push_log,
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
-            time_s: facts.time_s,
+            time_s: (facts.time_s - counts.operator_wait_s).max(0.0),
+            operator_wait_s: counts.operator_wait_s,
             lower_bound_s,
             active_effects: simulate_push(scene, &scene.push)
                 .map(|r| r.active_effects)
@@ -484,6 +500,8 @@ pub struct JournalCounts {
     pub sites_to_fill: Option<usize>,
     /// The last entry's time.
     pub last_t_s: f64,
+    /// Seconds waited for the operator (operator-wait entries).
+    pub operator_wait_s: f64,
     /// `"done"`, or `"stopped: <reason>"` of the last end entry; None while running.
     pub outcome: Option<String>,
     /// Camera lines repaired in the observations, columns first, by index.
@@ -578,6 +596,7 @@ pub fn count_journal(
                     error_nm: *error_nm,
                 });
             }
+            RunEvent::OperatorWait { waited_s } => c.operator_wait_s += waited_s,
             RunEvent::Done => c.outcome = Some("done".to_owned()),
             RunEvent::Stopped { reason, .. } => c.outcome = Some(format!("stopped: {reason}")),
             RunEvent::Resume { .. } => {
@@ -974,11 +993,7 @@ pub(crate) mod tests {
                 "rms {rms:.0} nm, max {max:.0} nm (ground-truth) over 3 sites with a particle; 1 site unfilled"
             )
         );
-        let text = serde_json::to_string(&r).unwrap();
-        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
-        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
-        old.as_object_mut().unwrap().remove("unfilled");
-        let old: AssemblyReport = serde_json::from_value(old).unwrap();
+        let old = read_back_without(&r, &["unfilled"]);
         assert_eq!(old.unfilled, 0);
         let none = AssemblyReport { unfilled: 4, ..r };
         assert_eq!(
@@ -998,6 +1013,18 @@ pub(crate) mod tests {
         let text = serde_json::to_string(&r).unwrap();
         assert!(text.contains("\"site_errors_nm\":[null,3.0]"), "{text}");
         assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+    }
+
+    /// `r` read back from its JSON, checked equal, and read again with
+    /// `fields` taken out: a report written before those fields.
+    fn read_back_without(r: &AssemblyReport, fields: &[&str]) -> AssemblyReport {
+        let text = serde_json::to_string(r).unwrap();
+        assert_eq!(&serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
+        let mut old: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for field in fields {
+            old.as_object_mut().unwrap().remove(*field);
+        }
+        serde_json::from_value(old).unwrap()
     }
 
     /// A finished one-site run, 30 s against a 20 s bound.
@@ -1030,7 +1057,50 @@ pub(crate) mod tests {
             asked: None,
             resumes: 0,
             nearest_stray_gap_um: None,
+            operator_wait_s: 0.0,
         }
+    }
+
+    /// The time a run waited for its operator's `yes` (once a process: a
+    /// new run and each resume) is left out of its time and said apart;
+    /// report.json keeps it, and one written before the field reads as none.
+    #[test]
+    fn the_operators_waits_are_not_the_runs_time() {
+        let scene = Scene::load(
+            &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"),
+        )
+        .unwrap();
+        let end = RunEnd::Done;
+        let facts = RunFacts {
+            end: &end,
+            sites: &[],
+            site_errors_m: &[],
+            error_source: "camera",
+            lost_contacts_missed: None,
+            time_s: 100.0,
+            effect_work: None,
+            nearest_stray_gap_m: None,
+        };
+        let waited = |seq, t_s, waited_s| entry(seq, t_s, RunEvent::OperatorWait { waited_s });
+        let resume = RunEvent::Resume {
+            drift_follow: false,
+        };
+        let journal = [
+            waited(0, 14.0, 12.5),
+            entry(1, 40.0, resume),
+            waited(2, 44.0, 3.0),
+        ];
+        let settings = AssemblySettings::default();
+        let r = AssemblyReport::from_run(facts, &journal, &scene, &settings);
+        assert_eq!((r.time_s, r.operator_wait_s), (84.5, 15.5));
+        let said = r.notes().into_iter().find(|(what, _)| *what == "operator");
+        assert_eq!(
+            said.map(|(_, s)| s).as_deref(),
+            Some("15.5 s waiting for `yes`, not in the run's time")
+        );
+        let old = read_back_without(&r, &["operator_wait_s"]);
+        assert_eq!(old.operator_wait_s, 0.0);
+        assert!(old.notes().iter().all(|(what, _)| *what != "operator"));
     }
 
     /// The stray gap is said against the gap asked of the plans, and
@@ -1131,17 +1201,13 @@ pub(crate) mod tests {
             text.contains(r#""repaired_lines":[{"axis":"column","index":200,"frames":12},{"axis":"row","index":7,"frames":1}]"#),
             "{text}"
         );
-        assert_eq!(serde_json::from_str::<AssemblyReport>(&text).unwrap(), r);
         let notes: Vec<&str> = r.notes().iter().map(|n| n.0).collect();
         assert_eq!(
             notes,
             ["camera lines repaired", "camera clipped", "tip drift"]
         );
-        let mut older: serde_json::Value = serde_json::from_str(&text).unwrap();
-        for field in ["repaired_lines", "clipped_frames", "drift", "left_short"] {
-            older.as_object_mut().unwrap().remove(field);
-        }
-        let older: AssemblyReport = serde_json::from_value(older).unwrap();
+        let fields = ["repaired_lines", "clipped_frames", "drift", "left_short"];
+        let older = read_back_without(&r, &fields);
         assert_eq!(
             older,
             AssemblyReport {

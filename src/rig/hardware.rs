@@ -20,7 +20,9 @@ use super::camera_error::CameraError;
 use super::camera_open::{BoxedCamera, open_camera};
 use super::error::RigError;
 use super::gcs::rig_file::ZConvention;
-use super::gcs::{self, GcsError, GcsStage, RigFile, RigFileError, SentLog, StageOpening};
+use super::gcs::{
+    self, GcsError, GcsStage, OperatorWait, RigFile, RigFileError, SentLog, StageOpening,
+};
 use super::gcs_coarse_stage::GcsCoarseStage;
 use super::gcs_line_stage::{GcsLineStage, snap_into_range};
 use super::stage::{AxisRange, CoarseStage, NanoStage, StageXyz, check_in_range};
@@ -195,6 +197,8 @@ pub struct RigDevices {
     /// (it may have stopped anywhere). See [`RigDevices::coarse_position_known`].
     coarse_known_raw: Option<[f64; 2]>,
     stale_frames: usize,
+    /// What the stages' first-move confirmations waited for the operator.
+    operator_wait: OperatorWait,
 }
 
 /// Loads the pixel-to-stage calibration `rig` names.
@@ -281,7 +285,9 @@ impl RigDevices {
             dry_run: opts.dry_run,
             waive_confirmation: opts.waive_confirmation,
             interrupt: Arc::clone(&interrupt),
+            operator_wait: OperatorWait::default(),
         };
+        let operator_wait = opening.operator_wait.clone();
         let (controller, sent_log) = gcs::connect(&rig, opts.dry_run)?;
         let stage = GcsNanoStage::on_controller(controller, &rig, &opening)?;
         let (coarse, coarse_sent_log) = match (opts.coarse, &rig.coarse) {
@@ -314,6 +320,7 @@ impl RigDevices {
             settled_at_s: f64::NEG_INFINITY,
             coarse_asked: false,
             stale_frames: 0,
+            operator_wait,
         })
     }
 
@@ -426,6 +433,9 @@ impl Rig for HardwareRig {
     }
     fn calibration(&self) -> &CameraCalibration {
         &self.calibration
+    }
+    fn take_operator_wait_s(&mut self) -> f64 {
+        self.devices.operator_wait.take_s()
     }
 }
 

@@ -32,4 +32,10 @@ pub trait Rig: stage::NanoStage + stage::CoarseStage + camera::Camera {
     fn now_s(&self) -> f64;
     /// The camera's pixel -> nanostage calibration.
     fn calibration(&self) -> &CameraCalibration;
+    /// Seconds of [`Rig::now_s`] spent waiting for the operator since the
+    /// last call (the confirmation before real hardware's first move): no
+    /// work of the rig's. None on a simulated rig.
+    fn take_operator_wait_s(&mut self) -> f64 {
+        0.0
+    }
 }

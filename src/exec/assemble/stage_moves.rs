@@ -132,6 +132,7 @@ impl Assembly<'_> {
             },
         )?;
         self.rig.move_coarse(offset)?;
+        self.journal_operator_wait()?;
         self.coarse_offset = offset;
         Ok(())
     }
@@ -168,6 +169,16 @@ impl Assembly<'_> {
         )?;
         self.stage_targets = [self.stage_targets[1], Some(nano)];
         self.rig.move_to(nano, speed)?;
+        self.journal_operator_wait()
+    }
+
+    /// Journals the time the last move waited for the operator, if any.
+    fn journal_operator_wait(&mut self) -> Result<(), PushError> {
+        let waited_s = self.rig.take_operator_wait_s();
+        if waited_s > 0.0 {
+            let event = RunEvent::OperatorWait { waited_s };
+            self.journal.append(self.rig.now_s(), &event)?;
+        }
         Ok(())
     }
 

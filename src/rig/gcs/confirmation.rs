@@ -2,9 +2,9 @@
 
 use std::io::{IsTerminal, Write};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, channel};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Who, if anyone, must approve the first move.
 pub enum FirstMoveConfirmation {
@@ -22,17 +22,43 @@ impl FirstMoveConfirmation {
     /// What a command should use: nothing to confirm for a simulator, a dry
     /// run, or when the operator passed the explicit waiver flag; otherwise
     /// ask on the terminal, where Ctrl-C (`interrupt` raised) refuses.
+    /// The time the question waits for its answer is added to `waited`.
     pub fn for_rig(
         real_hardware: bool,
         dry_run: bool,
         waived_by_flag: bool,
         interrupt: Arc<AtomicBool>,
+        waited: OperatorWait,
     ) -> Self {
         if !real_hardware || dry_run || waived_by_flag {
             Self::NotNeeded
         } else {
-            Self::Ask(Box::new(move |d| ask_on_terminal(d, &interrupt)))
+            Self::Ask(Box::new(move |d| {
+                let asked = Instant::now();
+                let yes = ask_on_terminal(d, &interrupt);
+                waited.add(asked.elapsed());
+                yes
+            }))
         }
+    }
+}
+
+/// Time spent waiting for the operator's answer, shared by a rig's stages
+/// (each asks before its own first move): a run's report leaves it out of
+/// the run's time, which had counted however long the operator took to
+/// type `yes` as the rig's work.
+#[derive(Debug, Clone, Default)]
+pub struct OperatorWait(Arc<AtomicU64>);
+
+impl OperatorWait {
+    fn add(&self, waited: Duration) {
+        let ns = u64::try_from(waited.as_nanos()).unwrap_or(u64::MAX);
+        self.0.fetch_add(ns, Ordering::SeqCst);
+    }
+
+    /// Seconds waited since the last take, and back to zero.
+    pub fn take_s(&self) -> f64 {
+        self.0.swap(0, Ordering::SeqCst) as f64 * 1e-9
     }
 }
 
@@ -94,7 +120,8 @@ mod tests {
     #[test]
     fn only_real_hardware_without_waiver_asks() {
         let for_rig = |real, dry, waived| {
-            FirstMoveConfirmation::for_rig(real, dry, waived, Arc::new(AtomicBool::new(false)))
+            let interrupt = Arc::new(AtomicBool::new(false));
+            FirstMoveConfirmation::for_rig(real, dry, waived, interrupt, OperatorWait::default())
         };
         assert!(matches!(
             for_rig(false, false, false),

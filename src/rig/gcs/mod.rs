@@ -23,7 +23,7 @@ pub mod stage;
 pub mod tcp_link;
 pub mod transport;
 
-pub use confirmation::FirstMoveConfirmation;
+pub use confirmation::{FirstMoveConfirmation, OperatorWait};
 pub use controller::GcsController;
 pub use controller_error::ControllerError;
 pub use dry_run_link::{DryRunLink, SentLog};
@@ -99,6 +99,7 @@ pub fn open_stage(
         dry_run,
         waive_confirmation,
         interrupt,
+        operator_wait: OperatorWait::default(),
     };
     let stage = stage_on(controller, &rig.stage, rig.stage_settings(), &opening)?;
     Ok((stage, log))
@@ -115,6 +116,8 @@ pub struct StageOpening {
     pub waive_confirmation: bool,
     /// The Ctrl-C flag (see [`crate::rig::interrupt::ctrlc_flag`]).
     pub interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    /// Where the stages add the time their confirmation waited.
+    pub operator_wait: OperatorWait,
 }
 
 /// A controller section of the rig file (its `[stage]`, or its coarse
@@ -136,6 +139,7 @@ pub fn stage_on(
         opening.dry_run,
         opening.waive_confirmation,
         std::sync::Arc::clone(&interrupt),
+        opening.operator_wait.clone(),
     );
     GcsStage::new(controller, settings, confirmation, interrupt)
 }
