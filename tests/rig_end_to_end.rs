@@ -283,16 +283,7 @@ impl Bench {
     /// which every site must be filled (the camera's count) and no stage
     /// moving; its report.
     fn resumed(&self, journal: &Path) -> serde_json::Value {
-        let child = nanopush()
-            .args(["assemble", "--json", "--rig"])
-            .arg(&self.rig_path)
-            .arg("--resume")
-            .arg(journal)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let out = finish(child, RUN_LIMIT);
+        let out = finish(self.resuming(journal), RUN_LIMIT);
         assert!(out.status.success(), "{}", failed(out.status, &out));
         let report = json(&out);
         assert_eq!(report["outcome"], "done", "{report}");
@@ -324,6 +315,28 @@ impl Bench {
         );
         assert!(report["time_s"].as_f64().unwrap() >= stopped_s, "{report}");
         report
+    }
+
+    /// `assemble --rig --resume JOURNAL --json`, started.
+    fn resuming(&self, journal: &Path) -> Child {
+        nanopush()
+            .args(["assemble", "--json", "--rig"])
+            .arg(&self.rig_path)
+            .arg("--resume")
+            .arg(journal)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    }
+
+    /// Runs every controller's simulated time `scale` times the wall clock
+    /// from now on.
+    fn set_time_scale(&self, scale: f64) {
+        let controllers = std::iter::once(&self.server).chain(&self.coarse);
+        for server in controllers {
+            server.handle().with(|c, now| c.set_time_scale(scale, now));
+        }
     }
 
     /// Makes the bench's rig file say `real_hardware = true` (with the z
@@ -362,6 +375,15 @@ impl Bench {
         stderr
     }
 
+    /// Waits (up to 20 s) until no stage moves.
+    fn wait_still(&self) {
+        let started = Instant::now();
+        while self.moving() {
+            assert!(started.elapsed() < Duration::from_secs(20), "never settled");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
     fn moving(&self) -> bool {
         self.server.inspect(|c, now| c.any_moving(now))
             || self
@@ -393,6 +415,15 @@ impl Bench {
             .spawn()
             .unwrap()
     }
+}
+
+/// Where `server`'s `axes` ("1 2 3") were last sent (`MOV?`), controller units.
+fn targets(server: &SimServer, axes: &str) -> Vec<f64> {
+    let reply = (server.handle()).with(|c, now| c.handle_line(&format!("MOV? {axes}"), now));
+    reply
+        .iter()
+        .map(|l| l.split_once('=').unwrap().1.parse().unwrap())
+        .collect()
 }
 
 /// Sends the child Ctrl-C's signal (SIGINT) and waits for it as [`finish`] does.
@@ -744,11 +775,7 @@ fn a_dry_run_with_the_real_stage_elsewhere_warns_and_pushes_on_paper() {
     for line in ["SVO 1 1 2 1 3 1", &elsewhere] {
         b.server.handle().with(|c, now| c.handle_line(line, now));
     }
-    let settled = Instant::now();
-    while b.moving() {
-        assert!(settled.elapsed() < Duration::from_secs(20), "never settled");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    b.wait_still();
     let before = b.positions_um();
     assert!((before[0] - start[0] - 20.0).abs() < 0.1, "{before:?}");
     let rec = b.dir.path().join("rec");
@@ -951,10 +978,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
         assert!(started.elapsed() < Duration::from_secs(60), "never moved");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let target = b
-        .server
-        .handle()
-        .with(|c, now| c.handle_line("MOV? 1 2 3", now));
+    let target = targets(&b.server, "1 2 3");
     let out = interrupted(child, Duration::from_secs(20));
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -976,10 +1000,6 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     let last = journal.lines().last().unwrap();
     assert!(last.contains("\"kind\":\"stopped\""), "{last}");
     let here = b.positions_um();
-    let target: Vec<f64> = target
-        .iter()
-        .map(|l| l.split_once('=').unwrap().1.parse().unwrap())
-        .collect();
     assert!(
         (0..3).any(|i| (here[i] - target[i]).abs() > 0.5),
         "halted at {here:?}, which is the move's target {target:?}: not halted mid-way"
@@ -1467,6 +1487,101 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
         "true placement errors {errors_nm:?} nm"
     );
     assert!(!b.moving(), "a stage was left moving");
+}
+
+/// Ctrl-C during a resume's set-up, before its loop began (here while the
+/// coarse stage goes back to where the run first looked, the sample moved
+/// by hand since the stop): the stage is halted mid-way and the command
+/// exits non-zero saying so once, with the `--resume` line; the journal is
+/// left byte for byte as it was (the resume entry is written as the loop
+/// begins, `Assembly::resume`), and the same `--resume` then finishes the
+/// run. L on the coarse rig: a few seconds where CMU takes 14.
+#[test]
+fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was() {
+    let b = Bench {
+        text: TEXT,
+        ..coarse_bench(100.0)
+    };
+    let journal = b.dir.path().join("run/journal.jsonl");
+    b.stopped_after_decisions("run", 1, &[]);
+    let before = std::fs::read(&journal).unwrap();
+    let coarse = b.coarse.as_ref().unwrap();
+    // The tip lifted, then the sample moved 0.2 mm along each axis.
+    b.server
+        .handle()
+        .with(|c, now| c.handle_line("MOV 3 15", now));
+    b.wait_still();
+    let [x, y] = b.coarse_units()[..] else {
+        unreachable!("two coarse axes")
+    };
+    let by_hand = format!("MOV 1 {} 2 {}", x + 0.2, y + 0.2);
+    for line in ["SVO 1 1 2 1", &by_hand] {
+        coarse.handle().with(|c, now| c.handle_line(line, now));
+    }
+    b.wait_still();
+    // Slow enough (0.2 mm at 1 mm/s now takes 10 s) for the press to
+    // come while the set-up moves the coarse stage back.
+    b.set_time_scale(0.02);
+    let mut child = b.resuming(&journal);
+    let started = Instant::now();
+    while !coarse.inspect(|c, now| c.any_moving(now)) {
+        if child.try_wait().unwrap().is_some() || started.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "the resume never moved the coarse stage: {}",
+                failed(out.status, &out)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let target = targets(coarse, "1 2");
+    let out = interrupted(child, Duration::from_secs(30));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stderr}");
+    assert!(!out.status.success(), "{}", failed(out.status, &out));
+    assert!(
+        stderr.starts_with("stopping (Ctrl-C or a termination signal) now"),
+        "the press was not answered first: {stderr}"
+    );
+    assert!(
+        stderr.contains("interrupted (Ctrl-C or a termination signal)"),
+        "{stderr}"
+    );
+    let go_on = format!(
+        "; the stage was halted; go on with it: nanopush assemble --rig {} --resume {}",
+        b.rig_path.display(),
+        journal.display()
+    );
+    assert!(stderr.contains(&go_on), "{stderr}");
+    // Said once: the move's own stop says it too.
+    assert_eq!(
+        stderr.matches("the stage was halted").count(),
+        1,
+        "{stderr}"
+    );
+    assert!(!b.moving(), "a stage was left moving");
+    let here = b.coarse_units();
+    assert!(
+        (0..2).any(|i| (here[i] - target[i]).abs() > 1e-3),
+        "the coarse stage stopped at {here:?}, its target {target:?}: not halted mid-way"
+    );
+    assert!(
+        std::fs::read(&journal).unwrap() == before,
+        "the journal changed: {stderr}"
+    );
+
+    // Not stopped, the same resume finishes the run, its journal one
+    // resume on.
+    b.set_time_scale(100.0);
+    b.resumed(&journal);
+    let after = std::fs::read(&journal).unwrap();
+    assert!(
+        after.starts_with(&before),
+        "the stopped run's lines changed"
+    );
+    let added = String::from_utf8_lossy(&after[before.len()..]).into_owned();
+    assert_eq!(added.matches("\"kind\":\"resume\"").count(), 1, "{added}");
 }
 
 /// With a coarse stage, `--at` is in the calibration's coordinates (those

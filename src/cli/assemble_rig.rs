@@ -56,6 +56,7 @@ use crate::plan::pattern_request::PatternRequest;
 use crate::plan::placement::PlacementGoal;
 use crate::plan::pushes::max_push_len;
 use crate::rig::Rig;
+use crate::rig::error::RigError;
 use crate::rig::gcs::{RigFile, SentLog};
 use crate::rig::hardware::{HardwareRig, HardwareRigOptions};
 use crate::rig::interrupt::{
@@ -238,8 +239,13 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         // A resume stopped before its loop began: its journal goes on as
         // it was (the loop's own stop says how to go on; this had not).
         Err(e) if interrupted && !new_run => {
+            let halted = if halt_said(&e) {
+                ""
+            } else {
+                "; the stage was halted"
+            };
             return Err(anyhow::anyhow!(
-                "{}; the stage was halted; {}",
+                "{}{halted}; {}",
                 super::error_message::error_message(&e),
                 GoOn::of_journal(Some(rig_path.clone()), journal).after(StopCause::Other)
             ));
@@ -281,6 +287,15 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
     check_end(&end, hw.dry_run, &go_on)
 }
 
+/// True when `e` is a move stopped by the press ([`RigError::Interrupted`]),
+/// whose words already say the stage was halted: a resume's set-up stopped
+/// so had said it twice ("...; the stage was halted; the stage was halted;
+/// go on with it: ...").
+fn halt_said(e: &anyhow::Error) -> bool {
+    e.chain()
+        .any(|c| matches!(c.downcast_ref(), Some(RigError::Interrupted)))
+}
+
 /// The folder of the run whose journal a resume goes on with, keeping what
 /// the resume writes before its first move can be declined, so that a
 /// decline puts it back: the journal (only appended to, once a torn last
@@ -308,7 +323,7 @@ fn declined(folders: &[(&MadeFolder, &Path)], new_run: bool) -> anyhow::Error {
     };
     anyhow::anyhow!(
         "{}; {}: run the same command again to {then}",
-        crate::rig::error::RigError::NotConfirmed,
+        RigError::NotConfirmed,
         folders_said(folders)
     )
 }
