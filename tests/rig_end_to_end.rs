@@ -1494,8 +1494,8 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
 /// by hand since the stop): the stage is halted mid-way and the command
 /// exits non-zero saying so once, with the `--resume` line; the journal is
 /// left byte for byte as it was (the resume entry is written as the loop
-/// begins, `Assembly::resume`), and the same `--resume` then finishes the
-/// run. L on the coarse rig: a few seconds where CMU takes 14.
+/// begins, `Assembly::resume`; a torn last line, cut as the journal was
+/// read, is put back), and the same `--resume` then finishes the run. L on the coarse rig: a few seconds where CMU takes 14.
 #[test]
 fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was() {
     let b = Bench {
@@ -1504,6 +1504,15 @@ fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was()
     };
     let journal = b.dir.path().join("run/journal.jsonl");
     b.stopped_after_decisions("run", 1, &[]);
+    let whole = std::fs::read(&journal).unwrap();
+    // A crash's torn last line, which the resume cuts off on reading the
+    // journal: put back too.
+    let mut appending = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&journal)
+        .unwrap();
+    std::io::Write::write_all(&mut appending, br#"{"seq":999,"t_s":1.0,"ev"#).unwrap();
+    drop(appending);
     let before = std::fs::read(&journal).unwrap();
     let coarse = b.coarse.as_ref().unwrap();
     // The tip lifted, then the sample moved 0.2 mm along each axis.
@@ -1540,8 +1549,12 @@ fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was()
     let stderr = String::from_utf8_lossy(&out.stderr);
     eprintln!("{stderr}");
     assert!(!out.status.success(), "{}", failed(out.status, &out));
+    // The torn line's warning comes first, as the journal is read.
+    let first = stderr
+        .lines()
+        .find(|l| !l.contains("its last line was cut off"));
     assert!(
-        stderr.starts_with("stopping (Ctrl-C or a termination signal) now"),
+        first.is_some_and(|l| l.starts_with("stopping (Ctrl-C or a termination signal) now")),
         "the press was not answered first: {stderr}"
     );
     assert!(
@@ -1549,7 +1562,8 @@ fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was()
         "{stderr}"
     );
     let go_on = format!(
-        "; the stage was halted; go on with it: nanopush assemble --rig {} --resume {}",
+        "; the stage was halted; {} is as it was before; go on with it: nanopush assemble --rig {} --resume {}",
+        b.dir.path().join("run").display(),
         b.rig_path.display(),
         journal.display()
     );
@@ -1576,11 +1590,8 @@ fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was()
     b.set_time_scale(100.0);
     b.resumed(&journal);
     let after = std::fs::read(&journal).unwrap();
-    assert!(
-        after.starts_with(&before),
-        "the stopped run's lines changed"
-    );
-    let added = String::from_utf8_lossy(&after[before.len()..]).into_owned();
+    assert!(after.starts_with(&whole), "the stopped run's lines changed");
+    let added = String::from_utf8_lossy(&after[whole.len()..]).into_owned();
     assert_eq!(added.matches("\"kind\":\"resume\"").count(), 1, "{added}");
 }
 

@@ -164,16 +164,18 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
             ..Default::default()
         },
     );
-    // Stopped before anything was made or moved, said so.
+    // Stopped before anything was made or moved, said so; a resumed run's
+    // folder put back (the journal's torn last line, cut on reading it).
     let untouched = |during| {
         let stop = SetUpInterrupted { during };
-        match &args.resume {
-            Some(journal) => anyhow::anyhow!(
-                "{stop}: nothing was moved and {} is as it was; {}",
+        match (&args.resume, &resumed_folder) {
+            (Some(journal), Some(kept)) => anyhow::anyhow!(
+                "{stop}: nothing was moved and {} {}; {}",
                 journal.display(),
+                kept.undo_said(),
                 GoOn::of_journal(Some(rig_path.clone()), journal.clone()).after(StopCause::Other)
             ),
-            None => anyhow::anyhow!("{stop}: nothing was moved, nothing was started"),
+            _ => anyhow::anyhow!("{stop}: nothing was moved, nothing was started"),
         }
     };
     let mut rig = match opened {
@@ -236,8 +238,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 folders_said(&folders)
             ));
         }
-        // A resume stopped before its loop began: its journal goes on as
-        // it was (the loop's own stop says how to go on; this had not).
+        // A resume stopped before its loop began: its folder is put back,
+        // and its journal goes on as it was (the loop's own stop says how
+        // to go on; this had not).
         Err(e) if interrupted && !new_run => {
             let halted = if halt_said(&e) {
                 ""
@@ -245,8 +248,9 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
                 "; the stage was halted"
             };
             return Err(anyhow::anyhow!(
-                "{}{halted}; {}",
+                "{}{halted}; {}; {}",
                 super::error_message::error_message(&e),
+                folders_said(&folders),
                 GoOn::of_journal(Some(rig_path.clone()), journal).after(StopCause::Other)
             ));
         }
