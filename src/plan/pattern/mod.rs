@@ -50,6 +50,35 @@ pub struct Pattern {
     pub offsets_m: Vec<Vector2<f64>>,
 }
 
+/// "pattern placed at (x, y) um leaves sites outside the reachable area
+/// (its centre may lie from (..) to (..) um)", to one decimal, or up to
+/// three where one would read an axis asked outside the range the same as
+/// its nearer end ("placed at (57.5, ...) ... may lie from (57.5, ...)"
+/// had refused 57.5 against 57.504).
+fn outside_at_text(at_um: [f64; 2], lo_um: [f64; 2], hi_um: [f64; 2]) -> String {
+    let apart = |d: usize| {
+        (0..2).all(|i| {
+            let end = if at_um[i] < lo_um[i] {
+                lo_um[i]
+            } else if at_um[i] > hi_um[i] {
+                hi_um[i]
+            } else {
+                return true;
+            };
+            um_text(at_um[i], d) != um_text(end, d)
+        })
+    };
+    let d = (1..3).find(|&d| apart(d)).unwrap_or(3);
+    let pair = |p: [f64; 2]| format!("({}, {})", um_text(p[0], d), um_text(p[1], d));
+    format!(
+        "pattern placed at {} um leaves sites outside the reachable area \
+         (its centre may lie from {} to {} um)",
+        pair(at_um),
+        pair(lo_um),
+        pair(hi_um)
+    )
+}
+
 /// Everything that can be wrong with a pattern.
 #[derive(Debug, thiserror::Error)]
 pub enum PatternError {
@@ -109,16 +138,7 @@ pub enum PatternError {
         ah_um: f64,
     },
     /// A placement point leaves part of the pattern outside the reachable area.
-    #[error(
-        "pattern placed at ({}, {}) um leaves sites outside the reachable area \
-         (its centre may lie from ({}, {}) to ({}, {}) um)",
-        um_text(*.x_um, 1),
-        um_text(*.y_um, 1),
-        um_text(.lo_um[0], 1),
-        um_text(.lo_um[1], 1),
-        um_text(.hi_um[0], 1),
-        um_text(.hi_um[1], 1)
-    )]
+    #[error("{}", outside_at_text([*.x_um, *.y_um], *.lo_um, *.hi_um))]
     OutsideAtPlacement {
         /// Requested centre x.
         x_um: f64,
@@ -216,6 +236,34 @@ pub(crate) fn bbox(points: &[Vector2<f64>]) -> (Vector2<f64>, Vector2<f64>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A centre asked just outside the range reads apart from the range's
+    /// end (57.5 against 57.504 had read "placed at (57.5, ..) ... from
+    /// (57.5, ..)"); one well outside keeps one decimal.
+    #[test]
+    fn a_centre_just_outside_the_range_reads_apart_from_its_end() {
+        let outside = |x_um| PatternError::OutsideAtPlacement {
+            x_um,
+            y_um: 54.125,
+            lo_um: [57.504, 26.0],
+            hi_um: [62.5, 74.0],
+        };
+        assert_eq!(
+            outside(57.5).to_string(),
+            "pattern placed at (57.500, 54.125) um leaves sites outside the reachable area \
+             (its centre may lie from (57.504, 26.000) to (62.500, 74.000) um)"
+        );
+        assert_eq!(
+            outside(57.45).to_string(),
+            "pattern placed at (57.45, 54.12) um leaves sites outside the reachable area \
+             (its centre may lie from (57.50, 26.00) to (62.50, 74.00) um)"
+        );
+        assert_eq!(
+            outside(20.0).to_string(),
+            "pattern placed at (20.0, 54.1) um leaves sites outside the reachable area \
+             (its centre may lie from (57.5, 26.0) to (62.5, 74.0) um)"
+        );
+    }
 
     /// Sizes read as typed, and an absurd one in exponent form instead of
     /// three hundred digits.
