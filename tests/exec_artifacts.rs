@@ -4,6 +4,7 @@
 //! before anything is written.
 
 use nalgebra::Vector2;
+use nanopush::exec::assemble::AssemblySettings;
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
 use nanopush::exec::recording::open_recording;
@@ -150,6 +151,50 @@ fn the_reported_stray_gap_is_the_final_frames() {
         (seen_um - gap_um).abs() < 0.1,
         "the final frame shows {seen_um} um, the report says {gap_um} um"
     );
+}
+
+/// The report's time by parts adds up to its time; its moves, timed as
+/// commanded (distance at speed), agree with the simulated clock between
+/// the journal's entries within 10 % (the rest: settling and coarse
+/// moves); each part is at least its part of the bound; report.md says it.
+#[test]
+fn the_reported_time_splits_into_its_parts() {
+    let (_, out, _) = run();
+    let text = std::fs::read_to_string(out.join("report.json")).unwrap();
+    let report: AssemblyReport = serde_json::from_str(&text).unwrap();
+    let (spent, bound) = (report.time_split, report.lower_bound_split);
+    let sum = spent.pushing_s + spent.travel_s + spent.other_s;
+    assert!(
+        (sum - report.time_s).abs() < 1e-6,
+        "{spent:?} of {report:?}"
+    );
+    assert!((bound.pushing_s + bound.travel_s - report.lower_bound_s).abs() < 1e-9);
+    assert!(spent.pushing_s >= bound.pushing_s, "{spent:?} {bound:?}");
+    assert!(spent.travel_s >= bound.travel_s, "{spent:?} {bound:?}");
+    let entries = read_journal::<RunEvent>(&out.join("journal.jsonl"))
+        .unwrap()
+        .entries;
+    let travel_um_s = AssemblySettings::default().travel_speed_m_per_s * 1e6;
+    let (mut clock_pushing, mut clock_travel) = (0.0, 0.0);
+    for pair in entries.windows(2) {
+        let dt = pair[1].t_s - pair[0].t_s;
+        match pair[0].event {
+            RunEvent::Move { speed_um_s, .. } if speed_um_s == travel_um_s => clock_travel += dt,
+            RunEvent::Move { .. } => clock_pushing += dt,
+            _ => {}
+        }
+    }
+    let near = |a: f64, b: f64| (a - b).abs() <= 0.1 * b;
+    assert!(
+        near(spent.pushing_s, clock_pushing),
+        "{spent:?}: clock {clock_pushing} s"
+    );
+    assert!(
+        near(spent.travel_s, clock_travel),
+        "{spent:?}: clock {clock_travel} s"
+    );
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("| time spent | "), "{md}");
 }
 
 #[test]

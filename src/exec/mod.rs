@@ -26,5 +26,6 @@ pub mod scale_doubt;
 pub mod sim_run;
 pub mod stop_cause;
 pub mod stroke;
+pub mod time_split;
 pub mod tracker;
 pub mod travel_height;

@@ -12,6 +12,7 @@ use super::drift::DriftEstimate;
 use super::events::{RunEvent, RunSpec};
 use super::journal::Entry;
 use super::push_log::{PushRecord, push_log};
+use super::time_split::TimeSplit;
 use crate::model::effects::ActiveEffect;
 use crate::model::{Scene, simulate_push};
 use crate::plan::Site;
@@ -85,6 +86,13 @@ pub struct AssemblyReport {
     pub operator_wait_s: f64,
     /// Least time any plan could take with this physics, seconds (module doc).
     pub lower_bound_s: f64,
+    /// Where `time_s` went: pushing, lifted travel and the rest (zero in
+    /// reports written before this field).
+    #[serde(default)]
+    pub time_split: TimeSplit,
+    /// `lower_bound_s` by the same parts.
+    #[serde(default)]
+    pub lower_bound_split: TimeSplit,
     /// Effects the scene made active, with why.
     pub active_effects: Vec<ActiveEffect>,
     /// Simulated contacts that evaluated each effect (effect name -> count);
@@ -293,6 +301,8 @@ impl AssemblyReport {
         let clipped = self.clipped_frames_summary().map(|s| ("camera clipped", s));
         let drift = self.drift_summary().map(|s| ("tip drift", s));
         let stray = self.stray_gap_summary().map(|s| ("nearest stray", s));
+        let bound = self.finished().then_some(&self.lower_bound_split);
+        let spent = self.time_split.said(bound).map(|s| ("time spent", s));
         let waited = (self.operator_wait_s > 0.0).then(|| {
             let s = self.operator_wait_s;
             (
@@ -306,6 +316,7 @@ impl AssemblyReport {
             .chain(clipped)
             .chain(drift)
             .chain(stray)
+            .chain(spent)
             .chain(waited)
             .collect()
     }
@@ -431,11 +442,13 @@ impl AssemblyReport {
         let tolerance_m = settings.placed_tolerance_m;
         let placed = placed_errors_m(errors_m, tolerance_m, &counts.left_short);
         let (rms_error_nm, max_error_nm) = error_figures_nm(&placed);
-        let lower_bound_s = lower_bound_s(
+        let bound = lower_bound(
             &counts,
             scene.push.speed_m_per_s,
             settings.travel_speed_m_per_s,
         );
+        let time_s = (facts.time_s - counts.operator_wait_s).max(0.0);
+        let travel_um_s = settings.travel_speed_m_per_s * 1e6;
         AssemblyReport {
             schema: REPORT_SCHEMA.to_owned(),
             outcome: match facts.end.reason() {
@@ -458,9 +471,11 @@ impl AssemblyReport {
             push_log: counts.push_log,
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
-            time_s: (facts.time_s - counts.operator_wait_s).max(0.0),
+            time_s,
             operator_wait_s: counts.operator_wait_s,
-            lower_bound_s,
+            lower_bound_s: bound.pushing_s + bound.travel_s,
+            time_split: TimeSplit::of_run(entries, travel_um_s, time_s),
+            lower_bound_split: bound,
             active_effects: simulate_push(scene, &scene.push)
                 .map(|r| r.active_effects)
                 .unwrap_or_default(),
@@ -627,13 +642,20 @@ fn count_repaired(lines: &mut Vec<RepairedLine>, axis: LineAxis, index: usize) {
     }
 }
 
-/// The time lower bound (module doc), seconds.
-pub fn lower_bound_s(c: &JournalCounts, push_speed_m_per_s: f64, travel_speed_m_per_s: f64) -> f64 {
+/// The time lower bound (module doc), seconds, by its parts.
+pub fn lower_bound(
+    c: &JournalCounts,
+    push_speed_m_per_s: f64,
+    travel_speed_m_per_s: f64,
+) -> TimeSplit {
     let (lb_push_um, lb_tip_um) = c.first_plan_bounds_um.unwrap_or((0.0, 0.0));
     let onset_travel_um = c.first_onset_s.unwrap_or(0.0) * push_speed_m_per_s * 1e6;
     let moves = c.sites_to_fill.unwrap_or(0) as f64;
-    (lb_push_um + moves * onset_travel_um) * 1e-6 / push_speed_m_per_s
-        + lb_tip_um * 1e-6 / travel_speed_m_per_s
+    TimeSplit {
+        pushing_s: (lb_push_um + moves * onset_travel_um) * 1e-6 / push_speed_m_per_s,
+        travel_s: lb_tip_um * 1e-6 / travel_speed_m_per_s,
+        other_s: 0.0,
+    }
 }
 
 /// The errors of the sites that have a particle: within `tolerance_m`, or
@@ -762,7 +784,9 @@ pub(crate) mod tests {
         assert_eq!(c.sites_to_fill, Some(1));
         assert_eq!(c.outcome.as_deref(), Some("stopped: test"));
         // (10 um + 1 x 9 um onset travel) at 1 um/s + 5 um at 10 um/s.
-        assert!((lower_bound_s(&c, 1e-6, 10e-6) - 19.5).abs() < 1e-9);
+        let bound = lower_bound(&c, 1e-6, 10e-6);
+        assert!((bound.pushing_s - 19.0).abs() < 1e-9, "{bound:?}");
+        assert!((bound.travel_s - 0.5).abs() < 1e-9, "{bound:?}");
     }
 
     /// Each repaired camera line is counted once per frame it was repaired
@@ -1058,6 +1082,8 @@ pub(crate) mod tests {
             resumes: 0,
             nearest_stray_gap_um: None,
             operator_wait_s: 0.0,
+            time_split: TimeSplit::default(),
+            lower_bound_split: TimeSplit::default(),
         }
     }
 
