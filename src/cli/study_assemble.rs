@@ -9,6 +9,7 @@
 
 use super::child_stop::run_stopping_on;
 use crate::exec::report::nearer_than_asked;
+use crate::exec::time_split::TimeSplit;
 use crate::model::Scene;
 use crate::rig::interrupt::{CAUSE, ctrlc_flag_answering};
 use crate::wording::counted;
@@ -81,6 +82,12 @@ pub struct RunFigures {
     /// before 2026-11-30).
     #[serde(default)]
     pub asked: Option<AskedGap>,
+    /// Where `time_s` went (zero in studies from before 2026-12-01).
+    #[serde(default)]
+    pub time_split: TimeSplit,
+    /// `lower_bound_s` by the same parts.
+    #[serde(default)]
+    pub lower_bound_split: TimeSplit,
 }
 
 /// The gap a run's plans were asked to keep: its report's `asked`, as far
@@ -145,6 +152,11 @@ pub struct StudySummary {
     /// Complete runs whose plans were asked to keep a gap.
     #[serde(default)]
     pub runs_asked_a_gap: usize,
+    /// Median, part by part, of the complete runs' time above their bound's
+    /// same part, s: which part of the time the ratio's excess is (absent
+    /// when no run has the split, as in studies from before 2026-12-01).
+    #[serde(default)]
+    pub median_over_bound: Option<TimeSplit>,
     /// Every run.
     pub rows: Vec<RunRow>,
 }
@@ -359,6 +371,22 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
     let gaps: Vec<f64> = (complete.iter())
         .filter_map(|f| f.nearest_stray_gap_um)
         .collect();
+    let split: Vec<&RunFigures> = (complete.iter().copied())
+        .filter(|f| f.time_split.pushing_s + f.time_split.travel_s > 0.0)
+        .collect();
+    let over = |part: fn(&TimeSplit) -> f64| {
+        median(
+            split
+                .iter()
+                .map(|f| part(&f.time_split) - part(&f.lower_bound_split))
+                .collect(),
+        )
+    };
+    let median_over_bound = (!split.is_empty()).then(|| TimeSplit {
+        pushing_s: over(|t| t.pushing_s).unwrap_or(0.0),
+        travel_s: over(|t| t.travel_s).unwrap_or(0.0),
+        other_s: over(|t| t.other_s).unwrap_or(0.0),
+    });
     let all = || rows.iter().filter_map(|r| r.figures.as_ref());
     StudySummary {
         schema: STUDY_ASSEMBLE_SCHEMA.to_string(),
@@ -378,6 +406,7 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
             .filter(|(gap, kept)| nearer_than_asked(*gap, *kept))
             .count(),
         runs_asked_a_gap: asked_gap.iter().filter(|(_, kept)| *kept > 0.0).count(),
+        median_over_bound,
         rows,
     }
 }
@@ -428,7 +457,7 @@ pub fn acceptance_text(s: &StudySummary) -> String {
          placement RMS{of}: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
          nearest stray off the pattern{of}: median {mg} um, least {lg} um{nearer}\n\
          lost contacts: {d} detected, {m} missed (target 0 missed)\n\
-         time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5)\n\
+         time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5){over}\n\
          wall time per run: median {mw} s\n",
         text = s.text,
         c = s.complete_runs,
@@ -451,6 +480,10 @@ pub fn acceptance_text(s: &StudySummary) -> String {
         mt = fmt_opt(s.median_time_ratio, 3),
         wt = fmt_opt(s.worst_time_ratio, 3),
         mw = fmt_opt(s.median_wall_s, 1),
+        over = s.median_over_bound.map_or(String::new(), |o| format!(
+            "\ntime above the bound's same part, median per run: {:.0} s pushing, {:.0} s lifted, {:.0} s else",
+            o.pushing_s, o.travel_s, o.other_s
+        )),
     )
 }
 
@@ -524,6 +557,16 @@ mod tests {
             lower_bound_s: 100.0,
             nearest_stray_gap_um: Some(time / 100.0),
             asked: Some(AskedGap { keep_clear_um: 1.5 }),
+            time_split: TimeSplit {
+                pushing_s: time * 0.8,
+                travel_s: time * 0.15,
+                other_s: time * 0.05,
+            },
+            lower_bound_split: TimeSplit {
+                pushing_s: 90.0,
+                travel_s: 10.0,
+                other_s: 0.0,
+            },
         }
     }
 
@@ -565,6 +608,11 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("2/4 runs filled every site (50 %"), "{text}");
+        // 96 and 160 s pushing against 90 s; 18 and 30 s lifted against 10.
+        assert!(
+            text.contains("time above the bound's same part, median per run: 38 s pushing, 14 s lifted, 8 s else"),
+            "{text}"
+        );
         assert!(
             text.contains("placement RMS of the 2 complete runs: median 200 nm, worst 300 nm")
                 && text.contains("time / lower bound of the 2 complete runs: median 1.600"),
