@@ -1144,6 +1144,15 @@ fn an_unconfirmed_first_move_leaves_out_as_it_was() {
     assert_eq!(b.positions_um(), before);
 }
 
+/// Appends half a line to `journal`, as a crash while writing leaves one.
+fn tear_last_line(journal: &Path) {
+    let mut file = std::fs::OpenOptions::new()
+        .append(true)
+        .open(journal)
+        .unwrap();
+    std::io::Write::write_all(&mut file, br#"{"seq":999,"t_s":1.0,"ev"#).unwrap();
+}
+
 /// Every file directly in `dir`, by name, with its bytes.
 fn files_in(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
@@ -1170,12 +1179,7 @@ fn an_unconfirmed_resume_leaves_the_run_as_it_was() {
     let b = bench(50.0);
     let run_dir = b.dir.path().join("run");
     b.stopped_after_decisions("run", 1, &[]);
-    let mut journal = std::fs::OpenOptions::new()
-        .append(true)
-        .open(run_dir.join("journal.jsonl"))
-        .unwrap();
-    std::io::Write::write_all(&mut journal, br#"{"seq":999,"t_s":1.0,"ev"#).unwrap();
-    drop(journal);
+    tear_last_line(&run_dir.join("journal.jsonl"));
     std::fs::write(run_dir.join("run.mp4"), vec![7u8; 1 << 20]).unwrap();
     let before = files_in(&run_dir);
     b.as_real_hardware();
@@ -1495,7 +1499,8 @@ fn a_stopped_coarse_rig_run_resumes_and_fills_every_site() {
 /// exits non-zero saying so once, with the `--resume` line; the journal is
 /// left byte for byte as it was (the resume entry is written as the loop
 /// begins, `Assembly::resume`; a torn last line, cut as the journal was
-/// read, is put back), and the same `--resume` then finishes the run. L on the coarse rig: a few seconds where CMU takes 14.
+/// read, is put back), and the same `--resume` then finishes the run. L
+/// on the coarse rig: a few seconds where CMU takes 14.
 #[test]
 fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was() {
     let b = Bench {
@@ -1505,14 +1510,8 @@ fn ctrl_c_in_a_resumes_set_up_halts_the_stage_and_leaves_the_journal_as_it_was()
     let journal = b.dir.path().join("run/journal.jsonl");
     b.stopped_after_decisions("run", 1, &[]);
     let whole = std::fs::read(&journal).unwrap();
-    // A crash's torn last line, which the resume cuts off on reading the
-    // journal: put back too.
-    let mut appending = std::fs::OpenOptions::new()
-        .append(true)
-        .open(&journal)
-        .unwrap();
-    std::io::Write::write_all(&mut appending, br#"{"seq":999,"t_s":1.0,"ev"#).unwrap();
-    drop(appending);
+    // The resume cuts it off on reading the journal: put back too.
+    tear_last_line(&journal);
     let before = std::fs::read(&journal).unwrap();
     let coarse = b.coarse.as_ref().unwrap();
     // The tip lifted, then the sample moved 0.2 mm along each axis.
