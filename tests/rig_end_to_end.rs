@@ -26,7 +26,7 @@ use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::time::{Duration, Instant};
 
 mod interrupted;
-use interrupted::wait_until_caught;
+use interrupted::{press_ctrl_c, wait_until_caught};
 
 const UM: f64 = 1e-6;
 /// The pattern on the rig without a coarse stage: its 94 um of travel holds
@@ -428,11 +428,7 @@ fn targets(server: &SimServer, axes: &str) -> Vec<f64> {
 
 /// Sends the child Ctrl-C's signal (SIGINT) and waits for it as [`finish`] does.
 fn interrupted(child: Child, limit: Duration) -> Output {
-    nix::sys::signal::kill(
-        nix::unistd::Pid::from_raw(child.id() as i32),
-        nix::sys::signal::Signal::SIGINT,
-    )
-    .unwrap();
+    press_ctrl_c(&child);
     finish(child, limit)
 }
 

@@ -11,6 +11,7 @@
 
 use super::events::RunEvent;
 use super::journal::Entry;
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// Seconds of a run (or of its lower bound) by what the stage did.
@@ -41,7 +42,8 @@ impl TimeSplit {
                     speed_um_s,
                 } => {
                     if let Some(from) = at.filter(|_| *speed_um_s > 0.0) {
-                        let s = distance_um(from, *target_um) / speed_um_s;
+                        let s =
+                            (Vector3::from(*target_um) - Vector3::from(from)).norm() / speed_um_s;
                         if (speed_um_s - travel_speed_um_s).abs() <= 1e-9 * travel_speed_um_s {
                             split.travel_s += s;
                         } else {
@@ -76,11 +78,6 @@ impl TimeSplit {
             self.other_s
         ))
     }
-}
-
-fn distance_um(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d: [f64; 3] = std::array::from_fn(|i| b[i] - a[i]);
-    d.iter().map(|v| v * v).sum::<f64>().sqrt()
 }
 
 #[cfg(test)]

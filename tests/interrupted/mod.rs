@@ -113,7 +113,7 @@ pub fn interrupt_once_caught(mut command: Command) -> Interrupted {
 }
 
 /// Sends `child` alone SIGINT, as Ctrl-C does; when it was sent.
-fn press_ctrl_c(child: &Child) -> Instant {
+pub fn press_ctrl_c(child: &Child) -> Instant {
     let pressed = Instant::now();
     let sent = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
