@@ -632,22 +632,18 @@ impl<'a> Assembly<'a> {
                 }
                 self.check(&intent)?;
             }
-            if self.all_sites_filled() {
-                // Confirm on a frame with the probe parked clear of the work
-                // area: the last frame may hide particles under it, and the
-                // run's final image should show the whole pattern.
-                self.park_at_start()?;
-                self.observe(&[], None)?;
-                if self.all_sites_filled() {
-                    self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
-                    return Ok(RunEnd::Done);
-                }
+            if self.confirmed_filled()? {
+                return Ok(RunEnd::Done);
             }
             if self.pushes_done >= self.settings.max_pushes {
                 return self.stop(RunEnd::PushesSpent(self.pushes_done));
             }
             let intent = match self.next_push()? {
                 Ok(intent) => intent,
+                // Leaving particles short on the planner's refusal can fill
+                // the last sites, and the plan then has no push left (CMU
+                // seed 33 at 5 nm/s along y had stopped so at 31 of 31).
+                Err(_) if self.confirmed_filled()? => return Ok(RunEnd::Done),
                 Err(reason) => return self.stop(RunEnd::Stopped(reason)),
             };
             match self.push(&intent) {
@@ -719,6 +715,23 @@ impl<'a> Assembly<'a> {
             ),
             _ => String::new(),
         }
+    }
+
+    /// Every site filled, confirmed on a frame with the probe parked clear
+    /// of the work area (the last frame may hide particles under it, and
+    /// the run's final image should show the whole pattern); journals the
+    /// run done if so.
+    fn confirmed_filled(&mut self) -> Result<bool, ExecError> {
+        if !self.all_sites_filled() {
+            return Ok(false);
+        }
+        self.park_at_start()?;
+        self.observe(&[], None)?;
+        if !self.all_sites_filled() {
+            return Ok(false);
+        }
+        self.journal.append(self.rig.now_s(), &RunEvent::Done)?;
+        Ok(true)
     }
 
     fn all_sites_filled(&self) -> bool {

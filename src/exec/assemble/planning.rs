@@ -134,6 +134,17 @@ impl Assembly<'_> {
             }))
     }
 
+    /// Where the plan in hand lands the tip for the push after the one
+    /// being made (its second push), when it has one.
+    pub(super) fn next_landing_in_hand(&self) -> Option<[f64; 2]> {
+        let plan = self.plan_in_hand.as_ref()?;
+        let mut landings = plan.steps.iter().filter_map(|step| match step {
+            Step::Push { approach_m, .. } => Some([approach_m.x, approach_m.y]),
+            _ => None,
+        });
+        landings.nth(1)
+    }
+
     pub(super) fn journal_plan(
         &mut self,
         plan: &Plan,

@@ -41,13 +41,19 @@ impl Assembly<'_> {
                     .collect();
                 // Within the nanostage's range where it is now: a farther
                 // retreat must not move the coarse stage or refuse the push.
+                // And in the camera's view, for the apex to be seen there.
                 let (drift, offset) = (self.drift_now(), self.coarse_offset);
+                let view = self.view_local();
                 let reachable = |p: [f64; 2]| {
                     (0..2).all(|i| {
-                        (range[i].min_m..=range[i].max_m).contains(&(p[i] - offset[i] - drift[i]))
+                        let local = p[i] - offset[i];
+                        (range[i].min_m..=range[i].max_m).contains(&(local - drift[i]))
+                            && view.is_none_or(|v| (v[i][0]..=v[i][1]).contains(&local))
                     })
                 };
-                retreat_clear_of_probe(&stroke, intent, axis, &others, reachable)
+                let probe = self.last_sighting.as_ref().and_then(|s| s.probe.as_ref());
+                let next = self.next_landing_in_hand();
+                retreat_clear_of_probe(&stroke, intent, (axis, probe), &others, reachable, next)
             }
             None => retreat_point(&stroke, intent.radius_m),
         };

@@ -3,10 +3,12 @@
 //! where the tip waits after a push, and recovering from a stage fault.
 
 use super::{Assembly, ExecError, PushError, PushIntent};
+use crate::calib::camera_map::CameraCalibration;
 use crate::exec::drift::APEX_CLEAR_OF_PARTICLES_M;
 use crate::exec::events::RunEvent;
 use crate::exec::stroke::Stroke;
 use crate::rig::stage::StageXyz;
+use crate::vision::tip::TipDetection;
 use nalgebra::Vector2;
 
 impl Assembly<'_> {
@@ -227,6 +229,19 @@ pub(super) fn offset_fitting(
     Some(offset)
 }
 
+/// The probe as the last frame that found it saw it: its fitted
+/// silhouette, and the calibration it was seen through.
+pub(super) type ProbeSeen<'a> = Option<&'a (TipDetection, CameraCalibration)>;
+
+/// Free space, metres, between `point` and the probe's silhouette moved to
+/// put its apex at `apex` (negative inside); None without a probe seen.
+fn body_gap_m(probe: ProbeSeen, apex: Vector2<f64>, point: Vector2<f64>) -> Option<f64> {
+    let (tip, calibration) = probe?;
+    let off = calibration.linear.try_inverse()? * (point - apex);
+    let gap_px = tip.signed_distance(tip.x_px + off.x, tip.y_px + off.y);
+    Some(gap_px * calibration.m_per_px())
+}
+
 /// Where the tip waits after a push: back along the push line, a radius and
 /// a few micrometres behind the lift point, so that the probe does not hide
 /// the particle in the next frame; kept inside the nanostage's range.
@@ -244,39 +259,99 @@ pub(super) fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
     ]
 }
 
-/// Where the tip waits after a push when the probe's direction is known: a
-/// radius and a few micrometres from the particle's target, on the side the
-/// cantilever comes from. The probe's body then lies away from the particle
-/// whatever the push direction, so the next frame shows it and no re-look
-/// (a lifted trip to the nanostage's far corner and back) is needed.
-/// Farther back along that line, up to [`RETREAT_FARTHEST_EXTRA_M`], when
-/// that puts the apex clear of every other particle (`others`: centre and
-/// radius) and `reachable`: the next frame's apex is then a sighting of the
-/// tip's drift. Among the letters of a pattern the nearest point seldom is
-/// (5 sightings in 16 frames on CMU seed 1 at 5 nm/s), and at 5 nm/s the
+/// Where the tip waits after a push when the probe's direction is known.
+/// The probe's body lies behind its apex, so a point at least a radius and
+/// a few micrometres behind the particle's target along the probe's axis
+/// leaves the particle in the next frame's view, and no re-look (a lifted
+/// trip to the nanostage's far corner and back) is needed. Of those points,
+/// up to [`RETREAT_FARTHEST_EXTRA_M`] behind, it takes one whose apex is
+/// clear of every other particle (`others`: centre and radius) and
+/// `reachable`: the next frame's apex is then a sighting of the tip's
+/// drift. Among the letters of a pattern the nearest point seldom is (5
+/// sightings in 16 frames on CMU seed 1 at 5 nm/s), and at 5 nm/s the
 /// drift's rate was never taken and a push fell 0.2 um short three times.
+/// Given the way on (`onward`), the clear point on the shortest way from
+/// the lift to the next landing, the straight way's own points included
+/// where the body leaves the particle in view; else the nearest clear
+/// point straight behind the target. (Straight behind it always, the
+/// waits had doubled the tip's lifted travel: CMU seed 2's plan toured 626
+/// um between pushes, its run 1,352 um.) With no clear point, straight
+/// behind the target.
 pub(super) fn retreat_clear_of_probe(
     stroke: &Stroke,
     intent: &PushIntent,
-    axis: [f64; 2],
+    (axis, probe): ([f64; 2], ProbeSeen),
     others: &[([f64; 2], f64)],
     reachable: impl Fn([f64; 2]) -> bool,
+    next: Option<[f64; 2]>,
 ) -> StageXyz {
-    let at = |extra: f64| {
-        let back = intent.radius_m + extra;
-        [intent.to[0] - axis[0] * back, intent.to[1] - axis[1] * back]
-    };
-    let clear = |p: [f64; 2]| {
+    let axis = Vector2::from(axis);
+    let across = Vector2::new(-axis.y, axis.x);
+    let target = Vector2::from(intent.to);
+    let lift = Vector2::new(stroke.lift[0], stroke.lift[1]);
+    // A point `extra` beyond the particle's edge behind the target and
+    // `side` across the axis.
+    let at = |extra: f64, side: f64| target - axis * (intent.radius_m + extra) + across * side;
+    let clear = |p: Vector2<f64>| {
         others.iter().all(|(c, r)| {
-            (c[0] - p[0]).hypot(c[1] - p[1]) >= r + APEX_CLEAR_OF_PARTICLES_M + RETREAT_ROOM_M
+            (Vector2::from(*c) - p).norm() >= r + APEX_CLEAR_OF_PARTICLES_M + RETREAT_ROOM_M
         })
     };
+    let shows_target = |p: &Vector2<f64>| {
+        body_gap_m(probe, *p, target).is_some_and(|gap| gap >= intent.radius_m + RETREAT_EXTRA_M)
+    };
+    let usable = |p: &Vector2<f64>| clear(*p) && reachable([p.x, p.y]);
     let steps = ((RETREAT_FARTHEST_EXTRA_M - RETREAT_EXTRA_M) / RETREAT_STEP_M).round() as usize;
-    let [x, y] = (0..=steps)
-        .map(|k| at(RETREAT_EXTRA_M + k as f64 * RETREAT_STEP_M))
-        .find(|&p| clear(p) && reachable(p))
-        .unwrap_or_else(|| at(RETREAT_EXTRA_M));
-    [x, y, stroke.lift[2]]
+    let extras = (0..=steps).map(|k| RETREAT_EXTRA_M + k as f64 * RETREAT_STEP_M);
+    let found = match next.map(Vector2::from) {
+        Some(next) => {
+            let behind = extras.flat_map(|extra| {
+                let best = least_detour_side(lift, next, at(extra, 0.0), across)
+                    .clamp(-RETREAT_SIDE_FARTHEST_M, RETREAT_SIDE_FARTHEST_M);
+                let (lo, hi) = (best.min(0.0), best.max(0.0));
+                let sides =
+                    ((hi - lo + 2.0 * RETREAT_SIDE_MARGIN_M) / RETREAT_STEP_M).ceil() as usize;
+                let first = lo - RETREAT_SIDE_MARGIN_M;
+                (0..=sides)
+                    .map(move |k| first + k as f64 * RETREAT_STEP_M)
+                    .chain([best])
+                    .map(move |side| at(extra, side))
+            });
+            let n = ((next - lift).norm() / RETREAT_STEP_M).ceil().max(1.0) as usize;
+            let on_the_way = (0..=n)
+                .map(|k| lift + (next - lift) * (k as f64 / n as f64))
+                .filter(shows_target);
+            let way = |p: &Vector2<f64>| (p - lift).norm() + (next - p).norm();
+            (on_the_way.chain(behind))
+                .filter(usable)
+                .min_by(|a, b| way(a).total_cmp(&way(b)))
+        }
+        None => extras.map(|extra| at(extra, 0.0)).find(usable),
+    };
+    let p = found.unwrap_or_else(|| at(RETREAT_EXTRA_M, 0.0));
+    [p.x, p.y, stroke.lift[2]]
+}
+
+/// Where, across the axis from `on_axis` along `across`, the line through
+/// `on_axis` meets the shortest way from `from` to `to` that touches it:
+/// where the segment crosses the line, else where the way bounces off it.
+fn least_detour_side(
+    from: Vector2<f64>,
+    to: Vector2<f64>,
+    on_axis: Vector2<f64>,
+    across: Vector2<f64>,
+) -> f64 {
+    let normal = Vector2::new(across.y, -across.x);
+    let (a, b) = ((from - on_axis).dot(&normal), (to - on_axis).dot(&normal));
+    // Both on one side: reflect the far end through the line (a mirror's path).
+    let b = if a * b > 0.0 { -b } else { b };
+    let t = if (a - b).abs() > f64::EPSILON {
+        a / (a - b)
+    } else {
+        0.5
+    };
+    let (sa, sb) = ((from - on_axis).dot(&across), (to - on_axis).dot(&across));
+    sa + (sb - sa) * t
 }
 
 /// Extra distance of the retreat beyond one particle radius.
@@ -286,6 +361,11 @@ const RETREAT_EXTRA_M: f64 = 3e-6;
 const RETREAT_FARTHEST_EXTRA_M: f64 = 15e-6;
 /// Steps of the search back along the probe's line.
 const RETREAT_STEP_M: f64 = 0.5e-6;
+/// How far either side of the shortest way's point, and of the point
+/// straight behind the target, the search looks for a clear apex.
+const RETREAT_SIDE_MARGIN_M: f64 = 5e-6;
+/// Farthest aside the search looks: the nanostage's range.
+const RETREAT_SIDE_FARTHEST_M: f64 = 100e-6;
 /// Room beyond [`APEX_CLEAR_OF_PARTICLES_M`] for the apex's placement
 /// error and the drift left in the move, so the frame's apex still counts.
 const RETREAT_ROOM_M: f64 = 0.5e-6;
@@ -294,17 +374,14 @@ const RETREAT_ROOM_M: f64 = 0.5e-6;
 mod tests {
     use super::*;
 
-    /// After a push the tip waits on the probe's line behind the target:
-    /// 3 um beyond the particle's edge when that is clear of the others,
-    /// else at the first point 3 um clear of them, else (nothing clear
-    /// within reach) at the nearest.
-    #[test]
-    fn the_tip_waits_where_its_apex_is_clear_of_the_other_particles() {
+    /// A particle pushed from (40, 50) to (50, 50) um, 5 um in radius, the
+    /// tip lifted at (44, 50) um.
+    fn pushed_to_50_50() -> (Stroke, PushIntent) {
         let stroke = Stroke {
-            above: [0.0, 0.0, 12e-6],
-            approach: [0.0, 0.0, 6e-6],
-            end: [0.0, 0.0, 6e-6],
-            lift: [0.0, 0.0, 12e-6],
+            above: [34e-6, 50e-6, 12e-6],
+            approach: [34e-6, 50e-6, 6e-6],
+            end: [44e-6, 50e-6, 6e-6],
+            lift: [44e-6, 50e-6, 12e-6],
             travel_after_contact_m: 0.0,
         };
         let intent = PushIntent {
@@ -313,10 +390,27 @@ mod tests {
             to: [50e-6, 50e-6],
             radius_m: 5e-6,
         };
+        (stroke, intent)
+    }
+
+    /// After a push the tip waits on the probe's line behind the target:
+    /// 3 um beyond the particle's edge when that is clear of the others,
+    /// else at the first point 3 um clear of them, else (nothing clear
+    /// within reach) at the nearest.
+    #[test]
+    fn the_tip_waits_where_its_apex_is_clear_of_the_other_particles() {
+        let (stroke, intent) = pushed_to_50_50();
         // The cantilever comes from -x: the apex points +x.
         let axis = [1.0, 0.0];
         let wait = |others: &[([f64; 2], f64)], reach: f64| {
-            retreat_clear_of_probe(&stroke, &intent, axis, others, |p| p[0] >= reach)[0] * 1e6
+            retreat_clear_of_probe(
+                &stroke,
+                &intent,
+                (axis, None),
+                others,
+                |p| p[0] >= reach,
+                None,
+            )[0] * 1e6
         };
         assert!((wait(&[], 0.0) - 42.0).abs() < 1e-9);
         // A particle at x = 40.2 um: the apex must be at x <= 40.2 - 5 - 3,
@@ -330,5 +424,96 @@ mod tests {
         assert!((wait(&left, 33e-6) - 42.0).abs() < 1e-9);
         // At x = 35 um the first clear point (27) is beyond the 15 um searched.
         assert!((wait(&[([35e-6, 50e-6], 5e-6)], 0.0) - 42.0).abs() < 1e-9);
+    }
+
+    /// A probe seen pointing +x on the sample at 0.25 um a pixel: its body
+    /// 10 um wide, reached 15 um behind the apex.
+    fn probe_seen() -> (TipDetection, CameraCalibration) {
+        let tip = TipDetection {
+            x_px: 200.0,
+            y_px: 200.0,
+            angle_rad: 0.0,
+            score: 1.0,
+            width_px: 40.0,
+            taper_length_px: 60.0,
+        };
+        (
+            tip,
+            CameraCalibration::from_scale_rotation(0.25e-6, 0.0, [0.0, 0.0]),
+        )
+    }
+
+    /// Given the next landing, the tip waits on its way there where the
+    /// probe leaves the particle in view and its apex is clear of the
+    /// others; else behind the target where the way there bends least.
+    #[test]
+    fn the_tip_waits_on_its_way_to_the_next_landing() {
+        // The next push lands the tip at (44, 80) um.
+        let (stroke, intent) = pushed_to_50_50();
+        let probe = probe_seen();
+        let wait = |probe: ProbeSeen, others: &[([f64; 2], f64)]| {
+            let axis = ([1.0, 0.0], probe);
+            let p = retreat_clear_of_probe(
+                &stroke,
+                &intent,
+                axis,
+                others,
+                |_| true,
+                Some([44e-6, 80e-6]),
+            );
+            [p[0] * 1e6, p[1] * 1e6]
+        };
+        // No silhouette to check the way against: only points 8 um behind
+        // the particle (x <= 42) are known to show it, and the way to (44,
+        // 80) touches x = 42 at y = 65.
+        let [x, y] = wait(None, &[]);
+        assert!(
+            (x - 42.0).abs() < 1e-9 && (y - 65.0).abs() < 1e-6,
+            "({x}, {y})"
+        );
+        // With it, the apex on the straight way 5.29 um or more above the
+        // particle's centre keeps 3 um from its edge, and the body lies away.
+        let [x, y] = wait(Some(&probe), &[]);
+        assert!(
+            (x - 44.0).abs() < 1e-9 && (55.29..=80.0).contains(&y),
+            "({x}, {y})"
+        );
+        // A particle at (44, 70): the apex keeps 8 um from its centre.
+        let [x, y] = wait(Some(&probe), &[([44e-6, 70e-6], 5e-6)]);
+        assert!(
+            (x - 44.0).abs() < 1e-9 && (55.29..=62.0).contains(&y),
+            "({x}, {y})"
+        );
+    }
+
+    /// The free space between a point and the probe's silhouette, its apex
+    /// moved to a place: from the apex in front of it, from the taper's and
+    /// the body's edges beside it, negative under it.
+    #[test]
+    fn the_body_gap_is_measured_from_the_moved_silhouette() {
+        let probe = probe_seen();
+        let um = |x: f64, y: f64| Vector2::new(x * 1e-6, y * 1e-6);
+        let gap =
+            |apex: Vector2<f64>| body_gap_m(Some(&probe), apex, um(50.0, 50.0)).unwrap() * 1e6;
+        assert!(
+            (gap(um(41.5, 50.0)) - 8.5).abs() < 0.05,
+            "{}",
+            gap(um(41.5, 50.0))
+        );
+        assert!(gap(um(60.0, 50.0)) < 0.0, "under the body");
+        // The taper's edge runs from the apex to its corner 15 um back and
+        // 5 um aside: 6.32 um from the particle's centre 10 um back and 10
+        // um aside; the corner sqrt(5^2 + 20^2) um from it 25 um aside.
+        assert!(
+            (gap(um(60.0, 60.0)) - 6.32).abs() < 0.05,
+            "{}",
+            gap(um(60.0, 60.0))
+        );
+        assert!(
+            (gap(um(60.0, 75.0)) - 20.62).abs() < 0.05,
+            "{}",
+            gap(um(60.0, 75.0))
+        );
+        assert!(body_gap_m(None, um(41.5, 50.0), um(50.0, 50.0)).is_none());
     }
 }
