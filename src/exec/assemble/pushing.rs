@@ -53,7 +53,7 @@ impl Assembly<'_> {
                 };
                 let probe = self.last_sighting.as_ref().and_then(|s| s.probe.as_ref());
                 let next = self.next_landing_in_hand();
-                retreat_clear_of_probe(&stroke, intent, (axis, probe), &others, reachable, next)
+                retreat_clear_of_probe(&stroke, intent, axis, probe, &others, reachable, next)
             }
             None => retreat_point(&stroke, intent.radius_m),
         };

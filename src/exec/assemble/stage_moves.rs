@@ -270,17 +270,18 @@ pub(super) fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
 /// drift. Among the letters of a pattern the nearest point seldom is (5
 /// sightings in 16 frames on CMU seed 1 at 5 nm/s), and at 5 nm/s the
 /// drift's rate was never taken and a push fell 0.2 um short three times.
-/// Given the way on (`onward`), the clear point on the shortest way from
-/// the lift to the next landing, the straight way's own points included
-/// where the body leaves the particle in view; else the nearest clear
-/// point straight behind the target. (Straight behind it always, the
+/// Given where the next push lands the tip (`next`), the clear point on
+/// the shortest way there from the lift, the straight way's own points
+/// included where the probe's silhouette (`probe`) leaves the particle in
+/// view; else the nearest clear point straight behind the target. (Straight behind it always, the
 /// waits had doubled the tip's lifted travel: CMU seed 2's plan toured 626
 /// um between pushes, its run 1,352 um.) With no clear point, straight
 /// behind the target.
 pub(super) fn retreat_clear_of_probe(
     stroke: &Stroke,
     intent: &PushIntent,
-    (axis, probe): ([f64; 2], ProbeSeen),
+    axis: [f64; 2],
+    probe: ProbeSeen,
     others: &[([f64; 2], f64)],
     reachable: impl Fn([f64; 2]) -> bool,
     next: Option<[f64; 2]>,
@@ -406,7 +407,8 @@ mod tests {
             retreat_clear_of_probe(
                 &stroke,
                 &intent,
-                (axis, None),
+                axis,
+                None,
                 others,
                 |p| p[0] >= reach,
                 None,
@@ -452,11 +454,11 @@ mod tests {
         let (stroke, intent) = pushed_to_50_50();
         let probe = probe_seen();
         let wait = |probe: ProbeSeen, others: &[([f64; 2], f64)]| {
-            let axis = ([1.0, 0.0], probe);
             let p = retreat_clear_of_probe(
                 &stroke,
                 &intent,
-                axis,
+                [1.0, 0.0],
+                probe,
                 others,
                 |_| true,
                 Some([44e-6, 80e-6]),
