@@ -30,8 +30,8 @@ impl Assembly<'_> {
             safe_z_m: safe_z,
         })
         .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
-        let retreat = match self.probe_axis() {
-            Some(axis) => {
+        let retreat = match self.probe_seen() {
+            Some(probe) => {
                 let others: Vec<([f64; 2], f64)> = self
                     .tracker
                     .tracks()
@@ -51,9 +51,8 @@ impl Assembly<'_> {
                             && view.is_none_or(|v| (v[i][0]..=v[i][1]).contains(&local))
                     })
                 };
-                let probe = self.last_sighting.as_ref().and_then(|s| s.probe.as_ref());
                 let next = self.next_landing_in_hand();
-                retreat_clear_of_probe(&stroke, intent, axis, probe, &others, reachable, next)
+                retreat_clear_of_probe(&stroke, intent, probe, &others, reachable, next)
             }
             None => retreat_point(&stroke, intent.radius_m),
         };

@@ -105,9 +105,12 @@ impl Assembly<'_> {
     /// Unit direction from the cantilever body to the apex on the sample, from
     /// the last frame that found the probe.
     pub(super) fn probe_axis(&self) -> Option<[f64; 2]> {
-        let (tip, calibration) = self.last_sighting.as_ref()?.probe.as_ref()?;
-        let v = calibration.linear * Vector2::new(tip.angle_rad.cos(), tip.angle_rad.sin());
-        (v.norm() > 0.0).then(|| [v.x / v.norm(), v.y / v.norm()])
+        self.probe_seen().map(|probe| [probe.axis.x, probe.axis.y])
+    }
+
+    /// The probe as the last frame that found it saw it.
+    pub(super) fn probe_seen(&self) -> Option<ProbeSeen<'_>> {
+        ProbeSeen::new(self.last_sighting.as_ref()?.probe.as_ref()?)
     }
 
     /// The part of the nanostage's frame the camera shows whole particles in
@@ -229,17 +232,35 @@ pub(super) fn offset_fitting(
     Some(offset)
 }
 
-/// The probe as the last frame that found it saw it: its fitted
-/// silhouette, and the calibration it was seen through.
-pub(super) type ProbeSeen<'a> = Option<&'a (TipDetection, CameraCalibration)>;
+/// The probe as a frame saw it: its fitted silhouette, the calibration it
+/// was seen through, and the unit direction from its body to its apex on
+/// the sample.
+#[derive(Clone, Copy)]
+pub(super) struct ProbeSeen<'a> {
+    fit: &'a (TipDetection, CameraCalibration),
+    axis: Vector2<f64>,
+}
 
-/// Free space, metres, between `point` and the probe's silhouette moved to
-/// put its apex at `apex` (negative inside); None without a probe seen.
-fn body_gap_m(probe: ProbeSeen, apex: Vector2<f64>, point: Vector2<f64>) -> Option<f64> {
-    let (tip, calibration) = probe?;
-    let off = calibration.linear.try_inverse()? * (point - apex);
-    let gap_px = tip.signed_distance(tip.x_px + off.x, tip.y_px + off.y);
-    Some(gap_px * calibration.m_per_px())
+impl<'a> ProbeSeen<'a> {
+    /// None when the calibration maps the probe's direction to no length.
+    pub(super) fn new(fit: &'a (TipDetection, CameraCalibration)) -> Option<Self> {
+        let (tip, calibration) = fit;
+        let v = calibration.linear * Vector2::new(tip.angle_rad.cos(), tip.angle_rad.sin());
+        (v.norm() > 0.0).then(|| Self {
+            fit,
+            axis: v / v.norm(),
+        })
+    }
+
+    /// Free space, metres, between `point` and the silhouette moved to put
+    /// its apex at `apex` (negative inside); None when the calibration
+    /// cannot be inverted.
+    fn body_gap_m(&self, apex: Vector2<f64>, point: Vector2<f64>) -> Option<f64> {
+        let (tip, calibration) = self.fit;
+        let off = calibration.linear.try_inverse()? * (point - apex);
+        let gap_px = tip.signed_distance(tip.x_px + off.x, tip.y_px + off.y);
+        Some(gap_px * calibration.m_per_px())
+    }
 }
 
 /// Where the tip waits after a push: back along the push line, a radius and
@@ -259,7 +280,7 @@ pub(super) fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
     ]
 }
 
-/// Where the tip waits after a push when the probe's direction is known.
+/// Where the tip waits after a push when a frame has seen the probe.
 /// The probe's body lies behind its apex, so a point at least a radius and
 /// a few micrometres behind the particle's target along the probe's axis
 /// leaves the particle in the next frame's view, and no re-look (a lifted
@@ -272,21 +293,20 @@ pub(super) fn retreat_point(stroke: &Stroke, radius_m: f64) -> StageXyz {
 /// drift's rate was never taken and a push fell 0.2 um short three times.
 /// Given where the next push lands the tip (`next`), the clear point on
 /// the shortest way there from the lift, the straight way's own points
-/// included where the probe's silhouette (`probe`) leaves the particle in
-/// view; else the nearest clear point straight behind the target. (Straight behind it always, the
-/// waits had doubled the tip's lifted travel: CMU seed 2's plan toured 626
-/// um between pushes, its run 1,352 um.) With no clear point, straight
-/// behind the target.
+/// included where the probe's silhouette leaves the particle in view; else
+/// the nearest clear point straight behind the target. (Straight behind it
+/// always, the waits had doubled the tip's lifted travel: CMU seed 2's plan
+/// toured 626 um between pushes, its run 1,352 um.) With no clear point,
+/// straight behind the target.
 pub(super) fn retreat_clear_of_probe(
     stroke: &Stroke,
     intent: &PushIntent,
-    axis: [f64; 2],
     probe: ProbeSeen,
     others: &[([f64; 2], f64)],
     reachable: impl Fn([f64; 2]) -> bool,
     next: Option<[f64; 2]>,
 ) -> StageXyz {
-    let axis = Vector2::from(axis);
+    let axis = probe.axis;
     let across = Vector2::new(-axis.y, axis.x);
     let target = Vector2::from(intent.to);
     let lift = Vector2::new(stroke.lift[0], stroke.lift[1]);
@@ -299,7 +319,7 @@ pub(super) fn retreat_clear_of_probe(
         })
     };
     let shows_target = |p: &Vector2<f64>| {
-        body_gap_m(probe, *p, target).is_some_and(|gap| gap >= intent.radius_m + RETREAT_EXTRA_M)
+        (probe.body_gap_m(*p, target)).is_some_and(|gap| gap >= intent.radius_m + RETREAT_EXTRA_M)
     };
     let usable = |p: &Vector2<f64>| clear(*p) && reachable([p.x, p.y]);
     let steps = ((RETREAT_FARTHEST_EXTRA_M - RETREAT_EXTRA_M) / RETREAT_STEP_M).round() as usize;
@@ -402,17 +422,11 @@ mod tests {
     fn the_tip_waits_where_its_apex_is_clear_of_the_other_particles() {
         let (stroke, intent) = pushed_to_50_50();
         // The cantilever comes from -x: the apex points +x.
-        let axis = [1.0, 0.0];
+        let fit = probe_seen();
+        let probe = ProbeSeen::new(&fit).unwrap();
         let wait = |others: &[([f64; 2], f64)], reach: f64| {
-            retreat_clear_of_probe(
-                &stroke,
-                &intent,
-                axis,
-                None,
-                others,
-                |p| p[0] >= reach,
-                None,
-            )[0] * 1e6
+            retreat_clear_of_probe(&stroke, &intent, probe, others, |p| p[0] >= reach, None)[0]
+                * 1e6
         };
         assert!((wait(&[], 0.0) - 42.0).abs() < 1e-9);
         // A particle at x = 40.2 um: the apex must be at x <= 40.2 - 5 - 3,
@@ -450,40 +464,42 @@ mod tests {
     /// others; else behind the target where the way there bends least.
     #[test]
     fn the_tip_waits_on_its_way_to_the_next_landing() {
-        // The next push lands the tip at (44, 80) um.
         let (stroke, intent) = pushed_to_50_50();
-        let probe = probe_seen();
-        let wait = |probe: ProbeSeen, others: &[([f64; 2], f64)]| {
+        let fit = probe_seen();
+        let probe = ProbeSeen::new(&fit).unwrap();
+        let wait = |next_um: [f64; 2], others: &[([f64; 2], f64)]| {
             let p = retreat_clear_of_probe(
                 &stroke,
                 &intent,
-                [1.0, 0.0],
                 probe,
                 others,
                 |_| true,
-                Some([44e-6, 80e-6]),
+                Some(next_um.map(|v| v * 1e-6)),
             );
             [p[0] * 1e6, p[1] * 1e6]
         };
-        // No silhouette to check the way against: only points 8 um behind
-        // the particle (x <= 42) are known to show it, and the way to (44,
-        // 80) touches x = 42 at y = 65.
-        let [x, y] = wait(None, &[]);
-        assert!(
-            (x - 42.0).abs() < 1e-9 && (y - 65.0).abs() < 1e-6,
-            "({x}, {y})"
-        );
-        // With it, the apex on the straight way 5.29 um or more above the
-        // particle's centre keeps 3 um from its edge, and the body lies away.
-        let [x, y] = wait(Some(&probe), &[]);
+        // The next push lands the tip at (44, 80) um: the apex on the
+        // straight way 5.29 um or more above the particle's centre keeps 3
+        // um from its edge, and the body lies away.
+        let [x, y] = wait([44.0, 80.0], &[]);
         assert!(
             (x - 44.0).abs() < 1e-9 && (55.29..=80.0).contains(&y),
             "({x}, {y})"
         );
         // A particle at (44, 70): the apex keeps 8 um from its centre.
-        let [x, y] = wait(Some(&probe), &[([44e-6, 70e-6], 5e-6)]);
+        let [x, y] = wait([44.0, 80.0], &[([44e-6, 70e-6], 5e-6)]);
         assert!(
             (x - 44.0).abs() < 1e-9 && (55.29..=62.0).contains(&y),
+            "({x}, {y})"
+        );
+        // To (70, 60) um every point of the straight way is within 3 um of
+        // the particle or puts the body over it: the tip waits 8 um behind
+        // the particle's centre (x = 42), where the way there touching that
+        // line is shortest, mirrored: 2 um to it of 30 across, y = 50 + 10 /
+        // 15.
+        let [x, y] = wait([70.0, 60.0], &[]);
+        assert!(
+            (x - 42.0).abs() < 1e-9 && (y - (50.0 + 10.0 / 15.0)).abs() < 1e-6,
             "({x}, {y})"
         );
     }
@@ -493,10 +509,10 @@ mod tests {
     /// the body's edges beside it, negative under it.
     #[test]
     fn the_body_gap_is_measured_from_the_moved_silhouette() {
-        let probe = probe_seen();
+        let fit = probe_seen();
+        let probe = ProbeSeen::new(&fit).unwrap();
         let um = |x: f64, y: f64| Vector2::new(x * 1e-6, y * 1e-6);
-        let gap =
-            |apex: Vector2<f64>| body_gap_m(Some(&probe), apex, um(50.0, 50.0)).unwrap() * 1e6;
+        let gap = |apex: Vector2<f64>| probe.body_gap_m(apex, um(50.0, 50.0)).unwrap() * 1e6;
         assert!(
             (gap(um(41.5, 50.0)) - 8.5).abs() < 0.05,
             "{}",
@@ -516,6 +532,5 @@ mod tests {
             "{}",
             gap(um(60.0, 75.0))
         );
-        assert!(body_gap_m(None, um(41.5, 50.0), um(50.0, 50.0)).is_none());
     }
 }
