@@ -5,7 +5,7 @@
 //! decision function), and the stiffer scene must get longer pushes. A scene
 //! in which the model finds no safe contact angle must get no push at all.
 
-use nanopush::exec::assemble::{PushIntent, decide_push};
+use nanopush::exec::assemble::{AssemblySettings, PushIntent, decide_push};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
 use nanopush::model::Scene;
@@ -198,4 +198,53 @@ fn a_scene_without_a_safe_contact_angle_gets_no_push() {
         .filter(|(_, e)| matches!(e, RunEvent::Move { target_um, .. } if target_um[2] < 10.0))
         .count();
     assert_eq!(pushing_moves, 0, "the tip was lowered without a decision");
+}
+
+/// Each push crosses the gap to its particle at the travel speed but for
+/// its last 0.25 um (`AssemblySettings::slow_approach_m`), then strokes on
+/// at the scene's push speed for the model's duration: the move at the
+/// push speed is the slow approach plus the duration's travel, the move
+/// before it the rest of the gap at the travel speed.
+#[test]
+fn each_stroke_slows_to_the_push_speed_just_before_its_particle() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
+    let events = run(&scene_path, &dir.path().join("o"));
+    let push_um_s = Scene::load(&scene_path).unwrap().push.speed_m_per_s * 1e6;
+    let settings = AssemblySettings::default();
+    let travel_um_s = settings.travel_speed_m_per_s * 1e6;
+    let slow_um = settings.slow_approach_m * 1e6;
+    let fast_um = (settings.clearance_m - settings.slow_approach_m) * 1e6;
+    assert!(slow_um > 0.0 && fast_um > 0.0);
+    let (mut duration_s, mut at, mut before) = (None, None::<[f64; 3]>, None::<(f64, f64)>);
+    let mut strokes = 0;
+    for (_, e) in &events {
+        match e {
+            RunEvent::Decision { duration_s: d, .. } => duration_s = Some(*d),
+            RunEvent::Move {
+                target_um,
+                speed_um_s,
+            } => {
+                let len = at.map(|a| {
+                    let d: Vec<f64> = (0..3).map(|i| target_um[i] - a[i]).collect();
+                    d.iter().map(|v| v * v).sum::<f64>().sqrt()
+                });
+                if let (Some(len), Some(d)) = (len, duration_s)
+                    && (speed_um_s - push_um_s).abs() < 1e-9
+                {
+                    // Within the few nm the drift estimate moves between moves.
+                    assert!((len - (slow_um + d * push_um_s)).abs() < 0.005, "{len} um");
+                    let (gap_len, gap_speed) = before.expect("a move before the stroke");
+                    assert!((gap_len - fast_um).abs() < 0.005, "{gap_len} um");
+                    assert!((gap_speed - travel_um_s).abs() < 1e-9);
+                    strokes += 1;
+                    duration_s = None;
+                }
+                before = len.map(|l| (l, *speed_um_s));
+                at = Some(*target_um);
+            }
+            _ => {}
+        }
+    }
+    assert!(strokes >= decisions(&events).len() / 2, "{strokes} strokes");
 }

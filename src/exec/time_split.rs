@@ -21,7 +21,7 @@ pub struct TimeSplit {
     /// (its approach to the particle included).
     pub pushing_s: f64,
     /// Moves at the travel speed: the tip lifted between pushes, lowered
-    /// and raised.
+    /// and raised, and brought to the particle's slow approach.
     pub travel_s: f64,
     /// The rest: coarse moves, settling, frames and planning (none in a
     /// lower bound).

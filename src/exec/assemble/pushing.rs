@@ -27,6 +27,7 @@ impl Assembly<'_> {
             contact_angle_rad: advice.contact_angle_rad,
             travel_after_contact_m: advice.duration_s * scene.push.speed_m_per_s,
             clearance_m: self.settings.clearance_m,
+            slow_approach_m: self.settings.slow_approach_m,
             safe_z_m: safe_z,
         })
         .map_err(|e: StrokeError| PushError::Refused(e.to_string()))?;
@@ -65,6 +66,9 @@ impl Assembly<'_> {
         }
         self.move_on_sample(stroke.above, travel)?;
         self.move_on_sample(stroke.approach, travel)?;
+        if stroke.slow_from != stroke.approach {
+            self.move_on_sample(stroke.slow_from, travel)?;
+        }
         self.move_on_sample(stroke.end, scene.push.speed_m_per_s)?;
         self.move_on_sample(stroke.lift, travel)?;
         self.move_on_sample(retreat, travel)?;

@@ -401,6 +401,7 @@ mod tests {
         let stroke = Stroke {
             above: [34e-6, 50e-6, 12e-6],
             approach: [34e-6, 50e-6, 6e-6],
+            slow_from: [34e-6, 50e-6, 6e-6],
             end: [44e-6, 50e-6, 6e-6],
             lift: [44e-6, 50e-6, 12e-6],
             travel_after_contact_m: 0.0,
