@@ -319,7 +319,9 @@ pub(super) fn retreat_clear_of_probe(
         })
     };
     let shows_target = |p: &Vector2<f64>| {
-        (probe.body_gap_m(*p, target)).is_some_and(|gap| gap >= intent.radius_m + RETREAT_EXTRA_M)
+        probe
+            .body_gap_m(*p, target)
+            .is_some_and(|gap| gap >= intent.radius_m + RETREAT_EXTRA_M)
     };
     let usable = |p: &Vector2<f64>| clear(*p) && reachable([p.x, p.y]);
     let steps = ((RETREAT_FARTHEST_EXTRA_M - RETREAT_EXTRA_M) / RETREAT_STEP_M).round() as usize;
