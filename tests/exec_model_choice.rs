@@ -5,6 +5,7 @@
 //! decision function), and the stiffer scene must get longer pushes. A scene
 //! in which the model finds no safe contact angle must get no push at all.
 
+use nalgebra::Vector3;
 use nanopush::exec::assemble::{AssemblySettings, PushIntent, decide_push};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
@@ -225,10 +226,7 @@ fn each_stroke_slows_to_the_push_speed_just_before_its_particle() {
                 target_um,
                 speed_um_s,
             } => {
-                let len = at.map(|a| {
-                    let d: Vec<f64> = (0..3).map(|i| target_um[i] - a[i]).collect();
-                    d.iter().map(|v| v * v).sum::<f64>().sqrt()
-                });
+                let len = at.map(|a| (Vector3::from(*target_um) - Vector3::from(a)).norm());
                 if let (Some(len), Some(d)) = (len, duration_s)
                     && (speed_um_s - push_um_s).abs() < 1e-9
                 {
