@@ -16,7 +16,9 @@
 //! - `park_after_blocker`: such a push may wait for the nearby particle
 //!   that blocks its nearer way, and end there;
 //! - `bend_round_idle`: a particle pushed once off another's way stays put
-//!   when the one later push it would block can bend round it for less.
+//!   when the one later push it would block can bend round it for less;
+//! - `merge_tiny`: a push shorter than the on-site tolerance joins its
+//!   particle's next push or its previous one.
 //!
 //! `parking_spots` (where a particle on no site may stop) and
 //! `single_push_check` (what one push in place of a particle's own must
@@ -30,6 +32,7 @@
 
 mod bend_round_idle;
 mod bends;
+mod merge_tiny;
 mod park_after_blocker;
 mod parking_spots;
 mod pull_in;
@@ -41,6 +44,7 @@ use super::pushes::{Corridor, approach_point, corridor_reach, segment_distance};
 use super::{PlanConfig, Step};
 use bend_round_idle::bend_round_idle;
 use bends::tighten_bends;
+use merge_tiny::merge_tiny;
 use nalgebra::Vector2;
 use park_after_blocker::park_after_blocker;
 use parking_spots::Parking;
@@ -62,8 +66,9 @@ pub const MAX_PUSHES: usize = 2_000;
 
 /// `steps` (pushes only, in order) after up to `ROUNDS` rounds of
 /// straightened paths, tightened bends, parked particles' last pushes
-/// pulled in and pushes bent round particles that then stay put
-/// (`site_pts`: every site); and how many pushes fewer it has.
+/// pulled in, pushes bent round particles that then stay put and short
+/// pushes merged (`site_pts`: every site); and how many pushes fewer it
+/// has.
 pub fn take_shortcuts(
     steps: Vec<Step>,
     layout: &Layout,
@@ -84,6 +89,7 @@ pub fn take_shortcuts(
         steps = pull_in_parking(steps, layout, &index, &parking, config);
         steps = park_after_blocker(steps, layout, &index, &parking, config);
         steps = bend_round_idle(steps, layout, &index, &parking, config);
+        steps = merge_tiny(steps, layout, &index, config);
         if push_length(&steps) > length - MIN_SAVING_M {
             break;
         }
