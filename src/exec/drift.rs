@@ -34,9 +34,15 @@ pub struct DriftSettings {
     /// rate of a thermal drift changes over minutes).
     pub max_age_s: f64,
     /// Fewest sightings, and shortest time they span, for a rate (default
-    /// 8 over 60 s); fewer give the median offset and no rate. (With 4 over
+    /// 8 over 30 s); fewer give the median offset and no rate. (With 4 over
     /// 20 s, one pulled apex among them made a rate of 3 nm/s out of no
-    /// drift, and the run lost a particle to pushes 0.2 um off.)
+    /// drift, and the run lost a particle to pushes 0.2 um off. Over 60 s,
+    /// until 2026-12-01, a run's first minute had no rate, and under 5 nm/s
+    /// the median offset lagged the drift by 0.2 um: CMU seed 29 along x
+    /// gave a particle up after re-pushes that moved it 7 nm. Over 30 s the
+    /// 50 CMU runs without drift came out the same, the rate being kept
+    /// only where it stands out of the scatter, [`DriftFilter`]'s
+    /// `significant`.)
     pub min_for_rate: usize,
     /// Shortest time the sightings must span for a rate, seconds.
     pub min_span_s: f64,
@@ -69,7 +75,7 @@ impl Default for DriftSettings {
             offset_window: 15,
             max_age_s: 300.0,
             min_for_rate: 8,
-            min_span_s: 60.0,
+            min_span_s: 30.0,
             max_extrapolation_s: 40.0,
             jump_m: 0.4e-6,
             jump_run: 4,

@@ -241,6 +241,11 @@ pub enum RunEvent {
         /// written before this field).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         radius_um: Option<f64>,
+        /// How much further along the push the stroke was laid out than
+        /// the particle was seen, nanometres: the shortfall of the push of
+        /// it before (`exec::assemble`'s miss lead; absent when none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        lead_nm: Option<f64>,
     },
     /// A nanostage move was commanded (nanostage coordinates).
     Move {
@@ -313,6 +318,32 @@ pub enum RunEvent {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A decision says its lead only when the push had one, and reads it
+    /// back; one from before the field reads as none.
+    #[test]
+    fn a_decision_keeps_its_lead() {
+        let decision = |lead_nm| RunEvent::Decision {
+            particle: 3,
+            from_um: [1.0, 2.0],
+            to_um: [1.0, 2.2],
+            contact_angle_deg: 70.0,
+            duration_s: 0.8,
+            onset_s: 0.6,
+            critical_force_un: 2.3,
+            ride_over_margin: None,
+            mode: "rolling".into(),
+            repush: true,
+            radius_um: Some(5.0),
+            lead_nm,
+        };
+        for lead in [Some(215.0), None] {
+            let text = serde_json::to_string(&decision(lead)).unwrap();
+            assert_eq!(text.contains("lead_nm"), lead.is_some(), "{text}");
+            let back: RunEvent = serde_json::from_str(&text).unwrap();
+            assert_eq!(back, decision(lead));
+        }
+    }
 
     /// A run spec says `drift_off` (and `keep_clear_um`) only when the drift
     /// is not followed (strays are kept clear), reads it back, and a spec

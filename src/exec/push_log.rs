@@ -175,6 +175,7 @@ mod tests {
             mode: "rolling".into(),
             repush,
             radius_um: None,
+            lead_nm: None,
         }
     }
 

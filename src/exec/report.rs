@@ -719,6 +719,7 @@ pub(crate) mod tests {
             mode: "rolling".to_owned(),
             repush,
             radius_um: None,
+            lead_nm: None,
         }
     }
 

@@ -38,6 +38,7 @@ use std::collections::HashMap;
 
 mod apex_doubt;
 mod left_short;
+mod miss_lead;
 mod planning;
 mod pushing;
 mod stage_moves;
@@ -86,6 +87,12 @@ pub struct AssemblySettings {
     /// RMS over 50 CMU runs, 4x that with 5 nm/s of drift); the rest at the
     /// travel speed. All of the gap at 1 um/s had been 0.5 s a push.
     pub slow_approach_m: f64,
+    /// The most a push that moved its particle less than half its length
+    /// leads the next push of the same particle by: its stroke is laid out
+    /// that much further along (`miss_lead`; default 0.25 um, half the
+    /// clearance, so that the tip is still lowered behind the particle; 0:
+    /// never).
+    pub max_lead_m: f64,
     /// Farthest a particle may be from its predicted place and keep its identity (default 4 um).
     pub track_gate_m: f64,
     /// Width of the field the particles lie in, metres (the planner's layout field).
@@ -182,6 +189,7 @@ impl Default for AssemblySettings {
             travel_speed_m_per_s: 50e-6,
             clearance_m: 0.5e-6,
             slow_approach_m: 0.25e-6,
+            max_lead_m: 0.25e-6,
             track_gate_m: 4e-6,
             field_m: [120e-6, 100e-6],
             keep_plan_shift_m: 0.5e-6,
@@ -381,6 +389,9 @@ pub struct Assembly<'a> {
     /// the first look.
     left_short_before: Vec<usize>,
     repush_next: Option<usize>,
+    /// The lead the last push took, or the next push takes after a push
+    /// that fell short ([`miss_lead`]).
+    lead: Option<miss_lead::MissLead>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
     /// The nanostage's last two targets (the one before, the latest): a
@@ -511,6 +522,7 @@ impl<'a> Assembly<'a> {
             left_short: Vec::new(),
             left_short_before: Vec::new(),
             repush_next: None,
+            lead: None,
             stage_faults: 0,
             coarse_offset,
             stage_targets: [None, None],
@@ -937,10 +949,12 @@ impl<'a> Assembly<'a> {
             .filter(|t| t.missed_frames == 0)
             .map(|t| [t.last.x_m, t.last.y_m]);
         let tol = self.settings.check_tolerances();
+        let mut short = false;
         let (result, error_nm, lost, completes) = match seen {
             None => ("unseen".to_owned(), 0.0, false, false),
             Some(at) => {
                 let c = check_push(intent.from, intent.to, at, &tol);
+                short = matches!(c, PushCheck::FellShort { .. } | PushCheck::Unmoved { .. });
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
                 let name = match c {
                     PushCheck::Placed { .. } => "placed",
@@ -960,6 +974,16 @@ impl<'a> Assembly<'a> {
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
         }
+        // A push that fell short, having moved its particle less than half
+        // its length, leads the particle's next push (only the next: the
+        // tip's error changes).
+        let used_m = (self.lead.take())
+            .filter(|l| l.particle == intent.particle)
+            .map_or(0.0, |l| l.lead_m);
+        self.lead = seen.filter(|_| short).and_then(|at| {
+            let max_m = self.settings.max_lead_m;
+            miss_lead::lead_after(intent.particle, (intent.from, intent.to), at, used_m, max_m)
+        });
         if completes {
             self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
         }

@@ -1,6 +1,7 @@
 //! One push: the pushing model's contact angle and duration for the
 //! particle as measured, the stroke laid out, and the stage moved.
 
+use super::miss_lead::led;
 use super::stage_moves::{retreat_clear_of_probe, retreat_point};
 use super::{Assembly, PushError, PushIntent, PushRecord};
 use crate::exec::events::RunEvent;
@@ -17,12 +18,16 @@ impl Assembly<'_> {
         let advice = decide_push(&self.scene, intent, self.rig.now_s())
             .map_err(|e| PushError::Refused(e.to_string()))?;
         let repush = self.repush_next.take() == Some(intent.particle);
-        self.journal_decision(intent, &advice, repush)?;
+        let lead_m = (self.lead)
+            .filter(|l| l.particle == intent.particle)
+            .map_or(0.0, |l| l.lead_m);
+        self.journal_decision(intent, &advice, repush, lead_m)?;
+        let (from, to) = led(intent.from, intent.to, lead_m);
         let range = self.rig.range();
         let safe_z = clear_height_m(intent.radius_m).min(range[2].max_m);
         let stroke = plan_stroke(&StrokeRequest {
-            from: intent.from,
-            to: intent.to,
+            from,
+            to,
             radius_m: intent.radius_m,
             contact_angle_rad: advice.contact_angle_rad,
             travel_after_contact_m: advice.duration_s * scene.push.speed_m_per_s,
@@ -88,6 +93,7 @@ impl Assembly<'_> {
         intent: &PushIntent,
         a: &PushAdvice,
         repush: bool,
+        lead_m: f64,
     ) -> Result<(), JournalError> {
         let um = |p: [f64; 2]| [p[0] * 1e6, p[1] * 1e6];
         self.journal.append(
@@ -104,6 +110,7 @@ impl Assembly<'_> {
                 mode: format!("{:?}", a.mode).to_lowercase(),
                 repush,
                 radius_um: Some(intent.radius_m * 1e6),
+                lead_nm: (lead_m > 0.0).then_some(lead_m * 1e9),
             },
         )?;
         Ok(())
