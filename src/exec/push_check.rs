@@ -52,6 +52,34 @@ impl PushCheck {
 /// measured 20-30 nm apart by the camera cannot tell half of it from none.
 const SMALLEST_CHECKED_MOVE_M: f64 = 50e-9;
 
+/// Where a particle was seen after a push, in the push's own frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PushFrame {
+    /// Length of the push asked, metres.
+    pub length: f64,
+    /// How far the particle moved along the push line, metres.
+    pub along: f64,
+    /// How far it lies off the push line, metres.
+    pub across: f64,
+}
+
+/// `seen` in the frame of the push from `from` to `to`; None when the two
+/// coincide (or are not finite): no push line.
+pub fn push_frame(from: [f64; 2], to: [f64; 2], seen: [f64; 2]) -> Option<PushFrame> {
+    let d = [to[0] - from[0], to[1] - from[1]];
+    let length = d[0].hypot(d[1]);
+    if length <= 0.0 || !length.is_finite() {
+        return None;
+    }
+    let u = [d[0] / length, d[1] / length];
+    let w = [seen[0] - from[0], seen[1] - from[1]];
+    Some(PushFrame {
+        length,
+        along: w[0] * u[0] + w[1] * u[1],
+        across: (u[0] * w[1] - u[1] * w[0]).abs(),
+    })
+}
+
 /// Classifies the observed end position of a push from `from` to `to`.
 ///
 /// Within `placed_m` of `to` is placed when the particle moved at least half
@@ -68,9 +96,12 @@ pub fn check_push(
     tol: &CheckTolerances,
 ) -> PushCheck {
     let error_m = (seen[0] - to[0]).hypot(seen[1] - to[1]);
-    let d = [to[0] - from[0], to[1] - from[1]];
-    let length = d[0].hypot(d[1]);
-    if length <= 0.0 {
+    let Some(PushFrame {
+        length,
+        along,
+        across,
+    }) = push_frame(from, to, seen)
+    else {
         return if error_m <= tol.placed_m {
             PushCheck::Placed { error_m }
         } else {
@@ -78,10 +109,7 @@ pub fn check_push(
                 off_line_m: error_m,
             }
         };
-    }
-    let u = [d[0] / length, d[1] / length];
-    let w = [seen[0] - from[0], seen[1] - from[1]];
-    let along = w[0] * u[0] + w[1] * u[1];
+    };
     let moved_enough = length <= SMALLEST_CHECKED_MOVE_M || along >= 0.5 * length;
     if error_m <= tol.placed_m {
         return if moved_enough {
@@ -90,7 +118,6 @@ pub fn check_push(
             PushCheck::Unmoved { error_m }
         };
     }
-    let across = (u[0] * w[1] - u[1] * w[0]).abs();
     if across > tol.off_line_m {
         PushCheck::LeftLine { off_line_m: across }
     } else if along < length {

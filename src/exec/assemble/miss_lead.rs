@@ -9,6 +9,8 @@
 //! particle may have rolled away from it (leading the re-push of 5 nm/s
 //! seed 32 along y by its whole 0.2 um shortfall overshot by as much).
 
+use crate::exec::push_check::{PushFrame, push_frame};
+
 /// The lead the next push of one particle takes: its stroke laid out as if
 /// the particle stood this much further along the push.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,16 +32,10 @@ pub(super) fn lead_after(
     used_m: f64,
     max_m: f64,
 ) -> Option<MissLead> {
-    let d = [to[0] - from[0], to[1] - from[1]];
-    let length = d[0].hypot(d[1]);
-    if length <= 0.0 || !length.is_finite() {
-        return None;
-    }
-    let along = ((seen[0] - from[0]) * d[0] + (seen[1] - from[1]) * d[1]) / length;
-    let short = length - along;
+    let PushFrame { length, along, .. } = push_frame(from, to, seen)?;
     (along < 0.5 * length).then(|| MissLead {
         particle,
-        lead_m: (used_m + short).min(max_m),
+        lead_m: (used_m + length - along).min(max_m),
     })
 }
 

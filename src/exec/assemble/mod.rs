@@ -977,9 +977,7 @@ impl<'a> Assembly<'a> {
         // A push that fell short, having moved its particle less than half
         // its length, leads the particle's next push (only the next: the
         // tip's error changes).
-        let used_m = (self.lead.take())
-            .filter(|l| l.particle == intent.particle)
-            .map_or(0.0, |l| l.lead_m);
+        let used_m = self.lead_for(intent.particle);
         self.lead = seen.filter(|_| short).and_then(|at| {
             let max_m = self.settings.max_lead_m;
             miss_lead::lead_after(intent.particle, (intent.from, intent.to), at, used_m, max_m)
@@ -1004,6 +1002,14 @@ impl<'a> Assembly<'a> {
             self.repush_next = Some(intent.particle);
         }
         Ok(())
+    }
+
+    /// The lead the next push of `particle` takes ([`miss_lead`]); 0 when
+    /// the lead in hand is another particle's or there is none.
+    fn lead_for(&self, particle: usize) -> f64 {
+        (self.lead)
+            .filter(|l| l.particle == particle)
+            .map_or(0.0, |l| l.lead_m)
     }
 
     fn fail(&mut self, particle: usize) -> Result<(), ExecError> {

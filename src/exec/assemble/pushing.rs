@@ -18,9 +18,7 @@ impl Assembly<'_> {
         let advice = decide_push(&self.scene, intent, self.rig.now_s())
             .map_err(|e| PushError::Refused(e.to_string()))?;
         let repush = self.repush_next.take() == Some(intent.particle);
-        let lead_m = (self.lead)
-            .filter(|l| l.particle == intent.particle)
-            .map_or(0.0, |l| l.lead_m);
+        let lead_m = self.lead_for(intent.particle);
         self.journal_decision(intent, &advice, repush, lead_m)?;
         let (from, to) = led(intent.from, intent.to, lead_m);
         let range = self.rig.range();
