@@ -392,26 +392,51 @@ fn a_file_given_as_an_output_folder_is_refused_before_any_work() {
 }
 
 /// Ctrl-C as soon as `assemble` (the simulated rig) can take it: answered
-/// at once, and the run not begun while the pattern is placed (CMU on 50
-/// particles: a second or so), --out left unmade. A press there had ended
-/// the program without a word, or, where the shell ignores SIGINT for a
-/// background job, gone unseen and let the run finish.
+/// at once, and the run not begun while the pattern is placed, --out left
+/// unmade. A press there had ended the program without a word, or, where
+/// the shell ignores SIGINT for a background job, gone unseen and let the
+/// run finish. CMU on 50 particles places in a second or so; on a crowded
+/// adversarial field each of the 26 centres is refused in about 0.7 s,
+/// some 10 s in all, and the press had waited for every one.
 #[test]
 fn ctrl_c_while_assemble_places_the_pattern_starts_nothing() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let mut command = nanopush();
-    command
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["assemble", "--text", "CMU", "--seed", "2", "--out"])
-        .arg(&out);
-    let pressed = interrupt_once_caught(command);
-    let stderr = pressed.stopped_at_once("stopping (Ctrl-C or a termination signal) now");
-    assert!(
-        stderr
-            .contains("interrupted (Ctrl-C or a termination signal) while the pattern was placed"),
-        "{stderr}"
-    );
-    assert!(stderr.contains("nothing was started"), "{stderr}");
-    assert!(!out.exists(), "--out was made for a run that never began");
+    let crowded = dir.path().join("crowded.json");
+    let made = nanopush()
+        .args(["synth", "layout", "--n", "70", "--field-um", "120x100"])
+        .args(["--radius-um", "5", "--min-gap-um", "0.5"])
+        .args(["--kind", "adversarial", "--seed", "1", "--out"])
+        .arg(&crowded)
+        .output()
+        .unwrap();
+    assert!(made.status.success(), "{made:?}");
+    for world in [
+        vec!["--seed", "2"],
+        vec!["--layout", crowded.to_str().unwrap()],
+    ] {
+        let out = dir.path().join("run");
+        let mut command = nanopush();
+        command
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .args(["assemble", "--text", "CMU"])
+            .args(&world)
+            .arg("--out")
+            .arg(&out);
+        let pressed = interrupt_once_caught(command);
+        let stderr = pressed.stopped_at_once("stopping (Ctrl-C or a termination signal) now");
+        assert!(
+            stderr.contains(
+                "interrupted (Ctrl-C or a termination signal) while the pattern was placed"
+            ),
+            "{world:?}: {stderr}"
+        );
+        assert!(
+            stderr.contains("nothing was started"),
+            "{world:?}: {stderr}"
+        );
+        assert!(
+            !out.exists(),
+            "{world:?}: --out was made for a run that never began"
+        );
+    }
 }

@@ -210,19 +210,21 @@ fn request(args: &Args) -> anyhow::Result<SimRunRequest> {
 
 fn start(args: &Args, interrupt: Arc<AtomicBool>) -> anyhow::Result<(AssemblyReport, RunEnd)> {
     // Everything that can refuse the input does so before the folder is touched.
-    let SimRun {
-        scene,
-        layout,
-        sites,
-        spec,
-        mut rig,
-    } = prepare_sim_run(&request(args)?)?;
+    let prepared = prepare_sim_run(&request(args)?, Some(&interrupt));
+    // Whatever placing the pattern ended with, a press during it is what is said.
     if let Err(stop) = stop_if_raised(&interrupt, "while the pattern was placed") {
         bail!(
             "{stop}; nothing was started: {} is as it was before",
             args.out.display()
         );
     }
+    let SimRun {
+        scene,
+        layout,
+        sites,
+        spec,
+        mut rig,
+    } = prepared?;
     let source = format!(
         "nanopush assemble on the simulated rig: pattern {:?}, seed {}, {}",
         spec.pattern,

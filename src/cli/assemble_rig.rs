@@ -562,6 +562,7 @@ fn assemble(
             &layout,
             &plan_config,
             PlacementGoal::LeastTime,
+            Some(rig.interrupt_flag()),
         )
         .map_err(|e| match (e, target.at_m) {
             // Said where the user asked, not in the shifted field.
@@ -575,11 +576,12 @@ fn assemble(
                 }
             }
             (e, _) => e,
-        })
-        .context("placing the pattern among the particles of the first frame")?;
-    // Planning takes seconds on a big pattern and looks at no flag: a
-    // press during it stops here, before the journal is begun.
+        });
+    // Planning takes seconds on a big pattern: a press during it ends the
+    // placement after its round of centres and stops here, before the
+    // journal is begun, whatever the placement ended with.
     stop_if_raised(rig.interrupt_flag(), "while the pattern was placed")?;
+    let sites = sites.context("placing the pattern among the particles of the first frame")?;
     let spec = RunSpec {
         pattern: target.label(),
         scene: args.scene.display().to_string(),

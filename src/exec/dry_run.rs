@@ -425,7 +425,16 @@ fn target_sites(
         )));
     }
     request
-        .sites(&pattern, &area, &layout, config, PlacementGoal::LeastTime)
+        // Ctrl-C leaves this worker thread to end with the process
+        // (`cli/dry_run_worker.rs`): no flag here.
+        .sites(
+            &pattern,
+            &area,
+            &layout,
+            config,
+            PlacementGoal::LeastTime,
+            None,
+        )
         .map_err(|e| target(e.to_string()))
 }
 

@@ -21,6 +21,7 @@ use crate::rig::sim::rig::SimRig;
 use crate::rig::sim::stage::TimedContact;
 use crate::wording::counted;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
 
 /// Field of the simulated rig's random layouts, micrometres.
 pub const SIM_FIELD_UM: [f64; 2] = [120.0, 100.0];
@@ -114,8 +115,12 @@ fn as_resumable(path: &Path) -> String {
     }
 }
 
-/// Loads, generates, places and builds everything a run needs.
-pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
+/// Loads, generates, places and builds everything a run needs; a raised
+/// `interrupt` ends the placement ([`PatternError::Interrupted`]).
+pub fn prepare_sim_run(
+    req: &SimRunRequest,
+    interrupt: Option<&AtomicBool>,
+) -> Result<SimRun, SimRunError> {
     let scene = Scene::load(&req.scene).map_err(|source| SimRunError::Scene {
         path: req.scene.clone(),
         source,
@@ -124,7 +129,7 @@ pub fn prepare_sim_run(req: &SimRunRequest) -> Result<SimRun, SimRunError> {
     let first_seen = layout_first_seen(&scene, &layout, req.seed)?;
     let keep_clear_m =
         crate::plan::keep_clear_or_default_m(req.keep_clear_m, scene.particle_radius_m);
-    let sites = sites_for(req, &scene, &first_seen, keep_clear_m)?;
+    let sites = sites_for(req, &scene, &first_seen, keep_clear_m, interrupt)?;
     let spec = RunSpec {
         pattern: req
             .target
@@ -203,12 +208,13 @@ fn layout_first_seen(scene: &Scene, layout: &Layout, seed: u64) -> Result<Layout
 }
 
 /// The pattern, checked against the particles and placed on them by
-/// plans keeping `keep_clear_m` round it.
+/// plans keeping `keep_clear_m` round it, until `interrupt` is raised.
 fn sites_for(
     req: &SimRunRequest,
     scene: &Scene,
     layout: &Layout,
     keep_clear_m: f64,
+    interrupt: Option<&AtomicBool>,
 ) -> Result<Vec<Site>, SimRunError> {
     let r = scene.particle_radius_m;
     let target = req.target.as_ref().ok_or(SimRunError::NoPattern)?;
@@ -241,6 +247,7 @@ fn sites_for(
         }
         .plan_config(scene),
         PlacementGoal::LeastTime,
+        interrupt,
     )?)
 }
 

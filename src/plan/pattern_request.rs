@@ -9,7 +9,7 @@ use super::layout::Layout;
 use super::pattern::site_list::{is_site_list, read_pattern};
 use super::pattern::transform::{Reachable, place_at, rotate};
 use super::pattern::{Pattern, PatternError, Site};
-use super::placement::{PlacementGoal, place_by_plan};
+use super::placement::{PlacementGoal, place_and_plan_until};
 use nalgebra::Vector2;
 use std::path::PathBuf;
 
@@ -42,7 +42,7 @@ pub struct PatternRequest {
     /// Counter-clockwise turn about the pattern's centre.
     pub rotation_rad: f64,
     /// The pattern's centre on the stage; `None`: where planning finds it
-    /// best ([`place_by_plan`]).
+    /// best ([`place_and_plan_until`]).
     pub at_m: Option<Vector2<f64>>,
 }
 
@@ -142,7 +142,8 @@ impl PatternRequest {
     }
 
     /// The sites: at the asked centre (refused when a site leaves `area`),
-    /// else where a full plan on `layout` is best by `goal`.
+    /// else where a full plan on `layout` is best by `goal` (until
+    /// `interrupt` is raised).
     pub fn sites(
         &self,
         pattern: &Pattern,
@@ -150,10 +151,12 @@ impl PatternRequest {
         layout: &Layout,
         config: &PlanConfig,
         goal: PlacementGoal,
+        interrupt: Option<&std::sync::atomic::AtomicBool>,
     ) -> Result<Vec<Site>, PatternError> {
         match self.at_m {
             Some(centre_m) => place_at(pattern, centre_m, area, layout.max_radius_m()),
-            None => place_by_plan(pattern, area, layout, config, goal),
+            None => place_and_plan_until(pattern, area, layout, config, goal, interrupt)
+                .map(|placed| placed.sites),
         }
     }
 
@@ -288,9 +291,17 @@ mod tests {
         };
         let pattern = request.pattern(R).unwrap();
         let config = PlanConfig::default();
-        let sites = request
-            .sites(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)
-            .unwrap();
+        let placed = |r: &PatternRequest| {
+            r.sites(
+                &pattern,
+                &area,
+                &layout,
+                &config,
+                PlacementGoal::LeastPush,
+                None,
+            )
+        };
+        let sites = placed(&request).unwrap();
         let n = sites.len() as f64;
         let centre = sites.iter().map(|s| s.centre_m).sum::<Vector2<f64>>() / n;
         let (lo, hi) =
@@ -301,9 +312,7 @@ mod tests {
             at_m: Some(Vector2::new(5e-6, 50e-6)),
             ..request
         };
-        let err = off
-            .sites(&pattern, &area, &layout, &config, PlacementGoal::LeastPush)
-            .unwrap_err();
+        let err = placed(&off).unwrap_err();
         assert!(
             matches!(err, PatternError::OutsideAtPlacement { .. }),
             "{err}"

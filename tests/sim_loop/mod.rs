@@ -118,7 +118,7 @@ pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError
     mover: impl FnOnce(&[[f64; 2]]) -> M,
 ) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
-    let mut run = prepare_sim_run(request).unwrap();
+    let mut run = prepare_sim_run(request, None).unwrap();
     let calibration = told(&mut run.rig);
     let journal_path = dir.path().join("journal.jsonl");
     let journal = JournalWriter::create(&journal_path).unwrap();

@@ -157,6 +157,13 @@ pub enum PatternError {
         /// What went wrong.
         message: String,
     },
+    /// The interrupt flag was raised while centres were planned (Ctrl-C:
+    /// a crowded field can take a minute to refuse them all).
+    #[error(
+        "interrupted ({}) while the pattern was placed",
+        crate::rig::interrupt::CAUSE
+    )]
+    Interrupted,
 }
 
 /// Refuses a value that is NaN, infinite or of the wrong `sign`, naming it.
