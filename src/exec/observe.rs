@@ -152,7 +152,7 @@ impl Sighting {
 
     /// True when a particle centred here is missing if the frame did not
     /// find it: [`Self::shows`], and clear of the probe's shadow by
-    /// `PROBE_SHADOW_DOUBT_PX` (2 px) more.
+    /// [`PROBE_SHADOW_DOUBT_PX`] more.
     pub fn surely_shows(&self, x_m: f64, y_m: f64) -> bool {
         self.in_view(x_m, y_m) && !self.near_probe(x_m, y_m, PROBE_SHADOW_DOUBT_PX)
     }
