@@ -318,35 +318,6 @@ fn a_push_that_moved_nothing_leads_the_next_and_the_run_is_done() {
     }
 }
 
-/// 5 nm/s along x, seed 13 (the default gap round the pattern): the tip
-/// waited beside particle 7, on its site, while it re-pushed the particle
-/// below. The frames did not find 7 there (its candidate, beside the dark
-/// probe, lay 1.4 px inside the probe's shadow, its fitted centre 0.2 px
-/// outside), yet counted it missing; after three frames the plans dropped
-/// it, and the run stopped at 68 s with its site "walled in". A particle
-/// that near the shadow is no longer counted missing: the run is done.
-#[test]
-fn a_particle_unfound_beside_the_waiting_probe_is_not_dropped() {
-    let dir = tempfile::tempdir().unwrap();
-    let request = SimRunRequest {
-        target: Some(PatternRequest::text("CMU")),
-        scene: drifting_scene(dir.path(), 5.0, 0.0),
-        seed: 13,
-        particles: 50,
-        ..SimRunRequest::default()
-    };
-    let o = run_sim(&request, |_| {});
-    eprintln!(
-        "5 nm/s along x, seed 13: {:?} {}/31 rms {:.0} nm, left short {:?}",
-        o.end,
-        o.filled(PLACED_M),
-        o.rms_nm(),
-        left_short(&o)
-    );
-    assert_eq!(o.end, RunEnd::Done);
-    assert_eq!(o.filled(PLACED_M), 31);
-}
-
 /// 5 nm/s along y, seed 1: a particle 0.21 um from its site with a filled
 /// site's particle above it. Every fresh plan began with the same 0.12 um
 /// first leg of a bent route; it never moved the particle, yet the check

@@ -234,7 +234,7 @@ pub fn dry_run(
         // new id, and its old place stayed behind as a ghost the planner
         // pushed.
         tracker.update(&sighting.particles, commanded.as_slice(), &|x, y| {
-            sighting.surely_shows(x, y)
+            sighting.shows(x, y)
         });
         let last_command_not_made = commanded.is_some_and(|m| not_made(m, &tracker));
         if sites.is_none() {

@@ -30,16 +30,6 @@ const OFF_SIZE_WARN_COUNT: usize = 3;
 /// counts as cut by the probe, pixels (the outline's blur).
 const PROBE_SHADOW_MARGIN_PX: f64 = 3.0;
 
-/// Width of the band beyond the probe's shadow in which a particle the
-/// frame does not show is not taken as missing, pixels. The shadow is
-/// judged at a candidate's place (a whole pixel, before the fit), and a
-/// candidate beside the dark probe lies off the ring's centre: at 5 nm/s
-/// drift along x, CMU seed 13, particle 7's candidate lay 21.6 px from the
-/// outline, inside the shadow's 23, its fitted centre 23.2 px, outside.
-/// Unfound in three frames while the tip waited beside it, it was dropped
-/// from the plans and the run stopped, its site "walled in".
-const PROBE_SHADOW_DOUBT_PX: f64 = 2.0;
-
 /// A frame's worth of observations.
 #[derive(Debug, Clone)]
 pub struct Sighting {
@@ -147,35 +137,20 @@ impl Sighting {
     /// True when a particle centred here would be seen whole in this frame:
     /// inside the view and clear of the probe.
     pub fn shows(&self, x_m: f64, y_m: f64) -> bool {
-        self.in_view(x_m, y_m) && !self.under_probe(x_m, y_m)
-    }
-
-    /// True when a particle centred here is missing if the frame did not
-    /// find it: [`Self::shows`], and clear of the probe's shadow by
-    /// [`PROBE_SHADOW_DOUBT_PX`] more.
-    pub fn surely_shows(&self, x_m: f64, y_m: f64) -> bool {
-        self.in_view(x_m, y_m) && !self.near_probe(x_m, y_m, PROBE_SHADOW_DOUBT_PX)
-    }
-
-    fn in_view(&self, x_m: f64, y_m: f64) -> bool {
         let [lo, hi] = self.view_m;
-        x_m >= lo[0] && x_m <= hi[0] && y_m >= lo[1] && y_m <= hi[1]
+        let in_view = x_m >= lo[0] && x_m <= hi[0] && y_m >= lo[1] && y_m <= hi[1];
+        in_view && !self.under_probe(x_m, y_m)
     }
 
     /// True when a particle centred here touches the probe's outline in the frame.
     pub fn under_probe(&self, x_m: f64, y_m: f64) -> bool {
-        self.near_probe(x_m, y_m, 0.0)
-    }
-
-    /// True when a point lies within the probe's shadow widened by `beyond_px`.
-    fn near_probe(&self, x_m: f64, y_m: f64, beyond_px: f64) -> bool {
         let Some((tip, calibration)) = &self.probe else {
             return false;
         };
         let local = [x_m - self.coarse_offset_m[0], y_m - self.coarse_offset_m[1]];
         calibration
             .stage_to_pixel(local[0], local[1])
-            .is_ok_and(|[x, y]| tip.signed_distance(x, y) < self.probe_shadow_px + beyond_px)
+            .is_ok_and(|[x, y]| tip.signed_distance(x, y) < self.probe_shadow_px)
     }
 }
 

@@ -819,9 +819,8 @@ impl<'a> Assembly<'a> {
             let first = self.apex_offsets_m.map_or(now, |(first, _)| first);
             self.apex_offsets_m = Some((first, now));
         }
-        self.tracker.update(&sighting.particles, moved, &|x, y| {
-            sighting.surely_shows(x, y)
-        });
+        self.tracker
+            .update(&sighting.particles, moved, &|x, y| sighting.shows(x, y));
         if astray.is_none() {
             self.follow_drift(&sighting, push);
         }
