@@ -8,7 +8,7 @@ use std::process::Command;
 
 /// Plans a fixture through the CLI (which replays the plan) and returns the
 /// JSON summary; fails the test with the planner's words if it refuses.
-fn plan_fixture(case: &str, at: &str) -> serde_json::Value {
+fn plan_fixture(case: &str, at: &str, more: &[&str]) -> serde_json::Value {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("fixtures/plan")
         .join(case);
@@ -17,6 +17,7 @@ fn plan_fixture(case: &str, at: &str) -> serde_json::Value {
         .arg(dir.join("sites.json"))
         .arg("--layout")
         .arg(dir.join("layout.json"))
+        .args(more)
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -25,7 +26,7 @@ fn plan_fixture(case: &str, at: &str) -> serde_json::Value {
 }
 
 fn assert_plans_every_site(case: &str, at: &str) {
-    let summary = plan_fixture(case, at);
+    let summary = plan_fixture(case, at, &[]);
     assert_eq!(summary["verified"], true, "{case}: {summary}");
     assert_eq!(summary["sites"], 31, "{case}: {summary}");
     assert!(
@@ -46,6 +47,17 @@ fn cmu_first_plan_of_sim_seed_28_plans() {
     // Refused once: the assigned particle's way was blocked by a particle with
     // no free buffer spot; another particle can take the site.
     assert_plans_every_site("cmu-seed28-first", "58.75,35");
+}
+
+#[test]
+fn cmu_first_plan_of_sim_seed_5_leaves_no_stray_in_the_gap() {
+    // Left a particle 0.21 um from the M with a 2.5 um gap asked: the spots
+    // that keep it were taken by another idle particle or walled in by it.
+    let case = "cmu-seed5-stray";
+    let summary = plan_fixture(case, "57.502,54.125", &["--keep-clear-um", "2.5"]);
+    assert_eq!(summary["verified"], true, "{case}: {summary}");
+    let gap = summary["nearest_stray_gap_um"].as_f64().unwrap();
+    assert!(gap >= 2.5, "{case}: nearest stray {gap} um: {summary}");
 }
 
 /// Plans the benchmark block of `n` sites (seed `seed`), asserts that it

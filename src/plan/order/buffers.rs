@@ -10,6 +10,18 @@ use nalgebra::Vector2;
 /// Buffer spots weighed for a particle still to move.
 const BUFFER_CANDIDATES: usize = 24;
 
+/// Which idle particles a two-level buffer move
+/// ([`Scheduler::clear_way_then_buffer`]) takes out of the way, and where to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Blockers {
+    /// Those on the way (not on the spot), to any buffer spot: while the
+    /// moves run.
+    Buffered,
+    /// Those on the way or the spot, to spots off the sites with the gap:
+    /// once the pattern is whole.
+    Parked,
+}
+
 impl Scheduler<'_> {
     /// Pushes idle particle q to a buffer spot clear of `avoid`; true on success.
     pub(super) fn buffer_idle(&mut self, q: usize, avoid: &[Corridor]) -> bool {
@@ -112,11 +124,15 @@ impl Scheduler<'_> {
     /// True when `spot` is inside the field, free of other particles for
     /// particle q, and clear of `avoid` (whatever lies on the way there).
     fn spot_free(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
-        let r = self.radius(q);
         let cl = self.config.clearance_m;
-        self.reach.contains(spot)
-            && self.occ.disc_free(spot, r, Some(q), cl)
-            && avoid.iter().all(|c| !c.hits(spot, r, cl))
+        self.spot_clear_of(q, spot, avoid) && self.occ.disc_free(spot, self.radius(q), Some(q), cl)
+    }
+
+    /// True when `spot` is inside the field and particle q there would be
+    /// clear of `avoid` (other particles not asked).
+    fn spot_clear_of(&self, q: usize, spot: Vector2<f64>, avoid: &[Corridor]) -> bool {
+        let (r, cl) = (self.radius(q), self.config.clearance_m);
+        self.reach.contains(spot) && avoid.iter().all(|c| !c.hits(spot, r, cl))
     }
 
     /// True when particle q at `spot` keeps its clearance from every site
@@ -186,12 +202,27 @@ impl Scheduler<'_> {
     /// clear of `avoid`, but some spot's way is blocked only by idle
     /// particles that can each be buffered directly; those go first, then q.
     /// True when at least the first of them moved.
-    pub(super) fn clear_way_then_buffer(&mut self, q: usize, avoid: &[Corridor]) -> bool {
+    ///
+    /// `Blockers::Parked` (the pattern is whole): the idle particles in the
+    /// way may also sit on q's spot, and they too go only to spots that
+    /// keep the gap, so that clearing q leaves no other stray.
+    pub(super) fn clear_way_then_buffer(
+        &mut self,
+        q: usize,
+        avoid: &[Corridor],
+        blockers: Blockers,
+    ) -> bool {
         let from = self.occ.pos[q];
         let r = self.radius(q);
         let cl = self.config.clearance_m;
+        let parked = blockers == Blockers::Parked;
         for spot in self.ring(q, avoid, None) {
-            if !self.off_sites(q, spot) || !self.spot_free(q, spot, avoid) {
+            let open = if parked {
+                self.spot_clear_of(q, spot, avoid)
+            } else {
+                self.spot_free(q, spot, avoid)
+            };
+            if !self.off_sites(q, spot) || !open {
                 continue;
             }
             let way = self.corridor(q, from, spot);
@@ -204,7 +235,8 @@ impl Scheduler<'_> {
             for &h in &hits {
                 let mut keep_clear = avoid.to_vec();
                 keep_clear.push(way.clone());
-                let spot = self.buffer_spots(h, &keep_clear).next();
+                let spot =
+                    (self.buffer_spots(h, &keep_clear)).find(|t| !parked || self.off_sites(h, *t));
                 match spot {
                     Some(t) => {
                         self.push(h, t, true);

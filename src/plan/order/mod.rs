@@ -283,7 +283,7 @@ fn order_once(
         detour_first,
         wide_spots,
     };
-    sch.clear_sites();
+    sch.clear_sites(false);
     let order = sch.peel_with_clearing(&radii)?;
     for (k, m) in sch.moves.iter_mut().enumerate() {
         m.rank = order.rank[k];
@@ -296,7 +296,7 @@ fn order_once(
     // A particle whose site a repair handed to another is idle where it
     // stopped, perhaps within the keep-clear gap (CMU seed 1: 1.6 um
     // inside the C); the pattern is whole now, so only its own way counts.
-    sch.clear_sites();
+    sch.clear_sites(true);
     let (steps, fewer) = take_shortcuts(sch.steps, layout, &sch.site_pts, config);
     Ok(Ordered {
         pairs: placed_pairs

@@ -3,6 +3,7 @@
 
 use super::Role;
 use super::Scheduler;
+use super::buffers::Blockers;
 use crate::plan::route::route_length;
 
 /// How far an early fill may lengthen the routes of the moves that waited
@@ -125,7 +126,7 @@ impl Scheduler<'_> {
         for &(k, q) in blocked {
             if self.role[q] == Role::Idle {
                 let avoid = self.route_corridors(k);
-                if self.clear_way_then_buffer(q, &avoid) {
+                if self.clear_way_then_buffer(q, &avoid, Blockers::Buffered) {
                     return true;
                 }
             }
