@@ -208,7 +208,7 @@ fn beside_the_probe(
 }
 
 /// A camera that gives one frame, then none.
-struct Still(Option<TimedFrame>);
+pub(crate) struct Still(pub(crate) Option<TimedFrame>);
 
 impl Camera for Still {
     fn grab(&mut self) -> Result<Option<TimedFrame>, RigError> {
