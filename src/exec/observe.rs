@@ -378,9 +378,10 @@ mod tests {
     };
     use nalgebra::{Matrix2, Vector2};
 
-    /// A 20 px particle whose centre lies `d_px` from the probe's outline,
-    /// off the point (u, v) of the probe's own frame along (nu, nv), in a
-    /// frame of noise seed `seed`: whether `sight` finds it.
+    /// A 20 px particle whose centre lies `d_px` along `normal` from the
+    /// point (u, v) of the probe's outline (the probe's own frame: apex at
+    /// (0, 0), u towards it), in a frame of noise seed `seed`: whether
+    /// `sight`, which must find the probe, finds it.
     fn found_beside_the_probe(u: f64, v: f64, normal: [f64; 2], d_px: f64, seed: u64) -> bool {
         let tip = TipView {
             apex_x_px: 200.0,
@@ -410,8 +411,7 @@ mod tests {
         let sighting = perception
             .sight(&mut camera, &calibration, [0.0, 0.0])
             .unwrap();
-        let (_, seen_calibration) = sighting.probe.as_ref().expect("the probe is found");
-        assert_eq!(seen_calibration, &calibration);
+        assert!(sighting.probe.is_some(), "the probe is not found");
         sighting
             .particles
             .iter()
