@@ -1,7 +1,8 @@
-//! Planner inputs the closed loop met and the planner refused, kept as
-//! regression cases (fixtures/plan/*/README.md says where each comes from):
-//! each must now plan, and the plan must pass the independent replay; and
-//! a closed-loop run on the simulated rig that a planner change once
+//! Planner inputs the closed loop met and the planner refused (or planned
+//! short of the gap asked), kept as regression cases
+//! (fixtures/plan/*/README.md says where each comes from): each must now
+//! plan as asked, and the plan must pass the independent replay; and a
+//! closed-loop run on the simulated rig that a planner change once
 //! stopped mid-way.
 
 use std::process::Command;
