@@ -112,12 +112,12 @@ pub(crate) fn dist(a: &Vector2<f64>, b: &Vector2<f64>) -> f64 {
     (a - b).norm()
 }
 
-/// Total cost of a site->particle assignment.
+/// Total cost of a site->particle assignment. Folded from +0.0: `sum`
+/// starts at -0.0, and a plan with nothing to push printed "LB_push -0.0 um".
 pub fn assignment_cost(sites: &[Vector2<f64>], particles: &[Vector2<f64>], s2p: &[usize]) -> f64 {
     s2p.iter()
         .enumerate()
-        .map(|(s, &p)| dist(&sites[s], &particles[p]))
-        .sum()
+        .fold(0.0, |total, (s, &p)| total + dist(&sites[s], &particles[p]))
 }
 
 /// Largest sites x particles instance `Exact` solves with [`sparse_ssp`]; above
@@ -191,6 +191,21 @@ pub(crate) mod test_support {
 mod tests {
     use super::test_support::random_points;
     use super::*;
+
+    /// Nothing to assign costs +0: a plan with no push had printed
+    /// "LB_push -0.0 um" (an empty `sum` of f64 is -0.0).
+    #[test]
+    fn an_empty_assignment_costs_plus_zero() {
+        let parts = random_points(3, 100.0, 1);
+        let a = assign(&[], &parts, AssignmentMethod::Exact).unwrap();
+        assert!(
+            a.cost_m == 0.0 && a.cost_m.is_sign_positive(),
+            "{}",
+            a.cost_m
+        );
+        let lb = a.lower_bound_m.unwrap();
+        assert!(lb.is_sign_positive(), "{lb}");
+    }
 
     #[test]
     fn exact_methods_agree_and_greedy_is_not_better() {
