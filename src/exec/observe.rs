@@ -257,16 +257,14 @@ impl Perception {
         let tip_m = probe.map(|t| on_sample(t.x_px, t.y_px));
         // A ring touching the probe is cut by it: its centre is not measured.
         let probe_shadow_px = expected_r_px + PROBE_SHADOW_MARGIN_PX;
-        let clear_of_probe =
-            |x: f64, y: f64| probe.is_none_or(|t| t.signed_distance(x, y) >= probe_shadow_px);
+        // Clear of the shadow, or of all but its outer `slack_px`.
+        let clear_of_probe = |x: f64, y: f64, slack_px: f64| {
+            probe.is_none_or(|t| t.signed_distance(x, y) >= probe_shadow_px - slack_px)
+        };
         // Candidates deep in the probe's shadow are not fitted at all (its
         // edges give many, and fitting them took two thirds of the frame's
         // time); those near its rim are, and judged by their fit.
-        let deep_in_shadow = |x: f64, y: f64| {
-            probe.is_some_and(|t| {
-                t.signed_distance(x, y) < probe_shadow_px - CANDIDATE_SHADOW_SLACK_PX
-            })
-        };
+        let deep_in_shadow = |x: f64, y: f64| !clear_of_probe(x, y, CANDIDATE_SHADOW_SLACK_PX);
         let detections = detect_particles_excluding(&seen, &self.detect, &deep_in_shadow)
             .map_err(|e| ObserveError::Detect(e.to_string()))?;
         let on_sample_at = |x_px: f64, y_px: f64, r_px: f64| {
@@ -279,7 +277,7 @@ impl Perception {
         };
         let (cut, whole): (Vec<&Detection>, Vec<&Detection>) = detections
             .iter()
-            .filter(|d| clear_of_probe(d.x_px, d.y_px))
+            .filter(|d| clear_of_probe(d.x_px, d.y_px, 0.0))
             .partition(|d| d.edge_clipped);
         let (fitting, off): (Vec<&Detection>, Vec<&Detection>) = whole
             .into_iter()
