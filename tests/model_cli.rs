@@ -370,23 +370,35 @@ fn bad_study_and_demo_requests_fail_before_writing_anything() {
     assert!(!Path::new(out).exists(), "a refused request wrote {out}");
 }
 
-/// A demo whose assembly stops short (a scene whose dense start walls a
-/// site in) says where its report is, then exits non-zero: a script had
-/// read the stop as success.
+/// A demo whose assembly stops short (a scene where the tip rides over the
+/// particle at every contact angle, so no push is safe) says where its
+/// report is, then exits non-zero: a script had read the stop as success.
 #[test]
 fn a_demo_that_stops_short_fails_after_saying_where_its_report_is() {
     let dir = tempfile::tempdir().unwrap();
+    let mut ride_over = std::fs::read_to_string("calib/paper-ps-ito.toml").unwrap();
+    for (from, to) in [
+        ("hold_contact_angle = true", "hold_contact_angle = false"),
+        ("shear_strength_mpa = 28.0", "shear_strength_mpa = 200.0"),
+        ("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0"),
+    ] {
+        assert!(ride_over.contains(from), "{from}");
+        ride_over = ride_over.replace(from, to);
+    }
+    let scene = dir.path().join("ride-over.toml");
+    std::fs::write(&scene, ride_over).unwrap();
     let out = nanopush()
-        .args(["demo", "--scene", "calib/hard-nanoparticle-sliding.toml"])
+        .args(["demo", "--scene"])
+        .arg(&scene)
         .args(["--seed", "4", "--out"])
-        .arg(dir.path())
+        .arg(dir.path().join("demo"))
         .output()
         .unwrap();
     let said = String::from_utf8_lossy(&out.stdout);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{said}");
     assert!(err.contains("the assembly stopped short"), "{err}");
-    let report = dir.path().join("assemble").join("report.md");
+    let report = dir.path().join("demo").join("assemble").join("report.md");
     assert!(report.is_file());
     assert!(
         said.contains(&format!("report: {}", report.display())),

@@ -153,13 +153,19 @@ pub struct Detection {
     pub fitted: bool,
 }
 
+/// Smallest size hint, px across, fitted with the ring model when none is
+/// chosen; smaller particles are fitted as spots.
+pub const RING_MODEL_MIN_DIAMETER_PX: f64 = 10.0;
+
 /// The model a size hint implies when none is chosen.
 pub fn model_for(settings: &DetectSettings) -> ProfileModel {
-    settings.model.unwrap_or(if settings.diameter_px >= 10.0 {
-        ProfileModel::Ring
-    } else {
-        ProfileModel::Spot
-    })
+    settings
+        .model
+        .unwrap_or(if settings.diameter_px >= RING_MODEL_MIN_DIAMETER_PX {
+            ProfileModel::Ring
+        } else {
+            ProfileModel::Spot
+        })
 }
 
 /// A candidate: integer peak of the energy map and its energy SNR.
