@@ -287,7 +287,7 @@ fn cmu_on_100_uniform_layouts_meets_the_acceptance_targets() {
 /// over the sets of moves done), which must lie between the constrained
 /// assignment bound and the search, and replay cleanly.
 #[test]
-#[ignore = "a study: prints the tip-tour figures of docs/plan.md (about 30-40 min in release: the exact DP)"]
+#[ignore = "a study: prints the tip-tour figures of docs/plan-history.md (thirteenth pass) (about 30-40 min in release: the exact DP)"]
 fn tip_tour_study_on_cmu() {
     use nanopush::plan::assignment::{AssignmentMethod, assign};
     use nanopush::plan::pushes::{landing_point, tip_end};
@@ -475,7 +475,7 @@ fn print_spread(name: &str, mut v: Vec<f64>) {
 /// charges each unassigned particle its least way out
 /// ([`parking::clearing_lower_bound`]) bounds every plan's push distance.
 #[test]
-#[ignore = "a study: prints the push-excess breakdown of docs/plan.md (about 10 s in release)"]
+#[ignore = "a study: prints the push-excess breakdown of docs/plan-history.md (about 10 s in release)"]
 fn push_excess_study_on_cmu() {
     let config = PlanConfig::default();
     let (mut assign_x, mut path_x, mut ratio) = (vec![], vec![], vec![]);
