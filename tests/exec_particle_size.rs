@@ -9,11 +9,11 @@ use nanopush::exec::assemble::RunEnd;
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::sim_run::{SimRunError, SimRunRequest, prepare_sim_run};
 use nanopush::plan::pattern_request::PatternRequest;
-use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+use nanopush::plan::synth_layout::LayoutKind;
 use std::path::Path;
 
 mod sim_loop;
-use sim_loop::{Outcome, run_sim};
+use sim_loop::{Outcome, field_120x100, paper_request_on, run_sim};
 
 /// The executor's placement tolerance.
 const PLACED_M: f64 = 0.2e-6;
@@ -22,26 +22,8 @@ const PLACED_M: f64 = 0.2e-6;
 /// of `radius_um` (with a 5 % spread when `polydisperse`).
 fn run(radius_um: f64, polydisperse: bool, seed: u64) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
-    let layout = synth_layout(&SynthParams {
-        n: 50,
-        field_m: [120e-6, 100e-6],
-        radius_m: radius_um * 1e-6,
-        min_gap_m: 1e-6,
-        polydisperse,
-        kind: LayoutKind::Uniform,
-        seed,
-    })
-    .unwrap();
-    let layout_path = dir.path().join("layout.json");
-    layout.write(&layout_path).unwrap();
-    let request = SimRunRequest {
-        target: Some(PatternRequest::text("CMU")),
-        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"),
-        layout: Some(layout_path),
-        seed,
-        ..SimRunRequest::default()
-    };
-    run_sim(&request, |_| {})
+    let params = field_120x100(50, radius_um, LayoutKind::Uniform, polydisperse, seed);
+    run_sim(&paper_request_on(dir.path(), "CMU", &params), |_| {})
 }
 
 #[test]

@@ -112,6 +112,27 @@ pub struct VerifyReport {
 }
 
 impl VerifyReport {
+    /// The first step something is wrong at, when every fault is a step's (a
+    /// collision, a start away from the particle, a bad approach, a push out
+    /// of reach or of the field, or of a particle to leave alone) and the
+    /// plan otherwise ends whole (every site filled, every particle known):
+    /// the steps before it replay clean. None when the plan is ok or a fault
+    /// is the whole plan's.
+    pub fn first_faulty_step(&self) -> Option<usize> {
+        if self.ok || !self.unknown_particles.is_empty() || !self.unfilled_sites.is_empty() {
+            return None;
+        }
+        self.collisions
+            .iter()
+            .map(|c| c.step)
+            .chain(self.bad_starts.iter().copied())
+            .chain(self.bad_approaches.iter().copied())
+            .chain(self.unreachable.iter().copied())
+            .chain(self.left_field.iter().copied())
+            .chain(self.moved_immovable.iter().copied())
+            .min()
+    }
+
     /// One line on what is wrong (or "ok").
     pub fn summary(&self) -> String {
         if self.ok {
@@ -426,6 +447,49 @@ mod tests {
         let plan = plan_assembly(layout, &sites, &config).unwrap();
         assert!(verify_plan(&plan, layout, &config).ok);
         (plan, config)
+    }
+
+    /// A plan that collides only at a later step says which step (the
+    /// steps before replay clean); one that leaves a site unfilled is
+    /// wrong as a whole and names none.
+    #[test]
+    fn the_first_faulty_step_is_named_only_when_the_rest_is_whole() {
+        let start = [(20.0, 50.0), (20.0, 150.0)];
+        let planned_on = Layout::of_test_centres_um(&start);
+        let sites = [(0, 60.0, 50.0), (1, 60.0, 150.0)].map(|(id, x, y)| Site {
+            id,
+            centre_m: Vector2::new(x, y) * 1e-6,
+        });
+        let config = PlanConfig::default();
+        let plan = plan_assembly(&planned_on, &sites, &config).unwrap();
+        let report = verify_plan(&plan, &planned_on, &config);
+        assert!(report.ok && report.first_faulty_step().is_none());
+        let pushes_of = |id: u32| -> Vec<usize> {
+            (plan.steps.iter().enumerate())
+                .filter(|(_, s)| matches!(s, Step::Push { particle, .. } if *particle == id))
+                .map(|(k, _)| k)
+                .collect()
+        };
+        // A third particle on particle 1's way, none on particle 0's.
+        let blocked = Layout::of_test_centres_um(&[start[0], start[1], (40.0, 150.0)]);
+        let report = verify_plan(&plan, &blocked, &config);
+        assert!(!report.ok);
+        assert_eq!(report.first_faulty_step(), pushes_of(1).first().copied());
+        assert!(
+            pushes_of(0)
+                .iter()
+                .all(|&k| k < report.first_faulty_step().unwrap())
+        );
+        // Without particle 0's pushes site 0 stays empty: though particle
+        // 1's still collide, no step is named.
+        let mut partial = plan.clone();
+        partial
+            .steps
+            .retain(|s| !matches!(s, Step::Push { particle: 0, .. }));
+        let report = verify_plan(&partial, &blocked, &config);
+        assert!(!report.collisions.is_empty(), "{report:?}");
+        assert_eq!(report.unfilled_sites, vec![0]);
+        assert_eq!(report.first_faulty_step(), None);
     }
 
     /// A push of a particle the plan must not move (a frame's edge cut

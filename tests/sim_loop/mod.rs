@@ -10,10 +10,13 @@ use nanopush::exec::calibration_fit::MapSighting;
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::{JournalWriter, read_journal};
 use nanopush::exec::sim_run::{SimRunRequest, inputs_for, prepare_sim_run};
+use nanopush::plan::pattern_request::PatternRequest;
+use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use nanopush::rig::camera::{Camera, TimedFrame};
 use nanopush::rig::sim::rig::SimRig;
 use nanopush::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
 use nanopush::rig::{Rig, RigError};
+use std::path::Path;
 
 /// What a run left.
 pub struct Outcome {
@@ -166,5 +169,39 @@ pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError
         events,
         t_end_s: run.rig.now_s(),
         map_sightings,
+    }
+}
+
+/// `synth layout --n N --field-um 120x100 --radius-um R --min-gap-um 1
+/// --kind K [--polydisperse] --seed S`: the acceptance scenes' field.
+pub fn field_120x100(
+    n: usize,
+    radius_um: f64,
+    kind: LayoutKind,
+    polydisperse: bool,
+    seed: u64,
+) -> SynthParams {
+    SynthParams {
+        n,
+        field_m: [120e-6, 100e-6],
+        radius_m: radius_um * 1e-6,
+        min_gap_m: 1e-6,
+        polydisperse,
+        kind,
+        seed,
+    }
+}
+
+/// A request to assemble `text` in the paper scene on the layout `params`
+/// make (written in `dir`), the simulated rig seeded as the layout.
+pub fn paper_request_on(dir: &Path, text: &str, params: &SynthParams) -> SimRunRequest {
+    let layout_path = dir.join("layout.json");
+    synth_layout(params).unwrap().write(&layout_path).unwrap();
+    SimRunRequest {
+        target: Some(PatternRequest::text(text)),
+        scene: Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"),
+        layout: Some(layout_path),
+        seed: params.seed,
+        ..SimRunRequest::default()
     }
 }
