@@ -5,6 +5,7 @@
 use nanopush::exec::dry_run::{DryCommand, DryRunReport};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
+use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use nanopush::vision::frame::Frame;
 use nanopush::vision::frame_input::{Channel, load_frame, load_frames, save_png};
 use nanopush::vision::line_defects::LineAxis;
@@ -1335,4 +1336,54 @@ fn a_frame_says_when_the_last_command_was_not_made() {
         printed.contains("does not show the last command made"),
         "{printed}"
     );
+}
+
+/// Where the loop pushes on with a plan in hand that fails only later (no
+/// fresh order found in a dense core), the dry-run of its recording
+/// commands the same pushes: it had said "planner: no collision-free
+/// order" on 17 frames of this run, which the loop pushed through.
+#[test]
+fn the_dry_run_pushes_on_with_a_plan_in_hand_as_the_loop_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = dir.path().join("layout.json");
+    // `synth layout --n 50 --field-um 120x100 --radius-um 5 --min-gap-um 1
+    // --kind adversarial --seed 5`: a dense core under the letters.
+    synth_layout(&SynthParams {
+        n: 50,
+        field_m: [120e-6, 100e-6],
+        radius_m: 5e-6,
+        min_gap_m: 1e-6,
+        polydisperse: false,
+        kind: LayoutKind::Adversarial,
+        seed: 5,
+    })
+    .unwrap()
+    .write(&layout)
+    .unwrap();
+    let (out, rec) = (dir.path().join("out"), dir.path().join("rec"));
+    let run = nanopush(&[
+        "assemble",
+        "--text",
+        "HI",
+        "--layout",
+        layout.to_str().unwrap(),
+        "--seed",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+        "--record",
+        rec.to_str().unwrap(),
+    ]);
+    let said = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{said}");
+    assert!(said.contains("the plan in hand fails only later"), "{said}");
+    let r = ok_report(
+        &dry_run(&rec, &dir.path().join("dry"), &[]),
+        &dir.path().join("dry"),
+    );
+    let refused: Vec<_> = (r.frames.iter())
+        .filter(|f| matches!(f.command, DryCommand::Refused { .. }))
+        .collect();
+    assert!(refused.is_empty(), "{:?}", refused[0].command);
+    assert_eq!(r.frames.last().unwrap().command, DryCommand::Done);
 }

@@ -20,7 +20,8 @@ use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::{PatternRequest, PatternSource};
 use crate::plan::placement::PlacementGoal;
-use crate::plan::{Layout, Plan, PlanConfig, Site, Step, plan_assembly};
+use crate::plan::verify::fails_only_after_its_first_push;
+use crate::plan::{Layout, Plan, PlanConfig, Site, Step, plan_assembly, verify_plan};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
 use crate::vision::exposure::Exposure;
@@ -461,17 +462,22 @@ fn next_command(
         tip_start_m: sighting.tip_m.map(|t| Vector2::new(t[0], t[1])),
         ..planning.clone()
     };
-    let kept = kept_plan(in_hand.take(), commanded, tracker, &layout, &config);
-    let plan = match kept.map_or_else(|| plan_assembly(&layout, sites, &config), Ok) {
-        Ok(p) => p,
-        Err(e) => {
-            return (
-                DryCommand::Refused {
-                    reason: format!("planner: {e}"),
-                },
-                Vec::new(),
-            );
-        }
+    let kept = kept_plan(in_hand.take(), commanded, tracker, &layout);
+    let plan = match kept {
+        Some(p) if verify_plan(&p, &layout, &config).ok => p,
+        faulty => match (plan_assembly(&layout, sites, &config), faulty) {
+            (Ok(p), _) => p,
+            // As the loop: push on with a plan in hand that fails only later.
+            (Err(_), Some(p)) if fails_only_after_its_first_push(&p, &layout, &config) => p,
+            (Err(e), _) => {
+                return (
+                    DryCommand::Refused {
+                        reason: format!("planner: {e}"),
+                    },
+                    Vec::new(),
+                );
+            }
+        },
     };
     *in_hand = Some(plan.clone());
     let pushes: Vec<(u32, PlannedPush)> = plan

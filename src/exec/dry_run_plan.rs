@@ -3,7 +3,8 @@
 //! frame shows it placed (or unmoved); a push that lost contact is made
 //! again from where its particle lies; one the recording does not show made
 //! drops the plan; the rest is kept while, moved onto
-//! the particles seen, it still verifies. Planned afresh every frame, the
+//! the particles seen, it still verifies (or, with no fresh plan found,
+//! while it fails only after its next push). Planned afresh every frame, the
 //! dry-run had commanded other orders than the loop whenever the planner
 //! chose differently from the particles' new places.
 
@@ -11,16 +12,16 @@ use super::assemble::AssemblySettings;
 use super::push_check::check_push;
 use super::tracker::{Moved, Tracker};
 use crate::plan::rebase::{rebase_plan, without_first_push};
-use crate::plan::{Layout, Plan, PlanConfig, verify_plan};
+use crate::plan::{Layout, Plan};
 
-/// The plan in hand after the frame `tracker` has just seen: `None` when
-/// there was none, or when it no longer fits the particles of `layout`.
+/// The plan in hand after the frame `tracker` has just seen, moved onto
+/// the particles of `layout`: `None` when there was none or it cannot be
+/// moved onto them. The caller verifies it.
 pub(super) fn kept_plan(
     in_hand: Option<Plan>,
     commanded: Option<Moved>,
     tracker: &Tracker,
     layout: &Layout,
-    config: &PlanConfig,
 ) -> Option<Plan> {
     let plan = in_hand?;
     let settings = AssemblySettings::default();
@@ -47,8 +48,7 @@ pub(super) fn kept_plan(
             }
         }
     };
-    let rebased = rebase_plan(&plan, layout, settings.keep_plan_shift_m, repushed).ok()?;
-    verify_plan(&rebased, layout, config).ok.then_some(rebased)
+    rebase_plan(&plan, layout, settings.keep_plan_shift_m, repushed).ok()
 }
 
 /// True when the frame `tracker` has just seen shows the particle of the

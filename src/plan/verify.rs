@@ -390,6 +390,22 @@ pub fn verify_plan_with(
     rep
 }
 
+/// Whether `plan` fails only after its first push, which replays clean on
+/// `layout` ([`VerifyReport::first_faulty_step`]): a plan in hand the loop
+/// (and the dry-run) pushes on with when no fresh plan is found.
+pub fn fails_only_after_its_first_push(
+    plan: &Plan,
+    layout: &Layout,
+    config: &super::PlanConfig,
+) -> bool {
+    let first_push = plan
+        .steps
+        .iter()
+        .position(|step| matches!(step, Step::Push { .. }));
+    let first_fault = verify_plan(plan, layout, config).first_faulty_step();
+    matches!((first_push, first_fault), (Some(push), Some(fault)) if push < fault)
+}
+
 /// Least free space between a particle on no site (final positions `pos`)
 /// and a site's particle: see [`VerifyReport::nearest_stray_gap_um`].
 fn nearest_stray_gap_m(

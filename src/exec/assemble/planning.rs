@@ -9,6 +9,7 @@ use crate::exec::tracker::{Track, Tracker};
 use crate::plan::layout::{Layout, Particle, UM_PER_M, beyond_field_m, may_lie_in_field};
 use crate::plan::rebase::rebase_plan;
 use crate::plan::touching::settle_overlaps;
+use crate::plan::verify::fails_only_after_its_first_push;
 use crate::plan::{Plan, Step, plan_assembly, verify_plan};
 use crate::vision::log_on_change::changed;
 use crate::wording::counted;
@@ -55,8 +56,8 @@ impl Assembly<'_> {
         let mut config = self.plan_config.clone();
         config.immovable = self.immovable();
         let repushed = self.repush_next.map(|id| id as u32);
-        // The plan in hand, moved onto the particles, when it fails only at
-        // a later step: kept in case no fresh plan is found.
+        // The plan in hand, moved onto the particles, when it no longer
+        // verifies: kept in case no fresh plan is found.
         let mut faulty_later = None;
         let kept = self.plan_in_hand.take().map(|p| {
             let p = rebase_plan(&p, &layout, self.settings.keep_plan_shift_m, repushed)
@@ -65,11 +66,8 @@ impl Assembly<'_> {
             if report.ok {
                 Ok(p)
             } else {
-                let why = format!("it no longer verifies: {}", report.summary());
-                if report.first_faulty_step().is_some() {
-                    faulty_later = Some(p);
-                }
-                Err(why)
+                faulty_later = Some(p);
+                Err(format!("it no longer verifies: {}", report.summary()))
             }
         });
         let unmoved = self.unmoved.take();
@@ -101,7 +99,7 @@ impl Assembly<'_> {
                         plan
                     }
                     Err(e) => match faulty_later
-                        .filter(|p| first_push_replays_clean(p, &layout, &config))
+                        .filter(|p| fails_only_after_its_first_push(p, &layout, &config))
                     {
                         // No plan now, but the next push of the one in hand is
                         // clear: make it and plan again after it, as after
@@ -286,21 +284,6 @@ pub fn particles_seen(seen: &[(usize, [f64; 2], f64)]) -> Vec<Particle> {
         .collect();
     settle_overlaps(&mut particles);
     particles
-}
-
-/// Whether `plan`'s first push replays clean on `layout` under `config`
-/// (checked again: a particle given up on since makes its pushes faults).
-fn first_push_replays_clean(
-    plan: &Plan,
-    layout: &Layout,
-    config: &crate::plan::PlanConfig,
-) -> bool {
-    let first_push = plan
-        .steps
-        .iter()
-        .position(|step| matches!(step, Step::Push { .. }));
-    let first_fault = verify_plan(plan, layout, config).first_faulty_step();
-    matches!((first_push, first_fault), (Some(push), Some(fault)) if push < fault)
 }
 
 #[cfg(test)]
