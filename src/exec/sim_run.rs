@@ -187,7 +187,7 @@ pub fn prepare_sim_run(
 /// under the ring model's size: the detector then fits pieces of its drawn
 /// ring as spots, centres jumping by most of a radius between frames, and
 /// the loop's pushes miss (0.3 um particles at 6 px: 0 of 8 runs done,
-/// each stopped after dozens of lost contacts).
+/// stopped after up to 56 lost contacts).
 fn visible_to_sim_camera(layout: &Layout) -> Result<(), SimRunError> {
     let radius_m = smallest_radius_m(layout);
     // A rounding's worth below the size still shows it (0.6 um: 11.999... px).

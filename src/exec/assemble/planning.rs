@@ -104,10 +104,10 @@ impl Assembly<'_> {
                         // No plan now, but the next push of the one in hand is
                         // clear: make it and plan again after it, as after
                         // every push. In a dense core the particles as
-                        // measured had put a step 14-74 pushes ahead 0.06-0.17
-                        // um into a particle, no order was found at the fixed
-                        // sites, and the run stopped where pushing on cleared
-                        // the way.
+                        // measured had put a later step (the plan's 15th, its
+                        // 79th) 0.06-0.17 um into a particle, no order was
+                        // found at the fixed sites, and the run stopped where
+                        // pushing on cleared the way.
                         Some(plan) => {
                             tracing::warn!(
                                 "no new plan ({e}); the plan in hand fails only later ({}): its next push is clear, so it is made, and the plan made again after it",

@@ -21,7 +21,7 @@ pub const SIM_UM_PER_PX: f64 = 0.25;
 /// as rings, which the detector's ring model fits from 10 px across, and at
 /// 8 px (2 um spheres at 0.25 um/px) its spot model locks onto pieces of the
 /// ring, centres jumping about 0.9 um between frames, and the loop's pushes
-/// miss (0 of 8 runs done, against 8 of 8 at 16 px).
+/// miss (0 of 8 runs done, against 8 of 8 at 12 px).
 pub const SIM_MIN_PARTICLE_PX: f64 = 12.0;
 /// Finest resolution the simulated camera takes (a 100x oil objective's
 /// pixel on a common sensor); smaller particles are shown smaller.
