@@ -5,7 +5,7 @@
 use nanopush::exec::dry_run::{DryCommand, DryRunReport};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
-use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
+use nanopush::plan::synth_layout::{LayoutKind, synth_layout};
 use nanopush::vision::frame::Frame;
 use nanopush::vision::frame_input::{Channel, load_frame, load_frames, save_png};
 use nanopush::vision::line_defects::LineAxis;
@@ -16,6 +16,8 @@ use std::time::Duration;
 
 mod interrupted;
 use interrupted::interrupt_after;
+mod sim_loop;
+use sim_loop::field_120x100;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -1350,18 +1352,10 @@ fn the_dry_run_pushes_on_with_a_plan_in_hand_as_the_loop_does() {
     let layout = dir.path().join("layout.json");
     // `synth layout --n 50 --field-um 120x100 --radius-um 5 --min-gap-um 1
     // --kind adversarial --seed 5`: a dense core under the letters.
-    synth_layout(&SynthParams {
-        n: 50,
-        field_m: [120e-6, 100e-6],
-        radius_m: 5e-6,
-        min_gap_m: 1e-6,
-        polydisperse: false,
-        kind: LayoutKind::Adversarial,
-        seed: 5,
-    })
-    .unwrap()
-    .write(&layout)
-    .unwrap();
+    synth_layout(&field_120x100(50, 5.0, LayoutKind::Adversarial, false, 5))
+        .unwrap()
+        .write(&layout)
+        .unwrap();
     let (out, rec) = (dir.path().join("out"), dir.path().join("rec"));
     let run = nanopush(&[
         "assemble",

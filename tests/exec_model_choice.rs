@@ -10,27 +10,13 @@ use nanopush::exec::assemble::{AssemblySettings, PushIntent, decide_push};
 use nanopush::exec::events::RunEvent;
 use nanopush::exec::journal::read_journal;
 use nanopush::model::Scene;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
+mod paper_scene;
+use paper_scene::{RIDE_OVER, scene_file};
+
 const RUN: [&str; 6] = ["--text", "L", "--seed", "6", "--particles", "20"];
-
-fn paper_text() -> String {
-    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml"))
-        .unwrap()
-}
-
-/// The paper scene with lines replaced (each must exist).
-fn scene_file(dir: &Path, name: &str, edits: &[(&str, &str)]) -> PathBuf {
-    let mut text = paper_text();
-    for (from, to) in edits {
-        assert!(text.contains(from), "{from} is not in the paper scene");
-        text = text.replace(from, to);
-    }
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    path
-}
 
 /// One journalled decision.
 #[derive(Debug, Clone)]
@@ -176,15 +162,7 @@ fn higher_rolling_resistance_gets_longer_pushes_with_the_models_angle() {
 fn a_scene_without_a_safe_contact_angle_gets_no_push() {
     let dir = tempfile::tempdir().unwrap();
     // The tip may ride over, and rolling is so hard that it rides over at every angle.
-    let unsafe_scene = scene_file(
-        dir.path(),
-        "ride-over.toml",
-        &[
-            ("hold_contact_angle = true", "hold_contact_angle = false"),
-            ("shear_strength_mpa = 28.0", "shear_strength_mpa = 200.0"),
-            ("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0"),
-        ],
-    );
+    let unsafe_scene = scene_file(dir.path(), "ride-over.toml", &RIDE_OVER);
     let events = run(&unsafe_scene, &dir.path().join("o"));
     assert!(decisions(&events).is_empty());
     let refusals = events

@@ -14,6 +14,8 @@ use std::path::Path;
 
 mod sim_loop;
 use sim_loop::{Outcome, field_120x100, paper_request_on, run_sim};
+mod paper_scene;
+use paper_scene::scene_file;
 
 /// The executor's placement tolerance.
 const PLACED_M: f64 = 0.2e-6;
@@ -97,27 +99,16 @@ fn a_spread_batch_is_placed_where_the_loops_own_plan_finds_an_order() {
     assert_every_site_filled(&o, "seed 10");
 }
 
-/// The paper scene with its particles made `radius_um`, written in `dir`.
-fn scene_of_radius(dir: &Path, radius_um: f64) -> std::path::PathBuf {
-    let paper = Path::new(env!("CARGO_MANIFEST_DIR")).join("calib/paper-ps-ito.toml");
-    let text = std::fs::read_to_string(paper).unwrap();
-    let nominal = "radius_um = 5.0 ";
-    assert_eq!(text.matches(nominal).count(), 1, "the paper scene's radius");
-    let path = dir.join(format!("scene-{radius_um}um.toml"));
-    std::fs::write(
-        &path,
-        text.replace(nominal, &format!("radius_um = {radius_um} ")),
-    )
-    .unwrap();
-    path
-}
-
 /// A "T" on 20 particles of the paper scene made `radius_um` (the scene
 /// written in `dir`).
 fn t_of_radius(dir: &Path, radius_um: f64) -> SimRunRequest {
     SimRunRequest {
         target: Some(PatternRequest::text("T")),
-        scene: scene_of_radius(dir, radius_um),
+        scene: scene_file(
+            dir,
+            &format!("scene-{radius_um}um.toml"),
+            &[("radius_um = 5.0 ", &format!("radius_um = {radius_um} "))],
+        ),
         particles: 20,
         seed: 2,
         ..SimRunRequest::default()

@@ -6,6 +6,9 @@ use nanopush::model::summary::PushSummary;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod paper_scene;
+use paper_scene::{RIDE_OVER, scene_file};
+
 fn nanopush() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_nanopush"));
     c.current_dir(env!("CARGO_MANIFEST_DIR"));
@@ -376,17 +379,7 @@ fn bad_study_and_demo_requests_fail_before_writing_anything() {
 #[test]
 fn a_demo_that_stops_short_fails_after_saying_where_its_report_is() {
     let dir = tempfile::tempdir().unwrap();
-    let mut ride_over = std::fs::read_to_string("calib/paper-ps-ito.toml").unwrap();
-    for (from, to) in [
-        ("hold_contact_angle = true", "hold_contact_angle = false"),
-        ("shear_strength_mpa = 28.0", "shear_strength_mpa = 200.0"),
-        ("rolling_shear_pa_m = 98.5", "rolling_shear_pa_m = 300.0"),
-    ] {
-        assert!(ride_over.contains(from), "{from}");
-        ride_over = ride_over.replace(from, to);
-    }
-    let scene = dir.path().join("ride-over.toml");
-    std::fs::write(&scene, ride_over).unwrap();
+    let scene = scene_file(dir.path(), "ride-over.toml", &RIDE_OVER);
     let out = nanopush()
         .args(["demo", "--scene"])
         .arg(&scene)
