@@ -1861,3 +1861,62 @@ fn cmu_field_layout(dir: &Path, n: &str, kind: &str, seed: &str) -> String {
     assert!(ok, "{text}");
     out.to_owned()
 }
+
+/// The tip is scaled to the particles: a field of 1 um spheres 0.1 um
+/// apart plans with a 0.1 um tip disc landing 0.1 um behind the contact
+/// point (the 10 um spheres' 1 um disc, as wide as the particles, was
+/// refused there after 7.5 s of placements), and the plan does need the
+/// narrow disc: replayed with the old 1 um one it fails. A plan without a
+/// geometry block is replayed with the disc scaled to the layout.
+#[test]
+fn a_dense_field_of_micron_spheres_plans_with_the_tip_scaled_to_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).display().to_string();
+    let (layout, plan) = (path("micron.json"), path("plan.json"));
+    let (ok, text) = nanopush(&[
+        "synth",
+        "layout",
+        "--n",
+        "250",
+        "--field-um",
+        "40x40",
+        "--radius-um",
+        "0.5",
+        "--min-gap-um",
+        "0.1",
+        "--seed",
+        "1",
+        "--out",
+        &layout,
+    ]);
+    assert!(ok, "{text}");
+    let (ok, text) = nanopush(&[
+        "plan", "--text", "I", "--layout", &layout, "--out", &plan, "--json",
+    ]);
+    assert!(ok, "refused: {text}");
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let mut file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    for (key, um) in [
+        ("tip_radius_um", &file["geometry"]["tip_radius_um"]),
+        ("standoff_um", &summary["standoff_um"]),
+    ] {
+        let um = um.as_f64().unwrap();
+        assert!((um - 0.1).abs() < 1e-12, "{key} {um}");
+    }
+    let verify = |plan: &str, extra: &[&str]| {
+        nanopush(&[&["verify-plan", plan, "--layout", &layout][..], extra].concat())
+    };
+    let (ok, text) = verify(&plan, &[]);
+    assert!(ok, "{text}");
+    let (ok, text) = verify(&plan, &["--tip-radius-um", "1"]);
+    assert!(!ok, "the 1 um disc fits this plan too: {text}");
+    file.as_object_mut().unwrap().remove("geometry");
+    let bare = path("bare.json");
+    std::fs::write(&bare, file.to_string()).unwrap();
+    let (ok, text) = verify(&bare, &[]);
+    assert!(
+        ok && text.contains("tip radius 0.1 um (default: the plan gives none)"),
+        "{text}"
+    );
+}

@@ -62,9 +62,11 @@ pub struct Args {
     /// Contact angle of every push, degrees from the substrate normal (0 up to, not including, 90).
     #[arg(long, default_value_t = 0.0)]
     pub contact_angle_deg: f64,
-    /// Tip disc radius in um.
-    #[arg(long, default_value_t = 1.0)]
-    pub tip_radius_um: f64,
+    /// Tip disc radius in um (default: 1 um for particles of 5 um radius
+    /// and more, a fifth of the layout's median radius below; the tip's
+    /// landing behind the contact point is scaled so too: see docs/plan.md)
+    #[arg(long)]
+    pub tip_radius_um: Option<f64>,
     /// Pushing speed in um/s (for the predicted time).
     #[arg(long, default_value_t = 1.0)]
     pub speed_um_s: f64,
@@ -266,15 +268,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let radii: Vec<f64> = layout.particles.iter().map(|p| p.radius_m).collect();
     let area = placement_area(layout.field_m, radius, seen_m, !args.json);
     let pattern = request.pattern_for_batch(layout.median_radius_m(), &radii, &area)?;
-    let config = PlanConfig {
+    let scaled = PlanConfig {
         contact_angle_rad: args.contact_angle_deg.to_radians(),
-        tip_radius_m: args.tip_radius_um * 1e-6,
         push_speed_m_per_s: args.speed_um_s * 1e-6,
         method: args.method,
         tip_start_m,
         immovable,
         keep_clear_m: args.keep_clear_um * 1e-6,
         ..PlanConfig::default()
+    }
+    .with_tip_scaled_to(layout.median_radius_m());
+    let config = PlanConfig {
+        tip_radius_m: args
+            .tip_radius_um
+            .map_or(scaled.tip_radius_m, |um| um * 1e-6),
+        ..scaled
     };
     validate_in_flags(&config)?;
     let placing = std::time::Instant::now();

@@ -34,12 +34,14 @@ pub struct Args {
 }
 
 /// The geometry to replay with, and where each value came from: a flag,
-/// the plan, or `nanopush plan`'s default when the plan gives none.
+/// the plan, or `nanopush plan`'s default for the layout's particles
+/// (median radius `radius_m`) when the plan gives none.
 fn replayed_geometry(
     args: &Args,
     in_plan: Option<PlanGeometry>,
+    radius_m: f64,
 ) -> anyhow::Result<(PlanGeometry, [&'static str; 3])> {
-    let base = in_plan.unwrap_or_default();
+    let base = in_plan.unwrap_or_else(|| PlanGeometry::for_particle_radius(radius_m));
     let from_plan = if in_plan.is_some() {
         "the plan's"
     } else {
@@ -90,7 +92,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let marked = MarkedLayout::read(&args.layout)?;
     let (plan, in_plan) = plan_file::read(&args.plan)?;
-    let (geometry, sources) = replayed_geometry(&args, in_plan)?;
+    let (geometry, sources) = replayed_geometry(&args, in_plan, marked.layout.median_radius_m())?;
     let rep = verify::verify_plan_with(
         &plan,
         &marked.layout,
@@ -109,13 +111,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         let g = &geometry;
+        // To the picometre: a tip scaled to the particles read 0.09999999999999998 um.
+        let um = |v: f64| (v * 1e6).round() / 1e6;
         println!(
             "geometry          tip radius {} um ({}), standoff {} um ({}), nanostage range {} um ({})",
-            g.tip_radius_um,
+            um(g.tip_radius_um),
             sources[0],
-            g.standoff_um,
+            um(g.standoff_um),
             sources[1],
-            g.nanostage_range_um,
+            um(g.nanostage_range_um),
             sources[2]
         );
         println!("pushes replayed   {}", rep.pushes);

@@ -20,6 +20,7 @@ use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::{PatternRequest, PatternSource};
 use crate::plan::placement::PlacementGoal;
+use crate::plan::tip_scale::DEFAULT_GEOMETRY_RADIUS_M;
 use crate::plan::verify::fails_only_after_its_first_push;
 use crate::plan::{Layout, Plan, PlanConfig, Site, Step, plan_assembly, verify_plan};
 use crate::rig::RigError;
@@ -354,9 +355,10 @@ pub fn dry_run(
     })
 }
 
-/// The planner's settings without the tip, as the loop's: its placed
-/// tolerance and travel speed, the scene's push speed (1 um/s without a
-/// scene), the free space kept round the pattern. (At the planner's default
+/// The planner's settings without the tip's start, as the loop's: its
+/// placed tolerance and travel speed, the scene's push speed and particle
+/// size (1 um/s and 10 um spheres without a scene), the free space kept
+/// round the pattern. (At the planner's default
 /// travel speed, 10 um/s, not the loop's 50, the tour weighed travel more
 /// and chose other orders than the loop's.)
 fn plan_config(scene: Option<&Scene>, keep_clear_m: f64) -> PlanConfig {
@@ -364,7 +366,10 @@ fn plan_config(scene: Option<&Scene>, keep_clear_m: f64) -> PlanConfig {
         keep_clear_m,
         ..AssemblySettings::default()
     }
-    .plan_config_pushing_at(scene.map_or(1e-6, |s| s.push.speed_m_per_s))
+    .plan_config_for(
+        scene.map_or(1e-6, |s| s.push.speed_m_per_s),
+        scene.map_or(DEFAULT_GEOMETRY_RADIUS_M, |s| s.particle_radius_m),
+    )
 }
 
 /// The sites: the pattern `asked` for (the recording's target aside), as

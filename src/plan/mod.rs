@@ -34,6 +34,7 @@ pub mod route;
 pub mod shortcuts;
 pub mod stray_gap;
 pub mod synth_layout;
+pub mod tip_scale;
 pub mod touching;
 pub mod tour;
 pub mod value_sign;

@@ -101,7 +101,19 @@ pub struct PlanGeometry {
 /// may leave its geometry out (the plan fields do not name it).
 impl Default for PlanGeometry {
     fn default() -> Self {
-        let c = PlanConfig::default();
+        Self::of_config(&PlanConfig::default())
+    }
+}
+
+impl PlanGeometry {
+    /// `nanopush plan`'s geometry for particles of `radius_m` (the tip
+    /// scaled to them, [`PlanConfig::with_tip_scaled_to`]): what a plan
+    /// that gives none is replayed with.
+    pub fn for_particle_radius(radius_m: f64) -> Self {
+        Self::of_config(&PlanConfig::default().with_tip_scaled_to(radius_m))
+    }
+
+    fn of_config(c: &PlanConfig) -> Self {
         PlanGeometry {
             tip_radius_um: c.tip_radius_m * 1e6,
             standoff_um: c.standoff_m * 1e6,

@@ -158,14 +158,15 @@ impl AssemblySettings {
     /// The planner's settings for a run: the scene's pushing speed, the
     /// executor's travel speed and placement tolerance (so the plan that
     /// places the pattern and the loop's plans agree on what is placed and
-    /// which particles fit the sites), defaults otherwise.
+    /// which particles fit the sites), the tip scaled to the scene's
+    /// particles ([`PlanConfig::with_tip_scaled_to`]), defaults otherwise.
     pub fn plan_config(&self, scene: &Scene) -> PlanConfig {
-        self.plan_config_pushing_at(scene.push.speed_m_per_s)
+        self.plan_config_for(scene.push.speed_m_per_s, scene.particle_radius_m)
     }
 
-    /// [`Self::plan_config`] for a push speed given apart (a dry run may
-    /// have no scene).
-    pub fn plan_config_pushing_at(&self, push_speed_m_per_s: f64) -> PlanConfig {
+    /// [`Self::plan_config`] for a push speed and particle radius given
+    /// apart (a dry run may have no scene).
+    pub fn plan_config_for(&self, push_speed_m_per_s: f64, particle_radius_m: f64) -> PlanConfig {
         PlanConfig {
             push_speed_m_per_s,
             travel_speed_m_per_s: self.travel_speed_m_per_s,
@@ -174,6 +175,7 @@ impl AssemblySettings {
             keep_clear_m: self.keep_clear_m,
             ..PlanConfig::default()
         }
+        .with_tip_scaled_to(particle_radius_m)
     }
 }
 
@@ -1131,6 +1133,27 @@ mod tests {
         assert!(said.ends_with(&note), "{said}");
     }
 
+    /// The loop plans with the tip scaled to the scene's particles: 1 um
+    /// spheres get a 0.1 um disc (with the 10 um spheres' 1 um one a dense
+    /// field of them stopped the run at its first plan, 0 of 9 sites; now
+    /// 9 of 9), 10 um spheres the defaults.
+    #[test]
+    fn the_loop_plans_with_the_tip_scaled_to_the_scenes_particles() {
+        let mut scene = crate::model::Scene::load(std::path::Path::new(
+            crate::model::scene::DEFAULT_SCENE_PATH,
+        ))
+        .unwrap();
+        let settings = AssemblySettings::default();
+        let paper = settings.plan_config(&scene);
+        assert_eq!(paper.tip_radius_m, PlanConfig::default().tip_radius_m);
+        assert_eq!(paper.standoff_m, PlanConfig::default().standoff_m);
+        scene.particle_radius_m = 0.5e-6;
+        let micron = settings.plan_config(&scene);
+        assert!((micron.tip_radius_m - 0.1e-6).abs() < 1e-15);
+        assert!((micron.standoff_m - 0.1e-6).abs() < 1e-15);
+        assert_eq!(micron.push_speed_m_per_s, scene.push.speed_m_per_s);
+    }
+
     /// The loop's plans keeping 2.5 um (assemble's default, half a radius) leave
     /// the particles they need not that far off the pattern's where they
     /// can: on 12 CMU scenes, 8 keep
@@ -1145,7 +1168,7 @@ mod tests {
             keep_clear_m: 2.5e-6,
             ..AssemblySettings::default()
         };
-        let loops = keeping.plan_config_pushing_at(1e-6);
+        let loops = keeping.plan_config_for(1e-6, 5e-6);
         let plain = PlanConfig::default();
         let (mut kept, mut plain_gaps) = (Vec::new(), Vec::new());
         for seed in 0..12 {
