@@ -952,11 +952,13 @@ impl<'a> Assembly<'a> {
             .map(|t| [t.last.x_m, t.last.y_m]);
         let tol = self.settings.check_tolerances();
         let mut short = false;
+        let mut ping_pong = false;
         let (result, error_nm, lost, completes) = match seen {
             None => ("unseen".to_owned(), 0.0, false, false),
             Some(at) => {
                 let c = check_push(intent.from, intent.to, at, &tol);
                 short = matches!(c, PushCheck::FellShort { .. } | PushCheck::Unmoved { .. });
+                ping_pong = overshot_without_progress(&c, at, intent.from, intent.to);
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
                 let name = match c {
                     PushCheck::Placed { .. } => "placed",
@@ -1002,6 +1004,11 @@ impl<'a> Assembly<'a> {
         if lost {
             self.fail(intent.particle)?;
             self.repush_next = Some(intent.particle);
+        } else if ping_pong {
+            // An overshoot as long as the push itself: the next push, back,
+            // overshoots as much (a 1 um sphere sliding on after 0.2 um
+            // corrections was pushed to and fro 372 times). A failed try.
+            self.fail(intent.particle)?;
         }
         Ok(())
     }
@@ -1028,6 +1035,19 @@ impl<'a> Assembly<'a> {
         }
         Ok(())
     }
+}
+
+/// True when a push from `from` to `to` overshot and left its particle,
+/// seen at `at`, no nearer `to` than it started: pushed back, it would
+/// overshoot as much again.
+fn overshot_without_progress(
+    check: &PushCheck,
+    at: [f64; 2],
+    from: [f64; 2],
+    to: [f64; 2],
+) -> bool {
+    let gap = |p: [f64; 2]| (p[0] - to[0]).hypot(p[1] - to[1]);
+    matches!(check, PushCheck::Overshot { .. }) && gap(at) >= gap(from)
 }
 
 /// Why one push was not made.
@@ -1093,6 +1113,7 @@ mod tests {
         AssemblySettings, ExecError, RunEnd, apex_doubt_unfollowed, error_end,
         unfollowed_drift_said, with_drift_note,
     };
+    use crate::exec::push_check::PushCheck;
     use crate::plan::cmu_scene::cmu_scene;
     use crate::plan::synth_layout::LayoutKind;
     use crate::plan::{PlanConfig, plan_assembly, verify_plan};
@@ -1131,6 +1152,36 @@ mod tests {
         let said = error_end(&lost, lost.to_string(), &note).reason().unwrap();
         assert_eq!(said.matches(advice).count(), 1, "{said}");
         assert!(said.ends_with(&note), "{said}");
+    }
+
+    /// An overshoot past the target by as much as the push is a failed
+    /// try (the run of 1 um spheres pushed one 0.2 um to and fro 372
+    /// times); one that lands nearer than it started, or a placed push, is
+    /// not.
+    #[test]
+    fn an_overshoot_that_gains_nothing_is_a_failed_try() {
+        let (from, to) = ([62.56e-6, 23.55e-6], [62.76e-6, 23.55e-6]);
+        let over = PushCheck::Overshot { excess_m: 0.21e-6 };
+        assert!(super::overshot_without_progress(
+            &over,
+            [62.97e-6, 23.55e-6],
+            from,
+            to
+        ));
+        let far_from = [60.0e-6, 23.55e-6];
+        assert!(!super::overshot_without_progress(
+            &over,
+            [62.97e-6, 23.55e-6],
+            far_from,
+            to
+        ));
+        let placed = PushCheck::Placed { error_m: 0.21e-6 };
+        assert!(!super::overshot_without_progress(
+            &placed,
+            [62.97e-6, 23.55e-6],
+            from,
+            to
+        ));
     }
 
     /// The loop plans with the tip scaled to the scene's particles: 1 um
