@@ -1006,8 +1006,8 @@ impl<'a> Assembly<'a> {
             self.repush_next = Some(intent.particle);
         } else if ping_pong {
             // An overshoot as long as the push itself: the next push, back,
-            // overshoots as much (a 1 um sphere sliding on after 0.2 um
-            // corrections was pushed to and fro 372 times). A failed try.
+            // overshoots as much (a 2 um sphere taken for a smaller one slid
+            // on after 0.2 um corrections, to and fro 372 times). A failed try.
             self.fail(intent.particle)?;
         }
         Ok(())
@@ -1155,7 +1155,7 @@ mod tests {
     }
 
     /// An overshoot past the target by as much as the push is a failed
-    /// try (the run of 1 um spheres pushed one 0.2 um to and fro 372
+    /// try (a run of 2 um spheres pushed one 0.2 um to and fro 372
     /// times); one that lands nearer than it started, or a placed push, is
     /// not.
     #[test]
