@@ -368,8 +368,14 @@ fn plan_config(scene: Option<&Scene>, keep_clear_m: f64) -> PlanConfig {
     }
     .plan_config_for(
         scene.map_or(1e-6, |s| s.push.speed_m_per_s),
-        scene.map_or(DEFAULT_GEOMETRY_RADIUS_M, |s| s.particle_radius_m),
+        particle_radius_m(scene),
     )
+}
+
+/// The scene's particle radius; without a scene, the 10 um spheres' the
+/// planner's defaults are drawn for.
+fn particle_radius_m(scene: Option<&Scene>) -> f64 {
+    scene.map_or(DEFAULT_GEOMETRY_RADIUS_M, |s| s.particle_radius_m)
 }
 
 /// The sites: the pattern `asked` for (the recording's target aside), as
@@ -458,7 +464,7 @@ fn next_command(
     // As the loop does: the particles' measured sizes, the scene's (or 5
     // um) before any is seen.
     let tracks = tracker.tracks();
-    let sizes = ParticleSizes::of(tracks, scene.map_or(5e-6, |s| s.particle_radius_m));
+    let sizes = ParticleSizes::of(tracks, particle_radius_m(scene));
     let layout = Layout {
         field_m,
         particles: planning_particles(tracks, &sizes, field_m),
