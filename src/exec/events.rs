@@ -243,7 +243,8 @@ pub enum RunEvent {
         radius_um: Option<f64>,
         /// How much further along the push the stroke was laid out than
         /// the particle was seen, nanometres: the shortfall of the push of
-        /// it before (`exec::assemble`'s miss lead; absent when none).
+        /// it before, or less than none (back) by its overshoot
+        /// (`exec::assemble`'s miss lead; absent when none).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         lead_nm: Option<f64>,
     },
@@ -337,7 +338,7 @@ mod tests {
             radius_um: Some(5.0),
             lead_nm,
         };
-        for lead in [Some(215.0), None] {
+        for lead in [Some(215.0), Some(-180.0), None] {
             let text = serde_json::to_string(&decision(lead)).unwrap();
             assert_eq!(text.contains("lead_nm"), lead.is_some(), "{text}");
             let back: RunEvent = serde_json::from_str(&text).unwrap();

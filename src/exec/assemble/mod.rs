@@ -91,7 +91,8 @@ pub struct AssemblySettings {
     /// leads the next push of the same particle by: its stroke is laid out
     /// that much further along (`miss_lead`; default 0.25 um, half the
     /// clearance, so that the tip is still lowered behind the particle; 0:
-    /// never).
+    /// never); and the most one that overshot by more than half its length
+    /// leads the next back by.
     pub max_lead_m: f64,
     /// Farthest a particle may be from its predicted place and keep its identity (default 4 um).
     pub track_gate_m: f64,
@@ -392,7 +393,7 @@ pub struct Assembly<'a> {
     left_short_before: Vec<usize>,
     repush_next: Option<usize>,
     /// The lead the last push took, or the next push takes after a push
-    /// that fell short ([`miss_lead`]).
+    /// that fell short or overshot ([`miss_lead`]).
     lead: Option<miss_lead::MissLead>,
     stage_faults: u32,
     coarse_offset: [f64; 2],
@@ -951,14 +952,15 @@ impl<'a> Assembly<'a> {
             .filter(|t| t.missed_frames == 0)
             .map(|t| [t.last.x_m, t.last.y_m]);
         let tol = self.settings.check_tolerances();
-        let mut short = false;
-        let mut ping_pong = false;
-        let (result, error_nm, lost, completes) = match seen {
-            None => ("unseen".to_owned(), 0.0, false, false),
-            Some(at) => {
-                let c = check_push(intent.from, intent.to, at, &tol);
-                short = matches!(c, PushCheck::FellShort { .. } | PushCheck::Unmoved { .. });
-                ping_pong = overshot_without_progress(&c, at, intent.from, intent.to);
+        let check = seen.map(|at| check_push(intent.from, intent.to, at, &tol));
+        let short = matches!(
+            check,
+            Some(PushCheck::FellShort { .. } | PushCheck::Unmoved { .. })
+        );
+        let ping_pong = (seen.zip(check.as_ref()))
+            .is_some_and(|(at, c)| overshot_without_progress(c, at, intent.from, intent.to));
+        let (result, error_nm, lost, completes) = match (seen, &check) {
+            (Some(at), Some(c)) => {
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
                 let name = match c {
                     PushCheck::Placed { .. } => "placed",
@@ -974,6 +976,7 @@ impl<'a> Assembly<'a> {
                     c.completes_step(),
                 )
             }
+            _ => ("unseen".to_owned(), 0.0, false, false),
         };
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
@@ -981,11 +984,18 @@ impl<'a> Assembly<'a> {
         // A push that fell short, having moved its particle less than half
         // its length, leads the particle's next push (only the next: the
         // tip's error changes).
+        // One that overshot by more than half its length leads it back.
         let used_m = self.lead_for(intent.particle);
-        self.lead = seen.filter(|_| short).and_then(|at| {
-            let max_m = self.settings.max_lead_m;
-            miss_lead::lead_after(intent.particle, (intent.from, intent.to), at, used_m, max_m)
-        });
+        let (push, max_m) = ((intent.from, intent.to), self.settings.max_lead_m);
+        self.lead = match (seen, check) {
+            (Some(at), _) if short => {
+                miss_lead::lead_after(intent.particle, push, at, used_m, max_m)
+            }
+            (_, Some(PushCheck::Overshot { excess_m })) => {
+                miss_lead::lead_back_after(intent.particle, push, excess_m, used_m, max_m)
+            }
+            _ => None,
+        };
         if completes {
             self.plan_in_hand = self.plan_in_hand.take().map(|p| without_first_push(&p));
         }

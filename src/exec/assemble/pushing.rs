@@ -108,7 +108,7 @@ impl Assembly<'_> {
                 mode: format!("{:?}", a.mode).to_lowercase(),
                 repush,
                 radius_um: Some(intent.radius_m * 1e6),
-                lead_nm: (lead_m > 0.0).then_some(lead_m * 1e9),
+                lead_nm: (lead_m != 0.0).then_some(lead_m * 1e9),
             },
         )?;
         Ok(())
