@@ -191,9 +191,9 @@ fn pushes_are_no_longer_than_the_stage_step_allows() {
 /// named; planned at half the standoff otherwise, and the plan file keeps
 /// that standoff, so the independent replay of the file lands the tip where
 /// the plan does.
-/// An order that spends its search effort on repairs is refused and says
-/// so: adversarial seed 1 needs buffer moves and detours, and plans with
-/// the default effort.
+/// An order that spends its search effort on repairs, or a fifth of it
+/// without completing a move, is refused and says so: adversarial seed 1
+/// needs buffer moves and detours, and plans with the default effort.
 #[test]
 fn an_order_out_of_search_effort_is_refused_with_its_reason() {
     let (layout, sites) = cmu_scene(LayoutKind::Adversarial, 1);
@@ -212,6 +212,19 @@ fn an_order_out_of_search_effort_is_refused_with_its_reason() {
             )
         }
         other => panic!("not refused for its effort: {other:?}"),
+    }
+    // Adversarial seed 3 at 100 per move and particle: its last order
+    // spent a fifth of that without completing a move (`order::STALL_SHARE`).
+    let (layout, sites) = cmu_scene(LayoutKind::Adversarial, 3);
+    let stalled = PlanConfig {
+        search_effort: 100,
+        ..PlanConfig::default()
+    };
+    match plan_assembly(&layout, &sites, &stalled) {
+        Err(PlanError::Blocked(reason)) => {
+            assert!(reason.contains("made way for none"), "{reason}")
+        }
+        other => panic!("not refused for its stall: {other:?}"),
     }
     let none = PlanConfig {
         search_effort: 0,

@@ -40,6 +40,15 @@ use super::{PlanConfig, Step};
 use nalgebra::Vector2;
 use std::cell::RefCell;
 
+/// An order that spends this share of its search effort
+/// ([`PlanConfig::search_effort`]) without completing a move is refused:
+/// orders that planned went at most 216 per move and particle between two
+/// completed moves (CMU's 120 acceptance layouts: 195; a sweep of 60 other
+/// fields, radii 0.5-5 um, uniform, clustered and adversarial: 216), a fifth
+/// of the default 5,000 is 1,000; the refused ones had gone thousands
+/// without one, 38 of 38 moves often blocked all the way.
+pub const STALL_SHARE: u64 = 5;
+
 /// Why no order was found, and which (particle index, site index) moves
 /// were stuck: the caller may assign those sites to other particles and try
 /// again.
@@ -491,6 +500,9 @@ impl Scheduler<'_> {
             .config
             .search_effort
             .saturating_mul(moves_and_particles);
+        let max_stall = max_work / STALL_SHARE;
+        // The work done when the last move was completed.
+        let mut progress_at = 0u64;
         loop {
             let tip = self.tip;
             let mut ready: Vec<(f64, usize)> = (0..total)
@@ -518,6 +530,7 @@ impl Scheduler<'_> {
             }
             if let Some(k) = chosen {
                 self.go(k);
+                progress_at = self.occ.work();
                 continue;
             }
             repairs += 1;
@@ -528,6 +541,11 @@ impl Scheduler<'_> {
                 Some(format!(
                     "when the search effort ran out ({} tests of buffer moves and detours)",
                     self.occ.work()
+                ))
+            } else if self.occ.work() - progress_at > max_stall {
+                Some(format!(
+                    "after {} tests of buffer moves and detours made way for none",
+                    self.occ.work() - progress_at
                 ))
             } else {
                 None
