@@ -15,7 +15,7 @@
 //! higher on its side than the contact angle asked), and the push back
 //! would overshoot as much again. A 4.2 um sphere of a polydisperse batch,
 //! never seen clear of its neighbours, was pushed to and fro 355 times by
-//! 0.2-0.3 um.
+//! 0.2-0.3 um. Only where the drift is followed (see `Assembly::check`).
 
 use crate::exec::push_check::{PushFrame, push_frame};
 
