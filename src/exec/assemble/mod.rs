@@ -952,15 +952,12 @@ impl<'a> Assembly<'a> {
             .filter(|t| t.missed_frames == 0)
             .map(|t| [t.last.x_m, t.last.y_m]);
         let tol = self.settings.check_tolerances();
-        let check = seen.map(|at| check_push(intent.from, intent.to, at, &tol));
-        let short = matches!(
-            check,
-            Some(PushCheck::FellShort { .. } | PushCheck::Unmoved { .. })
-        );
-        let ping_pong = (seen.zip(check.as_ref()))
-            .is_some_and(|(at, c)| overshot_without_progress(c, at, intent.from, intent.to));
-        let (result, error_nm, lost, completes) = match (seen, &check) {
-            (Some(at), Some(c)) => {
+        // Where the particle was seen, and what that says of the push.
+        let checked = seen.map(|at| (at, check_push(intent.from, intent.to, at, &tol)));
+        let ping_pong = (checked.as_ref())
+            .is_some_and(|(at, c)| overshot_without_progress(c, *at, intent.from, intent.to));
+        let (result, error_nm, lost, completes) = match &checked {
+            Some((at, c)) => {
                 let error_nm = (at[0] - intent.to[0]).hypot(at[1] - intent.to[1]) * 1e9;
                 let name = match c {
                     PushCheck::Placed { .. } => "placed",
@@ -976,7 +973,7 @@ impl<'a> Assembly<'a> {
                     c.completes_step(),
                 )
             }
-            _ => ("unseen".to_owned(), 0.0, false, false),
+            None => ("unseen".to_owned(), 0.0, false, false),
         };
         if let Some(r) = self.records.last_mut() {
             r.lost_contact_detected = lost;
@@ -991,11 +988,11 @@ impl<'a> Assembly<'a> {
         // its 31 sites off instead).
         let used_m = self.lead_for(intent.particle);
         let (push, max_m) = ((intent.from, intent.to), self.settings.max_lead_m);
-        self.lead = match (seen, check) {
-            (Some(at), _) if short => {
+        self.lead = match checked {
+            Some((at, PushCheck::FellShort { .. } | PushCheck::Unmoved { .. })) => {
                 miss_lead::lead_after(intent.particle, push, at, used_m, max_m)
             }
-            (_, Some(PushCheck::Overshot { excess_m })) if self.drift.is_some() => {
+            Some((_, PushCheck::Overshot { excess_m })) if self.drift.is_some() => {
                 miss_lead::lead_back_after(intent.particle, push, excess_m, used_m, max_m)
             }
             _ => None,

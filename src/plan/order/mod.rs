@@ -542,10 +542,11 @@ impl Scheduler<'_> {
                     "when the search effort ran out ({} tests of buffer moves and detours)",
                     self.occ.work()
                 ))
-            } else if self.occ.work() - progress_at > max_stall {
+            } else if let stalled = self.occ.work() - progress_at
+                && stalled > max_stall
+            {
                 Some(format!(
-                    "after {} tests of buffer moves and detours made way for none",
-                    self.occ.work() - progress_at
+                    "after {stalled} tests of buffer moves and detours made way for none"
                 ))
             } else {
                 None
