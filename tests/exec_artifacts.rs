@@ -228,12 +228,18 @@ fn files_read_back_and_agree() {
         .filter(|e| matches!(e.event, RunEvent::Decision { .. }))
         .count();
     assert_eq!(report.pushes, decisions);
+    // The simulated rig counts the tip's landings on particles: none here.
+    assert_eq!(report.tip_landings_on_particles, Some(0), "{text}");
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        md.contains("| tip lowered onto a particle | 0 times (ground truth) |"),
+        "{md}"
+    );
     // Its push log: every push decided, those made numbered 1.. as the
     // force charts and report.md's table number them.
     assert_eq!(report.push_log.len(), decisions);
     let numbers: Vec<Option<usize>> = report.push_log.iter().map(|p| p.n).collect();
     assert_eq!(numbers, (1..=decisions).map(Some).collect::<Vec<_>>());
-    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     for p in &report.push_log {
         let row = format!(
             "| {} | {:.1} | {} | ",

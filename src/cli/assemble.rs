@@ -470,6 +470,7 @@ fn finish(
         site_errors_m: &errors_m,
         error_source: "ground-truth",
         lost_contacts_missed: Some(missed),
+        tip_landings_on_particles: Some(rig.stage.landings().len()),
         time_s: rig.now_s(),
         effect_work: Some(rig.stage.effect_work()),
         nearest_stray_gap_m: stray_gap_m(&run.sites, truth),
@@ -617,6 +618,9 @@ fn print_summary(r: &AssemblyReport, out: &Path) {
             r.lost_contacts_detected, m
         ),
         None => println!("  lost contacts    {} detected", r.lost_contacts_detected),
+    }
+    if let Some(n) = r.tip_landings_on_particles {
+        println!("  tip landings     {n} on a particle (ground truth)");
     }
     println!("  time             {}", r.time_summary());
     for e in &r.active_effects {

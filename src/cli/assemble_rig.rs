@@ -750,6 +750,7 @@ fn finish_run(
         error_source: "camera",
         // Nobody knows the lost contacts a real rig's loop missed.
         lost_contacts_missed: None,
+        tip_landings_on_particles: None,
         time_s: rig.now_s(),
         // A hardware rig has no model inside to count.
         effect_work: None,

@@ -181,6 +181,12 @@ pub fn write_report_md(
         ),
         ("time", report.time_summary()),
     ];
+    if let Some(n) = report.tip_landings_on_particles {
+        rows.push((
+            "tip lowered onto a particle",
+            format!("{n} times (ground truth){since_resume}"),
+        ));
+    }
     // The drift estimate is the last process's (it starts again at a resume).
     rows.extend(report.notes().into_iter().map(|(what, note)| match what {
         "tip drift" => (what, format!("{note}{since_resume}")),

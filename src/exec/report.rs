@@ -75,6 +75,11 @@ pub struct AssemblyReport {
     /// Lost contacts the simulated rig caused that the executor did not see
     /// (null on a real rig, where nobody knows).
     pub lost_contacts_missed: Option<usize>,
+    /// Moves that lowered the tip onto a particle, by the simulated rig's
+    /// ground truth (absent on a real rig, where nobody knows, and in
+    /// reports written before this field).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tip_landings_on_particles: Option<usize>,
     /// Rig time of the run, seconds, less [`Self::operator_wait_s`].
     pub time_s: f64,
     /// Rig time the run spent waiting for the operator (the confirmation
@@ -252,6 +257,8 @@ pub struct RunFacts<'a> {
     pub error_source: &'a str,
     /// Lost contacts the loop missed, where somebody knows.
     pub lost_contacts_missed: Option<usize>,
+    /// Moves that lowered the tip onto a particle, where somebody knows.
+    pub tip_landings_on_particles: Option<usize>,
     /// Rig time at the end, seconds.
     pub time_s: f64,
     /// Effect work counted by a simulated rig.
@@ -471,6 +478,7 @@ impl AssemblyReport {
             push_log: counts.push_log,
             lost_contacts_detected: counts.lost_contacts_detected,
             lost_contacts_missed: facts.lost_contacts_missed,
+            tip_landings_on_particles: facts.tip_landings_on_particles,
             time_s,
             operator_wait_s: counts.operator_wait_s,
             lower_bound_s: bound.pushing_s + bound.travel_s,
@@ -992,6 +1000,7 @@ pub(crate) mod tests {
             site_errors_m: &errors_m,
             error_source: "ground-truth",
             lost_contacts_missed: None,
+            tip_landings_on_particles: None,
             time_s: 10.0,
             effect_work: None,
             nearest_stray_gap_m: None,
@@ -1070,6 +1079,7 @@ pub(crate) mod tests {
             push_log: Vec::new(),
             lost_contacts_detected: 0,
             lost_contacts_missed: Some(0),
+            tip_landings_on_particles: Some(0),
             time_s: 30.0,
             lower_bound_s: 20.0,
             active_effects: Vec::new(),
@@ -1104,6 +1114,7 @@ pub(crate) mod tests {
             site_errors_m: &[],
             error_source: "camera",
             lost_contacts_missed: None,
+            tip_landings_on_particles: None,
             time_s: 100.0,
             effect_work: None,
             nearest_stray_gap_m: None,

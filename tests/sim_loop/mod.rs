@@ -14,6 +14,7 @@ use nanopush::plan::pattern_request::PatternRequest;
 use nanopush::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
 use nanopush::rig::camera::{Camera, TimedFrame};
 use nanopush::rig::sim::rig::SimRig;
+use nanopush::rig::sim::stage::TimedLanding;
 use nanopush::rig::stage::{AxisRange, CoarseStage, NanoStage, StageXyz};
 use nanopush::rig::{Rig, RigError};
 use std::path::Path;
@@ -29,6 +30,8 @@ pub struct Outcome {
     pub t_end_s: f64,
     /// The apex offsets the loop fitted the calibration's map to.
     pub map_sightings: Vec<MapSighting>,
+    /// Every move that lowered the tip onto a particle (ground truth).
+    pub landings: Vec<TimedLanding>,
 }
 
 impl Outcome {
@@ -169,6 +172,7 @@ pub fn run_sim_moved<M: FnMut(&mut SimRig, StageXyz, f64) -> Result<(), RigError
         events,
         t_end_s: run.rig.now_s(),
         map_sightings,
+        landings: run.rig.stage.landings().to_vec(),
     }
 }
 

@@ -37,6 +37,7 @@ use crate::rig::{Rig, RigError};
 use std::collections::HashMap;
 
 mod apex_doubt;
+mod landing;
 mod left_short;
 mod miss_lead;
 mod planning;
@@ -1024,12 +1025,14 @@ impl<'a> Assembly<'a> {
         Ok(())
     }
 
-    /// The lead the next push of `particle` takes ([`miss_lead`]); 0 when
+    /// The lead the next push of `particle` takes ([`miss_lead`]), bounded
+    /// by where the tip may land ([`Self::lead_within_landing`]); 0 when
     /// the lead in hand is another particle's or there is none.
     fn lead_for(&self, particle: usize) -> f64 {
-        (self.lead)
+        let lead_m = (self.lead)
             .filter(|l| l.particle == particle)
-            .map_or(0.0, |l| l.lead_m)
+            .map_or(0.0, |l| l.lead_m);
+        self.lead_within_landing(lead_m)
     }
 
     fn fail(&mut self, particle: usize) -> Result<(), ExecError> {

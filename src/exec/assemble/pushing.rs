@@ -29,7 +29,7 @@ impl Assembly<'_> {
             radius_m: intent.radius_m,
             contact_angle_rad: advice.contact_angle_rad,
             travel_after_contact_m: advice.duration_s * scene.push.speed_m_per_s,
-            clearance_m: self.settings.clearance_m,
+            clearance_m: self.landing_gap_m(),
             slow_approach_m: self.settings.slow_approach_m,
             safe_z_m: safe_z,
         })

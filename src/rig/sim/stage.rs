@@ -48,6 +48,18 @@ pub struct TimedContact {
     pub event: ContactEvent,
 }
 
+/// A move that lowered the tip onto a particle (ground truth; see
+/// [`World::landed_on`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimedLanding {
+    /// Rig time at the end of the move, seconds.
+    pub t_s: f64,
+    /// The particle landed on (its id in the world).
+    pub particle: usize,
+    /// Where the apex came down, metres on the sample.
+    pub at_m: [f64; 2],
+}
+
 /// The simulated nanostage and the world it moves the tip through.
 pub struct SimStage {
     /// Ground truth: particles and tip friction.
@@ -59,6 +71,7 @@ pub struct SimStage {
     clock_s: f64,
     seed: u64,
     contacts: Vec<TimedContact>,
+    landings: Vec<TimedLanding>,
     moves: usize,
     fail_at_move: Option<usize>,
     coarse_offset: [f64; 2],
@@ -86,6 +99,7 @@ impl SimStage {
             clock_s: 0.0,
             seed,
             contacts: Vec::new(),
+            landings: Vec::new(),
             moves: 0,
             fail_at_move: None,
             coarse_offset: [0.0, 0.0],
@@ -105,6 +119,11 @@ impl SimStage {
     /// Every contact so far (ground truth).
     pub fn contacts(&self) -> &[TimedContact] {
         &self.contacts
+    }
+
+    /// Every move so far that lowered the tip onto a particle (ground truth).
+    pub fn landings(&self) -> &[TimedLanding] {
+        &self.landings
     }
 
     /// Contacts so far that evaluated each model effect (see [`PushPhysics::effect_work`]).
@@ -251,6 +270,14 @@ impl NanoStage for SimStage {
             let t_s = self.clock_s;
             self.contacts
                 .extend(events.into_iter().map(|event| TimedContact { t_s, event }));
+        } else if to[2] < from[2]
+            && let Some(particle) = self.world.landed_on([to[0], to[1]], to[2])
+        {
+            self.landings.push(TimedLanding {
+                t_s: self.clock_s,
+                particle,
+                at_m: [to[0], to[1]],
+            });
         }
         self.commanded = target;
         self.actual = to;
@@ -301,6 +328,22 @@ mod tests {
         s.move_to([30e-6, 50e-6, 14e-6], 50e-6)?;
         s.move_to([30e-6, 50e-6, z], 10e-6)?;
         s.move_to([70e-6, 50e-6, z], 1e-6)
+    }
+
+    #[test]
+    fn a_tip_lowered_onto_the_particle_is_logged_and_one_lowered_beside_it_not() {
+        let mut s = stage(1);
+        push(&mut s).unwrap();
+        assert!(s.landings().is_empty(), "{:?}", s.landings());
+        let on_top = [s.world.particles[0].x_m, 50e-6];
+        s.move_to([on_top[0], on_top[1], 14e-6], 50e-6).unwrap();
+        s.move_to([on_top[0], on_top[1], 6e-6], 10e-6).unwrap();
+        assert_eq!(s.landings().len(), 1);
+        assert_eq!(s.landings()[0].particle, 7);
+        assert!((s.landings()[0].at_m[0] - on_top[0]).abs() < 0.1e-6);
+        // Lifting off it is no landing.
+        s.move_to([on_top[0], on_top[1], 14e-6], 10e-6).unwrap();
+        assert_eq!(s.landings().len(), 1);
     }
 
     #[test]

@@ -177,6 +177,21 @@ impl World {
         events
     }
 
+    /// The particle (its id) the apex comes down on when lowered from above
+    /// at `xy` to height `z`: one whose sphere reaches above `z` there. The
+    /// world moves nothing for it (how a tip landing on a particle knocks it
+    /// is not modelled); the stage logs it as ground truth, so that a test
+    /// can tell the executor lowered the tip where its plan had not checked.
+    pub fn landed_on(&self, xy: [f64; 2], z: f64) -> Option<usize> {
+        self.particles
+            .iter()
+            .find(|p| {
+                let d = dist(xy, [p.x_m, p.y_m]);
+                d < p.radius_m && z < p.radius_m + (p.radius_m * p.radius_m - d * d).sqrt()
+            })
+            .map(|p| p.id)
+    }
+
     /// The first particle the tip meets on start -> end at height z, not yet touched.
     fn first_hit(
         &self,
@@ -338,6 +353,17 @@ mod tests {
 
     fn z45() -> f64 {
         height_for_contact_angle(std::f64::consts::FRAC_PI_4, R)
+    }
+
+    #[test]
+    fn a_tip_lowered_within_a_spheres_outline_below_its_surface_lands_on_it() {
+        let w = world(&[(50.0, 50.0)]);
+        // 3 um from the centre the surface is 5 + 4 = 9 um up.
+        assert_eq!(w.landed_on([53e-6, 50e-6], 8.9e-6), Some(0));
+        assert_eq!(w.landed_on([53e-6, 50e-6], 9.1e-6), None);
+        // Beside the sphere the tip comes down to the substrate.
+        assert_eq!(w.landed_on([55.1e-6, 50e-6], 0.0), None);
+        assert_eq!(w.landed_on([50e-6, 54.9e-6], 5e-6), Some(0));
     }
 
     #[test]
