@@ -107,6 +107,11 @@ fn study_assemble_keeps_an_earlier_study_and_fails_when_nothing_ran() {
     );
     let summary = out.join("study-assemble.json");
     let written = std::fs::read_to_string(&summary).unwrap();
+    // The simulated rig counts the tip's landings on particles: none.
+    assert!(
+        written.contains("\"tip_landings_on_particles\": 0,"),
+        "{written}"
+    );
     let again = study("L", &[]);
     let said = String::from_utf8_lossy(&again.stderr);
     assert!(

@@ -69,6 +69,10 @@ pub struct RunFigures {
     pub lost_contacts_detected: usize,
     /// Lost contacts the simulator caused but the loop did not see.
     pub lost_contacts_missed: usize,
+    /// Moves that lowered the tip onto a particle, by the simulator's
+    /// ground truth (absent in reports from before 2026-12-02).
+    #[serde(default)]
+    pub tip_landings_on_particles: Option<usize>,
     /// Rig time of the run, s.
     pub time_s: f64,
     /// The planner's lower bound on that time, s.
@@ -131,6 +135,10 @@ pub struct StudySummary {
     pub missed_lost_contacts: usize,
     /// Lost contacts detected, summed over runs.
     pub detected_lost_contacts: usize,
+    /// Moves that lowered the tip onto a particle, summed over the runs
+    /// that count them (absent when none does).
+    #[serde(default)]
+    pub tip_landings_on_particles: Option<usize>,
     /// Median of time / lower bound among complete runs.
     pub median_time_ratio: Option<f64>,
     /// Worst time / lower bound among complete runs.
@@ -397,6 +405,9 @@ pub fn summarise(text: &str, rows: Vec<RunRow>) -> StudySummary {
         median_rms_nm: median(rms.clone()),
         missed_lost_contacts: all().map(|f| f.lost_contacts_missed).sum(),
         detected_lost_contacts: all().map(|f| f.lost_contacts_detected).sum(),
+        tip_landings_on_particles: all()
+            .filter_map(|f| f.tip_landings_on_particles)
+            .reduce(|a, b| a + b),
         median_time_ratio: median(ratios.clone()),
         worst_time_ratio: max(&ratios),
         median_wall_s: median(rows.iter().map(|r| r.wall_s).collect()),
@@ -456,7 +467,7 @@ pub fn acceptance_text(s: &StudySummary) -> String {
         "{text}: {c}/{n} filled every site ({pct:.0} %, target >= 98 %)\n\
          placement RMS{of}: median {mr} nm, worst {wr} nm (target <= 200 nm)\n\
          nearest stray off the pattern{of}: median {mg} um, least {lg} um{nearer}\n\
-         lost contacts: {d} detected, {m} missed (target 0 missed)\n\
+         lost contacts: {d} detected, {m} missed (target 0 missed)\n{landings}\
          time / lower bound{of}: median {mt}, worst {wt} (target <= 1.5){over}\n\
          wall time per run: median {mw} s\n",
         text = s.text,
@@ -477,6 +488,9 @@ pub fn acceptance_text(s: &StudySummary) -> String {
         },
         d = s.detected_lost_contacts,
         m = s.missed_lost_contacts,
+        landings = s.tip_landings_on_particles.map_or(String::new(), |n| format!(
+            "tip lowered onto a particle: {n} times (ground truth, target 0)\n"
+        )),
         mt = fmt_opt(s.median_time_ratio, 3),
         wt = fmt_opt(s.worst_time_ratio, 3),
         mw = fmt_opt(s.median_wall_s, 1),
@@ -553,6 +567,7 @@ mod tests {
             repushes: 1,
             lost_contacts_detected: 1,
             lost_contacts_missed: missed,
+            tip_landings_on_particles: Some(missed),
             time_s: time,
             lower_bound_s: 100.0,
             nearest_stray_gap_um: Some(time / 100.0),
@@ -595,6 +610,7 @@ mod tests {
         assert_eq!(s.median_rms_nm, Some(200.0));
         assert_eq!(s.missed_lost_contacts, 2);
         assert_eq!(s.detected_lost_contacts, 3);
+        assert_eq!(s.tip_landings_on_particles, Some(2));
         assert_eq!(s.worst_time_ratio, Some(2.0));
         assert_eq!(s.median_time_ratio, Some(1.6));
         // Gaps of 1.2 and 2.0 um; the stopped run's 9.0 is not counted.
@@ -608,6 +624,10 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("2/4 runs filled every site (50 %"), "{text}");
+        assert!(
+            text.contains("tip lowered onto a particle: 2 times (ground truth, target 0)\n"),
+            "{text}"
+        );
         // 96 and 160 s pushing against 90 s; 18 and 30 s lifted against 10.
         assert!(
             text.contains("time above the bound's same part, median per run: 38 s pushing, 14 s lifted, 8 s else"),
