@@ -21,7 +21,7 @@ use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::{PatternRequest, PatternSource};
 use crate::plan::placement::PlacementGoal;
 use crate::plan::tip_scale::DEFAULT_GEOMETRY_RADIUS_M;
-use crate::plan::verify::fails_only_after_its_first_push;
+use crate::plan::verify::pushable_later;
 use crate::plan::{Layout, Plan, PlanConfig, Site, Step, plan_assembly, verify_plan};
 use crate::rig::RigError;
 use crate::rig::camera::{Camera, TimedFrame};
@@ -476,17 +476,18 @@ fn next_command(
     let kept = kept_plan(in_hand.take(), commanded, tracker, &layout);
     let plan = match kept {
         Some(p) if verify_plan(&p, &layout, &config).ok => p,
-        faulty => match (plan_assembly(&layout, sites, &config), faulty) {
-            (Ok(p), _) => p,
+        faulty => match plan_assembly(&layout, sites, &config) {
+            Ok(p) => p,
             // As the loop: push on with a plan in hand that fails only later.
-            (Err(_), Some(p)) if fails_only_after_its_first_push(&p, &layout, &config) => p,
-            (Err(e), _) => {
-                return (
-                    DryCommand::Refused {
-                        reason: format!("planner: {e}"),
-                    },
-                    Vec::new(),
-                );
+            Err(e) => {
+                let lowered_m = AssemblySettings::default().clearance_m;
+                match faulty.and_then(|p| pushable_later(p, &layout, &config, lowered_m)) {
+                    Some(p) => p,
+                    None => {
+                        let reason = format!("planner: {e}");
+                        return (DryCommand::Refused { reason }, Vec::new());
+                    }
+                }
             }
         },
     };

@@ -9,7 +9,7 @@ use crate::exec::tracker::{Track, Tracker};
 use crate::plan::layout::{Layout, Particle, UM_PER_M, beyond_field_m, may_lie_in_field};
 use crate::plan::rebase::rebase_plan;
 use crate::plan::touching::settle_overlaps;
-use crate::plan::verify::fails_only_after_its_first_push;
+use crate::plan::verify::pushable_later;
 use crate::plan::{Plan, Step, plan_assembly, verify_plan};
 use crate::vision::log_on_change::changed;
 use crate::wording::counted;
@@ -98,9 +98,9 @@ impl Assembly<'_> {
                         self.journal_plan(&plan, because)?;
                         plan
                     }
-                    Err(e) => match faulty_later
-                        .filter(|p| fails_only_after_its_first_push(p, &layout, &config))
-                    {
+                    Err(e) => match faulty_later.and_then(|p| {
+                        pushable_later(p, &layout, &config, self.settings.clearance_m)
+                    }) {
                         // No plan now, but the next push of the one in hand is
                         // clear: make it and plan again after it, as after
                         // every push. In a dense core the particles as
