@@ -390,25 +390,20 @@ pub fn verify_plan_with(
     rep
 }
 
-/// Whether `plan` fails only after its first push, which replays clean on
-/// `layout` ([`VerifyReport::first_faulty_step`]): a plan in hand the loop
-/// (and the dry-run) pushes on with when no fresh plan is found.
-pub fn fails_only_after_its_first_push(
-    plan: &Plan,
-    layout: &Layout,
-    config: &super::PlanConfig,
-) -> bool {
+/// Whether `plan`, replayed as `report` says, fails only after its first
+/// push, which replays clean ([`VerifyReport::first_faulty_step`]).
+fn fails_only_after_its_first_push(plan: &Plan, report: &VerifyReport) -> bool {
     let first_push = plan
         .steps
         .iter()
         .position(|step| matches!(step, Step::Push { .. }));
-    let first_fault = verify_plan(plan, layout, config).first_faulty_step();
+    let first_fault = report.first_faulty_step();
     matches!((first_push, first_fault), (Some(push), Some(fault)) if push < fault)
 }
 
 /// A plan in hand that no longer verifies, when the loop (and the
 /// dry-run) may push on with it for want of a fresh plan: its first push
-/// clear and only a later one failing ([`fails_only_after_its_first_push`]),
+/// clear and only a later one failing ([`VerifyReport::first_faulty_step`]),
 /// at its own standoff or at the nearest one that still covers where the
 /// push lowers the tip (`lowered_m` behind the particle, within the tip
 /// disc; at least `min_standoff_m`). 10 um spheres' plans check 2 um where
@@ -422,16 +417,23 @@ pub fn pushable_later(
     config: &super::PlanConfig,
     lowered_m: f64,
 ) -> Option<Plan> {
-    if fails_only_after_its_first_push(&plan, layout, config) {
+    // One replay a standoff.
+    let pushable = |p: &Plan| {
+        let report = verify_plan(p, layout, config);
+        report.ok || fails_only_after_its_first_push(p, &report)
+    };
+    if pushable(&plan) {
         return Some(plan);
     }
     let nearest_m = (lowered_m - config.tip_radius_m).max(config.min_standoff_m);
+    if plan.standoff_m <= nearest_m {
+        return None;
+    }
     let nearer = Plan {
-        standoff_m: plan.standoff_m.min(nearest_m),
+        standoff_m: nearest_m,
         ..plan
     };
-    let ok = verify_plan(&nearer, layout, config).ok;
-    (ok || fails_only_after_its_first_push(&nearer, layout, config)).then_some(nearer)
+    pushable(&nearer).then_some(nearer)
 }
 
 /// Least free space between a particle on no site (final positions `pos`)
