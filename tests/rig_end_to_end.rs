@@ -636,6 +636,13 @@ fn assembling_on_the_gcs_simulator_and_a_watched_folder_completes_like_the_simul
         world.contacts().iter().any(|c| c.moved_m > 1.0 * UM),
         "the probe pushed nothing"
     );
+    // Through the controller as on the simulated rig, the tip never comes
+    // down on a particle.
+    assert!(
+        world.landings().is_empty(),
+        "the tip was lowered onto particles: {:?}",
+        world.landings()
+    );
     // The camera's nearest stray is the world's, within what the detector
     // sizes particles to (15 nm a radius, tracker.rs ISOLATED_GAP_M).
     let centres: Vec<_> = sites

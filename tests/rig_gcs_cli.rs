@@ -24,6 +24,21 @@ fn rig_text(port: u16) -> String {
         .replace("127.0.0.1:50000", &format!("127.0.0.1:{port}"))
 }
 
+/// calib/rig-gcs-sim-folder.toml with the camera calibration and the
+/// frames folder of a test's own, both as absolute paths.
+fn folder_rig_text(calibration: &std::path::Path, frames: &std::path::Path) -> String {
+    std::fs::read_to_string("calib/rig-gcs-sim-folder.toml")
+        .unwrap()
+        .replace(
+            "\"camera-stage-sim-folder.toml\"",
+            &format!("{:?}", calibration.display().to_string()),
+        )
+        .replace(
+            "\"../out/rig-gcs-sim-folder/frames\"",
+            &format!("{:?}", frames.display().to_string()),
+        )
+}
+
 /// `nanopush rig probe --rig RIG`'s output, which must succeed.
 fn probe(rig: &std::path::Path) -> String {
     let out = nanopush()
@@ -513,16 +528,7 @@ fn probe_camera_says_what_the_loop_sees_in_a_frame() {
     std::fs::create_dir(at("empty")).unwrap();
     let calibration = std::fs::canonicalize("calib/camera-stage-sim.toml").unwrap();
     let probe_camera = |folder: &str, scene: &str| {
-        let text = std::fs::read_to_string("calib/rig-gcs-sim-folder.toml")
-            .unwrap()
-            .replace(
-                "\"camera-stage-sim-folder.toml\"",
-                &format!("{:?}", calibration.display().to_string()),
-            )
-            .replace(
-                "\"../out/rig-gcs-sim-folder/frames\"",
-                &format!("{:?}", at(folder)),
-            )
+        let text = folder_rig_text(&calibration, std::path::Path::new(&at(folder)))
             .replace("skip_existing = true", "skip_existing = false")
             .replace("timeout_ms = 5000", "timeout_ms = 300");
         let rig = at(&format!("{folder}.toml"));
@@ -859,4 +865,42 @@ fn sim_gcs_says_it_listens_only_once_it_does() {
             "{args:?}: {stderr}"
         );
     }
+}
+
+/// Stopped with Ctrl-C, `rig sim-gcs --microscope` says what its world saw
+/// (ground truth a hardware rig cannot give): here nothing moved the probe,
+/// so it met no particle and was lowered onto none.
+#[test]
+fn sim_gcs_stopped_says_what_its_world_saw() {
+    let dir = tempfile::tempdir().unwrap();
+    let calibration = std::fs::canonicalize("calib/camera-stage-sim-folder.toml").unwrap();
+    let rig = folder_rig_text(&calibration, &dir.path().join("frames"));
+    assert!(!rig.contains("../out"), "{rig}");
+    let microscope = dir.path().join("microscope.toml");
+    std::fs::write(&microscope, rig).unwrap();
+    let mut child = nanopush()
+        .args(["rig", "sim-gcs", "--port", "0", "--microscope"])
+        .arg(&microscope)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut reader = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    reader.read_line(&mut line).unwrap();
+    assert!(line.contains("GCS simulator listening"), "{line}");
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains(
+            "ground truth: the probe met particles 0 times and was lowered onto one 0 times"
+        ),
+        "{stderr}"
+    );
 }

@@ -115,13 +115,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     stop.store(false, Ordering::SeqCst);
     if let Some(feeder) = feeder {
+        // Ground truth a hardware rig cannot give: read before the feeder
+        // (which holds the world) stops.
+        let truth = ground_truth_line(&feeder.world());
         let frames = feeder.stop()?;
         eprintln!(
-            "simulated microscope: {} written",
+            "simulated microscope: {} written; {truth}",
             crate::wording::counted(frames, "frame")
         );
     }
     Ok(())
+}
+
+/// What the simulated world saw of the session: the probe's contacts with
+/// particles, and the moves that lowered it onto one (0 on a sound run).
+fn ground_truth_line(world: &crate::rig::gcs::GcsSimWorld) -> String {
+    format!(
+        "ground truth: the probe met particles {} and was lowered onto one {}",
+        crate::wording::counted(world.contacts().len(), "time"),
+        crate::wording::counted(world.landings().len(), "time")
+    )
 }
 
 /// The simulator(s) and the microscope started, and what to say of them.

@@ -24,6 +24,7 @@
 //! nanostage controller's simulated seconds).
 
 use super::simulator::Motion;
+use crate::rig::sim::stage::TimedLanding;
 use crate::rig::sim::world::{ContactEvent, PushPhysics, World};
 use crate::rig::stage::StageXyz;
 use std::time::Instant;
@@ -91,6 +92,7 @@ pub struct GcsSimWorld {
     /// The world has been swept up to this instant.
     swept_to: Option<Instant>,
     contacts: Vec<ContactEvent>,
+    landings: Vec<TimedLanding>,
     applied: usize,
 }
 
@@ -112,6 +114,7 @@ impl GcsSimWorld {
             coarse: None,
             swept_to: None,
             contacts: Vec::new(),
+            landings: Vec::new(),
             applied: 0,
         }
     }
@@ -131,6 +134,13 @@ impl GcsSimWorld {
     /// Every contact so far (ground truth).
     pub fn contacts(&self) -> &[ContactEvent] {
         &self.contacts
+    }
+
+    /// Every move so far that lowered the tip onto a particle (ground
+    /// truth, as the simulated stage logs them: [`World::landed_on`]), at
+    /// the nanostage controller's simulated seconds since the session began.
+    pub fn landings(&self) -> &[TimedLanding] {
+        &self.landings
     }
 
     /// The tip in nanostage metres for controller axis positions.
@@ -239,11 +249,11 @@ impl GcsSimWorld {
             let to = self.tip_at(t0 + std::time::Duration::from_secs_f64(b));
             let lateral = (to[0] - from[0]).hypot(to[1] - from[1]);
             let simulated_s = (b - a) * time_scale;
-            // As on the simulated stage: only level strokes push.
+            let end = t0 + std::time::Duration::from_secs_f64(b);
+            let session_s = end.saturating_duration_since(self.start).as_secs_f64() * time_scale;
+            // As on the simulated stage: only level strokes push, and a
+            // lowering move is checked for a particle under the apex.
             if lateral > 0.0 && (to[2] - from[2]).abs() < 1e-12 && simulated_s > 0.0 {
-                let end = t0 + std::time::Duration::from_secs_f64(b);
-                let session_s =
-                    end.saturating_duration_since(self.start).as_secs_f64() * time_scale;
                 let events = self.world.sweep(
                     from,
                     to,
@@ -252,6 +262,14 @@ impl GcsSimWorld {
                     self.physics.as_ref(),
                 );
                 self.contacts.extend(events);
+            } else if to[2] < from[2]
+                && let Some(particle) = self.world.landed_on([to[0], to[1]], to[2])
+            {
+                self.landings.push(TimedLanding {
+                    t_s: session_s,
+                    particle,
+                    at_m: [to[0], to[1]],
+                });
             }
             a = b;
         }
@@ -381,6 +399,29 @@ mod tests {
         c.handle_line("MOV 1 90 3 14", t0 + Duration::from_secs(2));
         w.advance(c.take_motions(), t0 + Duration::from_secs(3));
         assert!(w.contacts().is_empty(), "{:?}", w.contacts());
+        assert_eq!(w.world.particles, world_at(50.0, 50.0).particles);
+    }
+
+    #[test]
+    fn the_tip_lowered_onto_a_particle_is_logged_and_beside_it_is_not() {
+        let t0 = Instant::now();
+        let mut c = controller(t0, 100.0);
+        let mut w = GcsSimWorld::new(world_at(50.0, 50.0), Box::new(Onset2um), AXES, t0);
+        let s = |k: u64| t0 + Duration::from_secs(k);
+        // Up above the 10 um sphere, over it 2 um off its centre, down to
+        // 5 um (its top there is at 9.6 um); then up, 8 um off, down again.
+        c.handle_line("MOV 3 14", s(0));
+        c.handle_line("MOV 1 50 2 52", s(1));
+        c.handle_line("MOV 3 5", s(2));
+        c.handle_line("MOV 3 14", s(3));
+        c.handle_line("MOV 1 58 2 50", s(4));
+        c.handle_line("MOV 3 5", s(5));
+        w.advance(c.take_motions(), s(6));
+        assert_eq!(w.landings().len(), 1, "{:?}", w.landings());
+        let landing = w.landings()[0];
+        assert_eq!(landing.particle, 4);
+        assert!((landing.at_m[0] - 50e-6).abs() < 1e-9 && (landing.at_m[1] - 52e-6).abs() < 1e-9);
+        // Nothing pushed it: the knock is not modelled.
         assert_eq!(w.world.particles, world_at(50.0, 50.0).particles);
     }
 
