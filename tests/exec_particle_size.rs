@@ -142,6 +142,28 @@ fn particles_too_small_for_the_simulated_camera_are_refused_before_the_run() {
     assert!(said.contains("radius 0.50 um and up"), "{said}");
 }
 
+/// 'HI' on `n` spheres of 1 um, 0.1 um apart at least, in a field of
+/// `field_m`, in the paper scene made 0.5 um in radius (written in `dir`).
+fn micron_field(
+    dir: &Path,
+    (n, field_m): (usize, [f64; 2]),
+    kind: LayoutKind,
+    seed: u64,
+) -> SimRunRequest {
+    let params = SynthParams {
+        n,
+        field_m,
+        radius_m: 0.5e-6,
+        min_gap_m: 0.1e-6,
+        polydisperse: false,
+        kind,
+        seed,
+    };
+    let mut request = paper_request_on(dir, "HI", &params);
+    request.scene = t_of_radius(dir, 0.5).scene;
+    request
+}
+
 /// A dense field of 1 um spheres (300 in 30 x 25 um, 0.1 um gaps): every
 /// push lowers the tip where its plan checked it may land. With the
 /// settings' 0.5 um clearance behind the particle, where the plan checks
@@ -150,17 +172,7 @@ fn particles_too_small_for_the_simulated_camera_are_refused_before_the_run() {
 #[test]
 fn the_tip_is_never_lowered_onto_a_particle_in_a_dense_field_of_micron_spheres() {
     let dir = tempfile::tempdir().unwrap();
-    let params = SynthParams {
-        n: 300,
-        field_m: [30e-6, 25e-6],
-        radius_m: 0.5e-6,
-        min_gap_m: 0.1e-6,
-        polydisperse: false,
-        kind: LayoutKind::Uniform,
-        seed: 5,
-    };
-    let mut request = paper_request_on(dir.path(), "HI", &params);
-    request.scene = t_of_radius(dir.path(), 0.5).scene;
+    let request = micron_field(dir.path(), (300, [30e-6, 25e-6]), LayoutKind::Uniform, 5);
     let o = run_sim(&request, |_| {});
     eprintln!(
         "1 um spheres, 300 in 30 x 25 um: {:?}, rms {:.0} nm, tip lowered onto {:?}",
@@ -170,4 +182,38 @@ fn the_tip_is_never_lowered_onto_a_particle_in_a_dense_field_of_micron_spheres()
     );
     assert!(o.landings.is_empty(), "{:?}", o.landings);
     assert_every_site_filled(&o, "dense 1 um spheres");
+}
+
+/// A field of 1 um spheres too crowded round the pattern for any plan
+/// (adversarial, 150 in 40 x 30 um, 0.1 um gaps, 'HI'): the run stops with
+/// the planner's refusal of the field as it lies. The loop's last resort,
+/// leaving the particles near a site there (short) and planning again,
+/// fails too, and its refusal named one of them "immovable", which the
+/// field does not hold it to be; that had been the only reason given.
+#[test]
+fn a_crowded_field_stops_with_the_refusal_of_the_field_as_it_lies() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut request = micron_field(
+        dir.path(),
+        (150, [40e-6, 30e-6]),
+        LayoutKind::Adversarial,
+        2,
+    );
+    request.seed = 2;
+    let o = run_sim(&request, |_| {});
+    let RunEnd::Stopped(reason) = &o.end else {
+        panic!("not stopped: {:?}", o.end);
+    };
+    eprintln!("crowded 1 um field: {reason}");
+    let (first, salvage) = reason
+        .split_once(" (nor with ")
+        .unwrap_or_else(|| panic!("no second try said: {reason}"));
+    assert!(
+        first.starts_with("planner: no collision-free order:") && !first.contains("immovable"),
+        "{reason}"
+    );
+    assert!(
+        salvage.contains("left short where they lie near a site"),
+        "{reason}"
+    );
 }

@@ -86,12 +86,22 @@ impl Assembly<'_> {
                     .or_else(|| self.last_sighting.as_ref().and_then(|s| s.tip_m))
                     .map(|t| Vector2::new(t[0], t[1]));
                 let because = dropped.and_then(Result::err);
-                let mut planned = plan_assembly(&layout, &self.open_sites(), &config);
-                if planned.is_err() && self.leave_near_particles_short()? {
+                let mut planned =
+                    plan_assembly(&layout, &self.open_sites(), &config).map_err(|e| e.to_string());
+                let short_before = self.left_short.len();
+                if let Err(first) = &planned
+                    && self.leave_near_particles_short()?
+                {
                     // Boxed in a hair from its site (one 0.21 um off, between
                     // three filled sites, had stopped the run): plan without it.
                     config.immovable = self.immovable();
-                    planned = plan_assembly(&layout, &self.open_sites(), &config);
+                    // When that fails too, the first refusal is the layout's
+                    // own: the second named a particle "immovable" that only
+                    // the loop had left where it lay (a dense 1 um field).
+                    let left = counted(self.left_short.len() - short_before, "particle");
+                    planned = plan_assembly(&layout, &self.open_sites(), &config).map_err(|again| {
+                        format!("{first} (nor with {left} left short where they lie near a site: {again})")
+                    });
                 }
                 match planned {
                     Ok(plan) => {
