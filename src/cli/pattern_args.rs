@@ -31,7 +31,7 @@ pub struct PatternArgs {
     /// `rig probe --camera` prints the view (default: chosen by planning full plans at the best candidate
     /// centres: `plan` keeps the least pushing, `assemble` the shortest
     /// run; when the best are refused, the first of up to 24 others that
-    /// plans).
+    /// plans, nearest the particles first, then of the 4 least crowded).
     #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
     pub at: Option<(f64, f64)>,
 }
