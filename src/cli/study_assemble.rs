@@ -450,8 +450,7 @@ fn print_row(r: &RunRow) {
 
 /// A run's tip landings on particles, "-" where its report does not count them.
 fn landings_of(f: &RunFigures) -> String {
-    f.tip_landings_on_particles
-        .map_or_else(|| "-".to_string(), |n| n.to_string())
+    fmt_opt(f.tip_landings_on_particles.map(|n| n as f64), 0)
 }
 
 fn fmt_opt(v: Option<f64>, digits: usize) -> String {

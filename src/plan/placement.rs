@@ -210,27 +210,21 @@ pub fn place_and_plan_until(
                 proxy_others + UNCROWDED_CANDIDATES
             );
             let all = candidate_centres(pattern, area, r, &centres, usize::MAX)?;
-            for &c in &all {
-                if tried.len() >= candidates.len() + proxy_others {
-                    break;
-                }
-                if tried
-                    .iter()
-                    .all(|t| (t - c).norm() >= FALLBACK_SEPARATION_RADII * r)
-                {
-                    tried.push(c);
-                }
-            }
+            let proxy_up_to = candidates.len() + proxy_others;
+            add_apart(
+                &mut tried,
+                all.iter().copied(),
+                proxy_up_to,
+                FALLBACK_SEPARATION_RADII * r,
+            );
             // Last, so that a field planning among the others plans as before.
-            let enough = candidates.len() + proxy_others + UNCROWDED_CANDIDATES;
-            for c in least_crowded(pattern, &all, &centres, r) {
-                if tried.len() >= enough {
-                    break;
-                }
-                if tried.iter().all(|t| (t - c).norm() >= 2.0 * r) {
-                    tried.push(c);
-                }
-            }
+            let uncrowded = least_crowded(pattern, &all, &centres, r);
+            add_apart(
+                &mut tried,
+                uncrowded,
+                proxy_up_to + UNCROWDED_CANDIDATES,
+                2.0 * r,
+            );
             let others = tried.len() - candidates.len();
             let start = std::time::Instant::now();
             let last_told = std::cell::Cell::new(0.0);
@@ -278,6 +272,24 @@ pub fn place_and_plan_until(
         plan: Some(plan),
         centres_tried: tried.len(),
     })
+}
+
+/// Appends to `tried` each of `centres`, in order, at least `apart_m` from
+/// every centre in it, until it holds `up_to`.
+fn add_apart(
+    tried: &mut Vec<Vector2<f64>>,
+    centres: impl IntoIterator<Item = Vector2<f64>>,
+    up_to: usize,
+    apart_m: f64,
+) {
+    for c in centres {
+        if tried.len() >= up_to {
+            break;
+        }
+        if tried.iter().all(|t| (t - c).norm() >= apart_m) {
+            tried.push(c);
+        }
+    }
 }
 
 /// `centres` (in the proxy's order) by how many particles crowd the

@@ -33,8 +33,8 @@ impl Assembly<'_> {
     }
 
     /// After a refusal: leaves every particle within `left_short_m` of an
-    /// unfilled site there, filling it short. True if any was.
-    pub(super) fn leave_near_particles_short(&mut self) -> Result<bool, ExecError> {
+    /// unfilled site there, filling it short. How many were.
+    pub(super) fn leave_near_particles_short(&mut self) -> Result<usize, ExecError> {
         let errors = self.site_errors_m();
         let unfilled: Vec<usize> = (0..self.sites.len())
             .filter(|&i| errors[i] > self.settings.placed_tolerance_m && !self.is_left_short(i))
@@ -50,8 +50,8 @@ impl Assembly<'_> {
     }
 
     /// Leaves the particle nearest each of `sites` (indices) short, where
-    /// it lies within `left_short_m`. True if any fills a site.
-    pub(super) fn leave_nearest_short(&mut self, sites: &[usize]) -> Result<bool, ExecError> {
+    /// it lies within `left_short_m`. How many fill a site.
+    pub(super) fn leave_nearest_short(&mut self, sites: &[usize]) -> Result<usize, ExecError> {
         let near: Vec<usize> = (sites.iter().filter_map(|&i| self.sites.get(i)))
             .filter_map(|s| {
                 self.nearest_track(s)
@@ -59,9 +59,9 @@ impl Assembly<'_> {
             })
             .map(|t| t.id)
             .collect();
-        let mut left = false;
+        let mut left = 0;
         for particle in near {
-            left |= self.leave_short(particle)?;
+            left += usize::from(self.leave_short(particle)?);
         }
         Ok(left)
     }

@@ -88,9 +88,8 @@ impl Assembly<'_> {
                 let because = dropped.and_then(Result::err);
                 let mut planned =
                     plan_assembly(&layout, &self.open_sites(), &config).map_err(|e| e.to_string());
-                let short_before = self.left_short.len();
                 if let Err(first) = &planned
-                    && self.leave_near_particles_short()?
+                    && let left @ 1.. = self.leave_near_particles_short()?
                 {
                     // Boxed in a hair from its site (one 0.21 um off, between
                     // three filled sites, had stopped the run): plan without it.
@@ -98,7 +97,7 @@ impl Assembly<'_> {
                     // When that fails too, the first refusal is the layout's
                     // own: the second named a particle "immovable" that only
                     // the loop had left where it lay (a dense 1 um field).
-                    let left = counted(self.left_short.len() - short_before, "particle");
+                    let left = counted(left, "particle");
                     planned = plan_assembly(&layout, &self.open_sites(), &config).map_err(|again| {
                         format!("{first} (nor with {left} left short where they lie near a site: {again})")
                     });
