@@ -500,6 +500,9 @@ fn assemble(
         [0.0, 0.0]
     };
     stop_if_raised(rig.interrupt_flag(), "before the first frame")?;
+    // As the probe stands: parking it here would move the stage before the
+    // loop's first look has checked the calibration and the stage's unit
+    // against the frame (docs/exec.md, placement).
     let first = perception.sight(rig, &calibration, offset);
     // A press while waiting for the frame is said as such, not as a camera fault.
     stop_if_raised(rig.interrupt_flag(), "at the first frame")?;

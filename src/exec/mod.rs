@@ -13,6 +13,7 @@ pub mod frame_layout;
 pub mod journal;
 pub mod observe;
 pub mod particle_sizes;
+pub mod probe_parking;
 pub mod push_check;
 pub mod push_log;
 pub mod push_reach;

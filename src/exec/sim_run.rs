@@ -4,9 +4,10 @@
 //! before the loop starts, as a library call so tests can drive the loop
 //! in-process and watch the ground truth.
 
-use super::assemble::{AssemblyInputs, AssemblySettings, PushRecord, layout_measured};
+use super::assemble::{AssemblyInputs, AssemblySettings, PushRecord, layout_after_looks};
 use super::events::RunSpec;
 use super::observe::Perception;
+use super::probe_parking::first_looks;
 use crate::model::{ModelError, Scene};
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::sites_um;
@@ -14,7 +15,7 @@ use crate::plan::pattern::transform::Reachable;
 use crate::plan::pattern_request::PatternRequest;
 use crate::plan::placement::PlacementGoal;
 use crate::plan::synth_layout::{LayoutKind, SynthParams, synth_layout};
-use crate::plan::{Layout, Site};
+use crate::plan::{Layout, PlanConfig, Site};
 use crate::rig::RigError;
 use crate::rig::sim::build::{
     SIM_FINEST_UM_PER_PX, build_sim_rig, sim_px_across, sim_um_per_px, smallest_radius_m,
@@ -23,6 +24,7 @@ use crate::rig::sim::rig::SimRig;
 use crate::rig::sim::stage::TimedContact;
 use crate::vision::detect::RING_MODEL_MIN_DIAMETER_PX;
 use crate::wording::counted;
+use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
@@ -226,33 +228,48 @@ pub fn layout_for(
     }
 }
 
-/// The particles as the run's first frame shows them, each with the size
-/// the loop will plan it with ([`layout_measured`]): the pattern is placed
-/// on these, as on the hardware rig, not on the world's true layout. A
-/// place planned on true radii could leave the loop, which plans on
-/// measured ones, with no order at its first plan (CMU on a 5 % spread
-/// batch, seed 10). Seen on a twin of the run's rig (same world, seed and
-/// first frame) so that the run's own frame count and faults are untouched.
-fn layout_first_seen(scene: &Scene, layout: &Layout, seed: u64) -> Result<Layout, SimRunError> {
+/// What the loop's first plan sees: the particles, each with the size the
+/// loop will plan it with, and where the tip is.
+struct FirstSeen {
+    layout: Layout,
+    tip_m: Option<[f64; 2]>,
+}
+
+/// The particles as the run's first looks show them ([`first_looks`],
+/// [`layout_after_looks`]): the pattern is placed on these, not on the
+/// world's true layout. A place planned on true
+/// radii could leave the loop, which plans on measured ones, with no order
+/// at its first plan (CMU on a 5 % spread batch, seed 10). Seen on a twin
+/// of the run's rig (same world, seed, moves and frames), so that the
+/// run's own frame count and faults are untouched and the placement plans
+/// on what the loop's first plan will see.
+fn layout_first_seen(scene: &Scene, layout: &Layout, seed: u64) -> Result<FirstSeen, SimRunError> {
     use crate::rig::Rig;
     let mut twin = build_sim_rig(scene, layout, seed)?;
     let (calibration, offset) = (*twin.calibration(), twin.stage.coarse_offset());
     let r = scene.particle_radius_m;
-    let first = Perception::for_run(r, &calibration)
-        .sight(&mut twin, &calibration, offset)
+    let perception = Perception::for_run(r, &calibration);
+    let settings = AssemblySettings::default();
+    let speed = settings.travel_speed_m_per_s;
+    let looks = first_looks(&mut twin, &perception, &calibration, offset, speed)
         .map_err(|e| SimRunError::FirstFrame(e.to_string()))?;
-    Ok(layout_measured(layout.field_m, &first.particles, r))
+    Ok(FirstSeen {
+        layout: layout_after_looks(layout.field_m, looks.in_order(), r, settings.track_gate_m),
+        tip_m: looks.last.tip_m,
+    })
 }
 
 /// The pattern, checked against the particles and placed on them by
-/// plans keeping `keep_clear_m` round it, until `interrupt` is raised.
+/// plans keeping `keep_clear_m` round it, from where the tip is, until
+/// `interrupt` is raised.
 fn sites_for(
     req: &SimRunRequest,
     scene: &Scene,
-    layout: &Layout,
+    first_seen: &FirstSeen,
     keep_clear_m: f64,
     interrupt: Option<&AtomicBool>,
 ) -> Result<Vec<Site>, SimRunError> {
+    let layout = &first_seen.layout;
     let r = scene.particle_radius_m;
     let target = req.target.as_ref().ok_or(SimRunError::NoPattern)?;
     let mismatch = |why: String| SimRunError::Mismatch {
@@ -278,11 +295,14 @@ fn sites_for(
         &pattern,
         &area,
         layout,
-        &AssemblySettings {
-            keep_clear_m,
-            ..AssemblySettings::default()
-        }
-        .plan_config(scene),
+        &PlanConfig {
+            tip_start_m: first_seen.tip_m.map(Vector2::from),
+            ..AssemblySettings {
+                keep_clear_m,
+                ..AssemblySettings::default()
+            }
+            .plan_config(scene)
+        },
         PlacementGoal::LeastTime,
         interrupt,
     )?)

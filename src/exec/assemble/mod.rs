@@ -51,7 +51,7 @@ pub use apex_doubt::{
     apex_doubt_unfollowed, calibration_doubt,
 };
 use left_short::LeftShort;
-pub use planning::{layout_measured, particles_seen, planning_particles};
+pub use planning::{layout_after_looks, layout_measured, particles_seen, planning_particles};
 pub use pushing::{decide_push, scene_for_push};
 
 /// Executor settings; the defaults suit 10 um particles on the simulated rig.
@@ -630,7 +630,7 @@ impl<'a> Assembly<'a> {
         // frame, the next frame shows the particles it hid: one never seen
         // would be an obstacle no plan knows of.
         self.observe(&[], None)?;
-        if self.probe_axis().is_some() {
+        if self.probe_seen().is_some() {
             self.park_at_start()?;
         }
         self.leave_short_as_before()?;

@@ -6,6 +6,7 @@ use super::{Assembly, ExecError, PushError, PushIntent};
 use crate::calib::camera_map::CameraCalibration;
 use crate::exec::drift::APEX_CLEAR_OF_PARTICLES_M;
 use crate::exec::events::RunEvent;
+use crate::exec::probe_parking::{parking_corner, probe_axis};
 use crate::exec::stroke::Stroke;
 use crate::rig::stage::StageXyz;
 use crate::vision::tip::TipDetection;
@@ -51,17 +52,7 @@ impl Assembly<'_> {
         let here = self.rig.position()?;
         let top = range[2].max_m;
         let speed = self.settings.travel_speed_m_per_s;
-        let corner = match self.probe_axis() {
-            // Farthest along the body's direction (-axis).
-            Some(axis) => [0, 1].map(|i| {
-                if axis[i] > 0.0 {
-                    range[i].min_m
-                } else {
-                    range[i].max_m
-                }
-            }),
-            None => [range[0].min_m, range[1].min_m],
-        };
+        let corner = parking_corner(&range, self.probe_seen().map(|p| p.axis));
         self.move_on_sample_raw([here[0], here[1], top], speed)
             .and_then(|()| self.move_on_sample_raw([corner[0], corner[1], top], speed))
             .map_err(ExecError::from)
@@ -100,12 +91,6 @@ impl Assembly<'_> {
                     .to_owned(),
             )),
         }
-    }
-
-    /// Unit direction from the cantilever body to the apex on the sample, from
-    /// the last frame that found the probe.
-    pub(super) fn probe_axis(&self) -> Option<[f64; 2]> {
-        self.probe_seen().map(|probe| [probe.axis.x, probe.axis.y])
     }
 
     /// The probe as the last frame that found it saw it.
@@ -244,12 +229,7 @@ pub(super) struct ProbeSeen<'a> {
 impl<'a> ProbeSeen<'a> {
     /// None when the calibration maps the probe's direction to no length.
     pub(super) fn new(fit: &'a (TipDetection, CameraCalibration)) -> Option<Self> {
-        let (tip, calibration) = fit;
-        let v = calibration.linear * Vector2::new(tip.angle_rad.cos(), tip.angle_rad.sin());
-        (v.norm() > 0.0).then(|| Self {
-            fit,
-            axis: v / v.norm(),
-        })
+        probe_axis(fit).map(|axis| Self { fit, axis })
     }
 
     /// Free space, metres, between `point` and the silhouette moved to put
