@@ -61,7 +61,8 @@ pub fn first_looks(
     travel_speed_m_per_s: f64,
 ) -> Result<FirstLooks, ObserveError> {
     let first = perception.sight(rig, calibration, coarse_offset_m)?;
-    let Some(fit) = &first.probe else {
+    // As the loop: parked only for a probe whose direction is known.
+    let Some(axis) = first.probe.as_ref().and_then(probe_axis) else {
         return Ok(FirstLooks {
             before_parking: None,
             last: first,
@@ -70,7 +71,7 @@ pub fn first_looks(
     let range = rig.range();
     let top = range[2].max_m;
     let here = rig.position()?;
-    let corner = parking_corner(&range, probe_axis(fit));
+    let corner = parking_corner(&range, Some(axis));
     rig.move_to([here[0], here[1], top], travel_speed_m_per_s)?;
     rig.move_to([corner[0], corner[1], top], travel_speed_m_per_s)?;
     Ok(FirstLooks {
