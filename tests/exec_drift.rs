@@ -238,7 +238,7 @@ fn left_short(o: &Outcome) -> Vec<(usize, f64)> {
         .collect()
 }
 
-/// 5 nm/s along x, seed 16, with the loop as it was when the case was
+/// 5 nm/s along x, seed 32, with the loop as it was when the case was
 /// found ([`as_found`]: since 2026-12-01 this run fills every site with
 /// nothing left short; seed 9 until the simulated rig placed the pattern
 /// on the loop's first looks, 2026-12-02, when seeds 16 and 32 of 1-40 left

@@ -5,7 +5,7 @@
 use super::observe::{ObserveError, Perception, Sighting};
 use crate::calib::camera_map::CameraCalibration;
 use crate::rig::Rig;
-use crate::rig::stage::AxisRange;
+use crate::rig::stage::{AxisRange, StageXyz};
 use crate::vision::tip::TipDetection;
 use nalgebra::Vector2;
 
@@ -17,11 +17,17 @@ pub fn probe_axis(fit: &(TipDetection, CameraCalibration)) -> Option<Vector2<f64
     (v.norm() > 0.0).then(|| v / v.norm())
 }
 
-/// The corner of the nanostage's `range` the cantilever comes from
-/// (farthest back along `axis`), where its body lies outside the frame;
-/// the origin corner while the probe's direction is unknown.
-pub fn parking_corner(range: &[AxisRange; 3], axis: Option<Vector2<f64>>) -> [f64; 2] {
-    match axis {
+/// The moves that park the probe from `here`: straight up to the top of
+/// the nanostage's `range`, then across to the corner the cantilever comes
+/// from (farthest back along `axis`), where its body lies outside the
+/// frame; the origin corner while the probe's direction is unknown.
+pub fn parking_moves(
+    range: &[AxisRange; 3],
+    here: StageXyz,
+    axis: Option<Vector2<f64>>,
+) -> [StageXyz; 2] {
+    let top = range[2].max_m;
+    let corner = match axis {
         Some(axis) => [0, 1].map(|i| {
             if axis[i] > 0.0 {
                 range[i].min_m
@@ -30,7 +36,8 @@ pub fn parking_corner(range: &[AxisRange; 3], axis: Option<Vector2<f64>>) -> [f6
             }
         }),
         None => [range[0].min_m, range[1].min_m],
-    }
+    };
+    [[here[0], here[1], top], [corner[0], corner[1], top]]
 }
 
 /// The run's first looks at the field, as its loop will take them.
@@ -49,7 +56,7 @@ impl FirstLooks {
 }
 
 /// A frame, and when it shows the probe, the probe lifted and parked at
-/// [`parking_corner`] and a second frame, as the loop looks before its
+/// [`parking_moves`] and a second frame, as the loop looks before its
 /// first plan. Placed on a frame with a particle under the probe's body,
 /// the pattern's sites (5 um adversarial 'HI', seed 1) had left the loop,
 /// which saw that particle once parked, with no order at its first plan.
@@ -68,12 +75,9 @@ pub fn first_looks(
             last: first,
         });
     };
-    let range = rig.range();
-    let top = range[2].max_m;
-    let here = rig.position()?;
-    let corner = parking_corner(&range, Some(axis));
-    rig.move_to([here[0], here[1], top], travel_speed_m_per_s)?;
-    rig.move_to([corner[0], corner[1], top], travel_speed_m_per_s)?;
+    for target in parking_moves(&rig.range(), rig.position()?, Some(axis)) {
+        rig.move_to(target, travel_speed_m_per_s)?;
+    }
     Ok(FirstLooks {
         last: perception.sight(rig, calibration, coarse_offset_m)?,
         before_parking: Some(first),
@@ -134,9 +138,18 @@ mod tests {
                 max_m: 20e-6,
             },
         ];
+        let here = [30e-6, 40e-6, 5e-6];
+        let up = [30e-6, 40e-6, 20e-6];
         // A cantilever pointing down and to the right comes from the top left.
-        assert_eq!(parking_corner(&range, axis(-45.0)), [0.0, 100e-6]);
-        assert_eq!(parking_corner(&range, axis(135.0)), [100e-6, 0.0]);
-        assert_eq!(parking_corner(&range, None), [0.0, 0.0]);
+        let parked = |to: [f64; 2]| [up, [to[0], to[1], 20e-6]];
+        assert_eq!(
+            parking_moves(&range, here, axis(-45.0)),
+            parked([0.0, 100e-6])
+        );
+        assert_eq!(
+            parking_moves(&range, here, axis(135.0)),
+            parked([100e-6, 0.0])
+        );
+        assert_eq!(parking_moves(&range, here, None), parked([0.0, 0.0]));
     }
 }

@@ -6,7 +6,7 @@ use super::{Assembly, ExecError, PushError, PushIntent};
 use crate::calib::camera_map::CameraCalibration;
 use crate::exec::drift::APEX_CLEAR_OF_PARTICLES_M;
 use crate::exec::events::RunEvent;
-use crate::exec::probe_parking::{parking_corner, probe_axis};
+use crate::exec::probe_parking::{parking_moves, probe_axis};
 use crate::exec::stroke::Stroke;
 use crate::rig::stage::StageXyz;
 use crate::vision::tip::TipDetection;
@@ -48,14 +48,12 @@ impl Assembly<'_> {
     /// travel, so that the probe's body lies outside the frame and hides no
     /// particle (the origin corner while the probe's direction is unknown).
     pub(super) fn park_at_start(&mut self) -> Result<(), ExecError> {
-        let range = self.rig.range();
-        let here = self.rig.position()?;
-        let top = range[2].max_m;
+        let axis = self.probe_seen().map(|p| p.axis);
         let speed = self.settings.travel_speed_m_per_s;
-        let corner = parking_corner(&range, self.probe_seen().map(|p| p.axis));
-        self.move_on_sample_raw([here[0], here[1], top], speed)
-            .and_then(|()| self.move_on_sample_raw([corner[0], corner[1], top], speed))
-            .map_err(ExecError::from)
+        for target in parking_moves(&self.rig.range(), self.rig.position()?, axis) {
+            self.move_on_sample_raw(target, speed)?;
+        }
+        Ok(())
     }
 
     /// Moves the coarse stage when the stroke does not fit the nanostage's
