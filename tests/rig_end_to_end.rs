@@ -8,13 +8,14 @@
 //! world; a dry run must move nothing; Ctrl-C and a controller that starts
 //! talking garbage must leave the stage still.
 
+use nalgebra::Vector2;
 use nanopush::calib::camera_map::CameraCalibration;
 use nanopush::calib::lens::RadialLens;
 use nanopush::exec::observe::Perception;
 use nanopush::exec::sim_run::layout_for;
 use nanopush::model::Scene;
-use nanopush::plan::Layout;
 use nanopush::plan::stray_gap::seen_stray_gap_m;
+use nanopush::plan::{Layout, Particle};
 use nanopush::render::microscope::{RenderSettings, SceneView, render_frame};
 use nanopush::rig::gcs::{RigFile, SimConfig, SimFault, SimServer};
 use nanopush::rig::microscope_feeder::{MicroscopeFeeder, layout_in_travel};
@@ -88,13 +89,13 @@ fn serve(config: SimConfig, time_scale: f64) -> (SimServer, String) {
 /// The rig of calib/rig-gcs-sim-folder.toml (no coarse stage), world of
 /// [`layout`], assembling [`TEXT`].
 fn bench(time_scale: f64) -> Bench {
-    bench_seeing(time_scale, None)
+    bench_seeing(time_scale, None, &layout())
 }
 
 /// [`bench`]; with `camera`, the microscope draws through that map and
 /// the rig file names a calibration not made yet (camera.toml in the
 /// bench's folder), for `rig calibrate` to measure.
-fn bench_seeing(time_scale: f64, camera: Option<&CameraCalibration>) -> Bench {
+fn bench_seeing(time_scale: f64, camera: Option<&CameraCalibration>, world: &Layout) -> Bench {
     let (server, addr) = serve(SimConfig::default(), time_scale);
     let dir = tempfile::tempdir().unwrap();
     let frames = dir.path().join("frames");
@@ -124,7 +125,7 @@ fn bench_seeing(time_scale: f64, camera: Option<&CameraCalibration>) -> Bench {
         None,
         &rig,
         &scene(),
-        &layout(),
+        world,
         SEED,
         Duration::from_millis(40),
     )
@@ -380,6 +381,19 @@ impl Bench {
         let started = Instant::now();
         while self.moving() {
             assert!(started.elapsed() < Duration::from_secs(20), "never settled");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    /// Waits until the run into `out` has begun its loop (its journal is
+    /// there) and moves the stage: the loop's move, not the set-up's
+    /// parking of the probe (a press then starts nothing:
+    /// `ctrl_c_during_the_set_up_is_answered_at_once_and_starts_nothing`).
+    fn wait_for_the_loops_move(&self, out: &str) {
+        let journal = self.dir.path().join(out).join("journal.jsonl");
+        let started = Instant::now();
+        while !(journal.exists() && self.moving()) {
+            assert!(started.elapsed() < Duration::from_secs(60), "never moved");
             std::thread::sleep(Duration::from_millis(5));
         }
     }
@@ -678,7 +692,7 @@ const OFF_MIDDLE: [&str; 2] = ["--at", "24,64"];
 /// rig whose microscope sees through `camera` and whose calibration is
 /// measured by `rig calibrate` with `lens`.
 fn errors_through(camera: &CameraCalibration, lens: &str) -> Vec<f64> {
-    let b = bench_seeing(50.0, Some(camera));
+    let b = bench_seeing(50.0, Some(camera), &layout());
     let calibrated = nanopush()
         .args(["rig", "calibrate", "--rig"])
         .arg(&b.rig_path)
@@ -839,6 +853,77 @@ fn a_rig_runs_journal_is_stamped_from_its_start() {
     }
 }
 
+/// A particle under the probe's body where the stage starts is in the
+/// placement: the run parks the probe and looks again before it places
+/// the pattern, as the loop looks before its first plan. With two
+/// particles, one of them hidden, and a pattern of two sites, the first
+/// frame alone shows one particle: the pattern had been placed for it (the
+/// loop then found the other), and is now refused as too big for what the
+/// placement sees. A pattern the particles cannot fill is refused.
+#[test]
+fn a_particle_under_the_probe_where_the_run_starts_is_in_the_placement() {
+    let calibration =
+        CameraCalibration::load(&manifest().join("calib/camera-stage-sim-folder.toml")).unwrap();
+    // The feeder draws the probe pointing at 60 deg in the frame, its apex
+    // where the stage starts (mid-range); its body lies behind the apex.
+    let apex_px = calibration.stage_to_pixel(50.0 * UM, 50.0 * UM).unwrap();
+    let (sin, cos) = 60f64.to_radians().sin_cos();
+    let back_px = |d: f64| calibration.pixel_to_stage_m(apex_px[0] - d * cos, apex_px[1] - d * sin);
+    let hidden = back_px(100.0);
+    let particle = |id, at: [f64; 2]| Particle {
+        id,
+        centre_m: Vector2::from(at),
+        radius_m: scene().particle_radius_m,
+    };
+    let world = Layout {
+        field_m: [100.0 * UM, 100.0 * UM],
+        particles: vec![particle(0, [75.0 * UM, 30.0 * UM]), particle(1, hidden)],
+    };
+    let b = bench_seeing(50.0, None, &world);
+    let pair = b.dir.path().join("pair.toml");
+    std::fs::write(
+        &pair,
+        "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 10.5, y_um = 0.0 }]\n",
+    )
+    .unwrap();
+    let assemble = |pattern: &Path, out: &str| {
+        nanopush()
+            .args(["assemble", "--rig"])
+            .arg(&b.rig_path)
+            .arg("--pattern")
+            .arg(pattern)
+            .arg("--out")
+            .arg(b.dir.path().join(out))
+            .output()
+            .unwrap()
+    };
+    let out = assemble(&pair, "run");
+    assert!(out.status.success(), "{}", failed(out.status, &out));
+    let events = journal_events(&b.dir.path().join("run"));
+    let first_look = events
+        .iter()
+        .find(|e| e["kind"] == "observation")
+        .unwrap_or_else(|| panic!("no observation: {events:?}"));
+    let seen = first_look["particles"].as_array().unwrap();
+    assert_eq!(seen.len(), 2, "the loop's first look: {first_look}");
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(b.dir.path().join("run/report.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(report["filled"], 2, "{report}");
+    let row = b.dir.path().join("row.toml");
+    let sites = "sites = [{ x_um = 0.0, y_um = 0.0 }, { x_um = 10.5, y_um = 0.0 }, { x_um = 21.0, y_um = 0.0 }]\n";
+    std::fs::write(&row, sites).unwrap();
+    let refused = assemble(&row, "three");
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        !refused.status.success()
+            && stderr.contains("the pattern has 3 sites but")
+            && stderr.contains("2 particles in the field"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn a_rig_run_builds_the_pattern_where_asked() {
     let b = bench(50.0);
@@ -970,17 +1055,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
     // Real time: the first travel (tens of um at 10 um/s) takes seconds.
     let b = bench(1.0);
     let child = b.assemble("interrupted", &[]);
-    let started = Instant::now();
-    while !b.moving() {
-        assert!(started.elapsed() < Duration::from_secs(60), "never moved");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    // Written once the run moves, so that the camera is open and takes it as new.
-    let started = Instant::now();
-    while !b.moving() {
-        assert!(started.elapsed() < Duration::from_secs(60), "never moved");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    b.wait_for_the_loops_move("interrupted");
     let target = targets(&b.server, "1 2 3");
     let out = interrupted(child, Duration::from_secs(20));
     assert!(!out.status.success());
@@ -1010,11 +1085,7 @@ fn ctrl_c_halts_the_stage_mid_move_and_garbage_replies_stop_the_run_with_it_stil
 
     // A controller that answers garbage in the middle of a run.
     let child = b.assemble("garbage", &[]);
-    let started = Instant::now();
-    while !b.moving() {
-        assert!(started.elapsed() < Duration::from_secs(60), "never moved");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    b.wait_for_the_loops_move("garbage");
     b.server.set_fault(SimFault::Garbage);
     let out = finish(child, Duration::from_secs(60));
     b.server.set_fault(SimFault::None);
@@ -1243,7 +1314,7 @@ fn a_run_stopped_for_its_calibration_is_not_offered_a_resume() {
         said.linear,
         said.offset_m + nalgebra::Vector2::new(20.0 * UM, 0.0),
     );
-    let b = bench_seeing(50.0, Some(&camera));
+    let b = bench_seeing(50.0, Some(&camera), &layout());
     std::fs::copy(&named, b.dir.path().join("camera.toml")).unwrap();
     let run = finish(b.assemble("run", &[]), RUN_LIMIT);
     let stderr = String::from_utf8_lossy(&run.stderr);

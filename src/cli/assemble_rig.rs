@@ -1,9 +1,10 @@
 //! `nanopush assemble --rig FILE`: the same closed loop as on the simulated
 //! rig, on the hardware a rig file describes ([`HardwareRig`]).
 //!
-//! On hardware there is no layout to start from: the first frame is the
-//! layout. The pattern is placed where the particles the camera sees can fill
-//! it with the least pushing. On a rig without a coarse stage the planner's
+//! On hardware there is no layout to start from: the first frames are the
+//! layout (the first, and with the probe in view a second with it parked,
+//! as the loop looks before its first plan). The pattern is placed where
+//! the particles the camera sees can fill it in the least time. On a rig without a coarse stage the planner's
 //! field is the nanostage's range and every stroke must fit it. On a rig with
 //! one (the rig file's `[coarse]` section), the field is what the first frame
 //! shows (grown by a particle radius, so every particle seen lies inside),
@@ -35,20 +36,23 @@ use super::assemble::{
 use super::go_on::GoOn;
 use super::made_folder::MadeFolder;
 use super::rig_probe::camera_error;
-use crate::exec::assemble::layout_measured;
+use crate::calib::camera_map::CameraCalibration;
 use crate::exec::assemble::{
-    Assembly, AssemblyInputs, AssemblySettings, RunEnd, apex_beyond_doubt_m,
+    Assembly, AssemblyInputs, AssemblySettings, RunEnd, apex_beyond_doubt_m, calibration_doubt,
+    layout_after_looks, too_few_in_field,
 };
 use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
+use crate::exec::probe_parking::{FirstLooks, park_if_seen};
 use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
 use crate::exec::stop_cause::StopCause;
 use crate::exec::travel_height::check_travel_height;
 use crate::model::Scene;
+use crate::plan::PlanConfig;
 use crate::plan::pattern::PatternError;
 use crate::plan::pattern::sites_um;
 use crate::plan::pattern::transform::Reachable;
@@ -500,9 +504,6 @@ fn assemble(
         [0.0, 0.0]
     };
     stop_if_raised(rig.interrupt_flag(), "before the first frame")?;
-    // As the probe stands: parking it here would move the stage before the
-    // loop's first look has checked the calibration and the stage's unit
-    // against the frame (docs/exec.md, placement).
     let first = perception.sight(rig, &calibration, offset);
     // A press while waiting for the frame is said as such, not as a camera fault.
     stop_if_raised(rig.interrupt_flag(), "at the first frame")?;
@@ -513,8 +514,8 @@ fn assemble(
     // for: the start is no later than it, so that no frame the loop
     // journals comes before the start.
     let started_s = started_s.min(first.t_s);
+    first.stage_m = rig.position().ok();
     if args.hardware.dry_run {
-        first.stage_m = rig.position().ok();
         warn_of_unchecked_calibration(&first);
     }
     if first.particles.is_empty() {
@@ -528,11 +529,18 @@ fn assemble(
             args.scene.display()
         );
     }
+    let mut looks = first_looks_on_rig(
+        rig,
+        first,
+        (&perception, &calibration, offset),
+        settings.travel_speed_m_per_s,
+        args.hardware.dry_run,
+    )?;
     // `--at` is in the calibration's coordinates (those `rig probe --camera`
     // prints the view in); the run's field is the nanostage's range, or with
     // a coarse stage what the first frame shows, shifted.
     let (reachable, calibrated_to_field) = if rig.has_coarse() {
-        let (corner, shift) = field_on_first_frame(rig, &mut first, &mut settings, r)?;
+        let (corner, shift) = field_on_first_frame(rig, &mut looks, &mut settings, r)?;
         let margin = r + settings.clearance_m;
         let reachable = Reachable {
             lo_m: Vector2::new(margin, margin),
@@ -552,18 +560,28 @@ fn assemble(
         ..target.clone()
     };
     let plan_config = settings.plan_config(scene);
-    // At --at, else where the full plan on the first frame's particles is
-    // fastest, as on the simulated rig.
-    let layout = layout_measured(settings.field_m, &first.particles, r);
+    // At --at, else where the full plan on what the loop's first plan will
+    // see is fastest, from where the tip stands, as on the simulated rig.
+    let layout = layout_after_looks(settings.field_m, looks.in_order(), r, settings.track_gate_m);
     // Built again for the batch the camera shows: wider when its radii spread.
-    let radii: Vec<f64> = first.particles.iter().map(|o| o.radius_m).collect();
+    let radii: Vec<f64> = layout.particles.iter().map(|p| p.radius_m).collect();
     let pattern = &target.pattern_for_batch(r, &radii, &reachable)?;
+    let shown_by = match looks.before_parking {
+        Some(_) => "the first frames, the probe parked for the second, show",
+        None => "the first frame shows",
+    };
+    if let Some(why) = too_few_in_field(&layout, pattern.offsets_m.len(), shown_by) {
+        bail!("{why}");
+    }
     let sites = in_field
         .sites(
             pattern,
             &reachable,
             &layout,
-            &plan_config,
+            &PlanConfig {
+                tip_start_m: looks.last.tip_m.map(Vector2::from),
+                ..plan_config.clone()
+            },
             PlacementGoal::LeastTime,
             Some(rig.interrupt_flag()),
         )
@@ -584,7 +602,7 @@ fn assemble(
     // placement after its round of centres and stops here, before the
     // journal is begun, whatever the placement ended with.
     stop_if_raised(rig.interrupt_flag(), "while the pattern was placed")?;
-    let sites = sites.context("placing the pattern among the particles of the first frame")?;
+    let sites = sites.context("placing the pattern among the particles of the first frames")?;
     let spec = RunSpec {
         pattern: target.label(),
         scene: args.scene.display().to_string(),
@@ -813,32 +831,67 @@ fn perception_for(scene: &Scene, rig: &HardwareRig) -> Perception {
 /// whole particles in, grown by a particle radius on every side so that
 /// every particle seen lies inside; the sample frame is moved so that the
 /// field's lower-left corner is its origin (the planner's field starts at
-/// 0), and the first frame's particles with it. Returns the field's size
+/// 0), and the first looks with it. Returns the field's size
 /// and what a point in the calibration's coordinates (no coarse offset)
 /// adds to be in the field's.
 fn field_on_first_frame(
     rig: &mut HardwareRig,
-    first: &mut Sighting,
+    looks: &mut FirstLooks,
     settings: &mut AssemblySettings,
     radius_m: f64,
 ) -> anyhow::Result<([f64; 2], [f64; 2])> {
-    let [lo, hi] = first.view_m;
+    let [lo, hi] = looks.last.view_m;
     let corner = [lo[0] - radius_m, lo[1] - radius_m];
     let offset = [
-        first.coarse_offset_m[0] - corner[0],
-        first.coarse_offset_m[1] - corner[1],
+        looks.last.coarse_offset_m[0] - corner[0],
+        looks.last.coarse_offset_m[1] - corner[1],
     ];
     rig.reframe_sample(offset)
         .context("setting the run's sample frame on the coarse stage")?;
-    for p in &mut first.particles {
-        p.x_m -= corner[0];
-        p.y_m -= corner[1];
-    }
+    looks
+        .before_parking
+        .iter_mut()
+        .for_each(|l| l.reframe(corner));
+    looks.last.reframe(corner);
     settings.field_m = [
         hi[0] - lo[0] + 2.0 * radius_m,
         hi[1] - lo[1] + 2.0 * radius_m,
     ];
     Ok((settings.field_m, offset))
+}
+
+/// The loop's first looks, taken before the pattern is placed so that it
+/// is placed on what the loop's first plan sees: with the probe in view,
+/// lifted and parked where its body leaves the frame, and a second frame
+/// of the particles it hid (placed on the first frame alone, a site could
+/// lie on one). The probe stays where it stands on a dry run, which moves
+/// nothing, and when the first frame doubts the calibration or the
+/// stage's unit: the loop's first look stops on that, with the apex in
+/// view.
+fn first_looks_on_rig(
+    rig: &mut HardwareRig,
+    first: Sighting,
+    (perception, calibration, offset): (&Perception, &CameraCalibration, [f64; 2]),
+    travel_speed_m_per_s: f64,
+    dry_run: bool,
+) -> anyhow::Result<FirstLooks> {
+    if dry_run || calibration_doubt(&first).is_some() {
+        return Ok(FirstLooks::one(first));
+    }
+    let parked = park_if_seen(rig, &first, travel_speed_m_per_s)
+        .context("parking the probe out of the camera's view")?;
+    if !parked {
+        return Ok(FirstLooks::one(first));
+    }
+    let last = perception.sight(rig, calibration, offset);
+    stop_if_raised(rig.interrupt_flag(), "at the frame with the probe parked")?;
+    let last = last
+        .map_err(|e| camera_error(&rig.rig_file().camera, e))
+        .context("the frame with the probe parked")?;
+    Ok(FirstLooks {
+        before_parking: Some(first),
+        last,
+    })
 }
 
 /// Where sites may lie on a rig without a coarse stage: a radius and the

@@ -5,7 +5,7 @@
 
 use super::assemble::{
     AssemblySettings, FrameView, PlannedPush, PushIntent, calibration_doubt, decide_push,
-    layout_measured, planning_particles, track_to_site_m,
+    layout_measured, planning_particles, too_few_in_field, track_to_site_m,
 };
 use super::camera_look::warn_of_pieces;
 use super::dry_run_plan::{kept_plan, not_made};
@@ -423,18 +423,8 @@ fn target_sites(
         .map_err(|e| target(format!("{from}{e}")))?;
     // Counted in the field: particles beyond it are never pushed.
     let layout = layout_measured(field_m, first, radius_m);
-    let beyond_field = layout.beyond_field_ids().len();
-    let held = layout.particles.len() - beyond_field;
-    if pattern.offsets_m.len() > held {
-        let beyond = match beyond_field {
-            0 => String::new(),
-            n => format!(" ({n} more beyond it)"),
-        };
-        return Err(target(format!(
-            "the pattern has {} but the first frame shows {} in the field{beyond}",
-            counted(pattern.offsets_m.len(), "site"),
-            counted(held, "particle"),
-        )));
+    if let Some(why) = too_few_in_field(&layout, pattern.offsets_m.len(), "the first frame shows") {
+        return Err(target(why));
     }
     request
         // Ctrl-C leaves this worker thread to end with the process

@@ -96,6 +96,30 @@ impl Sighting {
         Some([0, 1].map(|i| tip[i] - stage[i] - self.coarse_offset_m[i]))
     }
 
+    /// The same frame in a sample frame whose origin lies at `origin_m` in
+    /// this one's (a rig with a coarse stage puts the run's origin at the
+    /// corner of its first view): every place on the sample and the coarse
+    /// offset less `origin_m`, so that what the frame shows, hides and
+    /// measures against the stage stays as it was.
+    pub fn reframe(&mut self, origin_m: [f64; 2]) {
+        let less = |p: &mut [f64; 2]| {
+            p[0] -= origin_m[0];
+            p[1] -= origin_m[1];
+        };
+        let detections = self.particles.iter_mut().chain(&mut self.cut_by_edge);
+        for o in detections.chain(&mut self.off_size) {
+            o.x_m -= origin_m[0];
+            o.y_m -= origin_m[1];
+        }
+        let corners = self.view_m.iter_mut().chain(&mut self.frame_m);
+        for p in corners
+            .chain(&mut self.tip_m)
+            .chain([&mut self.coarse_offset_m])
+        {
+            less(p);
+        }
+    }
+
     /// The median radius of the detections left out for their size, metres.
     pub fn off_size_median_radius_m(&self) -> Option<f64> {
         upper_median(&mut self.off_size.iter().map(|o| o.radius_m).collect::<Vec<_>>())
@@ -439,5 +463,59 @@ mod tests {
                 "the particle {d_px} px off the probe (seed {seed}) was not found"
             );
         }
+    }
+
+    /// A frame reframed to another origin shows, hides and measures the
+    /// same places: the hardware rig with a coarse stage tracks its first
+    /// looks in the run's frame, and a probe or view left in the old one
+    /// would hide the wrong particles.
+    #[test]
+    fn a_reframed_sighting_shows_and_hides_the_same_places() {
+        let tip = TipView {
+            apex_x_px: 200.0,
+            apex_y_px: 200.0,
+            angle_rad: 60f64.to_radians(),
+        };
+        let scene = SceneView {
+            width_px: 400,
+            height_px: 400,
+            particles: vec![ParticleView {
+                x_px: 300.0,
+                y_px: 100.0,
+                radius_px: 20.0,
+            }],
+            tip: Some(tip),
+        };
+        let frame = render_frame(&scene, &RenderSettings::with_snr(30.0, 16), 1).unwrap();
+        let m_per_px = 0.25e-6;
+        let calibration =
+            CameraCalibration::affine(Matrix2::from_diagonal_element(m_per_px), Vector2::zeros());
+        let perception = Perception::for_particles(5e-6, m_per_px, 1);
+        let mut camera = Still(Some(TimedFrame { t_s: 0.0, frame }));
+        let coarse = [300e-6, 200e-6];
+        let mut before = perception.sight(&mut camera, &calibration, coarse).unwrap();
+        before.stage_m = Some([49e-6, 51e-6, 0.0]);
+        let origin = [290e-6, 180e-6];
+        let mut after = before.clone();
+        after.reframe(origin);
+        let at = |px: [f64; 2]| [coarse[0] + px[0] * m_per_px, coarse[1] + px[1] * m_per_px];
+        // Under the probe's body, in the open, beyond the view.
+        for px in [[160.0, 130.0], [300.0, 100.0], [500.0, 100.0]] {
+            let [x, y] = at(px);
+            let (xo, yo) = (x - origin[0], y - origin[1]);
+            assert_eq!(before.shows(x, y), after.shows(xo, yo), "{px:?}");
+            assert_eq!(
+                before.under_probe(x, y),
+                after.under_probe(xo, yo),
+                "{px:?}"
+            );
+        }
+        assert!(before.under_probe(at([160.0, 130.0])[0], at([160.0, 130.0])[1]));
+        assert!(before.shows(at([300.0, 100.0])[0], at([300.0, 100.0])[1]));
+        let [b, a] = [&before, &after].map(|s| s.apex_offset_m().unwrap());
+        assert!((b[0] - a[0]).abs() < 1e-15 && (b[1] - a[1]).abs() < 1e-15);
+        let (p, q) = (&before.particles[0], &after.particles[0]);
+        assert!((p.x_m - origin[0] - q.x_m).abs() < 1e-15);
+        assert!((p.y_m - origin[1] - q.y_m).abs() < 1e-15);
     }
 }

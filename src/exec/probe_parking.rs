@@ -5,6 +5,7 @@
 use super::observe::{ObserveError, Perception, Sighting};
 use crate::calib::camera_map::CameraCalibration;
 use crate::rig::Rig;
+use crate::rig::error::RigError;
 use crate::rig::stage::{AxisRange, StageXyz};
 use crate::vision::tip::TipDetection;
 use nalgebra::Vector2;
@@ -49,6 +50,14 @@ pub struct FirstLooks {
 }
 
 impl FirstLooks {
+    /// One look, taken where the probe stands.
+    pub fn one(look: Sighting) -> Self {
+        FirstLooks {
+            before_parking: None,
+            last: look,
+        }
+    }
+
     /// The looks in the order taken.
     pub fn in_order(&self) -> impl Iterator<Item = &Sighting> {
         self.before_parking.iter().chain([&self.last])
@@ -68,20 +77,30 @@ pub fn first_looks(
     travel_speed_m_per_s: f64,
 ) -> Result<FirstLooks, ObserveError> {
     let first = perception.sight(rig, calibration, coarse_offset_m)?;
-    // As the loop: parked only for a probe whose direction is known.
-    let Some(axis) = first.probe.as_ref().and_then(probe_axis) else {
-        return Ok(FirstLooks {
-            before_parking: None,
-            last: first,
-        });
-    };
-    for target in parking_moves(&rig.range(), rig.position()?, Some(axis)) {
-        rig.move_to(target, travel_speed_m_per_s)?;
+    if !park_if_seen(rig, &first, travel_speed_m_per_s)? {
+        return Ok(FirstLooks::one(first));
     }
     Ok(FirstLooks {
         last: perception.sight(rig, calibration, coarse_offset_m)?,
         before_parking: Some(first),
     })
+}
+
+/// Parks the probe at [`parking_moves`] as the loop does before its first
+/// plan, when `first` shows it with a direction the calibration maps to a
+/// length (the loop leaves any other where it is); true when it moved.
+pub fn park_if_seen(
+    rig: &mut dyn Rig,
+    first: &Sighting,
+    travel_speed_m_per_s: f64,
+) -> Result<bool, RigError> {
+    let Some(axis) = first.probe.as_ref().and_then(probe_axis) else {
+        return Ok(false);
+    };
+    for target in parking_moves(&rig.range(), rig.position()?, Some(axis)) {
+        rig.move_to(target, travel_speed_m_per_s)?;
+    }
+    Ok(true)
 }
 
 #[cfg(test)]

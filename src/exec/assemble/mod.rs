@@ -51,7 +51,9 @@ pub use apex_doubt::{
     apex_doubt_unfollowed, calibration_doubt,
 };
 use left_short::LeftShort;
-pub use planning::{layout_after_looks, layout_measured, particles_seen, planning_particles};
+pub use planning::{
+    layout_after_looks, layout_measured, particles_seen, planning_particles, too_few_in_field,
+};
 pub use pushing::{decide_push, scene_for_push};
 
 /// Executor settings; the defaults suit 10 um particles on the simulated rig.

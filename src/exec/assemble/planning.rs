@@ -306,6 +306,28 @@ pub fn layout_after_looks<'a>(
     layout_of_tracks(field_m, tracker.tracks(), nominal_m)
 }
 
+/// Why the particles of `layout` in its field cannot fill a pattern of
+/// `sites` sites (those beyond it are never pushed), said after what
+/// `shown_by` ("the first frame shows"); None when they can. The dry-run
+/// and the hardware rig refuse such a pattern before the loop starts: on
+/// a rig the placement had gone on, and the run with it.
+pub fn too_few_in_field(layout: &Layout, sites: usize, shown_by: &str) -> Option<String> {
+    let beyond_field = layout.beyond_field_ids().len();
+    let held = layout.particles.len() - beyond_field;
+    if sites <= held {
+        return None;
+    }
+    let beyond = match beyond_field {
+        0 => String::new(),
+        n => format!(" ({n} more beyond it)"),
+    };
+    Some(format!(
+        "the pattern has {} but {shown_by} {} in the field{beyond}",
+        counted(sites, "site"),
+        counted(held, "particle"),
+    ))
+}
+
 /// The layout of `tracks`, each particle with the size the loop plans it
 /// with.
 fn layout_of_tracks(field_m: [f64; 2], tracks: &[Track], nominal_m: f64) -> Layout {
