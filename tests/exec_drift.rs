@@ -238,6 +238,26 @@ fn left_short(o: &Outcome) -> Vec<(usize, f64)> {
         .collect()
 }
 
+/// How far the camera's last frame showing particle `particle` puts it from
+/// site `site`, nm.
+fn last_seen_from_site_nm(o: &Outcome, site: usize, particle: usize) -> f64 {
+    let sites = o
+        .events
+        .iter()
+        .find_map(|e| match e {
+            RunEvent::Start(spec) => Some(spec.sites_um.clone()),
+            _ => None,
+        })
+        .expect("a start");
+    let at = sites[site];
+    let seen = o.events.iter().rev().find_map(|e| match e {
+        RunEvent::Observation { particles, .. } => particles.iter().find(|p| p.id == particle),
+        _ => None,
+    });
+    let p = seen.expect("the particle seen");
+    (p.x_um - at[0]).hypot(p.y_um - at[1]) * 1e3
+}
+
 /// 5 nm/s along x, seed 32, with the loop as it was when the case was
 /// found ([`as_found`]: since 2026-12-01 this run fills every site with
 /// nothing left short; seed 9 until the simulated rig placed the pattern
@@ -251,10 +271,14 @@ fn left_short(o: &Outcome) -> Vec<(usize, f64)> {
 /// The loop judges the other sites by the camera, whose error against the
 /// truth is tens of nm under this drift (on seed 9 one site read within 0.2
 /// um was 0.208 um in truth): each within 0.25 um in truth. The particle
-/// left short, beside its filled neighbours, reads 56-58 nm farther from
-/// its site than it lies in truth at the end (235 against 177 nm here,
-/// 220 against 164 nm on seed 16; within 50 nm on seed 9, which the test
-/// held it to until then): held to the 0.5 um it is left within.
+/// left short is held to the 0.5 um it is left within, by the camera and
+/// in truth, and the camera's last frame to within 50 nm of the truth
+/// (175.7 against 177.0 nm). The left-short entry keeps the reading of
+/// the frame the particle was given up on, 235 nm here: with three
+/// neighbours 0.4 um away its readings scatter from frame to frame
+/// (172.7-235.2 nm over its last 23 frames, two of them about 57 nm
+/// farther along x; the 56-58 nm on seeds 16 and 32 noted on 2026-12-02 is
+/// that scatter, not a bias).
 #[test]
 fn a_particle_given_up_near_its_site_fills_it_and_the_run_goes_on() {
     let o = run_with(5.0, 0.0, 32, as_found);
@@ -273,6 +297,16 @@ fn a_particle_given_up_near_its_site_fills_it_and_the_run_goes_on() {
             Some((_, seen_nm)) => {
                 assert!(*seen_nm <= 500.0, "site {i}: {seen_nm} nm");
                 assert!(*e <= 0.5e-6, "site {i}: {e} m, seen {seen_nm} nm");
+                let particle = o.events.iter().find_map(|e| match e {
+                    RunEvent::LeftShort { site, particle, .. } if *site == i => Some(*particle),
+                    _ => None,
+                });
+                let last_nm = last_seen_from_site_nm(&o, i, particle.unwrap());
+                assert!(
+                    (last_nm - e * 1e9).abs() <= 50.0,
+                    "site {i}: last seen {last_nm:.1} nm, truth {:.1} nm",
+                    e * 1e9
+                );
             }
             None => assert!(*e <= PLACED_M + 0.05e-6, "site {i}: {e} m"),
         }
