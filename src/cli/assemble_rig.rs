@@ -4,14 +4,14 @@
 //! On hardware there is no layout to start from: the first frames are the
 //! layout (the first, and with the probe in view a second with it parked,
 //! as the loop looks before its first plan). The pattern is placed where
-//! the particles the camera sees can fill it in the least time. On a rig without a coarse stage the planner's
-//! field is the nanostage's range and every stroke must fit it. On a rig with
-//! one (the rig file's `[coarse]` section), the field is what the first frame
-//! shows (grown by a particle radius, so every particle seen lies inside),
-//! the run's sample frame has its origin at the field's corner, and the
-//! executor moves the coarse stage whenever a stroke leaves the nanostage's
-//! range. Safety is the rig's:
-//! soft limits, step and speed checked before any byte is sent, the
+//! the particles the camera sees can fill it in the least time. On a rig
+//! without a coarse stage the planner's field is the nanostage's range and
+//! every stroke must fit it. On a rig with one (the rig file's `[coarse]`
+//! section), the field is what the first frame shows (grown by a particle
+//! radius, so every particle seen lies inside), the run's sample frame has
+//! its origin at the field's corner, and the executor moves the coarse
+//! stage whenever a stroke leaves the nanostage's range. Safety is the
+//! rig's: soft limits, step and speed checked before any byte is sent, the
 //! confirmation before the first move on a rig file with
 //! `real_hardware = true` (waived only by `--yes-move-hardware`), Ctrl-C
 //! halting the stage (`HLT`). `--dry-run` sends nothing: an in-process
