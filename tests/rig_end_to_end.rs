@@ -775,6 +775,11 @@ fn a_dry_run_sends_nothing_and_logs_the_bytes_of_one_push() {
     // The bench's 150 um step does not bound the pushes: no note of it.
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("max_step_um"), "{stderr}");
+    // It does not park the probe, and says a real run would.
+    assert!(
+        stderr.contains("a real run parks the probe first"),
+        "{stderr}"
+    );
 }
 
 /// A dry run reads no position from the controller: its in-process stage

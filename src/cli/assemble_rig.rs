@@ -45,7 +45,7 @@ use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
-use crate::exec::probe_parking::{FirstLooks, park_if_seen};
+use crate::exec::probe_parking::{FirstLooks, park_if_seen, probe_axis};
 use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
@@ -875,6 +875,12 @@ fn first_looks_on_rig(
     travel_speed_m_per_s: f64,
     dry_run: bool,
 ) -> anyhow::Result<FirstLooks> {
+    if dry_run && first.probe.as_ref().and_then(probe_axis).is_some() {
+        eprintln!(
+            "note: the dry run places the pattern on the first frame as the probe stands; \
+             a real run parks the probe first and places on what it hid too, so its sites may differ"
+        );
+    }
     if dry_run || calibration_doubt(&first).is_some() {
         return Ok(FirstLooks::one(first));
     }
