@@ -238,9 +238,19 @@ fn left_short(o: &Outcome) -> Vec<(usize, f64)> {
         .collect()
 }
 
-/// How far the camera's last frame showing particle `particle` puts it from
-/// site `site`, nm.
-fn last_seen_from_site_nm(o: &Outcome, site: usize, particle: usize) -> f64 {
+/// How far the camera's last frame showing the particle left short on
+/// site `site` puts it from that site, nm.
+fn left_short_last_seen_nm(o: &Outcome, site: usize) -> f64 {
+    let particle = o
+        .events
+        .iter()
+        .find_map(|e| match e {
+            RunEvent::LeftShort {
+                site: s, particle, ..
+            } if *s == site => Some(*particle),
+            _ => None,
+        })
+        .expect("the site left short");
     let sites = o
         .events
         .iter()
@@ -297,11 +307,7 @@ fn a_particle_given_up_near_its_site_fills_it_and_the_run_goes_on() {
             Some((_, seen_nm)) => {
                 assert!(*seen_nm <= 500.0, "site {i}: {seen_nm} nm");
                 assert!(*e <= 0.5e-6, "site {i}: {e} m, seen {seen_nm} nm");
-                let particle = o.events.iter().find_map(|e| match e {
-                    RunEvent::LeftShort { site, particle, .. } if *site == i => Some(*particle),
-                    _ => None,
-                });
-                let last_nm = last_seen_from_site_nm(&o, i, particle.unwrap());
+                let last_nm = left_short_last_seen_nm(&o, i);
                 assert!(
                     (last_nm - e * 1e9).abs() <= 50.0,
                     "site {i}: last seen {last_nm:.1} nm, truth {:.1} nm",

@@ -861,10 +861,11 @@ fn a_rig_runs_journal_is_stamped_from_its_start() {
 /// A particle under the probe's body where the stage starts is in the
 /// placement: the run parks the probe and looks again before it places
 /// the pattern, as the loop looks before its first plan. With two
-/// particles, one of them hidden, and a pattern of two sites, the first
-/// frame alone shows one particle: the pattern had been placed for it (the
-/// loop then found the other), and is now refused as too big for what the
-/// placement sees. A pattern the particles cannot fill is refused.
+/// particles, one of them hidden, and a pattern of two sites: placed on the
+/// first frame alone (before 2026-12-03), the pattern had been placed for
+/// the one particle it shows, and with the check on the particles in the
+/// field it would be refused; now both count and the run fills both
+/// sites. A pattern the particles cannot fill is refused.
 #[test]
 fn a_particle_under_the_probe_where_the_run_starts_is_in_the_placement() {
     let calibration =

@@ -45,7 +45,7 @@ use crate::exec::camera_look::size_doubt;
 use crate::exec::events::{RigFrame, RunEvent, RunSpec};
 use crate::exec::journal::{JournalWriter, read_journal};
 use crate::exec::observe::{Perception, Sighting};
-use crate::exec::probe_parking::{FirstLooks, park_if_seen, probe_axis};
+use crate::exec::probe_parking::{FirstLooks, park_if_seen, parking_axis};
 use crate::exec::push_reach::{longest_push_m, step_cap_note};
 use crate::exec::report::{AssemblyReport, RunFacts};
 use crate::exec::resume_point::ResumePoint;
@@ -848,11 +848,7 @@ fn field_on_first_frame(
     ];
     rig.reframe_sample(offset)
         .context("setting the run's sample frame on the coarse stage")?;
-    looks
-        .before_parking
-        .iter_mut()
-        .for_each(|l| l.reframe(corner));
-    looks.last.reframe(corner);
+    looks.reframe(corner);
     settings.field_m = [
         hi[0] - lo[0] + 2.0 * radius_m,
         hi[1] - lo[1] + 2.0 * radius_m,
@@ -875,7 +871,7 @@ fn first_looks_on_rig(
     travel_speed_m_per_s: f64,
     dry_run: bool,
 ) -> anyhow::Result<FirstLooks> {
-    if dry_run && first.probe.as_ref().and_then(probe_axis).is_some() {
+    if dry_run && parking_axis(&first).is_some() {
         eprintln!(
             "note: the dry run places the pattern on the first frame as the probe stands; \
              a real run parks the probe first and places on what it hid too, so its sites may differ"

@@ -18,6 +18,12 @@ pub fn probe_axis(fit: &(TipDetection, CameraCalibration)) -> Option<Vector2<f64
     (v.norm() > 0.0).then(|| v / v.norm())
 }
 
+/// The probe's direction in `look` when the loop would park it for that
+/// look ([`probe_axis`] of the probe it shows), None when it would not.
+pub fn parking_axis(look: &Sighting) -> Option<Vector2<f64>> {
+    look.probe.as_ref().and_then(probe_axis)
+}
+
 /// The moves that park the probe from `here`: straight up to the top of
 /// the nanostage's `range`, then across to the corner the cantilever comes
 /// from (farthest back along `axis`), where its body lies outside the
@@ -62,6 +68,13 @@ impl FirstLooks {
     pub fn in_order(&self) -> impl Iterator<Item = &Sighting> {
         self.before_parking.iter().chain([&self.last])
     }
+
+    /// Every look in a sample frame whose origin lies at `origin_m`
+    /// ([`Sighting::reframe`]).
+    pub fn reframe(&mut self, origin_m: [f64; 2]) {
+        let looks = self.before_parking.iter_mut().chain([&mut self.last]);
+        looks.for_each(|look| look.reframe(origin_m));
+    }
 }
 
 /// A frame, and when it shows the probe, the probe lifted and parked at
@@ -94,7 +107,7 @@ pub fn park_if_seen(
     first: &Sighting,
     travel_speed_m_per_s: f64,
 ) -> Result<bool, RigError> {
-    let Some(axis) = first.probe.as_ref().and_then(probe_axis) else {
+    let Some(axis) = parking_axis(first) else {
         return Ok(false);
     };
     for target in parking_moves(&rig.range(), rig.position()?, Some(axis)) {
